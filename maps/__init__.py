@@ -1,0 +1,1 @@
+"""Shipped map files (the top-level maps/ folder, installed as package data)."""

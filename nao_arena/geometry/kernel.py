@@ -1,0 +1,555 @@
+"""Compiled kernel: exact minimum distance between a robot driving a constant
+acceleration and an obstacle on a piecewise-quadratic path.
+
+Frame: the robot starts at the origin at t = 0. On every piece the relative
+position d(s) = x(t0 + s) - c(t0 + s) is a quadratic in s, so |d|^2 is a
+quartic whose stationary points are the roots of a cubic. The kernel splits
+each piece at the roots of that cubic's derivative into intervals where the
+cubic is monotone, locates its sign changes by safeguarded Newton iteration,
+and so gets the exact minimum (and the first time |d| <= r) to float
+precision, not just at sample times.
+
+Robot path (the model the world implements): x(t) = v t + a t^2 / 2 until the
+speed |v + a t| reaches v_max (time tau), then constant velocity. A robot
+already above v_max starts from its velocity scaled down to v_max.
+
+Everything here is numba-compiled; the public wrappers live in
+:mod:`nao_arena.geometry.clearance`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_NEWTON_ITERS = 60
+
+
+@njit(cache=True, inline="always")
+def _cubic(s, c3, c2, c1, c0):
+    return ((c3 * s + c2) * s + c1) * s + c0
+
+
+@njit(cache=True, inline="always")
+def _dist2(s, ax, ay, bx, by, cx, cy):
+    dx = (ax * s + bx) * s + cx
+    dy = (ay * s + by) * s + cy
+    return dx * dx + dy * dy
+
+
+@njit(cache=True)
+def _root_increasing(lo, hi, c3, c2, c1, c0):
+    """Root of the cubic on [lo, hi] where it rises from < 0 to > 0."""
+    s = 0.5 * (lo + hi)
+    for _ in range(_NEWTON_ITERS):
+        g = _cubic(s, c3, c2, c1, c0)
+        if g > 0.0:
+            hi = s
+        else:
+            lo = s
+        dg = (3.0 * c3 * s + 2.0 * c2) * s + c1
+        step_ok = False
+        if dg > 0.0:
+            sn = s - g / dg
+            if lo < sn < hi:
+                step_ok = True
+        if not step_ok:
+            sn = 0.5 * (lo + hi)
+        if abs(sn - s) <= 1e-15 * (1.0 + abs(s)):
+            return sn
+        s = sn
+    return s
+
+
+@njit(cache=True)
+def _crossing(lo, hi, r2, ax, ay, bx, by, cx, cy):
+    """First s in [lo, hi] with |d(s)|^2 <= r2, |d|^2 decreasing on the interval."""
+    for _ in range(_NEWTON_ITERS):
+        mid = 0.5 * (lo + hi)
+        if _dist2(mid, ax, ay, bx, by, cx, cy) <= r2:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 1e-14 * (1.0 + hi):
+            break
+    return hi
+
+
+@njit(cache=True)
+def _piece(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
+    """Minimum of |A s^2 + B s + C|^2 over s in [0, h] (h may be inf).
+
+    Writes out[0] = min |d|^2, out[1] = its s, out[2] = first s with
+    |d|^2 <= r2 (inf if none or if not wanted).
+    """
+    aa = ax * ax + ay * ay
+    ab = ax * bx + ay * by
+    bb = bx * bx + by * by
+    ac = ax * cx + ay * cy
+    bc = bx * cx + by * cy
+    cc = cx * cx + cy * cy
+    out[2] = math.inf
+    if want_first and cc <= r2:
+        out[2] = 0.0
+    # d/ds |d|^2 = 2 g(s), g cubic
+    c3 = 2.0 * aa
+    c2 = 3.0 * ab
+    c1 = bb + 2.0 * ac
+    c0 = bc
+    scale = aa + bb + cc
+    if aa <= 1e-30 * scale:
+        # linear relative motion: |d|^2 is a quadratic in s
+        if bb <= 1e-300:
+            out[0] = cc
+            out[1] = 0.0
+            return
+        s = -bc / bb
+        if s < 0.0:
+            s = 0.0
+        if s > h:
+            s = h
+        f = (bb * s + 2.0 * bc) * s + cc
+        out[0] = f
+        out[1] = s
+        if want_first and out[2] > 0.0 and f <= r2:
+            out[2] = _crossing(0.0, s, r2, 0.0, 0.0, bx, by, cx, cy)
+        return
+    hh = h
+    if not math.isfinite(hh):
+        # every root of g lies below the Cauchy bound
+        hh = 1.0 + max(abs(c2), abs(c1), abs(c0)) / c3
+        hh = hh * 2.0
+    # breakpoints 0 <= b1 <= b2 <= hh: roots of g' = 3 c3 s^2 + 2 c2 s + c1
+    b1 = 0.0
+    b2 = 0.0
+    qa = 3.0 * c3
+    qb = 2.0 * c2
+    qc = c1
+    disc = qb * qb - 4.0 * qa * qc
+    if disc > 0.0:
+        sq = math.sqrt(disc)
+        q = -0.5 * (qb + sq) if qb >= 0.0 else -0.5 * (qb - sq)
+        r1 = q / qa
+        r2_ = qc / q if q != 0.0 else r1
+        b1 = min(max(min(r1, r2_), 0.0), hh)
+        b2 = min(max(max(r1, r2_), 0.0), hh)
+    best = cc
+    best_s = 0.0
+    fe = _dist2(hh, ax, ay, bx, by, cx, cy)
+    if math.isfinite(h) and fe < best:
+        best = fe
+        best_s = hh
+    first = out[2]
+    for i in range(3):
+        if i == 0:
+            p = 0.0
+            q = b1
+        elif i == 1:
+            p = b1
+            q = b2
+        else:
+            p = b2
+            q = hh
+        if q <= p:
+            continue
+        gp = _cubic(p, c3, c2, c1, c0)
+        gq = _cubic(q, c3, c2, c1, c0)
+        if gp < 0.0 and gq > 0.0:
+            m = _root_increasing(p, q, c3, c2, c1, c0)
+            fm = _dist2(m, ax, ay, bx, by, cx, cy)
+            if fm < best:
+                best = fm
+                best_s = m
+            if want_first and first == math.inf and fm <= r2:
+                first = _crossing(p, m, r2, ax, ay, bx, by, cx, cy)
+        elif want_first and first == math.inf and gp <= 0.0 and gq <= 0.0:
+            # |d|^2 non-increasing on [p, q]
+            if _dist2(q, ax, ay, bx, by, cx, cy) <= r2:
+                first = _crossing(p, q, r2, ax, ay, bx, by, cx, cy)
+        elif want_first and first == math.inf and gp > 0.0 and gq < 0.0:
+            # rises to a maximum, then falls: only the falling part can cross
+            if _dist2(q, ax, ay, bx, by, cx, cy) <= r2:
+                m = -_root_increasing(-q, -p, -c3, c2, -c1, c0)
+                first = _crossing(m, q, r2, ax, ay, bx, by, cx, cy)
+    if want_first and first == math.inf and math.isfinite(h) and fe <= r2:
+        first = _crossing(0.0, hh, r2, ax, ay, bx, by, cx, cy)
+    out[0] = best
+    out[1] = best_s
+    out[2] = first
+
+
+@njit(cache=True)
+def _saturation_time(vx, vy, ax, ay, v_max):
+    """Time at which |v + a t| reaches v_max (inf if never); |v| <= v_max."""
+    if not math.isfinite(v_max):
+        return math.inf
+    a2 = ax * ax + ay * ay
+    if a2 == 0.0:
+        return math.inf
+    va = vx * ax + vy * ay
+    c = vx * vx + vy * vy - v_max * v_max
+    if c > 0.0:
+        c = 0.0
+    # positive root of a2 t^2 + 2 va t + c = 0
+    disc = va * va - a2 * c
+    if disc < 0.0:
+        disc = 0.0
+    sq = math.sqrt(disc)
+    if va >= 0.0:
+        # numerically stable form of (-va + sq) / a2
+        den = va + sq
+        return -c / den if den > 0.0 else 0.0
+    return (sq - va) / a2
+
+
+@njit(cache=True, inline="always")
+def _robot_state(vx, vy, ax, ay, tau, ta):
+    """Robot (acceleration, velocity, position) at time ta under the saturation model."""
+    if ta < tau:
+        return (
+            ax, ay, vx + ax * ta, vy + ay * ta,
+            vx * ta + 0.5 * ax * ta * ta, vy * ta + 0.5 * ay * ta * ta,
+        )
+    wx = vx + ax * tau
+    wy = vy + ay * tau
+    return (
+        0.0, 0.0, wx, wy,
+        vx * tau + 0.5 * ax * tau * tau + wx * (ta - tau),
+        vy * tau + 0.5 * ay * tau * tau + wy * (ta - tau),
+    )
+
+
+@njit(cache=True)
+def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+          thresh, want_first, buf, out):
+    """Scan obstacle n over all pieces for one robot candidate.
+
+    With a finite ``thresh`` (m) the scan only decides whether the clearance
+    falls below it: it prunes pieces that cannot come that close and returns
+    at the first that does (out[0] is then some distance below thresh + r).
+    Otherwise out = (min squared distance, its time, first contact time).
+    """
+    S = seg_c.shape[1]
+    r2 = r * r
+    best = math.inf
+    best_t = 0.0
+    first = math.inf
+    decide = math.isfinite(thresh)
+    reach = r + thresh if decide else 0.0
+    reach2 = reach * reach
+    amag = math.sqrt(ax * ax + ay * ay)
+    for j in range(S):
+        t0 = seg_t[j]
+        t1 = seg_t[j + 1]
+        h = t1 - t0
+        if decide and math.isfinite(h):
+            # cheap prune: positions at t0 further apart than anything can close in h
+            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, t0)
+            cx = rpx - seg_c[n, j, 0]
+            cy = rpy - seg_c[n, j, 1]
+            bound = reach + sweep[n, j] + speed_bound * h + 0.5 * amag * h * h
+            if cx * cx + cy * cy > bound * bound:
+                continue
+        ta = t0
+        while ta < t1:
+            tb = min(t1, tau) if ta < tau else t1
+            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, ta)
+            dt0 = ta - t0
+            obx = seg_b[n, j, 0]
+            oby = seg_b[n, j, 1]
+            Ax = 0.5 * (rax - obx)
+            Ay = 0.5 * (ray - oby)
+            Bx = rvx - (seg_w[n, j, 0] + obx * dt0)
+            By = rvy - (seg_w[n, j, 1] + oby * dt0)
+            Cx = rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0)
+            Cy = rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0)
+            hp = tb - ta
+            skip = False
+            if math.isfinite(hp) and not decide:
+                lb = (
+                    math.sqrt(Cx * Cx + Cy * Cy)
+                    - math.sqrt(Bx * Bx + By * By) * hp
+                    - math.sqrt(Ax * Ax + Ay * Ay) * hp * hp
+                )
+                if lb > 0.0:
+                    lb2 = lb * lb
+                    if lb2 >= best and (lb2 > r2 or first < math.inf):
+                        skip = True
+            if not skip:
+                _piece(Ax, Ay, Bx, By, Cx, Cy, hp, r2, want_first and first == math.inf, buf)
+                if buf[0] < best:
+                    best = buf[0]
+                    best_t = ta + buf[1]
+                if want_first and first == math.inf and buf[2] < math.inf:
+                    first = ta + buf[2]
+                if decide and best < reach2:
+                    out[0] = best
+                    out[1] = best_t
+                    out[2] = first
+                    return
+            ta = tb
+    out[0] = best
+    out[1] = best_t
+    out[2] = first
+
+
+@njit(cache=True)
+def _candidate_setup(vx, vy, ax, ay, v_max, horizon):
+    """Speed-clamped initial velocity, saturation time and a bound on the speed (m/s)."""
+    spd = math.sqrt(vx * vx + vy * vy)
+    if spd > v_max:
+        vx *= v_max / spd
+        vy *= v_max / spd
+        spd = v_max
+    tau = _saturation_time(vx, vy, ax, ay, v_max)
+    amag = math.sqrt(ax * ax + ay * ay)
+    bound = spd + amag * min(tau, horizon)
+    return vx, vy, tau, bound
+
+
+@njit(cache=True)
+def piece_sweep(seg_t, seg_w, seg_b):
+    """(N, S) bound on how far each obstacle moves within each piece (m)."""
+    N = seg_w.shape[0]
+    S = seg_w.shape[1]
+    out = np.empty((N, S))
+    for n in range(N):
+        for j in range(S):
+            h = seg_t[j + 1] - seg_t[j]
+            w = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
+            b = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
+            out[n, j] = w * h + 0.5 * b * h * h
+    return out
+
+
+@njit(cache=True)
+def clearance_kernel(
+    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, out_clear, out_tmin, out_tfirst,
+):
+    """Exact clearance for K candidates x N obstacles.
+
+    cand_v, cand_a: (K, 2) initial velocity (m/s) and constant acceleration
+    (m/s^2) of the robot per candidate. seg_t: (S + 1,) piece boundaries (s),
+    seg_t[0] = 0, last may be inf. seg_c, seg_w, seg_b: (N, S, 2) obstacle
+    centre (m, relative to the robot's start), velocity and acceleration at
+    the start of each piece. radius: (N,) combined radius (m).
+    Outputs (K, N): clearance (m), time of closest approach (s), time of
+    first contact (s, inf if none).
+    """
+    K = cand_a.shape[0]
+    N = seg_c.shape[0]
+    sweep = np.zeros((N, seg_c.shape[1]))
+    buf = np.empty(3)
+    out = np.empty(3)
+    for k in range(K):
+        vx, vy, tau, bound = _candidate_setup(
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+        )
+        for n in range(N):
+            _scan(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w, seg_b,
+                  sweep, n, radius[n], math.inf, True, buf, out)
+            out_clear[k, n] = math.sqrt(out[0]) - radius[n]
+            out_tmin[k, n] = out[1]
+            out_tfirst[k, n] = out[2]
+
+
+@njit(cache=True)
+def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
+                      out_ok):
+    """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle.
+
+    Prunes pieces with a conservative distance bound and stops at the first
+    violation, so it is much cheaper than the exact clearance.
+    """
+    K = cand_a.shape[0]
+    N = seg_c.shape[0]
+    buf = np.empty(3)
+    out = np.empty(3)
+    for k in range(K):
+        vx, vy, tau, bound = _candidate_setup(
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+        )
+        ok = True
+        for n in range(N):
+            _scan(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w, seg_b,
+                  sweep, n, radius[n], margin, False, buf, out)
+            if out[0] < (radius[n] + margin) ** 2:
+                ok = False
+                break
+        out_ok[k] = ok
+
+
+@njit(cache=True)
+def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
+    """(N,) mask of obstacles that some acceleration with |a| <= a_max could come within
+    radius + margin (m) of over the horizon.
+
+    Uses |x(t) - v t| <= a_max t^2 / 2, which also holds under speed
+    saturation; v is first clamped to v_max. Obstacles outside the mask can
+    be dropped from any selection with that acceleration limit.
+    """
+    N = seg_c.shape[0]
+    S = seg_c.shape[1]
+    vx = v[0]
+    vy = v[1]
+    spd = math.sqrt(vx * vx + vy * vy)
+    if spd > v_max:
+        vx *= v_max / spd
+        vy *= v_max / spd
+    out = np.zeros(N, dtype=np.bool_)
+    for n in range(N):
+        for j in range(S):
+            t0 = seg_t[j]
+            t1 = seg_t[j + 1]
+            h = t1 - t0
+            if not math.isfinite(h):
+                out[n] = True
+                break
+            dx = seg_c[n, j, 0] - vx * t0
+            dy = seg_c[n, j, 1] - vy * t0
+            rel = math.sqrt((seg_w[n, j, 0] - vx) ** 2 + (seg_w[n, j, 1] - vy) ** 2)
+            bb = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
+            reach = radius[n] + margin + 0.5 * a_max * t1 * t1 + rel * h + 0.5 * bb * h * h
+            if dx * dx + dy * dy <= reach * reach:
+                out[n] = True
+                break
+    return out
+
+
+@njit(cache=True)
+def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max):
+    """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
+
+    A constant acceleration a collides with an obstacle at time t iff
+    |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
+    (no speed saturation). Samples every piece at n_sub times (and the first
+    piece also geometrically towards t = 0), grows r by ``margin`` and keeps
+    the disks that intersect both the ball B(q, reach) and the limit disc
+    |a| <= a_max. Returns (M, 3) rows (m_x, m_y, rho).
+    """
+    N = seg_c.shape[0]
+    S = seg_c.shape[1]
+    out = np.empty((N * (S * n_sub + 12), 3))
+    cnt = 0
+    for n in range(N):
+        rr = radius[n] + margin
+        for j in range(S):
+            t0 = seg_t[j]
+            t1 = seg_t[j + 1]
+            if math.isfinite(t1):
+                nt = n_sub + (8 if j == 0 else 0) + (1 if j == S - 1 else 0)
+            else:
+                nt = 12
+            for i in range(nt):
+                if not math.isfinite(t1):
+                    t = max(t0, 1e-3) * 2.0 ** (i + 1)
+                elif j == 0 and i < 8:
+                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / n_sub
+                elif j == S - 1 and i == nt - 1:
+                    t = t1
+                else:
+                    ii = i - (8 if j == 0 else 0)
+                    t = t0 + (t1 - t0) * ii / n_sub
+                if t <= 0.0:
+                    continue
+                dt = t - t0
+                cx = seg_c[n, j, 0] + seg_w[n, j, 0] * dt + 0.5 * seg_b[n, j, 0] * dt * dt
+                cy = seg_c[n, j, 1] + seg_w[n, j, 1] * dt + 0.5 * seg_b[n, j, 1] * dt * dt
+                inv = 2.0 / (t * t)
+                mx = (cx - v[0] * t) * inv
+                my = (cy - v[1] * t) * inv
+                rho = rr * inv
+                dq = math.hypot(mx - q[0], my - q[1])
+                if dq > rho + reach:
+                    continue
+                if math.hypot(mx, my) > rho + a_max:
+                    continue
+                out[cnt, 0] = mx
+                out[cnt, 1] = my
+                out[cnt, 2] = rho
+                cnt += 1
+    return out[:cnt]
+
+
+@njit(cache=True, inline="always")
+def _outside_all(px, py, disks, a_max):
+    if px * px + py * py > a_max * a_max * (1.0 + 1e-12):
+        return False
+    for i in range(disks.shape[0]):
+        dx = px - disks[i, 0]
+        dy = py - disks[i, 1]
+        rho = disks[i, 2]
+        if dx * dx + dy * dy < rho * rho * (1.0 - 1e-12):
+            return False
+    return True
+
+
+@njit(cache=True)
+def nearest_outside_disks(q, disks, a_max, max_out):
+    """Points nearest q that lie outside every disk and inside |a| <= a_max.
+
+    The nearest point outside a finite union of disks is q itself, the
+    radial projection of q onto one circle, or an intersection of two
+    circles (the limit circle included). Returns up to ``max_out``
+    admissible candidates (rows x, y, distance) in increasing distance.
+    """
+    M = disks.shape[0]
+    circ = np.empty((M + 1, 3))
+    circ[:M] = disks
+    circ[M, 0] = 0.0
+    circ[M, 1] = 0.0
+    circ[M, 2] = a_max
+    C = M + 1
+    cand = np.empty((C + C * (C - 1), 2))
+    k = 0
+    cand[k, 0] = q[0]
+    cand[k, 1] = q[1]
+    k += 1
+    for i in range(C):
+        dx = q[0] - circ[i, 0]
+        dy = q[1] - circ[i, 1]
+        d = math.hypot(dx, dy)
+        if d > 0.0:
+            cand[k, 0] = circ[i, 0] + circ[i, 2] * dx / d
+            cand[k, 1] = circ[i, 1] + circ[i, 2] * dy / d
+            k += 1
+    for i in range(C):
+        for j in range(i + 1, C):
+            dx = circ[j, 0] - circ[i, 0]
+            dy = circ[j, 1] - circ[i, 1]
+            d = math.hypot(dx, dy)
+            ri = circ[i, 2]
+            rj = circ[j, 2]
+            if d <= 0.0 or d > ri + rj or d < abs(ri - rj):
+                continue
+            # distance from centre i to the chord, along the centre line
+            x = (d * d + ri * ri - rj * rj) / (2.0 * d)
+            hh = ri * ri - x * x
+            hgt = math.sqrt(hh) if hh > 0.0 else 0.0
+            ux = dx / d
+            uy = dy / d
+            bx = circ[i, 0] + x * ux
+            by = circ[i, 1] + x * uy
+            cand[k, 0] = bx - hgt * uy
+            cand[k, 1] = by + hgt * ux
+            k += 1
+            cand[k, 0] = bx + hgt * uy
+            cand[k, 1] = by - hgt * ux
+            k += 1
+    dist = np.empty(k)
+    for i in range(k):
+        dist[i] = math.hypot(cand[i, 0] - q[0], cand[i, 1] - q[1])
+    order = np.argsort(dist)
+    res = np.empty((max_out, 3))
+    found = 0
+    for idx in order:
+        if _outside_all(cand[idx, 0], cand[idx, 1], disks, a_max):
+            res[found, 0] = cand[idx, 0]
+            res[found, 1] = cand[idx, 1]
+            res[found, 2] = dist[idx]
+            found += 1
+            if found == max_out:
+                break
+    return res[:found]

@@ -1,0 +1,323 @@
+"""Selection: the admissible acceleration nearest a desired one.
+
+An acceleration a (m/s^2, world axes) is *admissible* when it lies in the
+limit set (the disc |a| <= a_max, optionally intersected with a box) and its
+clearance against every obstacle over the horizon is >= ``margin`` (m), i.e.
+it lies outside the union of the (grown) NAOs.
+
+Method: if the desired acceleration (projected onto the limit set) is
+admissible it is returned as is. Otherwise candidates on rings of growing
+radius around it are tested nearest-first; the nearest admissible one is
+pulled onto the obstacle boundary by bisection along the ray from the
+desired acceleration, and the ray's angle is then refined by golden-section
+search, each probe bisected to ``tol``. The result is always admissible
+(checked exactly), and locally nearest to the desired acceleration within
+``tol`` (m/s^2). When no candidate is admissible, the one that maximises the
+time to first contact (then the clearance, i.e. least penetration) is
+returned with ``feasible=False``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nao_arena.geometry.clearance import PiecewisePath, path_clearance
+from nao_arena.geometry.kernel import (
+    admissible_kernel,
+    nao_disks,
+    nearest_outside_disks,
+    piece_sweep,
+    relevant_obstacles,
+)
+
+__all__ = ["AccelLimits", "Selection", "select_acceleration"]
+
+
+
+@dataclass(frozen=True)
+class AccelLimits:
+    """The set of commandable accelerations (m/s^2, world axes).
+
+    The disc |a| <= a_max, intersected with the box lo <= a <= hi when
+    ``box_lo``/``box_hi`` are given (the box must contain the origin).
+    """
+
+    a_max: float
+    box_lo: tuple[float, float] | None = None
+    box_hi: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.a_max >= 0 and math.isfinite(self.a_max)):
+            raise ValueError(f"a_max: expected a finite non-negative number, got {self.a_max}")
+        if (self.box_lo is None) != (self.box_hi is None):
+            raise ValueError("box_lo and box_hi: give both or neither")
+        if self.box_lo is not None:
+            lo = np.asarray(self.box_lo, float)
+            hi = np.asarray(self.box_hi, float)
+            if lo.shape != (2,) or hi.shape != (2,) or np.any(lo > 0) or np.any(hi < 0):
+                raise ValueError(
+                    f"box: expected (2,) bounds with box_lo <= 0 <= box_hi, got {lo}, {hi}"
+                )
+
+    def contains(self, a: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """(K,) mask of accelerations (K, 2) inside the limit set (with 1e-12 slack)."""
+        ok = np.einsum("ij,ij->i", a, a) <= self.a_max**2 * (1 + 1e-12) + 1e-300
+        if self.box_lo is not None:
+            ok &= np.all(a >= np.asarray(self.box_lo) - 1e-12, axis=1)
+            ok &= np.all(a <= np.asarray(self.box_hi) + 1e-12, axis=1)
+        return ok
+
+    def project(self, a: ArrayLike) -> NDArray[np.float64]:
+        """Nearest point of the limit set to each acceleration ((2,) or (K, 2))."""
+        arr = np.asarray(a, dtype=np.float64)
+        flat = np.atleast_2d(arr)
+        out = np.array([self._project_one(p) for p in flat]) if len(flat) else flat.copy()
+        return out[0] if arr.ndim == 1 else out
+
+    def _project_one(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        if not np.all(np.isfinite(p)):
+            return np.zeros(2)
+        if self.box_lo is None:
+            n = math.hypot(p[0], p[1])
+            return p * (self.a_max / n) if n > self.a_max else p.copy()
+        lo = np.asarray(self.box_lo, float)
+        hi = np.asarray(self.box_hi, float)
+        q = np.clip(p, lo, hi)
+        if math.hypot(q[0], q[1]) <= self.a_max:
+            return q
+        # the nearest point lies on the circle: its projection, or a circle-box corner
+        cands = []
+        n = math.hypot(p[0], p[1])
+        if n > 0:
+            cands.append(p * (self.a_max / n))
+        for axis in (0, 1):
+            for bound in (lo[axis], hi[axis]):
+                rest = self.a_max**2 - bound**2
+                if rest >= 0:
+                    for sgn in (-1.0, 1.0):
+                        c = np.empty(2)
+                        c[axis] = bound
+                        c[1 - axis] = sgn * math.sqrt(rest)
+                        cands.append(c)
+        cands = [c for c in cands if np.all(c >= lo - 1e-12) and np.all(c <= hi + 1e-12)]
+        if not cands:
+            return np.zeros(2)
+        d = [float(np.hypot(*(c - p))) for c in cands]
+        return cands[int(np.argmin(d))]
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Result of :func:`select_acceleration`.
+
+    accel: chosen acceleration (2,) m/s^2. status: "desired" (the desired
+    acceleration was admissible), "adjusted" (nearest admissible one) or
+    "infeasible" (nothing admissible found: the candidate that postpones
+    contact longest). clearance: its exact clearance (m, inf without
+    obstacles); time_of_first_contact: s, inf when feasible.
+    evaluations: how many candidates were tested.
+    """
+
+    accel: NDArray[np.float64]
+    status: str
+    clearance: float
+    time_of_first_contact: float
+    evaluations: int
+
+    @property
+    def feasible(self) -> bool:
+        return self.status != "infeasible"
+
+
+class _Tester:
+    """Admissibility tests of candidate accelerations against a fixed set of obstacles."""
+
+    def __init__(
+        self,
+        v: NDArray[np.float64],
+        path: PiecewisePath,
+        limits: AccelLimits,
+        margin: float,
+        v_max: float,
+    ) -> None:
+        keep = relevant_obstacles(
+            v, limits.a_max, v_max, path.t, path.c, path.w, path.b, path.radius, margin
+        )
+        idx = np.flatnonzero(keep)
+        self.path = PiecewisePath(
+            path.t,
+            np.ascontiguousarray(path.c[idx]),
+            np.ascontiguousarray(path.w[idx]),
+            np.ascontiguousarray(path.b[idx]),
+            np.ascontiguousarray(path.radius[idx]),
+        )
+        self.sweep = piece_sweep(self.path.t, self.path.w, self.path.b)
+        self.v = v
+        self.limits = limits
+        self.margin = margin
+        self.v_max = v_max
+        self.count = 0
+
+    def ok(self, a: NDArray[np.float64]) -> NDArray[np.bool_]:
+        a = np.ascontiguousarray(np.atleast_2d(a), dtype=np.float64)
+        inside = self.limits.contains(a)
+        out = np.zeros(len(a), dtype=bool)
+        idx = np.flatnonzero(inside)
+        if len(idx) == 0:
+            return out
+        if self.path.n_obstacles == 0:
+            out[idx] = True
+            return out
+        cand = np.ascontiguousarray(a[idx])
+        res = np.empty(len(idx), dtype=bool)
+        p = self.path
+        admissible_kernel(
+            np.ascontiguousarray(np.broadcast_to(self.v, cand.shape)), cand, self.v_max,
+            p.t, p.c, p.w, p.b, p.radius, self.sweep, self.margin, res,
+        )
+        self.count += len(idx)
+        out[idx] = res
+        return out
+
+    def ok1(self, a: NDArray[np.float64]) -> bool:
+        return bool(self.ok(a)[0])
+
+
+def _ring(center: NDArray[np.float64], radius: float, n: int, phase: float) -> NDArray[np.float64]:
+    ang = phase + 2.0 * np.pi * np.arange(n) / n
+    return center + radius * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+
+
+def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float):
+    """Shrink [bad, good] to a boundary point within tol; returns the admissible end."""
+    gap = float(np.hypot(*(good - bad)))
+    while gap > tol:
+        mid = 0.5 * (bad + good)
+        if t.ok1(mid):
+            good = mid
+        else:
+            bad = mid
+        gap *= 0.5
+    return good
+
+
+def select_acceleration(
+    desired: ArrayLike,
+    v: ArrayLike,
+    path: PiecewisePath,
+    limits: AccelLimits,
+    *,
+    margin: float = 0.0,
+    v_max: float = np.inf,
+    tol: float = 1e-3,
+    rings: int = 8,
+    ring_points: int = 16,
+) -> Selection:
+    """Admissible acceleration nearest ``desired`` (m/s^2) for a robot with velocity v (m/s).
+
+    path: the obstacles' predicted paths (robot-relative, see
+    :func:`~nao_arena.geometry.clearance.sampled_path`); margin: required
+    clearance (m); v_max: the robot's speed limit (m/s), part of its
+    predicted path; tol: refinement tolerance (m/s^2). Never raises on
+    degenerate input and never returns NaN.
+    """
+    v_arr = np.asarray(v, dtype=np.float64)
+    if v_arr.shape != (2,) or not np.all(np.isfinite(v_arr)):
+        v_arr = np.zeros(2) if v_arr.shape != (2,) else np.nan_to_num(v_arr)
+    d_arr = np.asarray(desired, dtype=np.float64).reshape(-1)[:2]
+    if d_arr.shape != (2,):
+        d_arr = np.zeros(2)
+    a_d = limits.project(d_arr)
+    tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
+    tol = max(float(tol), 1e-9 * max(limits.a_max, 1.0))
+
+    def done(a: NDArray[np.float64], status: str) -> Selection:
+        if path.n_obstacles == 0:
+            return Selection(a, status, math.inf, math.inf, tester.count)
+        res = path_clearance(a, v_arr, path, v_max=v_max)
+        clear = float(np.min(res.clearance)) if res.clearance.size else math.inf
+        first = float(np.min(res.time_of_first_contact)) if res.clearance.size else math.inf
+        return Selection(a, status, clear, first if status == "infeasible" else math.inf,
+                         tester.count)
+
+    if tester.ok1(a_d):
+        return done(a_d, "desired")
+
+    # 1. exact nearest point outside the sampled disks of the NAO union,
+    #    searched in balls of doubling radius around the desired acceleration
+    best = _nearest_by_disks(tester, a_d, tol)
+    if best is not None:
+        return done(best, "adjusted")
+
+    # 2. fallback (box limits, speed saturation, very crowded scenes): nearest
+    #    admissible candidate on rings of growing radius, pulled onto the boundary
+    span = 2.0 * max(limits.a_max, 1e-12)
+    radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
+    tried = [a_d[None]]
+    for i, rad in enumerate(radii):
+        cand = limits.project(_ring(a_d, rad, ring_points, 0.5 * i))
+        ok = tester.ok(cand)
+        tried.append(cand)
+        if np.any(ok):
+            good = cand[ok]
+            dist = np.hypot(*(good - a_d).T)
+            return done(_bisect(tester, a_d, good[int(np.argmin(dist))], tol), "adjusted")
+
+    # 3. nothing admissible: postpone contact as long as possible, then least penetration
+    cand = np.concatenate(tried + [np.zeros((1, 2))])
+    res = path_clearance(cand, v_arr, path, v_max=v_max)
+    first = np.min(np.atleast_2d(res.time_of_first_contact), axis=1)
+    clear = np.min(np.atleast_2d(res.clearance), axis=1)
+    order = np.lexsort((-clear, -first))
+    return done(cand[order[0]], "infeasible")
+
+
+_MAX_DISKS = 200
+_DISKS_PER_PIECE = 4
+
+
+def _nearest_by_disks(
+    tester: _Tester, a_d: NDArray[np.float64], tol: float
+) -> NDArray[np.float64] | None:
+    """Nearest admissible acceleration found from the disk picture of the NAO, or None.
+
+    In a ball B(a_d, D) only the disks that meet the ball matter, so the
+    nearest point outside them at distance <= D is the nearest point
+    outside the whole sampled union. Each candidate is confirmed by the
+    exact clearance; one that falls in a sliver between samples is pushed
+    outwards along its ray by tol, 2 tol, 4 tol, ...
+    """
+    p = tester.path
+    a_max = tester.limits.a_max
+    reach = max(a_max / 16.0, 4.0 * tol)
+    limit = float(np.hypot(*a_d)) + a_max
+    while True:
+        disks = nao_disks(
+            tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
+            a_d, reach, a_max,
+        )
+        if len(disks) > _MAX_DISKS:
+            return None
+        cands = nearest_outside_disks(a_d, disks, a_max, 8)
+        for x, y, dist in cands:
+            if dist > reach:
+                break
+            point = np.array([x, y])
+            if tester.ok1(point):
+                return point
+            if dist <= 0.0:
+                continue
+            u = (point - a_d) / dist
+            step = tol
+            while step < 0.25 * a_max:
+                pushed = point + step * u
+                if tester.ok1(pushed):
+                    return _bisect(tester, point, pushed, tol)
+                step *= 2.0
+        if reach >= limit:
+            return None
+        reach *= 2.0
