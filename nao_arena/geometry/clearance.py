@@ -85,8 +85,17 @@ def _as_vectors(x: ArrayLike, name: str) -> tuple[NDArray[np.float64], bool]:
     return np.ascontiguousarray(arr), single
 
 
+def _broadcast(x: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.float64]:
+    arr = np.asarray(x, dtype=np.float64)
+    try:
+        return np.ascontiguousarray(np.broadcast_to(arr, shape))
+    except ValueError:
+        raise ValueError(f"{name}: expected shape {shape} or broadcastable to it, "
+                         f"got {arr.shape}") from None
+
+
 def _radius_array(radius: ArrayLike, n: int) -> NDArray[np.float64]:
-    r = np.broadcast_to(np.asarray(radius, dtype=np.float64), (n,)).copy()
+    r = _broadcast(radius, (n,), "radius").copy()
     if np.any(r < 0) or not np.all(np.isfinite(r)):
         raise ValueError(f"radius: expected finite non-negative values, got {radius}")
     return r
@@ -151,8 +160,8 @@ def ao_path(
     """
     p, _ = _as_vectors(obstacle_pos, "obstacle_pos")
     n = p.shape[0]
-    vel = np.broadcast_to(np.asarray(obstacle_vel, dtype=np.float64), (n, 2))
-    acc = np.broadcast_to(np.asarray(obstacle_acc, dtype=np.float64), (n, 2))
+    vel = _broadcast(obstacle_vel, (n, 2), "obstacle_vel")
+    acc = _broadcast(obstacle_acc, (n, 2), "obstacle_acc")
     if not (horizon > 0):
         raise ValueError(f"horizon: expected a positive number of seconds, got {horizon}")
     return PiecewisePath(

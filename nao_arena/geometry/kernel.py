@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-_NEWTON_ITERS = 60
+_NEWTON_ITERS = 200
 
 
 @njit(cache=True, inline="always")
@@ -99,7 +99,10 @@ def _piece(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     c1 = bb + 2.0 * ac
     c0 = bc
     scale = aa + bb + cc
-    if aa <= 1e-30 * scale:
+    # linear relative motion, or an acceleration so small that it would only
+    # matter after ~1e10 times the encounter's time scale (infinite horizons)
+    tiny = 1e-30 if math.isfinite(h) else 1e-20
+    if aa <= tiny * scale:
         # linear relative motion: |d|^2 is a quadratic in s
         if bb <= 1e-300:
             out[0] = cc
@@ -110,7 +113,8 @@ def _piece(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
             s = 0.0
         if s > h:
             s = h
-        f = (bb * s + 2.0 * bc) * s + cc
+        # from the components: the expanded form cancels to < 0 near a hit
+        f = _dist2(s, 0.0, 0.0, bx, by, cx, cy)
         out[0] = f
         out[1] = s
         if want_first and out[2] > 0.0 and f <= r2:
@@ -290,6 +294,11 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
                     out[2] = first
                     return
             ta = tb
+    if best == math.inf and not decide:
+        # an empty horizon [0, 0]: just the distance at the start
+        best = seg_c[n, 0, 0] ** 2 + seg_c[n, 0, 1] ** 2
+        if want_first and best <= r2:
+            first = 0.0
     out[0] = best
     out[1] = best_t
     out[2] = first
@@ -553,3 +562,73 @@ def nearest_outside_disks(q, disks, a_max, max_out):
             if found == max_out:
                 break
     return res[:found]
+
+
+@njit(cache=True)
+def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+                   t_stop, buf):
+    """First time (s) the robot comes within r of obstacle n, if before t_stop; else inf."""
+    S = seg_c.shape[1]
+    r2 = r * r
+    amag = math.sqrt(ax * ax + ay * ay)
+    for j in range(S):
+        t0 = seg_t[j]
+        if t0 >= t_stop:
+            break
+        t1 = seg_t[j + 1]
+        h = t1 - t0
+        if math.isfinite(h):
+            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, t0)
+            cx = rpx - seg_c[n, j, 0]
+            cy = rpy - seg_c[n, j, 1]
+            bound = r + sweep[n, j] + speed_bound * h + 0.5 * amag * h * h
+            if cx * cx + cy * cy > bound * bound:
+                continue
+        ta = t0
+        while ta < t1:
+            tb = min(t1, tau) if ta < tau else t1
+            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, ta)
+            dt0 = ta - t0
+            obx = seg_b[n, j, 0]
+            oby = seg_b[n, j, 1]
+            _piece(
+                0.5 * (rax - obx), 0.5 * (ray - oby),
+                rvx - (seg_w[n, j, 0] + obx * dt0), rvy - (seg_w[n, j, 1] + oby * dt0),
+                rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
+                rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0),
+                tb - ta, r2, True, buf,
+            )
+            if buf[2] < math.inf:
+                return ta + buf[2]
+            ta = tb
+    return math.inf
+
+
+@njit(cache=True)
+def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                          out_first):
+    """Earliest first contact (s) over all obstacles per candidate, for picking the latest.
+
+    A candidate's scan stops as soon as its earliest contact falls below the
+    best (latest) found so far among earlier candidates; its entry is then
+    an upper bound below that best (it cannot win), not the exact value.
+    """
+    K = cand_a.shape[0]
+    N = seg_c.shape[0]
+    buf = np.empty(3)
+    best = -math.inf
+    for k in range(K):
+        vx, vy, tau, bound = _candidate_setup(
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+        )
+        tf = math.inf
+        for n in range(N):
+            f = _first_contact(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c,
+                               seg_w, seg_b, sweep, n, radius[n], tf, buf)
+            if f < tf:
+                tf = f
+            if tf < best:
+                break
+        out_first[k] = tf
+        if tf > best:
+            best = tf

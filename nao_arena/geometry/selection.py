@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.kernel import (
     admissible_kernel,
+    latest_contact_kernel,
     nao_disks,
     nearest_outside_disks,
     piece_sweep,
@@ -75,7 +76,13 @@ class AccelLimits:
         """Nearest point of the limit set to each acceleration ((2,) or (K, 2))."""
         arr = np.asarray(a, dtype=np.float64)
         flat = np.atleast_2d(arr)
-        out = np.array([self._project_one(p) for p in flat]) if len(flat) else flat.copy()
+        if self.box_lo is None:
+            out = np.where(np.isfinite(flat), flat, 0.0)
+            norm = np.hypot(out[:, 0], out[:, 1])
+            scale = np.where(norm > self.a_max, self.a_max / np.maximum(norm, 1e-300), 1.0)
+            out = out * scale[:, None]
+        else:
+            out = np.array([self._project_one(p) for p in flat]) if len(flat) else flat.copy()
         return out[0] if arr.ndim == 1 else out
 
     def _project_one(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -117,8 +124,9 @@ class Selection:
     accel: chosen acceleration (2,) m/s^2. status: "desired" (the desired
     acceleration was admissible), "adjusted" (nearest admissible one) or
     "infeasible" (nothing admissible found: the candidate that postpones
-    contact longest). clearance: its exact clearance (m, inf without
-    obstacles); time_of_first_contact: s, inf when feasible.
+    contact longest). clearance: its exact clearance (m) to the obstacles
+    that some acceleration within the limits could reach (inf if none);
+    time_of_first_contact: s, inf when feasible.
     evaluations: how many candidates were tested.
     """
 
@@ -183,6 +191,18 @@ class _Tester:
         out[idx] = res
         return out
 
+    def latest_contact(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Earliest contact time (s) per candidate; exact for the latest one."""
+        out = np.full(len(a), np.inf)
+        if self.path.n_obstacles == 0:
+            return out
+        p = self.path
+        latest_contact_kernel(
+            np.ascontiguousarray(np.broadcast_to(self.v, a.shape)), a, self.v_max,
+            p.t, p.c, p.w, p.b, p.radius, self.sweep, out,
+        )
+        return out
+
     def ok1(self, a: NDArray[np.float64]) -> bool:
         return bool(self.ok(a)[0])
 
@@ -236,9 +256,9 @@ def select_acceleration(
     tol = max(float(tol), 1e-9 * max(limits.a_max, 1.0))
 
     def done(a: NDArray[np.float64], status: str) -> Selection:
-        if path.n_obstacles == 0:
+        if tester.path.n_obstacles == 0:
             return Selection(a, status, math.inf, math.inf, tester.count)
-        res = path_clearance(a, v_arr, path, v_max=v_max)
+        res = path_clearance(a, v_arr, tester.path, v_max=v_max)
         clear = float(np.min(res.clearance)) if res.clearance.size else math.inf
         first = float(np.min(res.time_of_first_contact)) if res.clearance.size else math.inf
         return Selection(a, status, clear, first if status == "infeasible" else math.inf,
@@ -268,15 +288,19 @@ def select_acceleration(
             return done(_bisect(tester, a_d, good[int(np.argmin(dist))], tol), "adjusted")
 
     # 3. nothing admissible: postpone contact as long as possible, then least penetration
-    cand = np.concatenate(tried + [np.zeros((1, 2))])
-    res = path_clearance(cand, v_arr, path, v_max=v_max)
-    first = np.min(np.atleast_2d(res.time_of_first_contact), axis=1)
-    clear = np.min(np.atleast_2d(res.clearance), axis=1)
-    order = np.lexsort((-clear, -first))
-    return done(cand[order[0]], "infeasible")
+    cand = np.ascontiguousarray(np.concatenate(tried + [np.zeros((1, 2))]))
+    first = tester.latest_contact(cand)
+    latest = float(first.max())
+    slack = 0.0 if math.isinf(latest) else 1e-9 * max(1.0, abs(latest))
+    top = np.flatnonzero(first >= latest - slack)
+    if len(top) > 1 and tester.path.n_obstacles:
+        res = path_clearance(cand[top], v_arr, tester.path, v_max=v_max)
+        clear = np.min(np.atleast_2d(res.clearance), axis=1)
+        top = top[[int(np.argmax(clear))]]
+    return done(cand[top[0]], "infeasible")
 
 
-_MAX_DISKS = 200
+_MAX_DISKS = 128
 _DISKS_PER_PIECE = 4
 
 

@@ -1,0 +1,135 @@
+"""``nao`` and ``ao``: choose a constant acceleration outside every neighbour's NAO.
+
+Each step the agent predicts its neighbours' centres over the horizon
+(predictor option), builds their NAOs (grown by both radii and a safety
+margin, walls as chains of static discs), and
+
+1. keeps its current acceleration while that stays admissible and within
+   ``keep_band`` (m/s^2) of the desired one (the paper's premise: few
+   adjustments);
+2. otherwise takes the admissible acceleration nearest the desired one
+   (goal seeking, see :func:`nao_arena.agents.goal.goal_seeking_accel`);
+3. if none is admissible, the one that postpones contact longest.
+
+Its own predicted path includes its speed limit, so "admissible" means
+collision-free for the world's real dynamics over the horizon (up to the
+physics integration error, covered by the margin).
+``ao`` is the same agent with constant-acceleration predictions (the AO).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.agents.goal import goal_seeking_accel
+from nao_arena.geometry import AccelLimits, PiecewisePath, sampled_path, select_acceleration
+from nao_arena.geometry.kernel import admissible_kernel, piece_sweep
+from nao_arena.predictors import get_predictor
+from nao_arena.sensing import Observation
+
+
+def wall_discs(
+    walls: NDArray[np.float64], half_thickness: NDArray[np.float64], grow: float,
+    slack: float = 0.1,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Cover wall segments (W, 2, 2) m with static discs.
+
+    A disc of radius rho0 + slack every 2 sqrt((rho0 + slack)^2 - rho0^2)
+    along a segment covers every point within rho0 = half_thickness + grow
+    of it. Returns centres (M, 2) and radii (M,) m.
+    """
+    centres, radii = [], []
+    for (p, q), half in zip(walls, half_thickness, strict=True):
+        rho0 = float(half) + grow
+        rho = rho0 + slack
+        spacing = 2.0 * math.sqrt(rho * rho - rho0 * rho0)
+        length = float(np.hypot(*(q - p)))
+        n = max(1, math.ceil(length / spacing)) + 1
+        s = np.linspace(0.0, 1.0, n)[:, None]
+        centres.append(p + s * (q - p))
+        radii.append(np.full(n, rho))
+    if not centres:
+        return np.zeros((0, 2)), np.zeros(0)
+    return np.concatenate(centres), np.concatenate(radii)
+
+
+class NAOAgent:
+    """NAO avoidance. Options: horizon (s), samples (per horizon), predictor name,
+    margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m)."""
+
+    default_predictor = "turn_rate"
+
+    def __init__(
+        self,
+        horizon: float = 3.0,
+        samples: int = 31,
+        predictor: str | None = None,
+        margin: float = 0.05,
+        keep_band: float = 0.3,
+        v_pref: float | None = None,
+        sensing_range: float = 30.0,
+    ) -> None:
+        self.horizon = float(horizon)
+        self.times = np.linspace(0.0, self.horizon, int(samples))
+        self.predictor_name = predictor or self.default_predictor
+        self.predict = get_predictor(self.predictor_name)
+        self.margin = float(margin)
+        self.keep_band = float(keep_band)
+        self.v_pref = v_pref
+        self.sensing_range = float(sensing_range)
+        self.current = np.zeros(2)
+        self.last_selection = None
+
+    def reset(self, spec: Any, rng: np.random.Generator) -> None:
+        self.current = np.zeros(2)
+        self.last_selection = None
+
+    def obstacle_paths(self, obs: Observation) -> PiecewisePath:
+        """Neighbours' predicted paths and wall discs, robot-relative (m)."""
+        nb = obs.neighbours
+        centres = [self.predict(self.times, nb) - obs.position] if len(nb) else []
+        radii = [nb.radii + obs.radius + self.margin] if len(nb) else []
+        if len(obs.walls):
+            wc, wr = wall_discs(obs.walls, obs.wall_radius, obs.radius + self.margin)
+            near = np.hypot(*(wc - obs.position).T) <= self.sensing_range + wr
+            centres.append(np.repeat((wc[near] - obs.position)[:, None, :], len(self.times), 1))
+            radii.append(wr[near])
+        if not centres:
+            return sampled_path(self.times, np.zeros((0, len(self.times), 2)), np.zeros(0))
+        return sampled_path(self.times, np.concatenate(centres), np.concatenate(radii))
+
+    def _admissible(self, a: NDArray[np.float64], obs: Observation, path: PiecewisePath) -> bool:
+        if float(np.hypot(*a)) > obs.a_max * (1 + 1e-9):
+            return False
+        if path.n_obstacles == 0:
+            return True
+        ok = np.empty(1, dtype=bool)
+        admissible_kernel(
+            obs.velocity[None].copy(), a[None].copy(), obs.v_max, path.t, path.c, path.w,
+            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+        )
+        return bool(ok[0])
+
+    def act(self, obs: Observation) -> NDArray[np.float64]:
+        desired = goal_seeking_accel(obs, self.v_pref)
+        path = self.obstacle_paths(obs)
+        if (
+            float(np.hypot(*(self.current - desired))) <= self.keep_band
+            and self._admissible(self.current, obs, path)
+        ):
+            return self.current
+        sel = select_acceleration(desired, obs.velocity, path, AccelLimits(obs.a_max),
+                                  v_max=obs.v_max)
+        self.last_selection = sel
+        self.current = np.asarray(sel.accel, dtype=np.float64)
+        return self.current
+
+
+class AOAgent(NAOAgent):
+    """The same selection with constant-acceleration predictions (the AO)."""
+
+    default_predictor = "constant_acceleration"

@@ -1,0 +1,152 @@
+"""Where an agent thinks its neighbours will be: sampled centres over the horizon.
+
+Every predictor maps (times (T,) s, neighbours) to predicted centres
+(n, T, 2) in the world frame (m), the input of
+:func:`nao_arena.geometry.nao_clearance` once the robot's own position is
+subtracted.
+
+- ``constant_velocity``: c(t) = p + v t.
+- ``constant_acceleration``: c(t) = p + v t + a t^2 / 2 (the AO's model).
+- ``turn_rate``: constant turn rate and tangential acceleration estimated
+  from the observed velocity and acceleration (arcs: curved traffic without
+  map knowledge).
+- ``known_path``: the true future path where the map provides it (scripted
+  traffic), else ``turn_rate``.
+- ``shared_plan``: the acceleration a cooperative neighbour committed to,
+  else ``constant_velocity``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.sensing import Neighbours
+
+__all__ = ["PREDICTORS", "get_predictor"]
+
+Predictor = Callable[[NDArray[np.float64], Neighbours], NDArray[np.float64]]
+
+
+def constant_velocity(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
+    """c(t) = p + v t, (n, T, 2) m."""
+    return nb.positions[:, None, :] + nb.velocities[:, None, :] * times[None, :, None]
+
+
+def constant_acceleration(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
+    """c(t) = p + v t + a t^2 / 2, (n, T, 2) m."""
+    t = times[None, :, None]
+    return (
+        nb.positions[:, None, :]
+        + nb.velocities[:, None, :] * t
+        + 0.5 * nb.accelerations[:, None, :] * t * t
+    )
+
+
+def turn_rate(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
+    """Constant turn rate omega = (v x a) / |v|^2 and tangential acceleration a.v / |v|.
+
+    The speed is held at >= 0 (a vehicle does not reverse by braking). The
+    path is integrated exactly for the arc on a fine internal grid (8 steps
+    per sample interval, midpoint rule), (n, T, 2) m.
+    """
+    n = len(nb)
+    if n == 0:
+        return np.zeros((0, len(times), 2))
+    v = nb.velocities
+    a = nb.accelerations
+    speed = np.hypot(v[:, 0], v[:, 1])
+    moving = speed > 1e-6
+    safe = np.where(moving, speed, 1.0)
+    omega = np.where(moving, (v[:, 0] * a[:, 1] - v[:, 1] * a[:, 0]) / safe**2, 0.0)
+    a_t = np.where(moving, (v[:, 0] * a[:, 0] + v[:, 1] * a[:, 1]) / safe, 0.0)
+    heading = np.arctan2(v[:, 1], v[:, 0])
+    fine = np.concatenate([[0.0], np.repeat(np.diff(np.concatenate([[0.0], times])) / 8, 8)])
+    t_fine = np.cumsum(fine)
+    mid = t_fine[:-1] + 0.5 * fine[1:]
+    th = heading[:, None] + omega[:, None] * mid[None]
+    s = np.maximum(speed[:, None] + a_t[:, None] * mid[None], 0.0)
+    step = s[..., None] * np.stack([np.cos(th), np.sin(th)], -1) * fine[None, 1:, None]
+    pos = nb.positions[:, None, :] + np.concatenate(
+        [np.zeros((n, 1, 2)), np.cumsum(step, axis=1)], axis=1
+    )
+    out = pos[:, 8::8][:, : len(times)]
+    # a stationary neighbour (no heading) accelerating from rest: constant acceleration
+    still = ~moving
+    if np.any(still):
+        out[still] = constant_acceleration(times, _subset(nb, still))
+    return out
+
+
+def _subset(nb: Neighbours, mask: NDArray[np.bool_]) -> Neighbours:
+    return Neighbours(
+        ids=nb.ids[mask],
+        kinds=tuple(k for k, m in zip(nb.kinds, mask, strict=True) if m),
+        positions=nb.positions[mask],
+        velocities=nb.velocities[mask],
+        accelerations=nb.accelerations[mask],
+        radii=nb.radii[mask],
+    )
+
+
+def _resample(path_times, paths, times):
+    """Linear interpolation of (n, P, 2) paths at times (T,); beyond the end: extrapolate."""
+    out = np.empty((paths.shape[0], len(times), 2))
+    for k in range(2):
+        for i in range(paths.shape[0]):
+            out[i, :, k] = np.interp(times, path_times, paths[i, :, k])
+    if len(path_times) >= 2:
+        # continue at the last segment's velocity past the known horizon
+        last_v = (paths[:, -1] - paths[:, -2]) / (path_times[-1] - path_times[-2])
+        beyond = times > path_times[-1]
+        out[:, beyond] = paths[:, -1:, :] + last_v[:, None, :] * (
+            times[beyond] - path_times[-1]
+        )[None, :, None]
+    return out
+
+
+def known_path(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
+    """True future centres where known (times relative to now), else ``turn_rate``."""
+    out = turn_rate(times, nb)
+    if nb.known_paths is None or len(nb) == 0:
+        return out
+    known = np.all(np.isfinite(nb.known_paths), axis=(1, 2))
+    if np.any(known):
+        out[known] = _resample(nb.path_times, nb.known_paths[known], times)
+    return out
+
+
+def shared_plan(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
+    """Committed acceleration of cooperative neighbours, else constant velocity."""
+    out = constant_velocity(times, nb)
+    if nb.plans is None or len(nb) == 0:
+        return out
+    has = np.all(np.isfinite(nb.plans), axis=1)
+    if np.any(has):
+        t = times[None, :, None]
+        out[has] = (
+            nb.positions[has, None, :] + nb.velocities[has, None, :] * t
+            + 0.5 * nb.plans[has, None, :] * t * t
+        )
+    return out
+
+
+PREDICTORS: dict[str, Predictor] = {
+    "constant_velocity": constant_velocity,
+    "constant_acceleration": constant_acceleration,
+    "turn_rate": turn_rate,
+    "known_path": known_path,
+    "shared_plan": shared_plan,
+}
+
+
+def get_predictor(name: str) -> Predictor:
+    """The predictor registered under ``name``; ValueError naming the choices otherwise."""
+    try:
+        return PREDICTORS[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown predictor {name!r}; expected one of {', '.join(PREDICTORS)}"
+        ) from None

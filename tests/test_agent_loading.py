@@ -1,0 +1,82 @@
+"""Plug-in agents: loading by file path and module, and containment of faulty agents."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+
+from nao_arena.agent import available_agents, load_agent, safe_act
+from nao_arena.sensing import Observation
+
+
+def obs() -> Observation:
+    return Observation(
+        time=1.0, dt=0.1, robot_id=3, position=np.zeros(2), velocity=np.array([1.0, 0.0]),
+        acceleration=np.zeros(2), radius=0.5, a_max=2.0, v_max=2.0, goal=np.array([10.0, 0.0]),
+    )
+
+
+def test_builtin_agents_load_and_act():
+    for name in ("nao", "ao", "goal"):
+        agent = load_agent(name)()
+        agent.reset(None, np.random.default_rng(0))
+        a = np.asarray(agent.act(obs()))
+        assert a.shape == (2,) and np.all(np.isfinite(a)) and np.hypot(*a) <= 2.0 + 1e-9
+    assert {"nao", "ao", "goal"} <= set(available_agents())
+
+
+def test_agent_from_file_and_module(tmp_path, monkeypatch):
+    src = textwrap.dedent(
+        """
+        import numpy as np
+
+        class Straight:
+            def reset(self, spec, rng):
+                pass
+
+            def act(self, obs):
+                return np.array([0.5, 0.0])
+        """
+    )
+    (tmp_path / "my_agent.py").write_text(src)
+    cls = load_agent(f"{tmp_path / 'my_agent.py'}:Straight")
+    np.testing.assert_array_equal(cls().act(obs()), [0.5, 0.0])
+    monkeypatch.syspath_prepend(str(tmp_path))
+    cls = load_agent("my_agent:Straight")
+    np.testing.assert_array_equal(cls().act(obs()), [0.5, 0.0])
+
+
+@pytest.mark.parametrize("ref, fragment", [
+    ("no_such_agent", "unknown agent"),
+    ("missing/file.py:X", "no such file"),
+    ("json:NoSuchClass", "defines no"),
+])
+def test_bad_agent_references_are_explained(ref, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        load_agent(ref)
+
+
+class Raises:
+    def act(self, obs):
+        raise RuntimeError("boom")
+
+
+class ReturnsNaN:
+    def act(self, obs):
+        return np.array([np.nan, 0.0])
+
+
+class WrongShape:
+    def act(self, obs):
+        return np.zeros(3)
+
+
+@pytest.mark.parametrize("agent, fragment", [
+    (Raises(), "RuntimeError: boom"), (ReturnsNaN(), "non-finite"), (WrongShape(), "shape"),
+])
+def test_faulty_agents_are_contained(agent, fragment):
+    a, fault = safe_act(agent, obs(), "bad")
+    np.testing.assert_array_equal(a, [0.0, 0.0])
+    assert fault is not None and fragment in fault.message and fault.robot == 3
