@@ -246,7 +246,6 @@ class Encounter:
         all_t = np.unique(np.concatenate([grid, extra_t]))
         all_d = self.distance(all_t)
         i_best = int(np.argmin(all_d))
-        best_t, best_f = float(all_t[i_best]), float(all_d[i_best]) ** 2
         # first contact: first evaluated point at or inside the radius, then bisect back
         inside = np.flatnonzero(all_d <= self.radius)
         if inside.size == 0:
@@ -256,8 +255,8 @@ class Encounter:
         else:
             first = self._crossing(float(all_t[inside[0] - 1]), float(all_t[inside[0]]))
         return ForwardResult(
-            clearance=math.sqrt(best_f) - self.radius,
-            time_of_closest_approach=best_t,
+            clearance=float(all_d[i_best]) - self.radius,
+            time_of_closest_approach=float(all_t[i_best]),
             time_of_first_contact=first,
             grid=all_t,
             distance=all_d,

@@ -99,10 +99,7 @@ def _piece(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     c1 = bb + 2.0 * ac
     c0 = bc
     scale = aa + bb + cc
-    # linear relative motion, or an acceleration so small that it would only
-    # matter after ~1e10 times the encounter's time scale (infinite horizons)
-    tiny = 1e-30 if math.isfinite(h) else 1e-20
-    if aa <= tiny * scale:
+    if aa <= 1e-30 * scale:
         # linear relative motion: |d|^2 is a quadratic in s
         if bb <= 1e-300:
             out[0] = cc
