@@ -98,7 +98,7 @@ class NAOAgent:
         ):
             return self.current
         sel = select_acceleration(desired, obs.velocity, path, AccelLimits(obs.a_max),
-                                  v_max=obs.v_max)
+                                  v_max=obs.v_max, with_clearance=False)
         self.last_selection = sel
         self.current = np.asarray(sel.accel, dtype=np.float64)
         return self.current

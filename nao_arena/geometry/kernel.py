@@ -476,89 +476,174 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_
                 out[cnt, 1] = my
                 out[cnt, 2] = rho
                 cnt += 1
-    return out[:cnt]
+    return _drop_contained(out[:cnt])
 
 
-@njit(cache=True, inline="always")
-def _outside_all(px, py, disks, a_max):
-    if px * px + py * py > a_max * a_max * (1.0 + 1e-12):
-        return False
-    for i in range(disks.shape[0]):
-        dx = px - disks[i, 0]
-        dy = py - disks[i, 1]
-        rho = disks[i, 2]
-        if dx * dx + dy * dy < rho * rho * (1.0 - 1e-12):
-            return False
-    return True
+@njit(cache=True)
+def _drop_contained(disks):
+    """The disks (M, 3) that no other disk contains (of identical ones, the first)."""
+    M = disks.shape[0]
+    keep = np.ones(M, dtype=np.bool_)
+    for i in range(M):
+        for j in range(M):
+            if i == j or not keep[j]:
+                continue
+            d = math.hypot(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
+            if d + disks[i, 2] <= disks[j, 2] and (d + disks[i, 2] < disks[j, 2] or j < i):
+                keep[i] = False
+                break
+    return disks[keep]
+
+
+_TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True)
+def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
+    """Append to ``out`` (from row k) the point nearest q of every free arc of the
+    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
+    and, when ``in_limit``, inside the limit disc |a| <= a_max.
+    Returns the new row count, or -1 when the whole circle is covered.
+    """
+    M = circ.shape[0]
+    starts = np.empty(2 * M + 4)
+    ends = np.empty(2 * M + 4)
+    n = 0
+    for j in range(M + 1):
+        if j == M:
+            if not in_limit:
+                continue
+            d = math.hypot(cx, cy)
+            if d + rho <= a_max:
+                continue
+            if d >= rho + a_max or d + a_max <= rho:
+                return -1
+            cosb = (d * d + rho * rho - a_max * a_max) / (2.0 * d * rho)
+            beta = math.acos(min(1.0, max(-1.0, cosb)))
+            # allowed: the arc facing the origin, [alpha - beta, alpha + beta]
+            lo = math.atan2(-cy, -cx) + beta
+            width = _TWO_PI - 2.0 * beta
+        else:
+            if j == skip:
+                continue
+            dx = circ[j, 0] - cx
+            dy = circ[j, 1] - cy
+            rj = circ[j, 2]
+            d = math.hypot(dx, dy)
+            if d + rho <= rj * (1.0 - 1e-12):
+                return -1
+            if d >= rho + rj or d + rj <= rho or d <= 0.0:
+                continue
+            cosb = (d * d + rho * rho - rj * rj) / (2.0 * d * rho)
+            beta = math.acos(min(1.0, max(-1.0, cosb)))
+            lo = math.atan2(dy, dx) - beta
+            width = 2.0 * beta
+        lo = lo % _TWO_PI
+        hi = lo + width
+        if hi > _TWO_PI:
+            starts[n] = lo
+            ends[n] = _TWO_PI
+            n += 1
+            starts[n] = 0.0
+            ends[n] = hi - _TWO_PI
+            n += 1
+        else:
+            starts[n] = lo
+            ends[n] = hi
+            n += 1
+    phi_q = math.atan2(q[1] - cy, q[0] - cx) % _TWO_PI
+    if n == 0:
+        out[k, 0] = cx + rho * math.cos(phi_q)
+        out[k, 1] = cy + rho * math.sin(phi_q)
+        return k + 1
+    order = np.argsort(starts[:n])
+    first_start = starts[order[0]]
+    cur_end = ends[order[0]]
+    for idx in range(1, n + 1):
+        if idx < n:
+            i = order[idx]
+            if starts[i] <= cur_end:
+                cur_end = max(cur_end, ends[i])
+                continue
+            lo = cur_end
+            hi = starts[i]
+            cur_end = ends[i]
+        else:
+            # the gap that wraps from the last covered end round to the first start
+            lo = cur_end
+            hi = first_start + _TWO_PI
+            if hi <= lo:
+                break
+        # nearest point of the free arc [lo, hi] to q: phi_q if inside, else an end
+        ph = phi_q if phi_q >= lo else phi_q + _TWO_PI
+        if ph <= hi:
+            best = ph
+        else:
+            d_lo = ph - hi
+            d_hi = lo + _TWO_PI - ph
+            best = hi if d_lo <= d_hi else lo
+        out[k, 0] = cx + rho * math.cos(best)
+        out[k, 1] = cy + rho * math.sin(best)
+        k += 1
+    return k
 
 
 @njit(cache=True)
 def nearest_outside_disks(q, disks, a_max, max_out):
     """Points nearest q that lie outside every disk and inside |a| <= a_max.
 
-    The nearest point outside a finite union of disks is q itself, the
-    radial projection of q onto one circle, or an intersection of two
-    circles (the limit circle included). Returns up to ``max_out``
-    admissible candidates (rows x, y, distance) in increasing distance.
+    The nearest point of the complement of a union of disks (within the limit
+    disc) is q itself or lies on a free arc of one of the circles, the limit
+    circle included. Free arcs come from the angular intervals the other
+    disks cover; on each, the nearest point to q is its radial projection or
+    an end. Circles are visited in order of their distance from q and the
+    search stops once no unvisited circle can beat the ``max_out``-th best
+    candidate. Returns up to ``max_out`` candidates (rows x, y, distance) in
+    increasing distance.
     """
     M = disks.shape[0]
-    circ = np.empty((M + 1, 3))
-    circ[:M] = disks
-    circ[M, 0] = 0.0
-    circ[M, 1] = 0.0
-    circ[M, 2] = a_max
-    C = M + 1
-    cand = np.empty((C + C * (C - 1), 2))
-    k = 0
-    cand[k, 0] = q[0]
-    cand[k, 1] = q[1]
-    k += 1
-    for i in range(C):
-        dx = q[0] - circ[i, 0]
-        dy = q[1] - circ[i, 1]
-        d = math.hypot(dx, dy)
-        if d > 0.0:
-            cand[k, 0] = circ[i, 0] + circ[i, 2] * dx / d
-            cand[k, 1] = circ[i, 1] + circ[i, 2] * dy / d
-            k += 1
-    for i in range(C):
-        for j in range(i + 1, C):
-            dx = circ[j, 0] - circ[i, 0]
-            dy = circ[j, 1] - circ[i, 1]
-            d = math.hypot(dx, dy)
-            ri = circ[i, 2]
-            rj = circ[j, 2]
-            if d <= 0.0 or d > ri + rj or d < abs(ri - rj):
-                continue
-            # distance from centre i to the chord, along the centre line
-            x = (d * d + ri * ri - rj * rj) / (2.0 * d)
-            hh = ri * ri - x * x
-            hgt = math.sqrt(hh) if hh > 0.0 else 0.0
-            ux = dx / d
-            uy = dy / d
-            bx = circ[i, 0] + x * ux
-            by = circ[i, 1] + x * uy
-            cand[k, 0] = bx - hgt * uy
-            cand[k, 1] = by + hgt * ux
-            k += 1
-            cand[k, 0] = bx + hgt * uy
-            cand[k, 1] = by - hgt * ux
-            k += 1
-    dist = np.empty(k)
-    for i in range(k):
-        dist[i] = math.hypot(cand[i, 0] - q[0], cand[i, 1] - q[1])
-    order = np.argsort(dist)
-    res = np.empty((max_out, 3))
+    res = np.full((max_out, 3), math.inf)
+    # q itself, when no disk contains it
+    q_free = q[0] * q[0] + q[1] * q[1] <= a_max * a_max
+    for i in range(M):
+        if (q[0] - disks[i, 0]) ** 2 + (q[1] - disks[i, 1]) ** 2 < disks[i, 2] ** 2:
+            q_free = False
+            break
+    if q_free:
+        res[0, 0] = q[0]
+        res[0, 1] = q[1]
+        res[0, 2] = 0.0
+    lower = np.empty(M + 1)
+    for i in range(M):
+        lower[i] = abs(math.hypot(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
+    lower[M] = abs(math.hypot(q[0], q[1]) - a_max)
+    order = np.argsort(lower)
+    cand = np.empty((2 * M + 8, 2))
+    for i in order:
+        if lower[i] >= res[max_out - 1, 2]:
+            break
+        if i < M:
+            k = _free_arc_points(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
+                                 a_max, cand, 0)
+        else:
+            k = _free_arc_points(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
+        for c in range(max(k, 0)):
+            d = math.hypot(cand[c, 0] - q[0], cand[c, 1] - q[1])
+            if d < res[max_out - 1, 2]:
+                # insert keeping res sorted by distance
+                pos = max_out - 1
+                while pos > 0 and res[pos - 1, 2] > d:
+                    res[pos, 0] = res[pos - 1, 0]
+                    res[pos, 1] = res[pos - 1, 1]
+                    res[pos, 2] = res[pos - 1, 2]
+                    pos -= 1
+                res[pos, 0] = cand[c, 0]
+                res[pos, 1] = cand[c, 1]
+                res[pos, 2] = d
     found = 0
-    for idx in order:
-        if _outside_all(cand[idx, 0], cand[idx, 1], disks, a_max):
-            res[found, 0] = cand[idx, 0]
-            res[found, 1] = cand[idx, 1]
-            res[found, 2] = dist[idx]
-            found += 1
-            if found == max_out:
-                break
-    return res[:found]
+    while found < max_out and res[found, 2] < math.inf:
+        found += 1
+    return res[:found].copy()
 
 
 @njit(cache=True)

@@ -132,7 +132,7 @@ class Selection:
 
     accel: NDArray[np.float64]
     status: str
-    clearance: float
+    clearance: float | None
     time_of_first_contact: float
     evaluations: int
 
@@ -169,6 +169,9 @@ class _Tester:
         self.margin = margin
         self.v_max = v_max
         self.count = 0
+        self._one = np.zeros((1, 2))
+        self._v1 = np.ascontiguousarray(v.reshape(1, 2), dtype=np.float64)
+        self._res1 = np.zeros(1, dtype=bool)
 
     def ok(self, a: NDArray[np.float64]) -> NDArray[np.bool_]:
         a = np.ascontiguousarray(np.atleast_2d(a), dtype=np.float64)
@@ -204,7 +207,25 @@ class _Tester:
         return out
 
     def ok1(self, a: NDArray[np.float64]) -> bool:
-        return bool(self.ok(a)[0])
+        """Admissibility of one acceleration (2,), with little Python overhead."""
+        x, y = float(a[0]), float(a[1])
+        lim = self.limits
+        if x * x + y * y > lim.a_max**2 * (1 + 1e-12) + 1e-300:
+            return False
+        if lim.box_lo is not None and not (
+            lim.box_lo[0] - 1e-12 <= x <= lim.box_hi[0] + 1e-12
+            and lim.box_lo[1] - 1e-12 <= y <= lim.box_hi[1] + 1e-12
+        ):
+            return False
+        self.count += 1
+        if self.path.n_obstacles == 0:
+            return True
+        self._one[0, 0] = x
+        self._one[0, 1] = y
+        p = self.path
+        admissible_kernel(self._v1, self._one, self.v_max, p.t, p.c, p.w, p.b, p.radius,
+                          self.sweep, self.margin, self._res1)
+        return bool(self._res1[0])
 
 
 def _ring(center: NDArray[np.float64], radius: float, n: int, phase: float) -> NDArray[np.float64]:
@@ -236,13 +257,16 @@ def select_acceleration(
     tol: float = 1e-3,
     rings: int = 8,
     ring_points: int = 16,
+    with_clearance: bool = True,
 ) -> Selection:
     """Admissible acceleration nearest ``desired`` (m/s^2) for a robot with velocity v (m/s).
 
     path: the obstacles' predicted paths (robot-relative, see
     :func:`~nao_arena.geometry.clearance.sampled_path`); margin: required
     clearance (m); v_max: the robot's speed limit (m/s), part of its
-    predicted path; tol: refinement tolerance (m/s^2). Never raises on
+    predicted path; tol: refinement tolerance (m/s^2); with_clearance:
+    also compute the exact clearance of the result (skipped, and reported
+    as None, when False and the result is feasible). Never raises on
     degenerate input and never returns NaN.
     """
     v_arr = np.asarray(v, dtype=np.float64)
@@ -256,6 +280,8 @@ def select_acceleration(
     tol = max(float(tol), 1e-9 * max(limits.a_max, 1.0))
 
     def done(a: NDArray[np.float64], status: str) -> Selection:
+        if not with_clearance and status != "infeasible":
+            return Selection(a, status, None, math.inf, tester.count)
         if tester.path.n_obstacles == 0:
             return Selection(a, status, math.inf, math.inf, tester.count)
         res = path_clearance(a, v_arr, tester.path, v_max=v_max)
@@ -300,7 +326,7 @@ def select_acceleration(
     return done(cand[top[0]], "infeasible")
 
 
-_MAX_DISKS = 128
+_MAX_DISKS = 96
 _DISKS_PER_PIECE = 4
 
 
