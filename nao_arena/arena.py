@@ -1,0 +1,238 @@
+"""The one control loop: sense -> act -> physics -> stats.
+
+:class:`Arena` owns a :class:`~nao_arena.world.World`, one agent per robot,
+the scripted lane followers of the map's traffic and the episode's
+:class:`~nao_arena.stats.EpisodeStats`. Each :meth:`Arena.step`:
+
+1. reads the world state (bulk arrays);
+2. builds one :class:`~nao_arena.sensing.Observation` per robot: own state,
+   goal/route, neighbours within ``sensing_range`` (with the true future
+   paths of traffic and the accelerations other robots committed to), walls;
+3. asks every robot's agent for an acceleration (m/s^2, world frame) —
+   external actions (e.g. from the PettingZoo env) replace the agents of
+   the robots they name; a failing agent gets zero acceleration and a fault
+   is recorded; traffic gets its lane followers' accelerations;
+4. steps the world (limits enforced there);
+5. updates the statistics (swept contact check, metrics).
+
+The PettingZoo env and the trial runner both drive this loop; neither has a
+loop of its own.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.agent import AgentFault, load_agent, safe_act
+from nao_arena.maps import MapSpec, RobotSpec
+from nao_arena.sensing import Neighbours, Observation, neighbours_in_range
+from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
+from nao_arena.traffic import LaneTraffic
+from nao_arena.world import World, WorldState
+
+__all__ = ["Arena", "ArenaOptions", "StepResult", "make_agent"]
+
+
+@dataclass(frozen=True)
+class ArenaOptions:
+    """Settings of the control loop.
+
+    sensing_range (m) and max_neighbours: what each robot senses;
+    known_path_horizon (s) / known_path_samples: the true future paths of
+    traffic handed to agents; agent: if set, replaces every robot's agent
+    (built-in name or plug-in reference) and agent_options are passed to
+    the agents' constructors; stats: statistics thresholds.
+    """
+
+    sensing_range: float = 30.0
+    max_neighbours: int | None = None
+    known_path_horizon: float = 6.0
+    known_path_samples: int = 61
+    agent: str | None = None
+    agent_options: Mapping[str, Any] = field(default_factory=dict)
+    stats: StatsConfig = field(default_factory=StatsConfig)
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """What one control step produced: time at its end (s), the commanded
+    accelerations (N, 2) m/s^2, the contacts that started and the agents' faults."""
+
+    time: float
+    state: WorldState
+    commanded: NDArray[np.float64]
+    contacts: list[ContactEvent]
+    faults: list[AgentFault]
+
+
+def make_agent(ref: str, robot: RobotSpec, options: Mapping[str, Any] | None = None) -> Any:
+    """Instantiate the agent ``ref`` for ``robot``; the robot's predictor is passed to
+    agents whose constructor takes one (unless options set it)."""
+    cls = load_agent(ref)
+    kwargs = dict(options or {})
+    try:
+        params = inspect.signature(cls).parameters
+    except (TypeError, ValueError):
+        params = {}
+    if "predictor" in params and "predictor" not in kwargs:
+        kwargs["predictor"] = robot.predictor
+    return cls(**kwargs)
+
+
+class Arena:
+    """One map's world, agents, traffic and statistics. Call :meth:`reset` first."""
+
+    def __init__(self, spec: MapSpec, options: ArenaOptions | None = None) -> None:
+        self.spec = spec
+        self.options = options or ArenaOptions()
+        self.world = World(spec)
+        self.traffic = LaneTraffic.from_map(spec)
+        self.robot_ids = self.world.robot_indices
+        self.robots = list(spec.robots)
+        self.agent_names = [self.options.agent or r.agent for r in self.robots]
+        self.goals = np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2)
+        self.routes = [None if r.route is None else np.asarray(r.route, float)
+                       for r in self.robots]
+        self.walls, self.wall_radius = self.world.wall_segments()
+        self.path_times = np.linspace(
+            0.0, self.options.known_path_horizon, self.options.known_path_samples
+        )
+        self.agents: list[Any] = []
+        self.stats: EpisodeStats | None = None
+        self.state: WorldState | None = None
+        self.commanded = np.zeros((self.world.n, 2))
+
+    # ------------------------------------------------------------------ episode
+
+    def reset(self, seed: int | None = None) -> WorldState:
+        """Fresh world, fresh agents (one seeded generator each), fresh statistics."""
+        self.state = self.world.reset()
+        seeds = np.random.SeedSequence(seed).spawn(len(self.robots))
+        self.agents = []
+        for robot, name, ss in zip(self.robots, self.agent_names, seeds, strict=True):
+            agent = make_agent(name, robot, self.options.agent_options)
+            agent.reset(robot, np.random.default_rng(ss))
+            self.agents.append(agent)
+        self.stats = EpisodeStats(
+            self.world.radii, self.world.kinds, self.world.names,
+            walls=(self.walls, self.wall_radius), dt=self.world.dt,
+            config=self.options.stats, velocities=self.state.velocities,
+        )
+        self.commanded = np.zeros((self.world.n, 2))
+        return self.state
+
+    @property
+    def time(self) -> float:
+        return self.world.time
+
+    @property
+    def reached(self) -> NDArray[np.bool_]:
+        """(R,) robots within the goal tolerance of their goals now."""
+        assert self.state is not None
+        p = self.state.positions[self.robot_ids]
+        return np.hypot(*(p - self.goals).T) <= self.spec.episode.goal_tolerance
+
+    @property
+    def done(self) -> bool:
+        """The time limit is reached, or every robot has arrived."""
+        if self.time >= self.spec.episode.time_limit - 1e-9:
+            return True
+        return bool(len(self.robots)) and bool(np.all(self.stats.reached[self.robot_ids]))
+
+    # ------------------------------------------------------------------ sensing
+
+    def _known_paths(self, state: WorldState) -> NDArray[np.float64]:
+        """(N, T, 2) true future centres of traffic (NaN for robots)."""
+        out = np.full((self.world.n, len(self.path_times), 2), np.nan)
+        idx = self.traffic.indices
+        if len(idx):
+            out[idx] = self.traffic.future_paths(state.positions, self.path_times)
+        return out
+
+    def observations(self) -> list[Observation]:
+        """One observation per robot (robot order), for the current state."""
+        state = self.state
+        assert state is not None
+        known = self._known_paths(state) if len(self.traffic.indices) else None
+        plans = np.full((self.world.n, 2), np.nan)
+        plans[self.robot_ids] = self.commanded[self.robot_ids]
+        kinds = np.array(self.world.kinds)
+        out = []
+        for k, body in enumerate(self.robot_ids):
+            idx = neighbours_in_range(
+                int(body), state.positions, self.options.sensing_range,
+                self.options.max_neighbours,
+            )
+            nb = Neighbours(
+                ids=idx,
+                kinds=tuple(kinds[idx]),
+                positions=state.positions[idx],
+                velocities=state.velocities[idx],
+                accelerations=state.accelerations[idx],
+                radii=state.radii[idx],
+                path_times=self.path_times,
+                known_paths=None if known is None else known[idx],
+                plans=plans[idx],
+            )
+            out.append(Observation(
+                time=state.time, dt=self.world.dt, robot_id=int(k),
+                position=state.positions[body], velocity=state.velocities[body],
+                acceleration=state.accelerations[body], radius=float(state.radii[body]),
+                a_max=float(self.world.a_max[body]), v_max=float(self.world.v_max[body]),
+                goal=self.goals[k], route=self.routes[k], neighbours=nb,
+                walls=self.walls, wall_radius=self.wall_radius,
+            ))
+        return out
+
+    # ------------------------------------------------------------------ step
+
+    def step(self, actions: Mapping[int, NDArray[np.float64]] | None = None) -> StepResult:
+        """One control period. ``actions`` maps robot index (robot order) to an
+        acceleration (2,) m/s^2 that replaces that robot's agent this step."""
+        assert self.state is not None and self.stats is not None, "call reset() first"
+        state = self.state
+        commanded = np.zeros((self.world.n, 2))
+        faults: list[AgentFault] = []
+        actions = actions or {}
+        for k, obs in enumerate(self.observations()):
+            body = self.robot_ids[k]
+            if k in actions:
+                commanded[body] = actions[k]
+                continue
+            acc, fault = safe_act(self.agents[k], obs, self.agent_names[k])
+            commanded[body] = acc
+            if fault is not None:
+                faults.append(fault)
+                self.stats.record_fault(fault.time, int(body), fault.message)
+        idx = self.traffic.indices
+        if len(idx):
+            commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)
+        before = state.positions
+        new_state = self.world.step(commanded)
+        self.commanded = commanded
+        self.state = new_state
+        reached = np.zeros(self.world.n, dtype=bool)
+        reached[self.robot_ids] = self.reached
+        contacts = self.stats.update(
+            state.time, before, new_state.positions, new_state.velocities, commanded, reached
+        )
+        return StepResult(new_state.time, new_state, commanded, contacts, faults)
+
+    def run(self, seed: int | None = None, max_steps: int | None = None) -> EpisodeSummary:
+        """Reset, step until done (or max_steps), return the episode's summary."""
+        self.reset(seed)
+        steps = 0
+        while not self.done and (max_steps is None or steps < max_steps):
+            self.step()
+            steps += 1
+        return self.summary()
+
+    def summary(self) -> EpisodeSummary:
+        assert self.stats is not None
+        return self.stats.summary()

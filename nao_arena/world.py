@@ -1,0 +1,320 @@
+"""The physical world: disc bodies and static walls in pymunk.
+
+This is the only module that imports pymunk. Bodies are the map's robots
+and traffic vehicles in map order (:meth:`nao_arena.maps.MapSpec.bodies`);
+walls are static segments (capsules) and convex polygons. Contacts between
+bodies and with walls are resolved by pymunk with the map's elasticity and
+friction. Bodies do not rotate (infinite moment of inertia).
+
+Control and the speed limit
+---------------------------
+:meth:`World.step` advances one control period dt (s) in ``substeps``
+physics steps of h = dt / substeps. Each body's commanded acceleration a
+(m/s^2, world frame) is first scaled to |a| <= a_max. The body then
+accelerates at a until its speed reaches v_max, at time tau (the positive
+root of |v + a tau| = v_max, or never), and coasts for the rest of the
+period: in substep j the force m a clamp((tau - j h) / h, 0, 1) is applied,
+so that without contacts the velocity after the period is exactly
+v + a min(tau, dt) (up to rounding); see :func:`velocity_after_period`. A
+body faster than v_max (after a contact) is first slowed to v_max by
+scaling its velocity (never by moving it), and then gains no speed. Speeds
+above v_max left by contacts at the end of a period are scaled back too, so
+observed speeds never exceed v_max.
+
+Bulk state I/O goes through ``pymunk.batch``: one call reads all
+positions and velocities, one call per substep writes all forces. A fresh
+``pymunk.Space`` is built on every :meth:`World.reset`. Same map and same
+commands give bit-identical trajectories.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+import pymunk.batch as pb
+from numpy.typing import ArrayLike, NDArray
+
+from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
+
+__all__ = [
+    "World",
+    "WorldState",
+    "clip_accelerations",
+    "speed_limit_time",
+    "substep_weights",
+    "velocity_after_period",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class WorldState:
+    """The bodies at one instant, world frame, one row per body in map order.
+
+    time (s); positions (N, 2) m; velocities (N, 2) m/s; accelerations
+    (N, 2) m/s^2: the mean acceleration over the last control period,
+    (v_end - v_start) / dt, contacts included (zeros after a reset); radii
+    (N,) m; names and kinds ("robot" or "traffic") per body.
+    """
+
+    time: float
+    positions: FloatArray
+    velocities: FloatArray
+    accelerations: FloatArray
+    radii: FloatArray
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.radii)
+
+
+def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
+    """Rows of accels (N, 2) m/s^2 scaled to |a| <= a_max (N,) (direction kept)."""
+    a = np.asarray(accels, dtype=float)
+    norm = np.hypot(a[:, 0], a[:, 1])
+    scale = np.minimum(1.0, np.asarray(a_max, float) / np.maximum(norm, 1e-300))
+    return a * scale[:, None]
+
+
+def speed_limit_time(v: ArrayLike, a: ArrayLike, v_max: ArrayLike) -> FloatArray:
+    """Time tau (N,) s at which |v + a tau| reaches v_max: the positive root, inf if never.
+
+    v (N, 2) m/s must satisfy |v| <= v_max (N,) m/s (rounding tolerated);
+    a (N, 2) m/s^2. At |v| = v_max, tau = 0 unless a points backwards
+    (a . v < 0), when tau = -2 a.v / |a|^2.
+    """
+    v = np.asarray(v, dtype=float)
+    a = np.asarray(a, dtype=float)
+    aa = a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1]
+    b = a[:, 0] * v[:, 0] + a[:, 1] * v[:, 1]
+    c = np.minimum(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] - np.asarray(v_max, float) ** 2, 0.0)
+    root = np.sqrt(b * b - aa * c)
+    forward = b + root
+    tau = np.where(
+        b >= 0.0,
+        (0.0 - c) / np.where(forward > 0.0, forward, 1.0),
+        (root - b) / np.where(aa > 0.0, aa, 1.0),
+    )
+    return np.where(aa > 0.0, tau, np.inf)
+
+
+def substep_weights(tau: ArrayLike, dt: float, substeps: int) -> FloatArray:
+    """Fraction (substeps, N) of each substep spent accelerating: clamp((tau - j h)/h, 0, 1)."""
+    h = dt / substeps
+    j = np.arange(substeps, dtype=float)[:, None]
+    return np.clip((np.asarray(tau, float)[None, :] - j * h) / h, 0.0, 1.0)
+
+
+def _scale_to_vmax(v: FloatArray, v_max: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+    speed = np.hypot(v[:, 0], v[:, 1])
+    over = speed > v_max
+    if not np.any(over):
+        return v, over
+    scale = np.where(over, v_max / np.where(over, speed, 1.0), 1.0)
+    return v * scale[:, None], over
+
+
+def velocity_after_period(
+    v: ArrayLike, a: ArrayLike, a_max: ArrayLike, v_max: ArrayLike, dt: float
+) -> FloatArray:
+    """The speed-limit model without contacts: v' + a' min(tau, dt), (N, 2) m/s.
+
+    a' is a (m/s^2) scaled to |a'| <= a_max; v' is v (m/s) scaled to
+    |v'| <= v_max; tau from :func:`speed_limit_time`.
+    """
+    a_c = clip_accelerations(a, a_max)
+    v_c, _ = _scale_to_vmax(np.asarray(v, float), np.asarray(v_max, float))
+    tau = speed_limit_time(v_c, a_c, v_max)
+    return v_c + a_c * np.minimum(tau, dt)[:, None]
+
+
+class World:
+    """The pymunk world of one map.
+
+    ``World(spec)`` builds the space (see :meth:`reset`); :meth:`step`
+    advances one control period; :meth:`state` reads the bodies. Static
+    per-body data: :attr:`radii`, :attr:`masses`, :attr:`a_max`,
+    :attr:`v_max` (N,), :attr:`names`, :attr:`kinds`.
+    """
+
+    def __init__(self, spec: MapSpec) -> None:
+        self.spec = spec
+        self.bodies = spec.bodies()
+        self.n = len(self.bodies)
+        self.dt = float(spec.physics.dt)
+        self.substeps = int(spec.physics.substeps)
+        self.radii = np.array([b.radius for b in self.bodies], dtype=float)
+        self.masses = np.array([b.mass for b in self.bodies], dtype=float)
+        self.a_max = np.array([b.a_max for b in self.bodies], dtype=float)
+        self.v_max = np.array([b.v_max for b in self.bodies], dtype=float)
+        self.names = tuple(b.name for b in self.bodies)
+        self.kinds = tuple(b.kind for b in self.bodies)
+        self.robot_indices = np.array(
+            [b.index for b in self.bodies if b.kind == "robot"], dtype=np.intp
+        )
+        self.traffic_indices = np.array(
+            [b.index for b in self.bodies if b.kind == "traffic"], dtype=np.intp
+        )
+        self._walls = spec.wall_segments()
+        self.reset()
+
+    # ------------------------------------------------------------------ setup
+
+    def reset(self) -> WorldState:
+        """Build a fresh pymunk space with every body at its start; time 0."""
+        phys = self.spec.physics
+        space = pymunk.Space(threaded=False)
+        space.iterations = phys.iterations
+        space.collision_slop = phys.collision_slop
+        space.gravity = (0.0, 0.0)
+        space.damping = 1.0
+        pm_bodies = []
+        for b in self.bodies:
+            body = pymunk.Body(b.mass, float("inf"))
+            body.position = b.start
+            body.velocity = b.velocity
+            shape = pymunk.Circle(body, b.radius)
+            shape.elasticity = phys.elasticity
+            shape.friction = phys.friction
+            space.add(body, shape)
+            pm_bodies.append(body)
+        static = space.static_body
+        for w in self.spec.walls:
+            if isinstance(w, SegmentWall):
+                shape = pymunk.Segment(static, w.a, w.b, w.thickness / 2)
+            else:
+                assert isinstance(w, PolygonWall)
+                shape = pymunk.Poly(static, [tuple(p) for p in w.points])
+            shape.elasticity = phys.elasticity
+            shape.friction = phys.friction
+            space.add(shape)
+        for a, b in self.spec.bound_wall_segments():
+            shape = pymunk.Segment(static, a, b, self.spec.bounds.wall_thickness / 2)
+            shape.elasticity = phys.elasticity
+            shape.friction = phys.friction
+            space.add(shape)
+        self._space = space
+        self._pm_bodies = pm_bodies
+        self._setup_batch()
+        self._steps = 0
+        self.time = 0.0
+        self._read()
+        self._acc = np.zeros((self.n, 2))
+        self._prev_positions = self._pos.copy()
+        return self.state()
+
+    def _setup_batch(self) -> None:
+        """Map the space's body iteration order to map order; allocate the I/O buffers."""
+        ids = pb.Buffer()
+        pb.get_space_bodies(self._space, pb.BodyFields.BODY_ID, ids)
+        order = np.frombuffer(ids.int_buf(), dtype=np.uintp).copy()
+        row_of = {int(pid): r for r, pid in enumerate(order)}
+        self._rows = np.array([row_of[b.id] for b in self._pm_bodies], dtype=np.intp)
+        self._n_rows = len(order)
+        self._identity = bool(np.array_equal(self._rows, np.arange(self.n)))
+        # one persistent force array and buffer per substep (rows in iteration order)
+        self._forces = np.zeros((self.substeps, self._n_rows, 2))
+        self._force_bufs = []
+        for j in range(self.substeps):
+            buf = pb.Buffer()
+            buf.set_float_buf(self._forces[j].reshape(-1))
+            self._force_bufs.append(buf)
+        self._vel_rows = np.zeros((self._n_rows, 2))
+        self._vel_buf = pb.Buffer()
+        self._vel_buf.set_float_buf(self._vel_rows.reshape(-1))
+        self._get_buf = pb.Buffer()
+
+    # ------------------------------------------------------------------ I/O
+
+    def _read(self) -> None:
+        buf = self._get_buf
+        buf.clear()
+        pb.get_space_bodies(
+            self._space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY, buf
+        )
+        data = np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(self._n_rows, 4)
+        data = data[: self.n] if self._identity else data[self._rows]
+        self._pos = data[:, 0:2].copy()
+        self._vel = data[:, 2:4].copy()
+
+    def _write_velocities(self, v: FloatArray) -> None:
+        if self._identity:
+            self._vel_rows[: self.n] = v
+        else:
+            self._vel_rows[self._rows] = v
+        pb.set_space_bodies(self._space, pb.BodyFields.VELOCITY, self._vel_buf)
+        self._vel = v
+
+    # ------------------------------------------------------------------ public
+
+    @property
+    def positions(self) -> FloatArray:
+        """Current centres (N, 2) m (a copy)."""
+        return self._pos.copy()
+
+    @property
+    def velocities(self) -> FloatArray:
+        """Current velocities (N, 2) m/s (a copy)."""
+        return self._vel.copy()
+
+    @property
+    def previous_positions(self) -> FloatArray:
+        """Centres (N, 2) m at the start of the last control period (a copy)."""
+        return self._prev_positions.copy()
+
+    def wall_segments(self) -> tuple[FloatArray, FloatArray]:
+        """All walls as segments (W, 2, 2) m and half-thicknesses (W,) m (polygon edges: 0)."""
+        return self._walls
+
+    def state(self) -> WorldState:
+        """The bodies now (arrays are copies)."""
+        return WorldState(
+            time=self.time,
+            positions=self._pos.copy(),
+            velocities=self._vel.copy(),
+            accelerations=self._acc.copy(),
+            radii=self.radii,
+            names=self.names,
+            kinds=self.kinds,
+        )
+
+    def step(self, accels: ArrayLike) -> WorldState:
+        """Advance one control period with commanded accelerations (N, 2) m/s^2, world frame.
+
+        Applies the speed-limit model of the module docstring; returns the new state.
+        """
+        a = np.asarray(accels, dtype=float)
+        if a.shape != (self.n, 2):
+            raise ValueError(f"expected accelerations of shape ({self.n}, 2), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError("expected finite accelerations")
+        v_start = self._vel
+        a = clip_accelerations(a, self.a_max)
+        v, over = _scale_to_vmax(v_start, self.v_max)
+        if np.any(over):
+            self._write_velocities(v)
+        tau = speed_limit_time(v, a, self.v_max)
+        weights = substep_weights(tau, self.dt, self.substeps)
+        force = self.masses[:, None] * a
+        if self._identity:
+            self._forces[:, : self.n, :] = weights[:, :, None] * force[None]
+        else:
+            self._forces[:, self._rows, :] = weights[:, :, None] * force[None]
+        h = self.dt / self.substeps
+        space = self._space
+        for buf in self._force_bufs:
+            pb.set_space_bodies(space, pb.BodyFields.FORCE, buf)
+            space.step(h)
+        self._prev_positions = self._pos
+        self._read()
+        v_end, over = _scale_to_vmax(self._vel, self.v_max)
+        if np.any(over):
+            self._write_velocities(v_end)
+        self._acc = (self._vel - v_start) / self.dt
+        self._steps += 1
+        self.time = self._steps * self.dt
+        return self.state()

@@ -1,0 +1,228 @@
+"""Map schema, parameters, layout builders and the promised error messages."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nao_arena.maps import (
+    LAYOUTS,
+    MapError,
+    MapSpec,
+    available_maps,
+    load_map,
+    map_from_dict,
+    parse_overrides,
+)
+
+BAD = Path(__file__).parent / "bad_maps"
+SHIPPED = [
+    "circle_swap", "circle_swap_perturbed", "corridor", "crossing", "crowd", "roundabout",
+    "two_lane_road",
+]
+
+
+def test_shipped_maps_are_all_there() -> None:
+    assert available_maps() == SHIPPED
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_map_loads(name: str) -> None:
+    spec = load_map(name)
+    assert isinstance(spec, MapSpec)
+    assert spec.name == name
+    assert spec.robots, "every shipped map has robots"
+    bodies = spec.bodies()
+    assert [b.index for b in bodies] == list(range(len(bodies)))
+    assert all(b.kind == "robot" for b in bodies[: spec.n_robots])
+    assert all(b.kind == "traffic" for b in bodies[spec.n_robots:])
+    segs, radii = spec.wall_segments()
+    assert segs.shape == (len(radii), 2, 2)
+
+
+def test_roundabout_is_the_papers_scene() -> None:
+    spec = load_map("roundabout")
+    assert [g.count for g in spec.traffic] == [10, 10, 10]
+    assert sorted(g.lane.radius for g in spec.traffic) == [20.0, 24.0, 28.0]
+    assert all(4.0 <= g.speed <= 8.0 and g.radius == 1.0 for g in spec.traffic)
+    crossers = [
+        r for r in spec.robots
+        if np.hypot(*r.start) > 28 + 2 and np.hypot(*r.goal) > 28 + 2
+        and np.dot(r.start, r.goal) < 0 and r.agent == "nao" and r.predictor == "known_path"
+    ]
+    assert crossers
+
+
+def test_two_lane_road_has_slow_car_ahead_and_oncoming_traffic() -> None:
+    spec = load_map("two_lane_road")
+    bodies = spec.bodies()
+    overtaker = spec.robots[0]
+    slow = [b for b in bodies if b.kind == "traffic" and b.velocity[0] > 0]
+    oncoming = [b for b in bodies if b.kind == "traffic" and b.velocity[0] < 0]
+    assert len(slow) == 1 and len(oncoming) >= 2
+    assert slow[0].start[0] > overtaker.start[0]
+    assert abs(slow[0].start[1] - overtaker.start[1]) < 1e-9
+    assert np.hypot(*slow[0].velocity) < np.hypot(*overtaker.velocity)
+    assert all(b.start[1] > 0 for b in oncoming)
+    assert len(spec.walls) == 2 and spec.n_robots >= 2
+
+
+def test_circle_swap_parameters_and_antipodal_goals() -> None:
+    spec = load_map("circle_swap", n=16, radius=9.0)
+    starts = np.array([r.start for r in spec.robots])
+    goals = np.array([r.goal for r in spec.robots])
+    assert len(starts) == 16
+    np.testing.assert_allclose(np.hypot(*starts.T), 9.0)
+    np.testing.assert_allclose(goals, -starts, atol=1e-12)
+    assert spec.parameters["n"] == 16
+
+
+def test_perturbed_starts_are_seeded_and_small() -> None:
+    base = load_map("circle_swap")
+    a = load_map("circle_swap_perturbed", seed=1)
+    b = load_map("circle_swap_perturbed", seed=1)
+    c = load_map("circle_swap_perturbed", seed=2)
+    sa = np.array([r.start for r in a.robots])
+    s0 = np.array([r.start for r in base.robots])
+    assert np.array_equal(sa, np.array([r.start for r in b.robots]))
+    assert not np.array_equal(sa, np.array([r.start for r in c.robots]))
+    shift = np.hypot(*(sa - s0).T)
+    assert np.all(shift <= 0.3) and np.all(shift > 0)
+    np.testing.assert_allclose([r.goal for r in a.robots], [r.goal for r in base.robots])
+
+
+def test_crowd_seed_n_and_explicit_generator() -> None:
+    a = load_map("crowd", n=30, seed=4)
+    b = load_map("crowd", n=30, seed=4)
+    c = load_map("crowd", n=30, seed=5)
+    d = load_map("crowd", n=30, rng=np.random.default_rng(4))
+    starts = [np.array([r.start for r in m.robots]) for m in (a, b, c, d)]
+    assert len(starts[0]) == 30
+    assert np.array_equal(starts[0], starts[1])
+    assert not np.array_equal(starts[0], starts[2])
+    assert np.array_equal(starts[0], starts[3])
+    lo, hi = np.array(a.bounds.min), np.array(a.bounds.max)
+    assert np.all((starts[0] > lo) & (starts[0] < hi))
+
+
+def test_crowd_bounds_follow_parameters() -> None:
+    spec = load_map("crowd", n=300, lo=-15.0, hi=15.0)
+    assert spec.bounds.min == (-15.0, -15.0) and spec.n_robots == 300
+
+
+def test_layout_robots_get_the_template() -> None:
+    spec = load_map("crossing", n=4, agent="goal", predictor="constant_velocity")
+    assert spec.n_robots == 8
+    assert {r.agent for r in spec.robots} == {"goal"}
+    assert {r.predictor for r in spec.robots} == {"constant_velocity"}
+    assert spec.robots[0].name == "east0" and spec.robots[4].name == "north0"
+
+
+def test_parse_overrides_types() -> None:
+    assert parse_overrides(["n=20", "speed=5.5", "agent=orca", "flag=true"]) == {
+        "n": 20, "speed": 5.5, "agent": "orca", "flag": True,
+    }
+    with pytest.raises(MapError, match="expected name=value"):
+        parse_overrides(["n20"])
+
+
+def test_override_strings_are_converted() -> None:
+    spec = load_map("circle_swap", **parse_overrides(["n=12", "radius=7"]))
+    assert spec.n_robots == 12 and spec.parameters["radius"] == 7.0
+
+
+@pytest.mark.parametrize(
+    ("overrides", "path", "expectation"),
+    [
+        ({"n": "abc"}, "parameters.n", "expected an integer, got 'abc'"),
+        ({"n": 2.5}, "parameters.n", "expected an integer"),
+        ({"radius": "wide"}, "parameters.radius", "expected a number"),
+        ({"m": 3}, "parameters.m", "unknown parameter (declared: n, radius, seed"),
+    ],
+)
+def test_bad_overrides(overrides: dict, path: str, expectation: str) -> None:
+    with pytest.raises(MapError) as info:
+        load_map("circle_swap", **overrides)
+    msg = str(info.value)
+    assert "circle_swap.yaml" in msg and path in msg and expectation in msg
+
+
+def test_unknown_map_name_lists_the_shipped_maps() -> None:
+    with pytest.raises(MapError, match="no such map; expected a file path or one of: circle_swap"):
+        load_map("nowhere")
+    with pytest.raises(MapError, match="no such map file"):
+        load_map("missing/file.yaml")
+
+
+def test_map_from_dict_and_route_goal() -> None:
+    spec = map_from_dict({
+        "bounds": {"min": [-5, -5], "max": [5, 5]},
+        "robots": [{"start": [0, 0], "route": [[1, 1], [2, 2]]}],
+    })
+    assert spec.robots[0].goal == (2.0, 2.0) and spec.robots[0].name == "robot0"
+    assert spec.physics.dt == 0.1 and spec.physics.substeps == 10
+
+
+def test_layout_registry() -> None:
+    assert {"circle_swap", "crowd", "stream"} <= set(LAYOUTS)
+
+
+# file name -> (field path, expectation): each message must name file, path and expectation
+BAD_CASES = {
+    "unknown_key.yaml": ("robots[0].colour", "unknown key; expected one of: radius"),
+    "wrong_type.yaml": ("robots[0].radius", "expected a number, got 'big'"),
+    "negative_radius.yaml": ("robots[2].radius", "expected a positive number, got -1"),
+    "start_overlaps_wall.yaml": ("robots[0].start", "overlaps walls[0]"),
+    "start_inside_polygon.yaml": ("robots[1].start", "overlaps walls[0]"),
+    "start_overlaps_robot.yaml": ("robots[1].start", "overlaps robots[0]"),
+    "goal_outside_bounds.yaml": ("robots[0].goal", "expected a point inside the bounds"),
+    "route_outside_bounds.yaml": ("robots[0].route[1]", "expected a point inside the bounds"),
+    "goal_inside_wall.yaml": ("robots[0].goal", "expected a goal clear of the walls"),
+    "lane_vehicles_overlap.yaml": ("traffic[0].spacing", "vehicles 0 and 1 overlap"),
+    "lane_vehicle_on_robot.yaml": ("traffic[0] (vehicle 0)", "overlaps robots[0]"),
+    "open_lane_too_short.yaml": ("traffic[0].offset", "expected all vehicles within the lane"),
+    "open_lane_no_spacing.yaml": ("traffic[0].spacing", "expected a positive number on an open"),
+    "missing_bounds.yaml": ("bounds", "required field missing"),
+    "bounds_inverted.yaml": ("bounds", "expected max > min"),
+    "bad_lane_type.yaml": ("traffic[0].lane", "expected type to be one of 'circle', 'polyline'"),
+    "bad_direction.yaml": ("traffic[0].lane.direction", "expected 'ccw' or 'cw', got 'left'"),
+    "traffic_vmax_below_speed.yaml": ("traffic[0].v_max", "expected a number greater than speed"),
+    "no_goal.yaml": ("robots[0]", "expected a goal or a route"),
+    "too_fast.yaml": ("robots[0].velocity", "expected |velocity| <= v_max (1.5), got 3"),
+    "point_too_short.yaml": ("walls[0].a", "expected at least 2 items"),
+    "nonconvex_polygon.yaml": ("walls[0].points", "expected a convex polygon"),
+    "zero_substeps.yaml": ("physics.substeps", "expected a positive number, got 0"),
+    "unknown_builder.yaml": ("layouts[0].builder", "expected one of circle_swap, crowd, stream"),
+    "bad_layout_arg.yaml": ("layouts[0].args.n", "expected a positive number, got -3"),
+    "unknown_layout_arg.yaml": ("layouts[0].args.diameter", "unknown key; expected one of: n"),
+    "crowd_too_dense.yaml": ("layouts[0]", "cannot place 200 robots"),
+    "unknown_parameter_ref.yaml": ("robots[0].radius", "unknown parameter '$rad' (declared: size)"),
+    "bad_parameter_value.yaml": ("parameters.n", "expected a number, bool or string"),
+    "not_a_mapping.yaml": ("(top level)", "expected a mapping"),
+    "invalid_yaml.yaml": ("line 3, column 1", "expected valid YAML"),
+    "wall_without_type.yaml": ("walls[0]", "expected a 'type' key"),
+    "robots_not_a_list.yaml": ("robots", "expected a list, got 'abc'"),
+}
+
+
+def test_every_bad_map_file_has_a_case() -> None:
+    assert sorted(p.name for p in BAD.glob("*.yaml")) == sorted(BAD_CASES)
+
+
+@pytest.mark.parametrize("file", sorted(BAD_CASES))
+def test_bad_map_message(file: str) -> None:
+    path, expectation = BAD_CASES[file]
+    with pytest.raises(MapError) as info:
+        load_map(BAD / file)
+    msg = str(info.value)
+    assert file in msg
+    assert f": {path}: " in msg or f": {path} " in msg, msg
+    assert expectation in msg, msg
+    # a clean error, not a chained traceback from inside the loader
+    assert info.value.__suppress_context__ or info.value.__context__ is None
+
+
+def test_map_error_is_a_value_error() -> None:
+    assert issubclass(MapError, ValueError)
