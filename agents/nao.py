@@ -36,8 +36,6 @@ class NAOAgent:
     """NAO avoidance. Options: horizon (s), samples (per horizon), predictor name,
     margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m)."""
 
-    default_predictor = "turn_rate"
-
     def __init__(
         self,
         horizon: float = 3.0,
@@ -50,7 +48,7 @@ class NAOAgent:
     ) -> None:
         self.horizon = float(horizon)
         self.times = np.linspace(0.0, self.horizon, int(samples))
-        self.predictor_name = predictor or self.default_predictor
+        self.predictor_name = predictor or "turn_rate"
         self.predict = get_predictor(self.predictor_name)
         self.margin = float(margin)
         self.keep_band = float(keep_band)
@@ -105,6 +103,17 @@ class NAOAgent:
 
 
 class AOAgent(NAOAgent):
-    """The same selection with constant-acceleration predictions (the AO)."""
+    """The same selection with constant-acceleration predictions (the AO); it takes
+    every option of :class:`NAOAgent` except the predictor."""
 
-    default_predictor = "constant_acceleration"
+    def __init__(
+        self,
+        horizon: float = 3.0,
+        samples: int = 31,
+        margin: float = 0.05,
+        keep_band: float = 0.3,
+        v_pref: float | None = None,
+        sensing_range: float = 30.0,
+    ) -> None:
+        super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
+                         sensing_range)

@@ -51,7 +51,9 @@ Top level
     - ``stream``: ``n`` robots in a block ``width`` abreast (default 1),
       ``spacing`` (m) between centres, the block's front centre at
       ``origin``, heading along ``direction`` ([dx, dy], normalized); each
-      goal is its start moved ``distance`` (m) along ``direction``.
+      goal is its start moved ``distance`` (m) along ``direction``;
+      ``perturb`` (m, default 0) displaces each start (and its goal)
+      uniformly within a disc of that radius (seeded).
 ``traffic`` (list, optional): scripted vehicles, one group per lane:
     ``lane``: ``{type: circle, center: [x, y], radius: R, direction: ccw|cw,
     start_angle: rad}`` or ``{type: polyline, points: [[x, y], ...], closed:
@@ -59,10 +61,13 @@ Top level
     arc length between consecutive vehicles; default: the lane length /
     count on a closed lane, required on an open lane with count > 1);
     ``offset`` (m, arc length of vehicle 0, default 0; vehicle k is at
-    offset + k spacing); ``radius`` (m, default 1), ``mass`` (kg, default
-    1000), ``a_max`` (m/s^2, default 3), ``v_max`` (m/s, default 1.5 speed,
-    must exceed speed), car following: ``time_headway`` (s, default 1),
-    ``min_gap`` (m, default 2), ``name``.
+    offset + k spacing); ``phase_jitter`` (m, default 0: the whole group is
+    shifted along its lane by a uniform draw in [0, phase_jitter) from the
+    map's seeded Generator, after the layouts have drawn theirs); ``radius``
+    (m, default 1), ``mass`` (kg, default 1000), ``a_max`` (m/s^2, default
+    3), ``v_max`` (m/s, default 1.5 speed, must exceed speed), car
+    following: ``time_headway`` (s, default 1), ``min_gap`` (m, default 2),
+    ``name``.
 ``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (default
     10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0, default 0),
     ``collision_slop`` (m of tolerated overlap, default 0.005),
@@ -286,6 +291,7 @@ class TrafficGroup(_Model):
     count: PositiveInt = 1
     spacing: Pos | None = Field(default=None, validate_default=True)
     offset: Num = 0.0
+    phase_jitter: NonNeg = 0.0
     radius: Pos = 1.0
     mass: Pos = 1000.0
     a_max: Pos = 3.0
@@ -600,6 +606,7 @@ class StreamArgs(_Model):
     distance: Pos
     spacing: Pos
     width: PositiveInt = 1
+    perturb: NonNeg = 0.0
 
     @field_validator("direction")
     @classmethod
@@ -622,6 +629,10 @@ def stream(args: StreamArgs, ctx: LayoutContext) -> Placement:
         - (row * args.spacing)[:, None] * d
         + ((col - (args.width - 1) / 2) * args.spacing)[:, None] * nrm
     )
+    if args.perturb > 0:
+        rho = args.perturb * np.sqrt(ctx.rng.random(args.n))
+        phi = 2.0 * np.pi * ctx.rng.random(args.n)
+        starts = starts + rho[:, None] * np.stack([np.cos(phi), np.sin(phi)], axis=1)
     goals = starts + args.distance * d
     return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]
 
@@ -1055,10 +1066,15 @@ def map_from_dict(
     named = [
         r if r.name else r.model_copy(update={"name": f"robot{i}"}) for i, r in enumerate(robots)
     ]
+    traffic = [
+        g.model_copy(update={"offset": g.offset + float(rng.uniform(0.0, g.phase_jitter))})
+        if g.phase_jitter > 0 else g
+        for g in mf.traffic
+    ]
     spec = MapSpec(
         name=mf.name or default_name, description=mf.description, source=file,
         parameters=params, bounds=mf.bounds, walls=mf.walls, robots=named,
-        traffic=mf.traffic, physics=mf.physics, episode=mf.episode,
+        traffic=traffic, physics=mf.physics, episode=mf.episode,
     )
     _check_geometry(file, spec, origins)
     return spec
