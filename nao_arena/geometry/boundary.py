@@ -227,6 +227,10 @@ def ao_boundary_paper(
     path = ao_path(q, radius, obstacle_vel, obstacle_acc, horizon)
     if float(np.hypot(*q)) <= radius:
         return ObstacleBoundary(overlapping=True)
+    if float(np.hypot(*w)) <= 1e-12 * (1.0 + float(np.hypot(*v))):
+        # no relative velocity: the construction degenerates (t_p = 2 p_n / w_n);
+        # the AO is then the BAO cone, given by the envelope
+        return ao_boundary(v, q, radius, obstacle_vel, obstacle_acc, horizon, extent)
     # uniform in theta, refined geometrically towards the angles where p_n = 0
     # (t_p -> 0, |a| -> inf) and w_n = 0 (t_p -> inf, a -> a_B)
     base_q = math.atan2(q[1], q[0])
@@ -281,13 +285,59 @@ def _envelope_times(path: PiecewisePath, per_piece: int) -> NDArray[np.float64]:
             first = hi if math.isfinite(t[1]) else 1.0
             # geometric towards t = 0, where the disks run off to infinity
             pieces.append(first * np.geomspace(1e-4, 1.0, 4 * per_piece, endpoint=False))
-            lo = first
+            if not math.isfinite(t[1]):
+                lo = first
         if not math.isfinite(t[j + 1]):
             pieces.append(np.geomspace(lo, t_end, 8 * per_piece))
         elif hi > lo:
-            pieces.append(np.linspace(lo, hi, per_piece + 1)[:-1] + 1e-9 * (hi - lo))
+            # at least per_piece samples a piece and 400 over the horizon
+            count = max(per_piece, math.ceil(400 * (hi - lo) / t_end))
+            pieces.append(np.linspace(lo, hi, count + 1)[:-1] + 1e-9 * (hi - lo))
     pieces.append([t_end - 1e-9 * t_end])
-    return np.concatenate(pieces)
+    ts = np.unique(np.concatenate(pieces))
+    return ts[ts > 0]
+
+
+def _disk_centres(path: PiecewisePath, v: NDArray[np.float64], ts: NDArray[np.float64]):
+    """Disk centres m(t), their derivative m'(t) and the obstacle velocity c'(t) at ts."""
+    j = np.clip(np.searchsorted(path.t, ts, side="right") - 1, 0, len(path.t) - 2)
+    dt = (ts - path.t[j])[:, None]
+    c = path.c[0, j] + path.w[0, j] * dt + 0.5 * path.b[0, j] * dt**2
+    cd = path.w[0, j] + path.b[0, j] * dt
+    tt = ts[:, None]
+    m = 2.0 * (c - v * tt) / tt**2
+    dm = 2.0 * (cd - v) / tt**2 - 4.0 * (c - v * tt) / tt**3
+    return m, dm, cd
+
+
+def _refine_existence(
+    path: PiecewisePath, v: NDArray[np.float64], r: float, ts: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Add the times where the envelope starts or stops existing (|m'| = |rho'|).
+
+    There the two branches meet (the tip of the obstacle); sampling alone
+    would stop short of it. Bisection, vectorised over all sign changes.
+    """
+
+    def margin(t: NDArray[np.float64]) -> NDArray[np.float64]:
+        _, dm, _ = _disk_centres(path, v, t)
+        return np.hypot(*dm.T) - 4.0 * r / t**3
+
+    with np.errstate(all="ignore"):
+        g = margin(ts)
+        flips = np.flatnonzero((g[:-1] >= 0) != (g[1:] >= 0))
+        if len(flips) == 0:
+            return ts
+        lo, hi = ts[flips].copy(), ts[flips + 1].copy()
+        lo_exists = g[flips] >= 0
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            same = (margin(mid) >= 0) == lo_exists
+            lo = np.where(same, mid, lo)
+            hi = np.where(same, hi, mid)
+    edge = np.where(lo_exists, lo, hi)
+    edge = edge[np.isfinite(edge) & (edge > 0)]
+    return np.unique(np.concatenate([ts, edge]))
 
 
 def path_boundary(
@@ -308,14 +358,9 @@ def path_boundary(
     r = float(path.radius[0])
     if float(np.hypot(*path.c[0, 0])) <= r:
         return ObstacleBoundary(overlapping=True)
-    ts = _envelope_times(path, per_piece)
-    j = np.clip(np.searchsorted(path.t, ts, side="right") - 1, 0, len(path.t) - 2)
-    dt = (ts - path.t[j])[:, None]
-    c = path.c[0, j] + path.w[0, j] * dt + 0.5 * path.b[0, j] * dt**2
-    cd = path.w[0, j] + path.b[0, j] * dt
+    ts = _refine_existence(path, v, r, _envelope_times(path, per_piece))
     tt = ts[:, None]
-    m = 2.0 * (c - v * tt) / tt**2
-    dm = 2.0 * (cd - v) / tt**2 - 4.0 * (c - v * tt) / tt**3
+    m, dm, cd = _disk_centres(path, v, ts)
     rho = 2.0 * r / ts**2
     drho = -4.0 * r / ts**3
     dm_norm = np.hypot(*dm.T)

@@ -425,40 +425,50 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
 
 
 @njit(cache=True)
-def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max):
+def _samples_in_piece(t0, t1, n_sub, per_second):
+    if not math.isfinite(t1):
+        return 12
+    return max(n_sub, min(256, int(math.ceil(per_second * (t1 - t0)))))
+
+
+@njit(cache=True)
+def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+              per_second=16.0):
     """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
 
     A constant acceleration a collides with an obstacle at time t iff
     |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
-    (no speed saturation). Samples every piece at n_sub times (and the first
-    piece also geometrically towards t = 0), grows r by ``margin`` and keeps
-    the disks that intersect both the ball B(q, reach) and the limit disc
-    |a| <= a_max. Returns (M, 3) rows (m_x, m_y, rho).
+    (no speed saturation). Samples every piece at max(n_sub, per_second * h)
+    times (and the first piece also geometrically towards t = 0), grows r by
+    ``margin`` and keeps the disks that intersect both the ball B(q, reach)
+    and the limit disc |a| <= a_max; disks inside another are dropped.
+    Returns (M, 3) rows (m_x, m_y, rho).
     """
     N = seg_c.shape[0]
     S = seg_c.shape[1]
-    out = np.empty((N * (S * n_sub + 12), 3))
+    total = 0
+    for j in range(S):
+        total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
+    out = np.empty((N * total, 3))
     cnt = 0
     for n in range(N):
         rr = radius[n] + margin
         for j in range(S):
             t0 = seg_t[j]
             t1 = seg_t[j + 1]
-            if math.isfinite(t1):
-                nt = n_sub + (8 if j == 0 else 0) + (1 if j == S - 1 else 0)
-            else:
-                nt = 12
-            for i in range(nt):
+            k = _samples_in_piece(t0, t1, n_sub, per_second)
+            head = 8 if (j == 0 and math.isfinite(t1)) else 0
+            tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
+            for i in range(k + head + tail):
                 if not math.isfinite(t1):
                     t = max(t0, 1e-3) * 2.0 ** (i + 1)
-                elif j == 0 and i < 8:
-                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / n_sub
-                elif j == S - 1 and i == nt - 1:
+                elif i < head:
+                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / k
+                elif i == k + head:
                     t = t1
                 else:
-                    ii = i - (8 if j == 0 else 0)
-                    t = t0 + (t1 - t0) * ii / n_sub
-                if t <= 0.0:
+                    t = t0 + (t1 - t0) * (i - head) / k
+                if t * t <= 0.0 or not math.isfinite(2.0 / (t * t)):
                     continue
                 dt = t - t0
                 cx = seg_c[n, j, 0] + seg_w[n, j, 0] * dt + 0.5 * seg_b[n, j, 0] * dt * dt

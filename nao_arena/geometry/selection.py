@@ -6,15 +6,21 @@ clearance against every obstacle over the horizon is >= ``margin`` (m), i.e.
 it lies outside the union of the (grown) NAOs.
 
 Method: if the desired acceleration (projected onto the limit set) is
-admissible it is returned as is. Otherwise candidates on rings of growing
-radius around it are tested nearest-first; the nearest admissible one is
-pulled onto the obstacle boundary by bisection along the ray from the
-desired acceleration, and the ray's angle is then refined by golden-section
-search, each probe bisected to ``tol``. The result is always admissible
-(checked exactly), and locally nearest to the desired acceleration within
-``tol`` (m/s^2). When no candidate is admissible, the one that maximises the
-time to first contact (then the clearance, i.e. least penetration) is
-returned with ``feasible=False``.
+admissible it is returned as is. Otherwise the NAO union is pictured as the
+disks |a - m(t)| <= rho(t) sampled in t (see DESIGN.md); in balls of
+doubling radius around the desired acceleration, the nearest point outside
+the disks is found exactly (free arcs of the circles) and confirmed by the
+exact clearance (a point in a sliver between samples is pushed outwards and
+bisected back onto the boundary). Fallbacks, for box limits and very
+crowded scenes: rings of candidates nearest-first, the nearest admissible
+one bisected onto the boundary and slid along it towards the desired
+acceleration. The result is always admissible (checked exactly) and
+nearest to the desired acceleration within ``tol`` (m/s^2) for the sampled
+disk union when the robot cannot reach v_max within the horizon; with speed
+saturation the disks only approximate the NAO, and the result is admissible
+but may not be the nearest. When no candidate is admissible, the one that
+maximises the time to first contact (then the clearance, i.e. least
+penetration) is returned with ``feasible=False``.
 """
 
 from __future__ import annotations
@@ -311,19 +317,80 @@ def select_acceleration(
         if np.any(ok):
             good = cand[ok]
             dist = np.hypot(*(good - a_d).T)
-            return done(_bisect(tester, a_d, good[int(np.argmin(dist))], tol), "adjusted")
+            start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
+            return done(_slide_towards(tester, a_d, start, limits, tol), "adjusted")
 
-    # 3. nothing admissible: postpone contact as long as possible, then least penetration
+    # 3. before giving up: the disk search without its size cap (small pockets)
+    best = _nearest_by_disks(tester, a_d, tol, max_disks=None)
+    if best is not None:
+        return done(best, "adjusted")
+
+    # 4. nothing admissible: postpone contact as long as possible, then least penetration
     cand = np.ascontiguousarray(np.concatenate(tried + [np.zeros((1, 2))]))
-    first = tester.latest_contact(cand)
-    latest = float(first.max())
-    slack = 0.0 if math.isinf(latest) else 1e-9 * max(1.0, abs(latest))
-    top = np.flatnonzero(first >= latest - slack)
-    if len(top) > 1 and tester.path.n_obstacles:
-        res = path_clearance(cand[top], v_arr, tester.path, v_max=v_max)
-        clear = np.min(np.atleast_2d(res.clearance), axis=1)
-        top = top[[int(np.argmax(clear))]]
-    return done(cand[top[0]], "infeasible")
+    return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
+
+
+def _slide_towards(
+    tester: _Tester,
+    a_d: NDArray[np.float64],
+    best: NDArray[np.float64],
+    limits: AccelLimits,
+    tol: float,
+) -> NDArray[np.float64]:
+    """Improve an admissible boundary point: rotate its ray about a_d by shrinking
+    angles and pull each admissible probe back onto the boundary by bisection."""
+    dist = float(np.hypot(*(best - a_d)))
+    angle = 0.5
+    while angle > 1e-3 and dist > tol:
+        phi = math.atan2(best[1] - a_d[1], best[0] - a_d[0])
+        moved = False
+        for sgn in (1.0, -1.0):
+            u = np.array([math.cos(phi + sgn * angle), math.sin(phi + sgn * angle)])
+            far = limits.project(a_d + 1.5 * dist * u)
+            if not tester.ok1(far):
+                continue
+            p = _bisect(tester, a_d, far, tol)
+            d = float(np.hypot(*(p - a_d)))
+            if d < dist - tol:
+                best, dist, moved = p, d, True
+                break
+        if not moved:
+            angle *= 0.5
+    return best
+
+
+def _latest_contact_search(
+    tester: _Tester,
+    cand: NDArray[np.float64],
+    limits: AccelLimits,
+    v: NDArray[np.float64],
+    v_max: float,
+) -> NDArray[np.float64]:
+    """Acceleration with the latest first contact (then the largest clearance): the best
+    of ``cand``, improved by a pattern search of shrinking rings around it."""
+
+    def pick(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+        points = np.ascontiguousarray(points)
+        first = tester.latest_contact(points)
+        latest = float(first.max())
+        slack = 0.0 if math.isinf(latest) else 1e-9 * max(1.0, abs(latest))
+        top = np.flatnonzero(first >= latest - slack)
+        if len(top) > 1 and tester.path.n_obstacles:
+            res = path_clearance(points[top], v, tester.path, v_max=v_max)
+            clear = np.min(np.atleast_2d(res.clearance), axis=1)
+            top = top[[int(np.argmax(clear))]]
+        return points[top[0]], latest
+
+    best, best_t = pick(cand)
+    step = 0.25 * limits.a_max
+    while step > 1e-3 * max(limits.a_max, 1e-12) and not math.isinf(best_t):
+        ring = limits.project(_ring(best, step, 12, 0.0))
+        point, t_first = pick(np.concatenate([best[None], ring]))
+        if t_first > best_t:
+            best, best_t = point, t_first
+        else:
+            step *= 0.5
+    return best
 
 
 _MAX_DISKS = 96
@@ -331,7 +398,7 @@ _DISKS_PER_PIECE = 4
 
 
 def _nearest_by_disks(
-    tester: _Tester, a_d: NDArray[np.float64], tol: float
+    tester: _Tester, a_d: NDArray[np.float64], tol: float, max_disks: int | None = _MAX_DISKS
 ) -> NDArray[np.float64] | None:
     """Nearest admissible acceleration found from the disk picture of the NAO, or None.
 
@@ -350,7 +417,7 @@ def _nearest_by_disks(
             tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
             a_d, reach, a_max,
         )
-        if len(disks) > _MAX_DISKS:
+        if max_disks is not None and len(disks) > max_disks:
             return None
         cands = nearest_outside_disks(a_d, disks, a_max, 8)
         for x, y, dist in cands:
