@@ -21,11 +21,12 @@ def goal_target(obs: Observation) -> NDArray[np.float64] | None:
 
 def goal_seeking_accel(
     obs: Observation, v_pref: float | None = None, time_constant: float = 0.5,
-    braking: float = 0.5,
+    braking: float = 0.5, heading_offset: float = 0.0,
 ) -> NDArray[np.float64]:
     """Acceleration (m/s^2) that tracks a velocity toward the goal.
 
-    Target velocity: towards the goal at min(v_pref, sqrt(2 b d)), with b =
+    Target velocity: towards the goal (turned by ``heading_offset`` rad,
+    counter-clockwise positive) at min(v_pref, sqrt(2 b d)), with b =
     ``braking`` * a_max, so that the robot can stop at the goal; the
     acceleration closes the velocity error in ``time_constant`` s and is
     scaled to |a| <= a_max.
@@ -42,6 +43,10 @@ def goal_seeking_accel(
         else:
             speed = min(speed_cap, float(np.sqrt(2.0 * braking * obs.a_max * dist)))
             v_target = to_goal / dist * speed
+            if heading_offset:
+                c, s_ = np.cos(heading_offset), np.sin(heading_offset)
+                v_target = np.array([c * v_target[0] - s_ * v_target[1],
+                                     s_ * v_target[0] + c * v_target[1]])
     acc = (v_target - obs.velocity) / time_constant
     norm = float(np.hypot(*acc))
     if norm > obs.a_max:

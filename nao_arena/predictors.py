@@ -13,7 +13,7 @@ subtracted.
 - ``known_path``: the true future path where the map provides it (scripted
   traffic), else ``turn_rate``.
 - ``shared_plan``: the acceleration a cooperative neighbour committed to,
-  else ``constant_velocity``.
+  else ``known_path``.
 """
 
 from __future__ import annotations
@@ -119,8 +119,8 @@ def known_path(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64
 
 
 def shared_plan(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
-    """Committed acceleration of cooperative neighbours, else constant velocity."""
-    out = constant_velocity(times, nb)
+    """Committed acceleration of cooperative neighbours, else ``known_path``."""
+    out = known_path(times, nb)
     if nb.plans is None or len(nb) == 0:
         return out
     has = np.all(np.isfinite(nb.plans), axis=1)
