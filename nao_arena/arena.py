@@ -43,14 +43,15 @@ __all__ = ["Arena", "ArenaOptions", "StepResult", "make_agent"]
 class ArenaOptions:
     """Settings of the control loop.
 
-    sensing_range (m) and max_neighbours: what each robot senses;
+    sensing_range (m) and max_neighbours: what each robot senses (None: the
+    map's ``sensing`` section);
     known_path_horizon (s) / known_path_samples: the true future paths of
     traffic handed to agents; agent: if set, replaces every robot's agent
     (built-in name or plug-in reference) and agent_options are passed to
     the agents' constructors; stats: statistics thresholds.
     """
 
-    sensing_range: float = 30.0
+    sensing_range: float | None = None
     max_neighbours: int | None = None
     known_path_horizon: float = 6.0
     known_path_samples: int = 61
@@ -72,16 +73,21 @@ class StepResult:
 
 
 def make_agent(ref: str, robot: RobotSpec, options: Mapping[str, Any] | None = None) -> Any:
-    """Instantiate the agent ``ref`` for ``robot``; the robot's predictor is passed to
-    agents whose constructor takes one (unless options set it)."""
+    """Instantiate the agent ``ref`` for ``robot``.
+
+    The robot's predictor and the map's ``agent_options`` for it are passed
+    where the constructor takes them; ``options`` (from the caller) are
+    passed as given and take precedence.
+    """
     cls = load_agent(ref)
-    kwargs = dict(options or {})
     try:
         params = inspect.signature(cls).parameters
     except (TypeError, ValueError):
         params = {}
-    if "predictor" in params and "predictor" not in kwargs:
+    kwargs = {k: v for k, v in robot.agent_options.items() if k in params}
+    if "predictor" in params:
         kwargs["predictor"] = robot.predictor
+    kwargs.update(options or {})
     return cls(**kwargs)
 
 
@@ -102,6 +108,14 @@ class Arena:
         self.walls, self.wall_radius = self.world.wall_segments()
         self.path_times = np.linspace(
             0.0, self.options.known_path_horizon, self.options.known_path_samples
+        )
+        self.sensing_range = (
+            spec.sensing.range if self.options.sensing_range is None
+            else self.options.sensing_range
+        )
+        self.max_neighbours = (
+            spec.sensing.max_neighbours if self.options.max_neighbours is None
+            else self.options.max_neighbours
         )
         self.agents: list[Any] = []
         self.stats: EpisodeStats | None = None
@@ -166,8 +180,7 @@ class Arena:
         out = []
         for k, body in enumerate(self.robot_ids):
             idx = neighbours_in_range(
-                int(body), state.positions, self.options.sensing_range,
-                self.options.max_neighbours,
+                int(body), state.positions, self.sensing_range, self.max_neighbours,
             )
             nb = Neighbours(
                 ids=idx,
