@@ -20,6 +20,7 @@ from nao_arena.maps import (
 BAD = Path(__file__).parent / "bad_maps"
 SHIPPED = [
     "circle_swap", "circle_swap_perturbed", "corridor", "crossing", "crowd", "roundabout",
+    "roundabout_crossing",
     "two_lane_road",
 ]
 
