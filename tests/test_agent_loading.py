@@ -19,12 +19,12 @@ def obs() -> Observation:
 
 
 def test_builtin_agents_load_and_act():
-    for name in ("nao", "ao", "goal"):
+    for name in ("nao", "ao", "vo", "orca", "goal", "lane"):
         agent = load_agent(name)()
         agent.reset(None, np.random.default_rng(0))
         a = np.asarray(agent.act(obs()))
         assert a.shape == (2,) and np.all(np.isfinite(a)) and np.hypot(*a) <= 2.0 + 1e-9
-    assert {"nao", "ao", "goal"} <= set(available_agents())
+    assert {"nao", "ao", "vo", "orca", "goal", "lane"} <= set(available_agents())
 
 
 def test_agent_from_file_and_module(tmp_path, monkeypatch):
