@@ -1,9 +1,46 @@
-"""The ``nao-arena`` command line."""
+"""The ``nao-arena`` command line.
+
+Sub-commands::
+
+    nao-arena run MAP [--agent NAME|FILE.py:CLASS] [--seed S] [--set key=value ...]
+                  [--time-limit S] [--render human|gif|mp4 --out FILE] [--json FILE]
+    nao-arena trial --map MAP[,MAP...] --agent A[,B...] --episodes N --seed S
+                    --workers W --out DIR [--csv] [--set key=value ...] [--time-limit S]
+    nao-arena report DIR [--out PLOTS_DIR]
+    nao-arena maps
+    nao-arena agents
+    nao-arena figures [--out DIR] [--only NAMES]
+
+Errors (unknown map, agent, parameter) are printed on stderr with the
+choices, exit status 2.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+from typing import Any
+
+RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
+
+
+def _err(message: str) -> int:
+    print(f"nao-arena: error: {message}", file=sys.stderr)
+    return 2
+
+
+def _split(text: str) -> tuple[str, ...]:
+    return tuple(part.strip() for part in text.split(",") if part.strip())
+
+
+def _overrides(items: list[str] | None) -> dict[str, Any]:
+    from nao_arena.maps import parse_overrides
+
+    return parse_overrides(items or [])
+
+
+# --------------------------------------------------------------------------- figures
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
@@ -20,11 +57,220 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- run
+
+
+def episode_table(summary: Any, agents: list[str]) -> str:
+    """An episode's per-robot results (an EpisodeSummary) as an aligned text table."""
+    head = ["robot", "agent", "success", "goal s", "path m", "collisions", "near misses",
+            "min sep m", "min TTC s", "adj/s"]
+
+    def num(v: float, spec: str) -> str:
+        return format(v, spec) if v == v and abs(v) != float("inf") else "-"
+
+    body = [
+        [r.name, agents[k] if k < len(agents) else "?", "yes" if r.success else "no",
+         num(r.time_to_goal, ".1f"), num(r.path_length, ".1f"), str(r.collisions),
+         str(r.near_misses), num(r.min_separation, ".3f"), num(r.min_ttc, ".2f"),
+         num(r.adjustment_rate, ".2f")]
+        for k, r in enumerate(summary.robots)
+    ]
+    widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head))]
+    lines = ["  ".join(c.ljust(w) if i < 3 else c.rjust(w)
+                       for i, (c, w) in enumerate(zip(row, widths, strict=True))).rstrip()
+             for row in [head, *body]]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.maps import MapError
+    from nao_arena.trials import make_map
+
+    record = None
+    if args.render:
+        if args.render in RENDER_SUFFIX and not args.out:
+            return _err(f"--render {args.render} needs --out FILE{RENDER_SUFFIX[args.render]}")
+        if args.out and args.render in RENDER_SUFFIX and \
+                not args.out.lower().endswith(RENDER_SUFFIX[args.render]):
+            return _err(f"--render {args.render}: expected --out ending in "
+                        f"{RENDER_SUFFIX[args.render]}, got {args.out}")
+        try:
+            from nao_arena.render import record_episode as record
+        except ImportError as exc:
+            return _err(f"--render {args.render}: rendering is not available in this "
+                        f"installation (cannot import nao_arena.render: {exc})")
+    elif args.out:
+        return _err("--out is the recording's file: use it with --render gif|mp4")
+    try:
+        overrides = _overrides(args.set)
+        if "seed" in overrides:
+            return _err("set the seed with --seed (it seeds the map and the agents)")
+        spec = make_map(args.map, args.seed, overrides, args.time_limit)
+        if args.agent:
+            from nao_arena.agent import load_agent
+
+            load_agent(args.agent)
+        arena = Arena(spec, ArenaOptions(agent=args.agent))
+    except (MapError, ValueError) as exc:
+        return _err(str(exc))
+    if args.render:
+        arena.reset(args.seed)
+        out = None if args.render == "human" else args.out
+        result = record(arena, out, fps=args.fps, max_steps=args.max_steps)
+        summary = result if hasattr(result, "robots") else arena.summary()
+    else:
+        summary = arena.run(args.seed, max_steps=args.max_steps)
+    agents = arena.agent_names
+    n_traffic = arena.world.n - len(arena.robots)
+    print(f"map {spec.name} ({spec.source}), seed {args.seed}, {len(arena.robots)} robots, "
+          f"{n_traffic} traffic vehicles; {summary.steps} steps, {summary.duration:.1f} s")
+    print(episode_table(summary, agents))
+    robot_contacts = [c for c in summary.contacts if "robot" in (c.kind_a, c.kind_b)]
+    print(f"contacts involving robots: {len(robot_contacts)}; agent faults: "
+          f"{len(summary.faults)}")
+    for f in summary.faults[:5]:
+        print(f"  fault t={f.time:.1f} s {f.name}: {f.message}")
+    if args.json:
+        summary.write_json(args.json)
+        print(f"wrote {args.json}")
+    if args.render and args.render != "human":
+        print(f"wrote {args.out}")
+    return 0
+
+
+# --------------------------------------------------------------------------- trial
+
+
+def _cmd_trial(args: argparse.Namespace) -> int:
+    from nao_arena.maps import MapError
+    from nao_arena.trials import TrialConfig, format_table, run_trial
+
+    try:
+        config = TrialConfig(
+            maps=_split(args.map), agents=_split(args.agent), episodes=args.episodes,
+            seed=args.seed, workers=args.workers, out=Path(args.out),
+            overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
+            retry_failed=args.retry_failed,
+        )
+        result = run_trial(config, progress=None if args.quiet else sys.stderr)
+    except (MapError, ValueError) as exc:
+        return _err(str(exc))
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished episodes are kept in {Path(args.out) / 'episodes'}; "
+              "run the same command again to resume", file=sys.stderr)
+        return 130
+    print(format_table(result.summary))
+    print(f"{result.ran} episodes run, {result.skipped} already done; results in {args.out}")
+    return 0
+
+
+# --------------------------------------------------------------------------- report, lists
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from nao_arena.report import report_text, write_report
+
+    try:
+        print(report_text(args.dir))
+        paths = write_report(args.dir, args.out)
+    except (FileNotFoundError, ValueError) as exc:
+        return _err(str(exc))
+    for path in paths:
+        print(path)
+    return 0
+
+
+def _cmd_maps(args: argparse.Namespace) -> int:
+    from nao_arena.maps import MapError, available_maps, load_map
+
+    for name in available_maps():
+        try:
+            spec = load_map(name)
+        except MapError as exc:
+            print(f"{name}\n    (cannot be loaded: {exc})")
+            continue
+        n_traffic = sum(g.count for g in spec.traffic)
+        desc = " ".join(spec.description.split())
+        params = ", ".join(f"{k}={v}" for k, v in spec.parameters.items()) or "none"
+        print(f"{name}: {spec.n_robots} robots, {n_traffic} traffic, "
+              f"{spec.episode.time_limit:g} s")
+        if desc:
+            print(f"    {desc}")
+        print(f"    parameters: {params}")
+    print("(any map file can be given by its path, e.g. path/to/my_map.yaml)")
+    return 0
+
+
+def _cmd_agents(args: argparse.Namespace) -> int:
+    from nao_arena.agent import BUILTIN_AGENTS, available_agents
+
+    found = available_agents()
+    width = max(len(n) for n in found)
+    for name, ref in found.items():
+        origin = "built-in" if name in BUILTIN_AGENTS else "plug-in"
+        print(f"{name.ljust(width)}  {origin:8s}  {ref}")
+    print("(also: path/to/file.py:ClassName or package.module:ClassName)")
+    return 0
+
+
+# --------------------------------------------------------------------------- parser
+
+
+def _add_map_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", action="extend", nargs="+", metavar="KEY=VALUE",
+                   help="map parameter overrides, e.g. --set n=4 radius=6")
+    p.add_argument("--time-limit", type=float, default=None, metavar="S",
+                   help="episode time limit (s), replacing the map's")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="nao-arena", description="Multi-robot testbed built around the NAO."
     )
     sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run one episode and print its summary")
+    run.add_argument("map", help="map name (see `nao-arena maps`) or map file path")
+    run.add_argument("--agent", default=None,
+                     help="agent of the map's robots (default: the map's own)")
+    run.add_argument("--seed", type=int, default=0,
+                     help="seeds the map (if it has a seed parameter) and the agents")
+    _add_map_options(run)
+    run.add_argument("--max-steps", type=int, default=None, help="stop after this many steps")
+    run.add_argument("--render", choices=["human", "gif", "mp4"], default=None,
+                     help="show the episode in a window, or record it")
+    run.add_argument("--out", default=None, help="recording file (with --render gif|mp4)")
+    run.add_argument("--fps", type=float, default=None, help="recording frame rate")
+    run.add_argument("--json", default=None, metavar="FILE",
+                     help="also write the episode summary as JSON")
+    run.set_defaults(func=_cmd_run)
+
+    trial = sub.add_parser("trial", help="run the grid maps x agents x episodes")
+    trial.add_argument("--map", required=True, help="comma-separated map names or paths")
+    trial.add_argument("--agent", required=True, help="comma-separated agents")
+    trial.add_argument("--episodes", type=int, default=10, help="episodes per map x agent")
+    trial.add_argument("--seed", type=int, default=0, help="the trial's root seed")
+    trial.add_argument("--workers", type=int, default=1, help="local worker processes")
+    trial.add_argument("--out", required=True, help="results folder (resumed if it exists)")
+    trial.add_argument("--csv", action="store_true", help="also write CSV files")
+    _add_map_options(trial)
+    trial.add_argument("--retry-failed", action="store_true",
+                       help="run again the episodes recorded as failed")
+    trial.add_argument("--quiet", action="store_true", help="no progress line")
+    trial.set_defaults(func=_cmd_trial)
+
+    report = sub.add_parser("report", help="table and plots of a trial's results")
+    report.add_argument("dir", help="a trial's results folder")
+    report.add_argument("--out", default=None, help="folder for the PNGs (default: DIR)")
+    report.set_defaults(func=_cmd_report)
+
+    maps = sub.add_parser("maps", help="list the shipped maps and their parameters")
+    maps.set_defaults(func=_cmd_maps)
+    agents = sub.add_parser("agents", help="list the agents (built-in and plug-ins)")
+    agents.set_defaults(func=_cmd_agents)
+
     fig = sub.add_parser("figures", help="draw the paper's geometric figures (PNG)")
     fig.add_argument("--out", default="figures", help="output folder (default: figures)")
     fig.add_argument("--only", default="", help="comma-separated figure names")

@@ -1,0 +1,199 @@
+"""Plots and the table of a trial's results folder (see :mod:`nao_arena.trials`).
+
+:func:`write_report` reads ``summary.json`` and ``episodes.parquet`` and
+writes PNG figures (matplotlib, Agg canvas, no display needed):
+
+- ``rates.png``: per map, the collision rate per agent (share of
+  robot-episodes with a collision, with its 95 % Wilson interval) and the
+  acceleration adjustments per second per agent;
+- ``time_to_goal.png``: per map, the distribution of the time to goal (s)
+  of the robot-episodes that arrived, one box per agent (with the share
+  that arrived);
+- ``min_separation.png``: histograms of the robot-episodes' minimum
+  separation (m, surface to surface; below 0 = contact), one per agent
+  (rows) and map (columns); robot-episodes that never came within the
+  stats' ``separation_range`` are counted in each panel's note.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow.parquet as pq
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from nao_arena.trials import atomic_write_with, format_table, load_summary
+
+__all__ = ["REPORT_FILES", "report_text", "write_report"]
+
+REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
+
+
+def report_text(folder: str | Path) -> str:
+    """The summary table of a results folder."""
+    return format_table(load_summary(folder))
+
+
+def _ordered(values: Sequence[str]) -> list[str]:
+    return list(dict.fromkeys(values))
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    FigureCanvasAgg(fig)
+    atomic_write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+    return path
+
+
+def _grid(n_maps: int, width: float = 5.0, height: float = 3.6) -> tuple[Figure, list[Axes]]:
+    cols = min(n_maps, 3)
+    rows = -(-n_maps // cols)
+    fig = Figure(figsize=(width * cols, height * rows), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False).ravel().tolist()
+    for ax in axes[n_maps:]:
+        ax.set_visible(False)
+    return fig, axes[:n_maps]
+
+
+def _rates(summary: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str]) -> Figure:
+    fig = Figure(figsize=(max(7.0, 1.1 * len(agents) * len(maps) + 3), 4.0),
+                 layout="constrained")
+    ax_c, ax_a = fig.subplots(1, 2)
+    cell = {(r["map"], r["agent"]): r for r in summary}
+    width = 0.8 / len(maps)
+    x = np.arange(len(agents))
+    colors = [f"C{k % 10}" for k in range(len(maps))]
+    for k, m in enumerate(maps):
+        pos = x - 0.4 + width * (k + 0.5)
+        rows = [cell.get((m, a)) for a in agents]
+        rate = np.array([np.nan if r is None or r["collision_rate"] is None
+                         else r["collision_rate"] for r in rows])
+        lo = np.array([np.nan if r is None or r["collision_rate_ci95"] is None
+                       else r["collision_rate_ci95"][0] for r in rows])
+        hi = np.array([np.nan if r is None or r["collision_rate_ci95"] is None
+                       else r["collision_rate_ci95"][1] for r in rows])
+        err = np.vstack([np.nan_to_num(rate - lo), np.nan_to_num(hi - rate)])
+        bars = ax_c.bar(pos, np.nan_to_num(rate), width, yerr=err, capsize=3,
+                        color=colors[k], label=m, error_kw={"elinewidth": 1, "alpha": 0.7})
+        ax_c.bar_label(bars, labels=["-" if v != v else f"{v:.2f}" for v in rate],
+                       fontsize="x-small", padding=2)
+        adj = np.array([np.nan if r is None or r["adjustments_per_s"] is None
+                        else r["adjustments_per_s"] for r in rows])
+        bars = ax_a.bar(pos, np.nan_to_num(adj), width, color=colors[k], label=m)
+        ax_a.bar_label(bars, labels=["-" if v != v else f"{v:.1f}" for v in adj],
+                       fontsize="x-small", padding=2)
+    ax_c.set_ylim(0.0, 1.12)
+    ax_c.set_ylabel("share of robot-episodes with a collision")
+    ax_c.set_title("Collision rate (95% Wilson interval)")
+    ax_a.set_ylabel("adjustments per second (1/s)")
+    ax_a.set_title("Acceleration adjustments")
+    for ax in (ax_c, ax_a):
+        ax.set_xticks(x, agents)
+        ax.set_xlabel("agent")
+        ax.grid(axis="y", alpha=0.3)
+    if len(maps) > 1:
+        ax_c.legend(title="map", fontsize="small")
+    else:
+        fig.suptitle(maps[0])
+    return fig
+
+
+def _column(rows: Sequence[Mapping[str, Any]], m: str, a: str, name: str) -> list[Any]:
+    return [r[name] for r in rows
+            if r["map"] == m and r["agent"] == a and r["error"] is None]
+
+
+def _time_to_goal(rows: Sequence[Mapping[str, Any]], maps: list[str],
+                  agents: list[str]) -> Figure:
+    fig, axes = _grid(len(maps))
+    for ax, m in zip(axes, maps, strict=True):
+        data, labels = [], []
+        for a in agents:
+            reached = _column(rows, m, a, "reached_goal")
+            times = [t for t, ok in zip(_column(rows, m, a, "time_to_goal"), reached,
+                                         strict=True) if ok and t is not None]
+            data.append(times)
+            share = f"{len(times)}/{len(reached)}" if reached else "0/0"
+            labels.append(f"{a}\n{share} arrived")
+        positions = np.arange(1, len(agents) + 1)
+        filled = [k for k, d in enumerate(data) if d]
+        if filled:
+            ax.boxplot([data[k] for k in filled], positions=positions[filled], widths=0.6,
+                       showmeans=True, meanprops={"markersize": 5})
+        for k, d in enumerate(data):
+            if not d:
+                ax.text(positions[k], 0.5, "none arrived", ha="center", va="center",
+                        rotation=90, fontsize="small", transform=ax.get_xaxis_transform(),
+                        color="0.4")
+        ax.set_xticks(positions, labels, fontsize="small")
+        ax.set_xlim(0.4, len(agents) + 0.6)
+        ax.set_ylabel("time to goal (s)")
+        ax.set_title(m)
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle("Time to goal (robot-episodes that arrived; box: quartiles, triangle: mean)")
+    return fig
+
+
+def _min_separation(rows: Sequence[Mapping[str, Any]], maps: list[str],
+                    agents: list[str]) -> Figure:
+    """Small multiples: one histogram per agent (rows) and map (columns)."""
+    fig = Figure(figsize=(4.6 * len(maps) + 0.6, 1.5 * len(agents) + 1.0), layout="constrained")
+    axes = fig.subplots(len(agents), len(maps), squeeze=False, sharex="col")
+    for col, m in enumerate(maps):
+        per_agent = {a: _column(rows, m, a, "min_separation") for a in agents}
+        finite = [v for vals in per_agent.values() for v in vals if v is not None]
+        lo = min([*finite, 0.0])
+        hi = max([*finite, 0.0])
+        pad = 0.05 * (hi - lo) or 0.05
+        bins = np.linspace(lo - pad, hi + pad, 41)
+        for row, a in enumerate(agents):
+            ax = axes[row, col]
+            vals = [v for v in per_agent[a] if v is not None]
+            far = len(per_agent[a]) - len(vals)
+            top = 1.0
+            if vals:
+                counts, _, _ = ax.hist(vals, bins=bins, color=f"C{row % 10}", alpha=0.85)
+                top = max(float(np.max(counts)), 1.0)
+            ax.set_ylim(0.0, 1.4 * top)
+            contact = sum(v < 0.0 for v in vals)
+            note = f"{len(per_agent[a])} robot-episodes, {contact} with contact"
+            if far:
+                note += f", {far} never within range"
+            ax.text(0.98, 0.92, note, ha="right", va="top", fontsize="small",
+                    transform=ax.transAxes)
+            ax.axvline(0.0, color="k", linestyle="--", linewidth=1)
+            ax.yaxis.get_major_locator().set_params(integer=True)
+            ax.grid(alpha=0.3)
+            if col == 0:
+                ax.set_ylabel(a, rotation=0, ha="right", va="center", fontsize="medium")
+            if row == 0:
+                ax.set_title(m)
+        axes[-1, col].set_xlabel("minimum separation (m); < 0: contact")
+    fig.suptitle("Minimum separation per robot-episode (count of robot-episodes per bin)")
+    return fig
+
+
+def write_report(folder: str | Path, out: str | Path | None = None) -> list[Path]:
+    """Write the report's PNGs (:data:`REPORT_FILES`) for the results in ``folder``
+    into ``out`` (default: ``folder``); returns their paths."""
+    folder = Path(folder)
+    out = Path(out) if out is not None else folder
+    out.mkdir(parents=True, exist_ok=True)
+    summary = load_summary(folder)
+    table = folder / "episodes.parquet"
+    if not table.is_file():
+        raise FileNotFoundError(f"{table}: no such file (is {folder} a trial's output folder?)")
+    rows = pq.read_table(table).to_pylist()
+    if not summary:
+        raise ValueError(f"{folder / 'summary.json'}: no results to plot")
+    maps = _ordered([r["map"] for r in summary])
+    agents = _ordered([r["agent"] for r in summary])
+    return [
+        _save(_rates(summary, maps, agents), out / REPORT_FILES[0]),
+        _save(_time_to_goal(rows, maps, agents), out / REPORT_FILES[1]),
+        _save(_min_separation(rows, maps, agents), out / REPORT_FILES[2]),
+    ]

@@ -1,0 +1,733 @@
+"""Many episodes: the grid maps x agents x episodes, seeds, workers, resume, results files.
+
+A trial runs every episode of the grid headless through :meth:`Arena.run`
+(the one control loop) and writes, into its output folder ``DIR``:
+
+- ``episodes/<map>__<agent>__<episode>.json``: one file per (map, agent,
+  episode), written atomically as soon as the episode ends. An interrupted
+  trial resumes: an episode whose file exists (with the same map, agent,
+  episode, seed, map parameters and time limit) is not run again.
+- ``episodes.parquet``: one row per robot per episode (see
+  :data:`EPISODE_SCHEMA`): ``map``, ``agent``, ``episode``, ``seed``,
+  ``robot`` (the robot's name), the :class:`~nao_arena.stats.RobotSummary`
+  fields (``index`` ... ``adjustment_rate``; null where the summary has a
+  non-finite value: ``time_to_goal`` null = never arrived,
+  ``min_separation`` null = never within the stats' ``separation_range``,
+  ``min_ttc`` null = no time to collision within ``ttc_horizon``), the
+  robot's agent ``faults``, the episode's ``duration`` (s) and ``steps``,
+  and ``error``: null, or for an episode that raised, the error message
+  (then the episode has a single row with ``robot`` and the metrics null).
+- ``collisions.parquet``: one row per contact event (see
+  :data:`COLLISION_SCHEMA`): ``map``, ``agent``, ``episode``, ``seed`` and
+  the :class:`~nao_arena.stats.ContactEvent` fields.
+- ``summary.json`` (and the printed table): see below.
+- with ``csv``: ``episodes.csv``, ``collisions.csv``, ``summary.csv``.
+- ``trial.json``: the trial's settings.
+
+All these files are (re)built from the per-episode files at the end of a
+run, in grid order (maps, then agents, then episodes, as given), and are
+written to a temporary name then ``os.replace``-d.
+
+Seeds
+-----
+One ``numpy.random.SeedSequence(seed)``; the episode ``e`` of map ``m``
+gets the child with spawn key ``(crc32(m), e)``, reduced to an integer in
+[0, 2^32) (:func:`episode_seed`). It depends on (trial seed, map, episode)
+only: every agent faces the same scenes, and results do not depend on the
+number of workers or the order in which episodes run. The integer is passed
+as the map's ``seed`` parameter (when the map declares one) and to
+``Arena.run(seed)`` (the agents' generators).
+
+summary.json
+------------
+A JSON list, one object per map x agent (grid order), with the keys
+(stable; others may be added):
+
+``map``, ``agent``: as given on the command line.
+``episodes``: episodes of the grid cell that have a result file;
+``failed_episodes``: those that raised (excluded from every metric below).
+``robots``: robot-episodes driven by the agent (robots x completed episodes).
+``collisions``: contact events involving at least one of those robots
+    (robot-robot, robot-traffic and robot-wall; a robot-robot contact counts once).
+``collision_rate``: share of robot-episodes with at least one collision;
+    ``collision_rate_ci95``: [low, high], Wilson score interval (95 %),
+    treating robot-episodes as independent (robots of one episode are not,
+    so the interval is optimistic for maps with many robots).
+``success_rate``: share of robot-episodes that reached the goal without any
+    collision; ``success_rate_ci95``: its Wilson interval.
+``robot_hours``: sum over robot-episodes of the episode's duration (h);
+    ``collisions_per_robot_hour``: collisions / robot_hours.
+``median_time_to_goal_s``: median over robot-episodes that arrived (s).
+``min_separation_m``: the smallest minimum separation (surface to surface,
+    negative = overlap) of any robot-episode (m);
+    ``median_min_separation_m``: the median over robot-episodes (m).
+    Both only over robot-episodes that came within ``separation_range``.
+``near_misses``: proximity episodes without contact, summed over robots.
+``adjustments_per_s``: acceleration adjustments / time driven (until the
+    goal, or the episode's end), pooled over robot-episodes (1/s).
+``faults``: agent faults (exceptions or invalid actions, contained by the loop).
+Unavailable values (no robot-episode to compute them from) are null.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing
+import os
+import re
+import sys
+import tempfile
+import time
+import zlib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pa_csv
+import pyarrow.parquet as pq
+
+from nao_arena.agent import load_agent
+from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.maps import MapError, MapSpec, load_map
+from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text
+
+__all__ = [
+    "COLLISION_SCHEMA",
+    "EPISODE_SCHEMA",
+    "SUMMARY_KEYS",
+    "EpisodeTask",
+    "TrialConfig",
+    "TrialResult",
+    "atomic_write_with",
+    "build_results",
+    "episode_seed",
+    "format_table",
+    "load_summary",
+    "make_map",
+    "map_overrides",
+    "run_episode",
+    "run_trial",
+    "summarize",
+    "wilson_interval",
+]
+
+FORMAT = 1
+
+SUMMARY_KEYS: tuple[str, ...] = (
+    "map", "agent", "episodes", "failed_episodes", "robots", "collisions",
+    "collision_rate", "collision_rate_ci95", "success_rate", "success_rate_ci95",
+    "robot_hours", "collisions_per_robot_hour", "median_time_to_goal_s",
+    "min_separation_m", "median_min_separation_m", "near_misses", "adjustments_per_s",
+    "faults",
+)
+
+_KEY_COLUMNS = [
+    pa.field("map", pa.string()),
+    pa.field("agent", pa.string()),
+    pa.field("episode", pa.int64()),
+    pa.field("seed", pa.int64()),
+]
+_ARROW_TYPES = {int: pa.int64(), float: pa.float64(), bool: pa.bool_(), str: pa.string()}
+
+
+def _arrow_fields(cls: type, skip: Iterable[str] = ()) -> list[pa.Field]:
+    hints = {"int": int, "float": float, "bool": bool, "str": str}
+    out = []
+    for f in fields(cls):
+        if f.name in skip:
+            continue
+        tp = f.type if isinstance(f.type, type) else hints[str(f.type)]
+        out.append(pa.field(f.name, _ARROW_TYPES[tp]))
+    return out
+
+
+EPISODE_SCHEMA = pa.schema(
+    _KEY_COLUMNS
+    + [pa.field("robot", pa.string())]
+    + _arrow_fields(RobotSummary, skip=("name",))
+    + [
+        pa.field("faults", pa.int64()),
+        pa.field("duration", pa.float64()),
+        pa.field("steps", pa.int64()),
+        pa.field("error", pa.string()),
+    ]
+)
+"""Columns of ``episodes.parquet``: one row per robot per episode."""
+
+COLLISION_SCHEMA = pa.schema(_KEY_COLUMNS + _arrow_fields(ContactEvent))
+"""Columns of ``collisions.parquet``: one row per contact event."""
+
+
+# --------------------------------------------------------------------------- settings
+
+
+@dataclass(frozen=True)
+class TrialConfig:
+    """A trial: the grid ``maps`` x ``agents`` x ``episodes`` and how to run it.
+
+    maps: shipped map names or map file paths; agents: agent references
+    (built-in names, ``FILE.py:Class``, ``module:Class``, plug-in names);
+    seed: the trial's root seed; workers: local processes (1 = in this
+    process); out: the results folder; overrides: map parameters
+    (``name -> value``), each applied to the maps of the grid that declare
+    it; time_limit: episode time limit (s) replacing the maps' own (None:
+    keep them); csv: also write CSV files; retry_failed: run again the
+    episodes whose recorded result is an error.
+    """
+
+    maps: tuple[str, ...]
+    agents: tuple[str, ...]
+    episodes: int = 10
+    seed: int = 0
+    workers: int = 1
+    out: Path = Path("results")
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    time_limit: float | None = None
+    csv: bool = False
+    retry_failed: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.maps:
+            raise ValueError("a trial needs at least one map")
+        if not self.agents:
+            raise ValueError("a trial needs at least one agent")
+        for kind, names in (("map", self.maps), ("agent", self.agents)):
+            dup = sorted({n for n in names if names.count(n) > 1})
+            if dup:
+                raise ValueError(f"{kind} listed twice: {', '.join(dup)}")
+        if self.episodes < 1:
+            raise ValueError(f"episodes: expected >= 1, got {self.episodes}")
+        if self.seed < 0:
+            raise ValueError(f"seed: expected >= 0, got {self.seed}")
+        if self.workers < 1:
+            raise ValueError(f"workers: expected >= 1, got {self.workers}")
+        if self.time_limit is not None and not self.time_limit > 0:
+            raise ValueError(f"time limit: expected > 0 s, got {self.time_limit}")
+        if "seed" in self.overrides:
+            raise ValueError("the map parameter 'seed' is set per episode by the trial; "
+                             "choose the trial's root seed instead (--seed)")
+
+
+@dataclass(frozen=True)
+class EpisodeTask:
+    """One episode of a trial, as sent to a worker.
+
+    seed: the episode's integer seed; overrides: the map parameters for
+    this map (without ``seed``); path: its result file.
+    """
+
+    map: str
+    agent: str
+    episode: int
+    seed: int
+    overrides: Mapping[str, Any]
+    time_limit: float | None
+    path: str
+
+    def key(self) -> dict[str, Any]:
+        """What identifies the episode's result (compared on resume)."""
+        return {
+            "map": self.map, "agent": self.agent, "episode": self.episode, "seed": self.seed,
+            "overrides": dict(self.overrides), "time_limit": self.time_limit,
+        }
+
+
+@dataclass
+class TrialResult:
+    """What :func:`run_trial` did: the summary rows, episodes run now and skipped
+    (already done), and the files written."""
+
+    summary: list[dict[str, Any]]
+    ran: int
+    skipped: int
+    files: list[Path]
+
+
+# --------------------------------------------------------------------------- seeds and maps
+
+
+def episode_seed(seed: int, map_name: str, episode: int) -> int:
+    """The integer seed in [0, 2^32) of episode ``episode`` of map ``map_name`` in a trial
+    with root seed ``seed``: a child of ``SeedSequence(seed)`` with spawn key
+    ``(crc32(map_name), episode)``."""
+    root = np.random.SeedSequence(seed)
+    key = (zlib.crc32(map_name.encode("utf-8")), int(episode))
+    child = np.random.SeedSequence(root.entropy, spawn_key=root.spawn_key + key)
+    return int(child.generate_state(1, dtype=np.uint32)[0])
+
+
+def map_overrides(
+    maps: Sequence[str], overrides: Mapping[str, Any]
+) -> dict[str, dict[str, Any]]:
+    """Per map, the overrides among ``overrides`` that it declares as parameters.
+
+    Raises :class:`~nao_arena.maps.MapError` for an unknown map, and for an
+    override that no map of the list declares (naming the declared ones).
+    """
+    declared = {m: set(load_map(m).parameters) for m in maps}
+    for key in overrides:
+        if not any(key in names for names in declared.values()):
+            listing = "; ".join(
+                f"{m}: {', '.join(sorted(names)) or 'none'}" for m, names in declared.items()
+            )
+            raise MapError(f"parameter override {key!r}: no map declares it (declared: {listing})")
+    return {m: {k: v for k, v in overrides.items() if k in declared[m]} for m in maps}
+
+
+def make_map(
+    name: str, seed: int | None, overrides: Mapping[str, Any] | None = None,
+    time_limit: float | None = None,
+) -> MapSpec:
+    """Load map ``name`` with ``overrides``; ``seed`` becomes its ``seed`` parameter if it
+    declares one; ``time_limit`` (s) replaces its episode time limit if given."""
+    params = dict(overrides or {})
+    if seed is not None and "seed" in load_map(name).parameters:
+        params["seed"] = seed
+    spec = load_map(name, **params)
+    if time_limit is not None:
+        episode = spec.episode.model_copy(update={"time_limit": float(time_limit)})
+        spec = spec.model_copy(update={"episode": episode})
+    return spec
+
+
+def _slug(text: str) -> str:
+    """A file-name-safe, unique form of a map or agent reference."""
+    clean = re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("._")[:40] or "x"
+    if clean == text:
+        return clean
+    return f"{clean}-{zlib.crc32(text.encode('utf-8')):08x}"
+
+
+def episode_path(out: Path, map_name: str, agent: str, episode: int) -> Path:
+    """The result file of one episode."""
+    return Path(out) / "episodes" / f"{_slug(map_name)}__{_slug(agent)}__{episode:05d}.json"
+
+
+def _tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) -> list[EpisodeTask]:
+    """All episodes of the grid, in grid order (maps, agents, episodes)."""
+    return [
+        EpisodeTask(
+            map=m, agent=a, episode=e, seed=episode_seed(config.seed, m, e),
+            overrides=dict(per_map[m]), time_limit=config.time_limit,
+            path=str(episode_path(config.out, m, a, e)),
+        )
+        for m in config.maps
+        for a in config.agents
+        for e in range(config.episodes)
+    ]
+
+
+# --------------------------------------------------------------------------- one episode
+
+
+def _read_record(path: str | Path) -> dict[str, Any] | None:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            rec = json.load(fh)
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) else None
+
+
+def _done_record(task: EpisodeTask, retry_failed: bool) -> dict[str, Any] | None:
+    """The task's existing result record, if it needs not run again."""
+    rec = _read_record(task.path)
+    if rec is None or rec.get("format") != FORMAT or rec.get("key") != task.key():
+        return None
+    return None if retry_failed and rec.get("error") is not None else rec
+
+
+def run_episode(task: EpisodeTask) -> dict[str, Any]:
+    """Run one episode and write its result file atomically; returns the record.
+
+    An exception while loading the map, building the arena or running is
+    recorded (``error``: its type and message, ``result``: null) instead of
+    propagating. The record's ``wall_time_s`` is informative only (it is in
+    no results table).
+    """
+    start = time.perf_counter()
+    record: dict[str, Any] = {"format": FORMAT, "key": task.key(), "error": None, "result": None}
+    try:
+        spec = make_map(task.map, task.seed, task.overrides, task.time_limit)
+        arena = Arena(spec, ArenaOptions(agent=task.agent))
+        record["result"] = arena.run(task.seed).to_dict()
+    except Exception as exc:  # noqa: BLE001 - a failing episode must not stop the trial
+        record["error"] = f"{type(exc).__name__}: {exc}"
+    record["wall_time_s"] = time.perf_counter() - start
+    atomic_write_text(task.path, json.dumps(record, indent=1) + "\n")
+    return record
+
+
+def _robot_contacts(result: Mapping[str, Any]) -> int:
+    return sum(
+        1 for c in result["contacts"] if c["kind_a"] == "robot" or c["kind_b"] == "robot"
+    )
+
+
+# --------------------------------------------------------------------------- progress
+
+
+class Progress:
+    """A progress line on a stream: episodes done/total, ETA, collisions so far.
+
+    On a terminal the line is redrawn in place; otherwise a line is printed
+    at most every ``interval`` seconds (and at the end).
+    """
+
+    def __init__(self, total: int, done: int = 0, stream: TextIO | None = None,
+                 interval: float = 5.0) -> None:
+        self.total, self.done, self.resumed = total, done, done
+        self.collisions = 0
+        self.failed = 0
+        self.stream = stream
+        self.interval = interval
+        self.start = time.perf_counter()
+        self._last = -math.inf
+        self._tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
+
+    def count(self, record: Mapping[str, Any]) -> None:
+        """Account for one finished episode (without redrawing)."""
+        self.done += 1
+        if record.get("error") is not None:
+            self.failed += 1
+        elif record.get("result") is not None:
+            self.collisions += _robot_contacts(record["result"])
+
+    def update(self, record: Mapping[str, Any]) -> None:
+        """Account for one finished episode and redraw."""
+        self.count(record)
+        self.show()
+
+    def line(self) -> str:
+        elapsed = time.perf_counter() - self.start
+        ran = self.done - self.resumed
+        left = self.total - self.done
+        eta = f"{_duration(elapsed / ran * left)}" if ran else "?"
+        text = (f"episodes {self.done}/{self.total}  elapsed {_duration(elapsed)}  ETA {eta}"
+                f"  collisions {self.collisions}")
+        if self.failed:
+            text += f"  failed {self.failed}"
+        return text
+
+    def show(self, final: bool = False) -> None:
+        if self.stream is None:
+            return
+        now = time.perf_counter()
+        if self._tty:
+            self.stream.write("\r\033[K" + self.line() + ("\n" if final else ""))
+        elif final or now - self._last >= self.interval:
+            self.stream.write(self.line() + "\n")
+        else:
+            return
+        self._last = now
+        self.stream.flush()
+
+
+def _duration(seconds: float) -> str:
+    s = int(round(seconds))
+    h, rem = divmod(s, 3600)
+    m, s = divmod(rem, 60)
+    return f"{h}h{m:02d}m{s:02d}s" if h else (f"{m}m{s:02d}s" if m else f"{s}s")
+
+
+# --------------------------------------------------------------------------- the trial
+
+
+def _validate(config: TrialConfig) -> dict[str, dict[str, Any]]:
+    """Check maps, overrides and agents before running anything; per-map overrides."""
+    per_map = map_overrides(config.maps, config.overrides)
+    for m in config.maps:
+        make_map(m, 0, per_map[m], config.time_limit)
+    for a in config.agents:
+        load_agent(a)
+    return per_map
+
+
+def run_trial(
+    config: TrialConfig,
+    progress: TextIO | None = sys.stderr,
+    on_episode: Callable[[dict[str, Any]], None] | None = None,
+) -> TrialResult:
+    """Run the episodes of the grid not done yet, then (re)build the results files.
+
+    progress: stream for the progress line (None: silent); on_episode: called
+    in this process with each new episode's record. Raises ValueError /
+    :class:`~nao_arena.maps.MapError` for unknown maps or agents and bad
+    overrides before any episode runs.
+    """
+    per_map = _validate(config)
+    out = Path(config.out)
+    (out / "episodes").mkdir(parents=True, exist_ok=True)
+    settings = {k: v for k, v in asdict(config).items() if k != "out"}
+    settings.update(maps=list(config.maps), agents=list(config.agents),
+                    overrides=dict(config.overrides))
+    atomic_write_text(out / "trial.json", json.dumps(settings, indent=2) + "\n")
+    tasks = _tasks(config, per_map)
+    bar = Progress(len(tasks), 0, progress)
+    todo = []
+    for task in tasks:
+        rec = _done_record(task, config.retry_failed)
+        if rec is None:
+            todo.append(task)
+        else:
+            bar.count(rec)
+    bar.resumed = bar.done
+    if progress is not None and config.episodes > 1:
+        for m in config.maps:
+            if "seed" not in load_map(m, **per_map[m]).parameters:
+                progress.write(f"note: map {m} declares no seed parameter: its episodes "
+                               "differ only by the agents' seeds\n")
+    if progress is not None and len(todo) < len(tasks):
+        progress.write(f"resuming: {len(tasks) - len(todo)} of {len(tasks)} episodes "
+                       f"already in {out / 'episodes'}\n")
+
+    def finished(record: dict[str, Any]) -> None:
+        bar.update(record)
+        if on_episode is not None:
+            on_episode(record)
+
+    if config.workers == 1 or len(todo) <= 1:
+        for task in todo:
+            finished(run_episode(task))
+    else:
+        _run_pool(todo, min(config.workers, len(todo)), finished)
+    bar.show(final=True)
+    summary, files = build_results(config, tasks)
+    return TrialResult(summary, len(todo), len(tasks) - len(todo), files)
+
+
+def _run_pool(
+    todo: Sequence[EpisodeTask], workers: int, finished: Callable[[dict[str, Any]], None]
+) -> None:
+    """Run tasks on local processes ("spawn" context); each worker writes its own file."""
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        pending: set[Future[dict[str, Any]]] = set()
+        try:
+            pending = {pool.submit(run_episode, t) for t in todo}
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    finished(fut.result())
+        except BrokenProcessPool as exc:
+            raise RuntimeError(
+                "a worker process died abruptly (e.g. out of memory); the episodes finished "
+                "so far are kept: run the same command again to resume"
+            ) from exc
+        except BaseException:
+            for fut in pending:
+                fut.cancel()
+            raise
+
+
+# --------------------------------------------------------------------------- results files
+
+
+def _episode_rows(rec: Mapping[str, Any]) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Rows of episodes.parquet and collisions.parquet for one record."""
+    key = rec["key"]
+    base = {"map": key["map"], "agent": key["agent"], "episode": key["episode"],
+            "seed": key["seed"]}
+    result = rec.get("result")
+    if rec.get("error") is not None or result is None:
+        return [{**base, "error": rec.get("error") or "no result"}], []
+    faults: dict[int, int] = {}
+    for f in result["faults"]:
+        faults[f["robot"]] = faults.get(f["robot"], 0) + 1
+    robots = []
+    for r in result["robots"]:
+        row = {**base, "robot": r["name"]}
+        row.update({k: v for k, v in r.items() if k != "name"})
+        row.update(faults=faults.get(r["index"], 0), duration=result["duration"],
+                   steps=result["steps"], error=None)
+        robots.append(row)
+    contacts = [{**base, **c} for c in result["contacts"]]
+    return robots, contacts
+
+
+def _table(rows: Sequence[Mapping[str, Any]], schema: pa.Schema) -> pa.Table:
+    return pa.Table.from_pylist(
+        [{name: row.get(name) for name in schema.names} for row in rows], schema=schema
+    )
+
+
+def atomic_write_with(path: Path, write: Callable[[str], None]) -> None:
+    """Call write(tmp) for a temporary name next to path, then os.replace it onto path."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a proportion successes/n (default 95 %); (0, 1) if n == 0."""
+    if n <= 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    low = 0.0 if successes <= 0 else max(0.0, centre - half)
+    high = 1.0 if successes >= n else min(1.0, centre + half)
+    return low, high
+
+
+def _median(values: Sequence[float]) -> float | None:
+    return float(np.median(values)) if values else None
+
+
+def summarize(records: Sequence[Mapping[str, Any]], maps: Sequence[str] | None = None,
+              agents: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    """The summary.json rows (see the module docstring) of episode records, one per
+    map x agent, in the order of ``maps`` x ``agents`` (default: first appearance)."""
+    cells: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
+    for rec in records:
+        cells.setdefault((rec["key"]["map"], rec["key"]["agent"]), []).append(rec)
+    maps = list(maps) if maps is not None else list(dict.fromkeys(m for m, _ in cells))
+    agents = list(agents) if agents is not None else list(dict.fromkeys(a for _, a in cells))
+    out = []
+    for m in maps:
+        for a in agents:
+            if (m, a) in cells:
+                out.append(_summarize_cell(m, a, cells[(m, a)]))
+    return out
+
+
+def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]) -> dict:
+    ok = [r["result"] for r in recs if r.get("error") is None and r.get("result") is not None]
+    robots = [rob for res in ok for rob in res["robots"]]
+    n = len(robots)
+    collided = sum(1 for r in robots if r["collisions"] > 0)
+    succeeded = sum(1 for r in robots if r["success"])
+    collisions = sum(_robot_contacts(res) for res in ok)
+    robot_seconds = sum(res["duration"] * len(res["robots"]) for res in ok)
+    driven = sum(
+        (r["time_to_goal"] if r["reached_goal"] and r["time_to_goal"] is not None
+         else res["duration"])
+        for res in ok for r in res["robots"]
+    )
+    times = [r["time_to_goal"] for r in robots if r["reached_goal"] and
+             r["time_to_goal"] is not None]
+    seps = [r["min_separation"] for r in robots if r["min_separation"] is not None]
+    hours = robot_seconds / 3600.0
+    return {
+        "map": map_name,
+        "agent": agent,
+        "episodes": len(recs),
+        "failed_episodes": len(recs) - len(ok),
+        "robots": n,
+        "collisions": collisions,
+        "collision_rate": collided / n if n else None,
+        "collision_rate_ci95": list(wilson_interval(collided, n)) if n else None,
+        "success_rate": succeeded / n if n else None,
+        "success_rate_ci95": list(wilson_interval(succeeded, n)) if n else None,
+        "robot_hours": hours,
+        "collisions_per_robot_hour": collisions / hours if hours > 0 else None,
+        "median_time_to_goal_s": _median(times),
+        "min_separation_m": float(min(seps)) if seps else None,
+        "median_min_separation_m": _median(seps),
+        "near_misses": sum(r["near_misses"] for r in robots),
+        "adjustments_per_s": (sum(r["adjustments"] for r in robots) / driven
+                              if driven > 0 else None),
+        "faults": sum(len(res["faults"]) for res in ok),
+    }
+
+
+def build_results(
+    config: TrialConfig, tasks: Sequence[EpisodeTask] | None = None
+) -> tuple[list[dict[str, Any]], list[Path]]:
+    """(Re)build episodes.parquet, collisions.parquet, summary.json (and CSVs) from the
+    per-episode files of the grid; returns the summary rows and the files written.
+
+    Episodes of the grid without a (matching) result file are left out.
+    """
+    if tasks is None:
+        tasks = _tasks(config, map_overrides(config.maps, config.overrides))
+    out = Path(config.out)
+    records = []
+    for task in tasks:
+        rec = _read_record(task.path)
+        if rec is not None and rec.get("key") == task.key():
+            records.append(rec)
+    robot_rows: list[dict[str, Any]] = []
+    contact_rows: list[dict[str, Any]] = []
+    for rec in records:
+        r, c = _episode_rows(rec)
+        robot_rows += r
+        contact_rows += c
+    episodes = _table(robot_rows, EPISODE_SCHEMA)
+    collisions = _table(contact_rows, COLLISION_SCHEMA)
+    summary = summarize(records, config.maps, config.agents)
+    files = [out / "episodes.parquet", out / "collisions.parquet", out / "summary.json"]
+    atomic_write_with(files[0], lambda p: pq.write_table(episodes, p))
+    atomic_write_with(files[1], lambda p: pq.write_table(collisions, p))
+    atomic_write_text(files[2], json.dumps(summary, indent=2) + "\n")
+    if config.csv:
+        csv_files = [out / "episodes.csv", out / "collisions.csv", out / "summary.csv"]
+        atomic_write_with(csv_files[0], lambda p: pa_csv.write_csv(episodes, p))
+        atomic_write_with(csv_files[1], lambda p: pa_csv.write_csv(collisions, p))
+        flat = [{**{k: v for k, v in row.items() if not k.endswith("_ci95")},
+                 **{f"{k}_{side}": (row[k][i] if row[k] is not None else None)
+                    for k in ("collision_rate_ci95", "success_rate_ci95")
+                    for i, side in enumerate(("low", "high"))}} for row in summary]
+        flat_table = pa.Table.from_pylist(flat) if flat else pa.table({})
+        atomic_write_with(csv_files[2], lambda p: pa_csv.write_csv(flat_table, p))
+        files += csv_files
+    return summary, files
+
+
+def load_summary(folder: str | Path) -> list[dict[str, Any]]:
+    """The rows of ``folder/summary.json``; FileNotFoundError names the file."""
+    path = Path(folder) / "summary.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file (is {folder} a trial's output folder?)")
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+# --------------------------------------------------------------------------- the table
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def format_table(summary: Sequence[Mapping[str, Any]]) -> str:
+    """The summary rows as an aligned text table."""
+    head = ["map", "agent", "episodes", "success", "collision rate [95% CI]",
+            "coll/robot-h", "median TTG s", "min sep m", "adj/s"]
+    body = []
+    for row in summary:
+        ci = row.get("collision_rate_ci95")
+        rate = _fmt(row.get("collision_rate"), ".3f")
+        if ci is not None:
+            rate += f" [{ci[0]:.3f}, {ci[1]:.3f}]"
+        episodes = str(row["episodes"])
+        if row.get("failed_episodes"):
+            episodes += f" ({row['failed_episodes']} failed)"
+        body.append([
+            str(row["map"]), str(row["agent"]), episodes,
+            _fmt(row.get("success_rate"), ".3f"), rate,
+            _fmt(row.get("collisions_per_robot_hour"), ".1f"),
+            _fmt(row.get("median_time_to_goal_s"), ".1f"),
+            _fmt(row.get("min_separation_m"), ".3f"),
+            _fmt(row.get("adjustments_per_s"), ".2f"),
+        ])
+    widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head))]
+    left = {0, 1}
+
+    def line(cells: Sequence[str]) -> str:
+        return "  ".join(c.ljust(w) if i in left else c.rjust(w)
+                         for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
+
+    rule = "  ".join("-" * w for w in widths)
+    return "\n".join([line(head), rule, *(line(r) for r in body)])

@@ -1,0 +1,178 @@
+"""Trials: seeds, determinism across worker counts, resume, failed episodes, summary.json."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from nao_arena.maps import MapError
+from nao_arena.stats import ContactEvent, RobotSummary
+from nao_arena.trials import (
+    SUMMARY_KEYS,
+    TrialConfig,
+    episode_path,
+    episode_seed,
+    format_table,
+    run_trial,
+    wilson_interval,
+)
+
+SMALL = {"n": 4}
+STABLE_KEYS = {
+    "map", "agent", "episodes", "robots", "collisions", "collision_rate", "collision_rate_ci95",
+    "success_rate", "median_time_to_goal_s", "min_separation_m", "adjustments_per_s",
+}
+
+
+def small(out: Path, workers: int = 1, **kw) -> TrialConfig:
+    settings = dict(maps=("circle_swap_perturbed",), agents=("goal", "nao"), episodes=2,
+                    seed=7, workers=workers, out=out, overrides=SMALL, time_limit=15.0)
+    settings.update(kw)
+    return TrialConfig(**settings)
+
+
+@pytest.fixture(scope="module")
+def one_worker(tmp_path_factory) -> tuple[Path, list[dict]]:
+    out = tmp_path_factory.mktemp("w1")
+    result = run_trial(small(out, csv=True), progress=None)
+    assert result.ran == 4 and result.skipped == 0
+    return out, result.summary
+
+
+def test_episode_seeds_depend_on_map_and_episode_only():
+    a = episode_seed(0, "roundabout", 3)
+    assert a == episode_seed(0, "roundabout", 3)
+    assert 0 <= a < 2**32
+    seeds = {episode_seed(0, m, e) for m in ("roundabout", "crowd") for e in range(50)}
+    assert len(seeds) == 100
+    assert episode_seed(1, "roundabout", 3) != a
+
+
+def test_wilson_interval():
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    lo, hi = wilson_interval(0, 10)
+    assert lo == 0.0 and 0.2 < hi < 0.35
+    lo, hi = wilson_interval(10, 10)
+    assert hi == 1.0 and 0.65 < lo < 0.8
+    lo, hi = wilson_interval(5, 10)
+    assert lo < 0.5 < hi and math.isclose(lo + hi, 1.0)
+
+
+def test_files_and_summary(one_worker):
+    out, summary = one_worker
+    for name in ("episodes.parquet", "collisions.parquet", "summary.json", "trial.json",
+                 "episodes.csv", "collisions.csv", "summary.csv"):
+        assert (out / name).is_file(), name
+    assert len(list((out / "episodes").glob("*.json"))) == 4
+    assert not list(out.rglob("*.tmp"))
+    assert json.loads((out / "summary.json").read_text()) == summary
+    assert [(r["map"], r["agent"]) for r in summary] == [
+        ("circle_swap_perturbed", "goal"), ("circle_swap_perturbed", "nao")
+    ]
+    episodes = pq.read_table(out / "episodes.parquet")
+    assert episodes.num_rows == 2 * 2 * 4
+    robot_fields = {f for f in RobotSummary.__dataclass_fields__ if f != "name"}
+    assert {"map", "agent", "episode", "seed", "robot", "error"} | robot_fields <= set(
+        episodes.column_names
+    )
+    contacts = pq.read_table(out / "collisions.parquet")
+    assert {"map", "agent", "episode", "seed"} | set(ContactEvent.__dataclass_fields__) <= set(
+        contacts.column_names
+    )
+    rows = episodes.to_pylist()
+    for row in summary:
+        assert set(SUMMARY_KEYS) <= set(row) and STABLE_KEYS <= set(row)
+        assert row["episodes"] == 2 and row["robots"] == 8 and row["failed_episodes"] == 0
+        for key in ("collision_rate", "success_rate"):
+            lo, hi = row[f"{key}_ci95"]
+            assert 0.0 <= lo <= row[key] <= hi <= 1.0
+        cell = [r for r in rows if r["agent"] == row["agent"]]
+        assert row["collision_rate"] == sum(r["collisions"] > 0 for r in cell) / len(cell)
+        assert row["adjustments_per_s"] >= 0
+        assert row["collisions"] == sum(
+            1 for c in contacts.to_pylist()
+            if c["agent"] == row["agent"] and "robot" in (c["kind_a"], c["kind_b"])
+        )
+    by_agent = {r["agent"]: r for r in summary}
+    # the goal seekers drive into each other in the middle; NAO does not
+    assert by_agent["goal"]["collision_rate"] == 1.0
+    assert by_agent["nao"]["collision_rate"] == 0.0 and by_agent["nao"]["success_rate"] == 1.0
+    assert 5.0 < by_agent["nao"]["median_time_to_goal_s"] < 15.0
+    assert by_agent["nao"]["min_separation_m"] > 0.0 > by_agent["goal"]["min_separation_m"]
+    # every agent faces the same scenes: seeds per (map, episode)
+    seeds = {(r["agent"], r["episode"]): r["seed"] for r in rows}
+    assert seeds[("goal", 0)] == seeds[("nao", 0)] != seeds[("goal", 1)]
+    assert "circle_swap_perturbed" in format_table(summary)
+
+
+def test_same_results_with_two_workers(one_worker, tmp_path):
+    out1, summary1 = one_worker
+    result = run_trial(small(tmp_path, workers=2, csv=True), progress=None)
+    assert result.summary == summary1
+    assert (tmp_path / "summary.json").read_bytes() == (out1 / "summary.json").read_bytes()
+    for name in ("episodes.parquet", "collisions.parquet"):
+        assert pq.read_table(tmp_path / name).equals(pq.read_table(out1 / name))
+    assert (tmp_path / "episodes.csv").read_bytes() == (out1 / "episodes.csv").read_bytes()
+
+
+def test_resume_recomputes_only_missing_episodes(tmp_path):
+    config = small(tmp_path)
+    first = run_trial(config, progress=None)
+    files = sorted((tmp_path / "episodes").glob("*.json"))
+    stamps = {f: f.stat().st_mtime_ns for f in files}
+    victim = episode_path(tmp_path, "circle_swap_perturbed", "nao", 1)
+    victim.unlink()
+    (tmp_path / "summary.json").unlink()
+    ran: list[tuple[str, int]] = []
+    second = run_trial(config, progress=None,
+                       on_episode=lambda rec: ran.append((rec["key"]["agent"],
+                                                          rec["key"]["episode"])))
+    assert ran == [("nao", 1)] and second.ran == 1 and second.skipped == 3
+    for f in files:
+        if f != victim:
+            assert f.stat().st_mtime_ns == stamps[f]
+    assert second.summary == first.summary
+    # a different root seed is a different trial: nothing is reused
+    third = run_trial(small(tmp_path, seed=8, agents=("goal",), episodes=1), progress=None)
+    assert third.ran == 1 and third.skipped == 0
+
+
+def test_crashed_episode_is_recorded(tmp_path):
+    bad = tmp_path / "bad_agent.py"
+    bad.write_text(
+        "class Broken:\n"
+        "    def __init__(self):\n"
+        "        raise RuntimeError('cannot start')\n"
+    )
+    agent = f"{bad}:Broken"
+    config = small(tmp_path / "out", agents=("goal", agent), episodes=1)
+    result = run_trial(config, progress=None)
+    rows = {r["agent"]: r for r in result.summary}
+    assert rows[agent]["failed_episodes"] == 1 and rows[agent]["robots"] == 0
+    assert rows[agent]["collision_rate"] is None
+    assert rows["goal"]["failed_episodes"] == 0 and rows["goal"]["robots"] == 4
+    table = pq.read_table(tmp_path / "out" / "episodes.parquet").to_pylist()
+    failed = [r for r in table if r["agent"] == agent]
+    assert len(failed) == 1 and "RuntimeError: cannot start" in failed[0]["error"]
+    assert failed[0]["robot"] is None
+    assert all(r["error"] is None for r in table if r["agent"] == "goal")
+    assert "1 failed" in format_table(result.summary)
+
+
+def test_clear_errors(tmp_path):
+    with pytest.raises(MapError, match="roundabout"):
+        run_trial(small(tmp_path, maps=("no_such_map",)), progress=None)
+    with pytest.raises(ValueError, match="nao, ao"):
+        run_trial(small(tmp_path, agents=("no_such_agent",)), progress=None)
+    with pytest.raises(MapError, match="no map declares it"):
+        run_trial(small(tmp_path, overrides={"nn": 3}), progress=None)
+    with pytest.raises(ValueError, match="--seed"):
+        small(tmp_path, overrides={"seed": 3})
+    with pytest.raises(ValueError, match="workers"):
+        small(tmp_path, workers=0)
+    assert not os.path.exists(tmp_path / "summary.json")
