@@ -341,7 +341,7 @@ def _slide_towards(
     angles and pull each admissible probe back onto the boundary by bisection."""
     dist = float(np.hypot(*(best - a_d)))
     angle = 0.5
-    while angle > 0.02 and dist > tol:
+    while angle > 1e-3 and dist > tol:
         phi = math.atan2(best[1] - a_d[1], best[0] - a_d[0])
         moved = False
         for sgn in (1.0, -1.0):
