@@ -261,8 +261,11 @@ RUN_SCRIPT = textwrap.dedent(
 
 def _run_digest(hashseed: str) -> str:
     env = {**os.environ, "PYTHONHASHSEED": hashseed}
+    # run from the tests folder: from the repository root, ``-c`` would import the
+    # source tree instead of the installed package
     res = subprocess.run(
         [sys.executable, "-c", RUN_SCRIPT], capture_output=True, text=True, env=env, check=True,
+        cwd=os.path.dirname(os.path.abspath(__file__)),
     )
     return res.stdout.strip()
 
