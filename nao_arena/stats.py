@@ -1,4 +1,4 @@
-"""Collision statistics and per-robot metrics of one episode (numpy only).
+"""Collision statistics and per-robot metrics of one episode (numpy and numba).
 
 The caller (the control loop) makes one call per control step::
 
@@ -27,8 +27,10 @@ below 0 and ends when the separation at a step's end exceeds the
 hysteresis; it is recorded once, with its start time, the bodies, the
 relative normal speed at impact (m/s, from the velocities at the step's
 start) and the maximum penetration depth over the episode (m). Pairs are
-found by a sort-and-sweep broad phase on the swept bounding boxes, in
-numpy.
+found by a sort-and-sweep broad phase on the swept bounding boxes; the
+per-pair work of a step is one numba-compiled kernel (same float operations
+as the numpy functions here, so bit-identical results), and only the rare
+contact events are handled in Python.
 
 Per robot: collisions (contact episodes it took part in, walls included),
 near misses (proximity episodes with another body, separation below
@@ -57,6 +59,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit, types
+from numba.typed import Dict
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
@@ -237,26 +241,13 @@ class EpisodeSummary:
 def sweep_pairs(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntArray]:
     """All pairs (i < j) of overlapping axis-aligned boxes lo, hi (n, 2): sort and sweep on x.
 
-    Deterministic order (stable sort on lo x); cost O(n log n + pairs).
+    Deterministic order: by the boxes' rank in a stable sort on lo x, first of the pair,
+    then second (i, j are the pair's smaller and larger index); cost O(n log n + pairs).
+    Compiled with numba.
     """
-    n = len(lo)
-    if n < 2:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty
-    order = np.argsort(lo[:, 0], kind="stable")
-    slo, shi = lo[order], hi[order]
-    idx = np.arange(n)
-    counts = np.searchsorted(slo[:, 0], shi[:, 0], side="right") - idx - 1
-    np.maximum(counts, 0, out=counts)
-    total = int(counts.sum())
-    if total == 0:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty
-    first = np.repeat(idx, counts)
-    second = np.arange(total) - np.repeat(np.cumsum(counts) - counts - idx - 1, counts)
-    keep = (slo[second, 1] <= shi[first, 1]) & (slo[first, 1] <= shi[second, 1])
-    a, b = order[first[keep]], order[second[keep]]
-    return np.minimum(a, b), np.maximum(a, b)
+    lo = np.ascontiguousarray(lo, dtype=float).reshape(-1, 2)
+    hi = np.ascontiguousarray(hi, dtype=float).reshape(-1, 2)
+    return _sweep_pairs_kernel(lo, hi)
 
 
 def swept_disc_distances(
@@ -381,7 +372,391 @@ def _first_disc_touch(d0: np.ndarray, d1: np.ndarray, reach: float) -> tuple[flo
     return t, (np.array([-wx / wn, -wy / wn]) if wn > 0 else np.array([1.0, 0.0]))
 
 
+# --------------------------------------------------------------------------- compiled step
+#
+# A step's work (robot metrics, broad phase, TTC, swept distances, episode flags)
+# runs in one numba kernel, pairs in the broad phase's order; where it computes a
+# value it uses the same float operations in the same order as the numpy formulas
+# above (no fastmath), so its results are bit-identical to them. Cheap squared-distance
+# tests with a wide margin skip work whose outcome is certain. Rare events (contacts
+# starting, getting deeper, ending) come back as a short list of rows that Python
+# turns into ContactEvent objects.
+
+_EV_DEEPER, _EV_START, _EV_END = 0, 1, 2  # + 3 for the wall family
+_MARGIN = 1.0 + 1e-9  # relative margin of squared-distance pre-tests before hypot
+
+
+@njit(cache=True)
+def _new_depth_map() -> Any:
+    """Deepest penetration (m) of each open contact episode, by pair key (see _step_kernel)."""
+    return Dict.empty(key_type=types.int64, value_type=types.float64)
+
+
+@njit(cache=True)
+def _sweep_pairs_kernel(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntArray]:
+    """sweep_pairs, compiled: the same pairs in the same order."""
+    n = lo.shape[0]
+    if n < 2:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    order = np.argsort(lo[:, 0], kind="mergesort")
+    slo_x = np.empty(n)
+    for r in range(n):
+        slo_x[r] = lo[order[r], 0]
+    total = 0
+    for r in range(n):
+        top = hi[order[r], 0]
+        s = r + 1
+        while s < n and slo_x[s] <= top:
+            s += 1
+        total += s - r - 1
+    out_a = np.empty(total, dtype=np.intp)
+    out_b = np.empty(total, dtype=np.intp)
+    k = 0
+    for r in range(n):
+        a = order[r]
+        top = hi[a, 0]
+        lo_y, hi_y = lo[a, 1], hi[a, 1]
+        s = r + 1
+        while s < n and slo_x[s] <= top:
+            b = order[s]
+            if lo[b, 1] <= hi_y and lo_y <= hi[b, 1]:
+                out_a[k] = min(a, b)
+                out_b[k] = max(a, b)
+                k += 1
+            s += 1
+    return out_a[:k], out_b[:k]
+
+
+@njit(cache=True, inline="always")
+def _end_separation(p1: FloatArray, radii: FloatArray, i: int, j: int, out: FloatArray,
+                    q: int) -> None:
+    """out[q] = separation (m) of bodies i, j at positions p1, unless already computed."""
+    if math.isnan(out[q]):
+        out[q] = math.hypot(p1[j, 0] - p1[i, 0], p1[j, 1] - p1[i, 1]) - (radii[i] + radii[j])
+
+
+@njit(cache=True, inline="always")
+def _sorts_after(xa: float, a: int, xb: float, b: int) -> bool:
+    """Whether key (xa, a) comes after (xb, b) in a stable sort on x (NaN last, as numpy)."""
+    if xa > xb:
+        return True
+    if xa < xb:
+        return False
+    if xa == xb:
+        return a > b
+    na, nb = math.isnan(xa), math.isnan(xb)
+    return (na and not nb) or (na and nb and a > b)
+
+
+@njit(cache=True, inline="always")
+def _clip01(x: float) -> float:
+    return min(max(x, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def _point_segment_1(px: float, py: float, ax: float, ay: float, bx: float,
+                     by: float) -> float:
+    """_point_segment for one point and segment (same operations)."""
+    abx, aby = bx - ax, by - ay
+    ll = abx * abx + aby * aby
+    apx, apy = px - ax, py - ay
+    t = _clip01((apx * abx + apy * aby) / (ll if ll > 0 else 1.0))
+    return math.hypot(apx - abx * t, apy - aby * t)
+
+
+@njit(cache=True, inline="always")
+def _segment_distance_1(p0x: float, p0y: float, p1x: float, p1y: float, ax: float,
+                        ay: float, bx: float, by: float) -> float:
+    """segment_distances for one pair (same operations)."""
+    ex, ey = p1x - p0x, p1y - p0y
+    fx, fy = bx - ax, by - ay
+    o1 = fx * (p0y - ay) - fy * (p0x - ax)
+    o2 = fx * (p1y - ay) - fy * (p1x - ax)
+    o3 = ex * (ay - p0y) - ey * (ax - p0x)
+    o4 = ex * (by - p0y) - ey * (bx - p0x)
+    if o1 * o2 < 0 and o3 * o4 < 0:
+        return 0.0
+    return min(
+        min(_point_segment_1(p0x, p0y, ax, ay, bx, by),
+            _point_segment_1(p1x, p1y, ax, ay, bx, by)),
+        min(_point_segment_1(ax, ay, p0x, p0y, p1x, p1y),
+            _point_segment_1(bx, by, p0x, p0y, p1x, p1y)),
+    )
+
+
+@njit(cache=True, error_model="numpy")
+def _step_kernel(
+    t: float, dt: float, p0: FloatArray, p1: FloatArray, v1: FloatArray, acc: FloatArray,
+    a_prev: FloatArray, has_prev: bool, goal: NDArray[np.bool_],
+    radii: FloatArray, is_robot: NDArray[np.bool_],
+    wall_lo: FloatArray, wall_hi: FloatArray, wall_segs: FloatArray, wall_radii: FloatArray,
+    wall_normals: FloatArray, cfg: FloatArray, order: IntArray, n_prox: int,
+    touch_bb: NDArray[np.bool_], touch_bw: NDArray[np.bool_], prox: NDArray[np.bool_],
+    prox_contact: NDArray[np.bool_], depth: Any, path_length: FloatArray,
+    adjustments: NDArray[np.int64],
+    reached: NDArray[np.bool_], time_to_goal: FloatArray, min_sep: FloatArray,
+    min_ttc: FloatArray, near_misses: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], FloatArray, int]:
+    """One control step of EpisodeStats (see EpisodeStats.update); arrays updated in place.
+
+    cfg = (separation_range, ttc_horizon, near_miss_distance, hysteresis,
+    adjustment_threshold) in m, s, m, m, m/s^2; depth: the deepest penetration (m)
+    of each open contact episode (see _new_depth_map). Returns the contact events as
+    rows (code, a, b) with a value each (code _EV_DEEPER: the new deepest penetration
+    m; _EV_START: the separation m; _EV_END: unused; +3 for walls, b the wall index),
+    in the order to apply them, and the new proximity count.
+    """
+    sep_range, ttc_h, near_d, hyst, adj = cfg[0], cfg[1], cfg[2], cfg[3], cfg[4]
+    n = radii.shape[0]
+    nw = wall_radii.shape[0]
+    # per robot: path length and adjustments until the goal, time to goal
+    for k in range(n):
+        active = is_robot[k] and not reached[k]
+        if active:
+            path_length[k] += math.hypot(p1[k, 0] - p0[k, 0], p1[k, 1] - p0[k, 1])
+            if has_prev:
+                dax, day = acc[k, 0] - a_prev[k, 0], acc[k, 1] - a_prev[k, 1]
+                sq = dax * dax + day * day  # hypot is slow: decided by sq unless close
+                if adj >= 0.0 and sq > adj * adj * _MARGIN:
+                    adjustments[k] += 1
+                elif (adj < 0.0 or sq >= adj * adj / _MARGIN) and math.hypot(dax, day) > adj:
+                    adjustments[k] += 1
+            if goal[k]:
+                time_to_goal[k] = t + dt
+                reached[k] = True
+        a_prev[k, 0] = acc[k, 0]
+        a_prev[k, 1] = acc[k, 1]
+
+    # broad phase: sort and sweep (as in sweep_pairs, same order) over boxes that cover
+    # each body's swept step, its look-ahead path and the separation range, and the
+    # wall boxes; each pair is handled where the sweep finds it
+    pad = 0.5 * sep_range
+    total = n + nw
+    lo_x = np.empty(total)
+    hi_x = np.empty(total)
+    lo_y = np.empty(total)
+    hi_y = np.empty(total)
+    # step boxes grown by radius + pad + tol: bodies whose step boxes do not overlap
+    # are surely beyond the separation range (tol >> rounding of the exact distance)
+    scale = pad
+    for k in range(n):
+        scale = max(scale, abs(p0[k, 0]), abs(p0[k, 1]), abs(p1[k, 0]), abs(p1[k, 1]),
+                    radii[k])
+    tol = 1e-9 * (1.0 + 4.0 * scale)
+    step_box = np.empty((n, 4))
+    for k in range(n):
+        grow = radii[k] + pad
+        x0, x1 = min(p0[k, 0], p1[k, 0]), max(p0[k, 0], p1[k, 0])
+        y0, y1 = min(p0[k, 1], p1[k, 1]), max(p0[k, 1], p1[k, 1])
+        ax = p1[k, 0] + v1[k, 0] * ttc_h
+        ay = p1[k, 1] + v1[k, 1] * ttc_h
+        lo_x[k], hi_x[k] = min(x0, ax) - grow, max(x1, ax) + grow
+        lo_y[k], hi_y[k] = min(y0, ay) - grow, max(y1, ay) + grow
+        step_box[k, 0], step_box[k, 1] = x0 - grow - tol, x1 + grow + tol
+        step_box[k, 2], step_box[k, 3] = y0 - grow - tol, y1 + grow + tol
+    for w in range(nw):
+        lo_x[n + w], hi_x[n + w] = wall_lo[w, 0], wall_hi[w, 0]
+        lo_y[n + w], hi_y[n + w] = wall_lo[w, 1], wall_hi[w, 1]
+    # the stable order of lo_x (as np.argsort(kind="stable")): insertion sort from the
+    # previous step's order, which the boxes change little
+    for r in range(1, total):
+        o = order[r]
+        x = lo_x[o]
+        s = r - 1
+        while s >= 0 and _sorts_after(lo_x[order[s]], order[s], x, o):
+            order[s + 1] = order[s]
+            s -= 1
+        order[s + 1] = o
+    slo_x = lo_x[order]
+    shi_x = hi_x[order]
+    slo_y = lo_y[order]
+    shi_y = hi_y[order]
+    # x overlaps: box r meets boxes r + 1 .. ends[r] - 1 (in sorted order)
+    ends = np.empty(total, dtype=np.intp)
+    count = 0
+    for r in range(total):
+        top = shi_x[r]
+        s = r + 1
+        while s < total and slo_x[s] <= top:
+            s += 1
+        ends[r] = s
+        count += s - r - 1
+    # those whose y ranges overlap too (branch-free: unpredictable tests are costly)
+    pa = np.empty(count, dtype=np.intp)
+    pb = np.empty(count, dtype=np.intp)
+    m = 0
+    for r in range(total):
+        y_lo, y_hi, first = slo_y[r], shi_y[r], order[r]
+        for s in range(r + 1, ends[r]):
+            pa[m] = min(first, order[s])
+            pb[m] = max(first, order[s])
+            m += (slo_y[s] <= y_hi) & (y_lo <= shi_y[s])
+
+    # body pairs: constant-velocity TTC at the step's end (pairs with a robot); those
+    # whose step boxes meet are candidates for the exact swept separation
+    cand = np.empty(m, dtype=np.intp)
+    wall_pairs = np.empty(m, dtype=np.intp)
+    nc = 0
+    nwp = 0
+    for q in range(m):
+        i, j = pa[q], pb[q]
+        if j >= n:
+            wall_pairs[nwp] = q
+            nwp += i < n
+            continue
+        reach = radii[i] + radii[j]
+        d1x, d1y = p1[j, 0] - p1[i, 0], p1[j, 1] - p1[i, 1]
+        wx, wy = v1[j, 0] - v1[i, 0], v1[j, 1] - v1[i, 1]
+        aa = wx * wx + wy * wy
+        bb = d1x * wx + d1y * wy
+        cc = d1x * d1x + d1y * d1y - reach * reach
+        disc = bb * bb - aa * cc
+        # first root of |d + w t| = reach, stable form c / (-b + sqrt(disc)); 0 if overlapping
+        ttc = cc / max(math.sqrt(max(disc, 0.0)) - bb, 1e-300)
+        ttc = 0.0 if cc <= 0.0 else ttc
+        hit = (((bb < 0.0) & (disc >= 0.0)) | (cc <= 0.0)) & (is_robot[i] | is_robot[j])
+        ttc = ttc if hit & (ttc <= ttc_h) else math.inf
+        min_ttc[i] = min(min_ttc[i], ttc)
+        min_ttc[j] = min(min_ttc[j], ttc)
+        cand[nc] = q
+        nc += ((step_box[i, 0] <= step_box[j, 1]) & (step_box[j, 0] <= step_box[i, 1])
+               & (step_box[i, 2] <= step_box[j, 3]) & (step_box[j, 2] <= step_box[i, 3]))
+
+    # exact minimum separation over the step; the pairs within range are kept. hypot is
+    # slow: it is skipped where squared distances (with a margin far above rounding)
+    # show that the pair is beyond the range, or within it but with a separation that
+    # changes nothing (not below either minimum, the near-miss distance or 0; then inf
+    # is stored). The separation at the step's end (bend) is computed when needed.
+    bi = np.empty(nc, dtype=np.intp)
+    bj = np.empty(nc, dtype=np.intp)
+    bsep = np.empty(nc)
+    bend = np.full(nc, np.nan)
+    nb = 0
+    any_near = False
+    for c in range(nc):
+        i, j = pa[cand[c]], pb[cand[c]]
+        reach = radii[i] + radii[j]
+        d0x, d0y = p0[j, 0] - p0[i, 0], p0[j, 1] - p0[i, 1]
+        d1x, d1y = p1[j, 0] - p1[i, 0], p1[j, 1] - p1[i, 1]
+        wx, wy = d1x - d0x, d1y - d0y
+        ww = wx * wx + wy * wy
+        dw = d0x * wx + d0y * wy
+        tt = _clip01(-dw / (ww if ww > 0.0 else 1.0))
+        mx, my = d0x + wx * tt, d0y + wy * tt
+        msq = mx * mx + my * my
+        far = (reach + sep_range) * (reach + sep_range)
+        if msq > far * _MARGIN:
+            continue  # surely beyond the range
+        low = max(max(min_sep[i], min_sep[j]), max(near_d, 0.0))
+        near = (reach + low) * (reach + low)
+        if low < sep_range and msq < far / _MARGIN and msq > near * _MARGIN:
+            sep = math.inf  # surely within the range, and surely >= low
+        else:
+            sep = math.hypot(mx, my) - reach
+            if not sep < sep_range:
+                continue
+            min_sep[i] = min(min_sep[i], sep)
+            min_sep[j] = min(min_sep[j], sep)
+            any_near |= sep < near_d
+        bi[nb], bj[nb], bsep[nb] = i, j, sep
+        nb += 1
+
+    # body-wall pairs: cheap bound by the wall's supporting line, then the exact
+    # distance; open contacts stay candidates until they end
+    wi = np.empty(nwp, dtype=np.intp)
+    wj = np.empty(nwp, dtype=np.intp)
+    wsep = np.empty(nwp)
+    wend = np.empty(nwp)
+    nwc = 0
+    for c in range(nwp):
+        i, w = pa[wall_pairs[c]], pb[wall_pairs[c]] - n
+        reach = radii[i] + wall_radii[w]
+        ax, ay = wall_segs[w, 0, 0], wall_segs[w, 0, 1]
+        bx, by = wall_segs[w, 1, 0], wall_segs[w, 1, 1]
+        nx, ny = wall_normals[w, 0], wall_normals[w, 1]
+        side0 = (p0[i, 0] - ax) * nx + (p0[i, 1] - ay) * ny
+        side1 = (p1[i, 0] - ax) * nx + (p1[i, 1] - ay) * ny
+        bound = 0.0 if side0 * side1 <= 0.0 else min(abs(side0), abs(side1))
+        if bound < reach or touch_bw[i, w]:
+            wi[nwc], wj[nwc] = i, w
+            wsep[nwc] = _segment_distance_1(p0[i, 0], p0[i, 1], p1[i, 0], p1[i, 1],
+                                            ax, ay, bx, by) - reach
+            wend[nwc] = _point_segment_1(p1[i, 0], p1[i, 1], ax, ay, bx, by) - reach
+            nwc += 1
+
+    # contact episodes of both families -> event rows
+    codes = np.empty((2 * (nb + nwc), 3), dtype=np.int64)
+    vals = np.empty(2 * (nb + nwc))
+    ne = 0
+    stride = n + nw  # pair key: i * stride + j (bodies), i * stride + n + w (walls)
+    for fam in range(2):
+        cnt = nb if fam == 0 else nwc
+        ii = bi if fam == 0 else wi
+        jj = bj if fam == 0 else wj
+        ss = bsep if fam == 0 else wsep
+        ee = bend if fam == 0 else wend
+        state = touch_bb if fam == 0 else touch_bw
+        base = 3 * fam
+        for q in range(cnt):  # open episodes that got deeper than ever
+            if state[ii[q], jj[q]] and ss[q] < 0.0:
+                key = ii[q] * stride + jj[q] + fam * n
+                if -ss[q] > depth[key]:
+                    depth[key] = -ss[q]
+                    codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + _EV_DEEPER, ii[q], jj[q]
+                    vals[ne] = -ss[q]
+                    ne += 1
+        start = ne
+        for q in range(cnt):  # new episodes
+            if ss[q] < 0.0 and not state[ii[q], jj[q]]:
+                codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + _EV_START, ii[q], jj[q]
+                vals[ne] = ss[q]
+                ne += 1
+                depth[ii[q] * stride + jj[q] + fam * n] = -ss[q]
+        for q in range(cnt):  # ended episodes (a new one may end at once)
+            live = state[ii[q], jj[q]] or ss[q] < 0.0
+            if live and fam == 0:
+                _end_separation(p1, radii, ii[q], jj[q], ee, q)
+            if live and ee[q] > hyst:
+                codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + _EV_END, ii[q], jj[q]
+                vals[ne] = 0.0
+                ne += 1
+                depth.pop(ii[q] * stride + jj[q] + fam * n)
+        for r in range(start, ne):
+            if codes[r, 0] == base + _EV_START:
+                state[codes[r, 1], codes[r, 2]] = True
+        for r in range(start, ne):
+            if codes[r, 0] == base + _EV_END:
+                state[codes[r, 1], codes[r, 2]] = False
+
+    # proximity episodes (near misses)
+    if nb > 0 and (n_prox != 0 or any_near):
+        limit = near_d + hyst
+        n_prox = 0
+        for q in range(nb):
+            i, j = bi[q], bj[q]
+            live = prox[i, j] or bsep[q] < near_d
+            had = prox_contact[i, j] or bsep[q] < 0.0
+            if live:
+                _end_separation(p1, radii, i, j, bend, q)
+            ended = live and bend[q] > limit
+            if ended and not had:
+                near_misses[i] += 1
+                near_misses[j] += 1
+            keep = live and not ended
+            prox[i, j] = keep
+            prox_contact[i, j] = had and keep
+            n_prox += keep
+    return codes[:ne], vals[:ne], n_prox
+
+
 # --------------------------------------------------------------------------- the recorder
+
+
+def _c_array(x: ArrayLike, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
+    """x as a C-contiguous array of dtype and shape, broadcast if need be (x itself when
+    it already is one)."""
+    a = np.ascontiguousarray(x, dtype=dtype)
+    return a if a.shape == shape else np.ascontiguousarray(np.broadcast_to(a, shape))
 
 
 class EpisodeStats:
@@ -394,9 +769,11 @@ class EpisodeStats:
     velocity is used).
 
     Episode flags are kept per pair in dense boolean (N, N) and (N, W) arrays
-    (N^2 bytes each: 9 MB for 3000 bodies); candidate pairs come from one sort-and-sweep
-    per step over boxes that cover each body's swept step, its
-    constant-velocity path over the TTC horizon and the separation range.
+    (N^2 bytes each: 9 MB for 3000 bodies), the depth of open contacts in a small
+    map; candidate pairs come from one sort-and-sweep per step over boxes that
+    cover each body's swept step, its constant-velocity path over the TTC horizon
+    and the separation range. The first update in a process loads (or, the first
+    time, compiles and caches) the numba kernel.
     """
 
     def __init__(
@@ -410,7 +787,7 @@ class EpisodeStats:
         velocities: ArrayLike | None = None,
     ) -> None:
         self.config = config or StatsConfig()
-        self.radii = np.asarray(radii, dtype=float)
+        self.radii = np.ascontiguousarray(radii, dtype=float).reshape(-1)
         self.n = n = len(self.radii)
         self.kinds = tuple(kinds)
         self.names = tuple(names) if names is not None else tuple(f"body{i}" for i in range(n))
@@ -418,8 +795,8 @@ class EpisodeStats:
         if walls is None:
             segs, wr = np.zeros((0, 2, 2)), np.zeros(0)
         else:
-            segs = np.asarray(walls[0], dtype=float).reshape(-1, 2, 2)
-            wr = np.asarray(walls[1], dtype=float).reshape(-1)
+            segs = np.ascontiguousarray(walls[0], dtype=float).reshape(-1, 2, 2)
+            wr = np.ascontiguousarray(walls[1], dtype=float).reshape(-1)
         self.wall_segments, self.wall_radii = segs, wr
         self.n_walls = len(wr)
         pad = 0.5 * self.config.separation_range
@@ -437,7 +814,7 @@ class EpisodeStats:
         self._touch_bb = np.zeros((n, n), dtype=bool)
         self._touch_bw = np.zeros((n, self.n_walls), dtype=bool)
         self._open_events: dict[tuple[int, int, bool], ContactEvent] = {}
-        self._open_bb = self._open_bw = 0
+        self._depth = _new_depth_map()
         self._prox = np.zeros((n, n), dtype=bool)
         self._prox_contact = np.zeros((n, n), dtype=bool)
         self._n_prox = 0
@@ -451,6 +828,10 @@ class EpisodeStats:
         self.path_length = np.zeros(n)
         self.adjustments = np.zeros(n, dtype=np.int64)
         self._a_prev: FloatArray | None = None
+        cfg = self.config
+        self._cfg = np.array([cfg.separation_range, cfg.ttc_horizon, cfg.near_miss_distance,
+                              cfg.hysteresis, cfg.adjustment_threshold], dtype=float)
+        self._order = np.arange(n + self.n_walls)  # broad phase order, kept between steps
         self.time = 0.0
         self.steps = 0
 
@@ -470,34 +851,30 @@ class EpisodeStats:
         positions_before/after (N, 2) m; velocities_after (N, 2) m/s;
         commanded_accels (N, 2) m/s^2; goal_reached (N,) bool at the step's end.
         """
-        p0 = np.asarray(positions_before, dtype=float)
-        p1 = np.asarray(positions_after, dtype=float)
-        v1 = np.asarray(velocities_after, dtype=float)
-        acc = np.asarray(commanded_accels, dtype=float)
-        dt = self.dt
-        v0 = self._v_prev if self._v_prev is not None else (p1 - p0) / dt
-        self._robot_metrics(t, p0, p1, acc, np.asarray(goal_reached, dtype=bool))
-
-        cfg = self.config
         n = self.n
-        pad = 0.5 * cfg.separation_range
-        ahead = p1 + v1 * cfg.ttc_horizon
-        grow = (self.radii + pad)[:, None]
-        lo = np.minimum(np.minimum(p0, p1), ahead) - grow
-        hi = np.maximum(np.maximum(p0, p1), ahead) + grow
-        if self.n_walls:
-            lo = np.concatenate([lo, self._wall_lo])
-            hi = np.concatenate([hi, self._wall_hi])
-        i, j = sweep_pairs(lo, hi)
-        bodies = j < n
+        p0 = _c_array(positions_before, np.float64, (n, 2))
+        p1 = _c_array(positions_after, np.float64, (n, 2))
+        v1 = _c_array(velocities_after, np.float64, (n, 2))
+        acc = _c_array(commanded_accels, np.float64, (n, 2))
+        goal = _c_array(goal_reached, np.bool_, (n,))
+        t = float(t)
+        has_prev = self._a_prev is not None
+        if not has_prev:
+            self._a_prev = np.empty((n, 2))
+        codes, vals, self._n_prox = _step_kernel(
+            t, self.dt, p0, p1, v1, acc, self._a_prev, has_prev, goal,
+            self.radii, self.is_robot, self._wall_lo, self._wall_hi, self.wall_segments,
+            self.wall_radii, self._wall_normals, self._cfg, self._order, self._n_prox,
+            self._touch_bb, self._touch_bw, self._prox, self._prox_contact, self._depth,
+            self.path_length, self.adjustments, self.reached, self.time_to_goal,
+            self.min_separation, self.min_ttc, self.near_misses,
+        )
         started: list[ContactEvent] = []
-        self._body_pairs(t, i[bodies], j[bodies], p0, p1, v0, v1, started)
-        if self.n_walls:
-            walls = (i < n) & ~bodies
-            self._wall_pairs(t, i[walls], j[walls] - n, p0, p1, v0, started)
+        if len(codes):
+            self._apply_events(t, codes.tolist(), vals.tolist(), p0, p1, v1, started)
         self._v_prev = v1.copy()
         self.steps += 1
-        self.time = t + dt
+        self.time = t + self.dt
         started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
         return started
 
@@ -507,102 +884,32 @@ class EpisodeStats:
         self.faults.append(ev)
         return ev
 
-    def _robot_metrics(
-        self, t: float, p0: FloatArray, p1: FloatArray, acc: FloatArray,
-        goal: NDArray[np.bool_],
+    def _apply_events(
+        self, t: float, codes: list[list[int]], vals: list[float], p0: FloatArray,
+        p1: FloatArray, v1: FloatArray, started: list[ContactEvent],
     ) -> None:
-        """Path length and adjustments until the goal; time to goal."""
-        active = self.is_robot & ~self.reached
-        step = p1 - p0
-        self.path_length += np.where(active, np.hypot(step[:, 0], step[:, 1]), 0.0)
-        if self._a_prev is not None:
-            da = acc - self._a_prev
-            change = np.hypot(da[:, 0], da[:, 1]) > self.config.adjustment_threshold
-            self.adjustments += active & change
-        self._a_prev = acc.copy()
-        new_goal = goal & active
-        if np.any(new_goal):
-            self.time_to_goal[new_goal] = t + self.dt
-            self.reached |= new_goal
-
-    def _body_pairs(
-        self, t: float, i: IntArray, j: IntArray, p0: FloatArray, p1: FloatArray,
-        v0: FloatArray, v1: FloatArray, started: list[ContactEvent],
-    ) -> None:
-        cfg = self.config
-        reach = self.radii[i] + self.radii[j]
-        d0 = p0[j] - p0[i]
-        d1 = p1[j] - p1[i]
-        self._ttc(i, j, d1, v1[j] - v1[i], reach)
-        dmin, _ = swept_disc_distances(d0, d1)
-        sep = dmin - reach
-        # every open episode has sep < separation_range (its separation at the step's
-        # start was below it), so pairs beyond it can be dropped here
-        near = np.flatnonzero(sep < cfg.separation_range)
-        if len(near) == 0:
-            return
-        if len(near) < len(sep):
-            i, j, sep, reach, d0, d1 = i[near], j[near], sep[near], reach[near], d0[near], d1[near]
-        np.minimum.at(self.min_separation, i, sep)
-        np.minimum.at(self.min_separation, j, sep)
-        sep_end = np.hypot(d1[:, 0], d1[:, 1]) - reach
-        touching = sep < 0.0
-        if self._open_bb or np.any(touching):
-            self._contacts(t, i, j, sep, sep_end, touching, False, started,
-                           lambda k: self._disc_event(t, int(i[k]), int(j[k]), d0[k], d1[k],
-                                                      float(reach[k]), v0, float(sep[k])))
-        # proximity episodes (near misses)
-        new = sep < cfg.near_miss_distance
-        if self._n_prox == 0 and not np.any(new):
-            return
-        was = self._prox[i, j]
-        had = self._prox_contact[i, j] | touching
-        live = was | new
-        ended = live & (sep_end > cfg.near_miss_distance + cfg.hysteresis)
-        missed = ended & ~had
-        if np.any(missed):
-            np.add.at(self.near_misses, i[missed], 1)
-            np.add.at(self.near_misses, j[missed], 1)
-        keep = live & ~ended
-        self._prox[i, j] = keep
-        self._prox_contact[i, j] = had & keep
-        self._n_prox = int(np.count_nonzero(keep))
-
-    def _contacts(
-        self, t: float, i: IntArray, j: IntArray, sep: FloatArray, sep_end: FloatArray,
-        touching: NDArray[np.bool_], wall: bool, started: list[ContactEvent],
-        make: Any,
-    ) -> None:
-        """Advance the contact episodes of candidate pairs (i, j) of one family."""
-        state = self._touch_bw if wall else self._touch_bb
-        was = state[i, j]
-        new = touching & ~was
-        live = was | new
-        if not np.any(live):
-            return
-        ended = live & (sep_end > self.config.hysteresis)
-        for k in np.flatnonzero(was).tolist():
-            ev = self._open_events[(int(i[k]), int(j[k]), wall)]
-            ev.max_penetration = max(ev.max_penetration, float(-sep[k]))
-        for k in np.flatnonzero(new).tolist():
-            ev = make(k)
-            a, b = int(i[k]), int(j[k])
-            self._open_events[(a, b, wall)] = ev
-            self.contacts.append(ev)
-            started.append(ev)
-            self.collisions[a] += 1
-            if wall:
-                self.wall_collisions[a] += 1
+        """Contact episodes that deepened, started or ended in this step (the kernel's rows)."""
+        v0 = self._v_prev if self._v_prev is not None else (p1 - p0) / self.dt
+        for (code, a, b), val in zip(codes, vals, strict=True):
+            wall = code >= 3
+            kind = code - 3 if wall else code
+            if kind == _EV_DEEPER:
+                ev = self._open_events[(a, b, wall)]
+                ev.max_penetration = max(ev.max_penetration, val)
+            elif kind == _EV_START:
+                if wall:
+                    ev = self._wall_event(t, a, b, p0, p1, v0, val)
+                    self.wall_collisions[a] += 1
+                else:
+                    ev = self._disc_event(t, a, b, p0[b] - p0[a], p1[b] - p1[a],
+                                          float(self.radii[a] + self.radii[b]), v0, val)
+                    self.collisions[b] += 1
+                self.collisions[a] += 1
+                self._open_events[(a, b, wall)] = ev
+                self.contacts.append(ev)
+                started.append(ev)
             else:
-                self.collisions[b] += 1
-        for k in np.flatnonzero(ended).tolist():
-            self._open_events.pop((int(i[k]), int(j[k]), wall)).end_time = t + self.dt
-        state[i[live], j[live]] = (live & ~ended)[live]
-        n_open = sum(1 for key in self._open_events if key[2] == wall)
-        if wall:
-            self._open_bw = n_open
-        else:
-            self._open_bb = n_open
+                self._open_events.pop((a, b, wall)).end_time = t + self.dt
 
     def _disc_event(
         self, t: float, a: int, b: int, d0: FloatArray, d1: FloatArray, reach: float,
@@ -616,57 +923,18 @@ class EpisodeStats:
             impact_speed=max(0.0, -float(vrel @ nrm)), max_penetration=-sep,
         )
 
-    def _wall_pairs(
-        self, t: float, i: IntArray, w: IntArray, p0: FloatArray, p1: FloatArray,
-        v0: FloatArray, started: list[ContactEvent],
-    ) -> None:
-        segs = self.wall_segments
-        reach = self.radii[i] + self.wall_radii[w]
-        # cheap lower bound: distance of the path to the wall's supporting line
-        side0 = np.einsum("kd,kd->k", p0[i] - segs[w, 0], self._wall_normals[w])
-        side1 = np.einsum("kd,kd->k", p1[i] - segs[w, 0], self._wall_normals[w])
-        bound = np.where(side0 * side1 <= 0.0, 0.0, np.minimum(np.abs(side0), np.abs(side1)))
-        cand = np.flatnonzero(bound < reach)
-        if len(cand) == 0 and self._open_bw == 0:
-            return
-        i, w, reach = i[cand], w[cand], reach[cand]
-        a, b = segs[w, 0], segs[w, 1]
-        sep = segment_distances(p0[i], p1[i], a, b) - reach
-        sep_end = _point_segment(p1[i], a, b) - reach
-
-        def make(k: int) -> ContactEvent:
-            body, wall = int(i[k]), int(w[k])
-            tc, nrm = _first_wall_touch(p0[body], p1[body], a[k], b[k], float(reach[k]))
-            return ContactEvent(
-                time=t + tc * self.dt, a=body, b=wall, kind_a=self.kinds[body], kind_b="wall",
-                name_a=self.names[body], name_b=f"wall{wall}",
-                impact_speed=max(0.0, -float(v0[body] @ nrm)), max_penetration=float(-sep[k]),
-            )
-
-        self._contacts(t, i, w, sep, sep_end, sep < 0.0, True, started, make)
-
-    def _ttc(
-        self, i: IntArray, j: IntArray, d: FloatArray, w: FloatArray, reach: FloatArray
-    ) -> None:
-        """Constant-velocity time to collision at the step's end, for pairs with a robot.
-
-        d, w: relative positions (m) and velocities (m/s) of j with respect to i.
-        """
-        aa = w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1]
-        bb = d[:, 0] * w[:, 0] + d[:, 1] * w[:, 1]
-        cc = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] - reach * reach
-        disc = bb * bb - aa * cc
-        # first root of |d + w t| = reach, stable form c / (-b + sqrt(disc)); 0 if overlapping
-        hit = ((bb < 0.0) & (disc >= 0.0)) | (cc <= 0.0)
-        hit &= self.is_robot[i] | self.is_robot[j]
-        if not np.any(hit):
-            return
-        k = np.flatnonzero(hit)
-        root = np.sqrt(np.maximum(disc[k], 0.0))
-        ttc = np.where(cc[k] <= 0.0, 0.0, cc[k] / np.maximum(root - bb[k], 1e-300))
-        soon = ttc <= self.config.ttc_horizon
-        np.minimum.at(self.min_ttc, i[k[soon]], ttc[soon])
-        np.minimum.at(self.min_ttc, j[k[soon]], ttc[soon])
+    def _wall_event(
+        self, t: float, body: int, wall: int, p0: FloatArray, p1: FloatArray, v0: FloatArray,
+        sep: float,
+    ) -> ContactEvent:
+        reach = float(self.radii[body] + self.wall_radii[wall])
+        seg = self.wall_segments[wall]
+        tc, nrm = _first_wall_touch(p0[body], p1[body], seg[0], seg[1], reach)
+        return ContactEvent(
+            time=t + tc * self.dt, a=body, b=wall, kind_a=self.kinds[body], kind_b="wall",
+            name_a=self.names[body], name_b=f"wall{wall}",
+            impact_speed=max(0.0, -float(v0[body] @ nrm)), max_penetration=-sep,
+        )
 
     # ------------------------------------------------------------------ results
 

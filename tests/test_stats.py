@@ -308,3 +308,253 @@ def test_first_wall_touch_time_against_sampling() -> None:
         assert np.hypot(*nrm) == pytest.approx(1.0)
         checked += 1
     assert checked > 30
+
+
+# ---------------------------------------------------------------- compiled kernel vs numpy
+
+
+def sweep_pairs_numpy(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The sort-and-sweep in numpy (the specification of sweep_pairs, order included)."""
+    n = len(lo)
+    empty = np.zeros(0, dtype=np.intp)
+    if n < 2:
+        return empty, empty
+    order = np.argsort(lo[:, 0], kind="stable")
+    slo, shi = lo[order], hi[order]
+    idx = np.arange(n)
+    counts = np.searchsorted(slo[:, 0], shi[:, 0], side="right") - idx - 1
+    np.maximum(counts, 0, out=counts)
+    total = int(counts.sum())
+    if total == 0:
+        return empty, empty
+    first = np.repeat(idx, counts)
+    second = np.arange(total) - np.repeat(np.cumsum(counts) - counts - idx - 1, counts)
+    keep = (slo[second, 1] <= shi[first, 1]) & (slo[first, 1] <= shi[second, 1])
+    a, b = order[first[keep]], order[second[keep]]
+    return np.minimum(a, b), np.maximum(a, b)
+
+
+def test_sweep_pairs_same_pairs_and_order_as_numpy() -> None:
+    rng = np.random.default_rng(5)
+    for n in (0, 1, 2, 30, 300):
+        lo = rng.uniform(0, 40, size=(n, 2))
+        lo[: n // 3, 0] = np.round(lo[: n // 3, 0])  # ties in the sort key
+        hi = lo + rng.uniform(0, 5, size=(n, 2))
+        got, want = sweep_pairs(lo, hi), sweep_pairs_numpy(lo, hi)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+
+
+class ReferenceStats:
+    """EpisodeStats.update written plainly in numpy: every pair, no broad phase.
+
+    Pairs are visited in the broad phase's order (by rank of the boxes' lo x in a
+    stable sort: first the lower rank, then the higher), so contact events come out
+    in the same order. Uses the module's numpy geometry and event helpers.
+    """
+
+    def __init__(self, radii, kinds, names, walls, dt, config, velocities):
+        self.s = EpisodeStats(radii, kinds, names, walls, dt, config, velocities)
+
+    def update(self, t, p0, p1, v1, acc, goal):  # noqa: C901, PLR0915
+        from nao_arena.stats import (
+            ContactEvent,
+            _first_disc_touch,
+            _first_wall_touch,
+            _point_segment,
+        )
+
+        s, cfg = self.s, self.s.config
+        n, nw, dt = s.n, s.n_walls, s.dt
+        v0 = s._v_prev if s._v_prev is not None else (p1 - p0) / dt
+        # robot metrics
+        active = s.is_robot & ~s.reached
+        step = p1 - p0
+        s.path_length += np.where(active, np.hypot(step[:, 0], step[:, 1]), 0.0)
+        if s._a_prev is not None:
+            da = acc - s._a_prev
+            s.adjustments += active & (np.hypot(da[:, 0], da[:, 1]) > cfg.adjustment_threshold)
+        s._a_prev = acc.copy()
+        new_goal = goal & active
+        s.time_to_goal[new_goal] = t + dt
+        s.reached |= new_goal
+        # the broad phase's visiting order
+        pad = 0.5 * cfg.separation_range
+        ahead = p1 + v1 * cfg.ttc_horizon
+        lo_x = np.concatenate([np.minimum(np.minimum(p0[:, 0], p1[:, 0]), ahead[:, 0])
+                               - (s.radii + pad), s._wall_lo[:, 0]])
+        rank = np.empty(n + nw, dtype=np.int64)
+        rank[np.argsort(lo_x, kind="stable")] = np.arange(n + nw)
+
+        def visiting(a, b):
+            ra, rb = rank[a], rank[b]
+            k = np.lexsort((np.maximum(ra, rb), np.minimum(ra, rb)))
+            return a[k], b[k]
+
+        started = []
+
+        def contacts(i, j, sep, sep_end, wall, make):
+            state = s._touch_bw if wall else s._touch_bb
+            was = state[i, j]
+            touching = sep < 0.0
+            new = touching & ~was
+            live = was | new
+            ended = live & (sep_end > cfg.hysteresis)
+            for k in np.flatnonzero(was):
+                ev = s._open_events[(int(i[k]), int(j[k]), wall)]
+                ev.max_penetration = max(ev.max_penetration, float(-sep[k]))
+            for k in np.flatnonzero(new):
+                a, b = int(i[k]), int(j[k])
+                ev = make(k)
+                s._open_events[(a, b, wall)] = ev
+                s.contacts.append(ev)
+                started.append(ev)
+                s.collisions[a] += 1
+                if wall:
+                    s.wall_collisions[a] += 1
+                else:
+                    s.collisions[b] += 1
+            for k in np.flatnonzero(ended):
+                s._open_events.pop((int(i[k]), int(j[k]), wall)).end_time = t + dt
+            state[i[live], j[live]] = (live & ~ended)[live]
+
+        # body pairs
+        i, j = visiting(*np.triu_indices(n, 1))
+        reach = s.radii[i] + s.radii[j]
+        d0, d1, w = p0[j] - p0[i], p1[j] - p1[i], v1[j] - v1[i]
+        aa = w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1]
+        bb = d1[:, 0] * w[:, 0] + d1[:, 1] * w[:, 1]
+        cc = d1[:, 0] * d1[:, 0] + d1[:, 1] * d1[:, 1] - reach * reach
+        disc = bb * bb - aa * cc
+        hit = (((bb < 0.0) & (disc >= 0.0)) | (cc <= 0.0)) & (s.is_robot[i] | s.is_robot[j])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ttc = cc / np.maximum(np.sqrt(np.maximum(disc, 0.0)) - bb, 1e-300)
+        ttc = np.where(cc <= 0.0, 0.0, ttc)
+        soon = hit & (ttc <= cfg.ttc_horizon)
+        np.minimum.at(s.min_ttc, i[soon], ttc[soon])
+        np.minimum.at(s.min_ttc, j[soon], ttc[soon])
+        sep = swept_disc_distances(d0, d1)[0] - reach
+        near = np.flatnonzero(sep < cfg.separation_range)
+        if len(near):
+            i, j, sep, reach, d0, d1 = i[near], j[near], sep[near], reach[near], d0[near], d1[near]
+            np.minimum.at(s.min_separation, i, sep)
+            np.minimum.at(s.min_separation, j, sep)
+            sep_end = np.hypot(d1[:, 0], d1[:, 1]) - reach
+
+            def make_disc(k):
+                a, b = int(i[k]), int(j[k])
+                tc, nrm = _first_disc_touch(d0[k], d1[k], float(reach[k]))
+                return ContactEvent(
+                    time=t + tc * dt, a=a, b=b, kind_a=s.kinds[a], kind_b=s.kinds[b],
+                    name_a=s.names[a], name_b=s.names[b],
+                    impact_speed=max(0.0, -float((v0[b] - v0[a]) @ nrm)),
+                    max_penetration=float(-sep[k]),
+                )
+
+            contacts(i, j, sep, sep_end, False, make_disc)
+            new = sep < cfg.near_miss_distance
+            if s._n_prox or np.any(new):
+                had = s._prox_contact[i, j] | (sep < 0.0)
+                live = s._prox[i, j] | new
+                ended = live & (sep_end > cfg.near_miss_distance + cfg.hysteresis)
+                missed = ended & ~had
+                np.add.at(s.near_misses, i[missed], 1)
+                np.add.at(s.near_misses, j[missed], 1)
+                keep = live & ~ended
+                s._prox[i, j] = keep
+                s._prox_contact[i, j] = had & keep
+                s._n_prox = int(np.count_nonzero(keep))
+        # body-wall pairs: those that can touch (by the wall's line) or are in contact
+        if nw:
+            bi, bw = np.meshgrid(np.arange(n), np.arange(nw), indexing="ij")
+            first, second = visiting(bi.ravel(), bw.ravel() + n)
+            i, w = first, second - n
+            segs, nrm = s.wall_segments, s._wall_normals
+            reach = s.radii[i] + s.wall_radii[w]
+            side0 = np.sum((p0[i] - segs[w, 0]) * nrm[w], axis=1)
+            side1 = np.sum((p1[i] - segs[w, 0]) * nrm[w], axis=1)
+            bound = np.where(side0 * side1 <= 0.0, 0.0,
+                             np.minimum(np.abs(side0), np.abs(side1)))
+            c = np.flatnonzero((bound < reach) | s._touch_bw[i, w])
+            i, w, reach = i[c], w[c], reach[c]
+            a, b = segs[w, 0], segs[w, 1]
+            sep = segment_distances(p0[i], p1[i], a, b) - reach
+            sep_end = _point_segment(p1[i], a, b) - reach
+
+            def make_wall(k):
+                body, wall = int(i[k]), int(w[k])
+                tc, nrm_k = _first_wall_touch(p0[body], p1[body], a[k], b[k], float(reach[k]))
+                return ContactEvent(
+                    time=t + tc * dt, a=body, b=wall, kind_a=s.kinds[body], kind_b="wall",
+                    name_a=s.names[body], name_b=f"wall{wall}",
+                    impact_speed=max(0.0, -float(v0[body] @ nrm_k)),
+                    max_penetration=float(-sep[k]),
+                )
+
+            contacts(i, w, sep, sep_end, True, make_wall)
+        s._v_prev = v1.copy()
+        s.steps += 1
+        s.time = t + dt
+        started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
+        return started
+
+
+def random_scene(seed: int, n: int, steps: int):
+    """Bodies wandering in a walled 10 m x 10 m box (no physics: they pass through each
+    other and the walls), some fast, with goals and jumpy commands."""
+    rng = np.random.default_rng(seed)
+    radii = rng.uniform(0.15, 0.5, n)
+    kinds = ["traffic" if k % 5 == 4 else "robot" for k in range(n)]
+    corners = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    segs = np.stack([corners, np.roll(corners, -1, axis=0)], axis=1)
+    segs = np.concatenate([segs, [[[3.0, 5.0], [7.0, 5.5]]], [[[5.0, 5.0], [5.0, 5.0]]]])
+    walls = (segs, np.array([0.05, 0.05, 0.05, 0.05, 0.1, 0.2]))
+    pos = rng.uniform(0.5, 9.5, (n, 2))
+    vel = rng.normal(size=(n, 2))
+    frames, accels, goals = [pos.copy()], [], []
+    for k in range(steps):
+        acc = np.round(rng.normal(size=(n, 2)) * 2, 1) * (rng.uniform(size=(n, 1)) < 0.3)
+        vel = 0.9 * vel + acc * 0.1 + (5.0 - pos) * 0.02
+        vel[k % n] *= 8.0 if k % 7 == 0 else 1.0  # now and then a fast one
+        pos = pos + vel * 0.1
+        frames.append(pos.copy())
+        accels.append(acc)
+        goals.append(rng.uniform(size=n) < 0.01 * k / steps)
+    return radii, kinds, walls, np.array(frames), np.array(accels), np.array(goals)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_update_equals_numpy_reference(seed: int) -> None:
+    n = (8, 25, 60)[seed % 3]
+    radii, kinds, walls, frames, accels, goals = random_scene(seed, n, 80)
+    config = StatsConfig(near_miss_distance=0.3, separation_range=1.0)
+    v_start = (frames[1] - frames[0]) / 0.1
+    names = [f"b{k}" for k in range(n)]
+    runs = [EpisodeStats(radii, kinds, names, walls, 0.1, config, v_start) for _ in range(2)]
+    ref = ReferenceStats(radii, kinds, names, walls, 0.1, config, v_start)
+    for k in range(len(accels)):
+        vel = (frames[k + 1] - frames[k]) / 0.1
+        args = (k * 0.1, frames[k], frames[k + 1], vel, accels[k], goals[k])
+        want = [e.to_dict() for e in ref.update(*args)]
+        for stats in runs:
+            assert [e.to_dict() for e in stats.update(*args)] == want, k
+    want = ref.s.summary().to_dict()
+    assert len(want["contacts"]) > 5 and any(c["kind_b"] == "wall" for c in want["contacts"])
+    assert sum(r["near_misses"] for r in want["robots"]) > 0
+    for stats in runs:  # bit-identical, events in the same order, run after run
+        assert stats.summary().to_dict() == want
+        for name in ("min_separation", "min_ttc", "path_length", "near_misses",
+                     "adjustments", "_prox", "_prox_contact", "_touch_bb", "_touch_bw"):
+            assert np.array_equal(getattr(stats, name), getattr(ref.s, name)), name
+
+
+def test_wall_contact_ends_when_the_robot_backs_away() -> None:
+    """A contact still open at a step's end (separation below the hysteresis) ends once
+    the robot is clear, even if its whole next step stays beyond the wall's reach."""
+    walls = (np.array([[[0.0, -5.0], [0.0, 5.0]]]), np.array([0.05]))
+    stats = EpisodeStats([0.3], ["robot"], ["r"], walls=walls, dt=0.1)
+    # reach 0.35 m: touching at -0.345, 5 mm clear at -0.355, then away and back
+    xs = [-1.0, -0.36, -0.345, -0.355, -0.5, -0.8, -0.345, -0.34]
+    feed(stats, np.array([[[x, 0.0]] for x in xs]))
+    assert len(stats.contacts) == 2
+    assert stats.contacts[0].end_time == pytest.approx(0.4)
+    assert 0.5 < stats.contacts[1].time <= 0.6
