@@ -175,11 +175,21 @@ class RobotSummary:
         return {k: _clean(v) for k, v in asdict(self).items()}
 
 
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write text to path atomically: a temporary file in the same folder, then os.replace."""
+def temporary_sibling(path: str | Path, suffix: str = ".tmp") -> tuple[int, str]:
+    """(fd, name) of a new temporary file next to ``path`` with the permissions an ordinary
+    new file gets (mkstemp's 0600 widened to 0666 minus the umask), for atomic replaces."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    umask = os.umask(0o022)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+    return fd, tmp
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write text to path atomically: a temporary file in the same folder, then os.replace."""
+    fd, tmp = temporary_sibling(path)
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)

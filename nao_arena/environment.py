@@ -1,0 +1,738 @@
+"""PettingZoo environments over the arena's control loop.
+
+``parallel_env(map="roundabout", **kwargs)`` returns a
+:class:`pettingzoo.ParallelEnv`; ``env(...)`` the AEC version (PettingZoo's
+``parallel_to_aec`` converter). Keyword arguments that name a field of
+:class:`EnvOptions` set that option (``rewards`` and ``arena`` also accept
+plain dicts); every other keyword is a map parameter (``n=20``, ``seed=3``,
+see :mod:`nao_arena.maps`), as is everything in ``map_params={...}``.
+Unknown map parameters raise :class:`~nao_arena.maps.MapError` naming the
+declared ones.
+
+Agents
+------
+One agent per *controlled* robot (option ``controlled``: ``"all"`` or a list
+of robot names or indices), named by the robot's name. Every other robot is
+driven by its own agent (the map's, or ``arena.agent``) and traffic by its
+lane followers, inside :meth:`nao_arena.arena.Arena.step`; the env has no
+control loop of its own. An agent is removed from ``agents`` when it
+terminates (goal reached, or a collision with ``terminate_on_collision``)
+or is truncated (time limit). Its robot stays in the world: with
+``after_done="agent"`` (default) the robot's own built-in agent drives it
+from then on (e.g. the NAO agent holding it at its goal); with
+``after_done="hold"`` it brakes to a stop (acceleration -v/dt, clipped to
+a_max) and stays there.
+
+Actions
+-------
+A float32 Box of shape (2,) in [-1, 1]: the acceleration command in the
+world frame, normalized by the robot's a_max. Components outside [-1, 1]
+are clipped to it; the command a_max * action (m/s^2) is then scaled by the
+world to |a| <= a_max (a corner such as (1, 1) gives a_max in the diagonal
+direction), and the speed limit v_max applies as in :mod:`nao_arena.world`.
+An action of the wrong shape, NaN or inf raises ``ValueError``, as does a
+missing action for a live agent or an unknown agent name; actions for
+agents that are no longer live are ignored (the AEC converter sends None).
+
+Observations
+------------
+A float32 vector per agent (layout from :func:`observation_layout`), world
+frame, units m, m/s, m/s^2, s:
+
+- ``own`` (16): goal - position (2, m), velocity (2, m/s), measured
+  acceleration (2, m/s^2, mean over the last control period, contacts
+  included), last commanded acceleration (2, m/s^2, after clipping to a_max),
+  a_max (m/s^2), v_max (m/s), radius (m), position (2, m), goal (2, m),
+  time left until the time limit (s);
+- ``neighbours`` (K x 9, K = ``max_neighbours``): the K nearest bodies
+  within the arena's sensing range, nearest first (ties by body index), one
+  row each: mask (1 = present), relative position (2, m), relative velocity
+  (2, m/s), acceleration (2, m/s^2), radius (m), is_traffic (0/1); absent
+  rows are all zero;
+- ``nao`` (optional, ``nao_features=True``): the exact clearance (m, see
+  :func:`nao_arena.geometry.nao_clearance`) of fixed candidate accelerations
+  against the K neighbours' predicted paths (``nao_predictor``, default
+  turn rate, over ``nao_horizon`` s; radii grown by the robot's radius and
+  ``nao_margin``) and the nearby walls, the minimum over obstacles, clipped
+  to [-nao_clip, nao_clip]; candidates on a polar grid in the world frame:
+  for each ring fraction f of ``nao_rings`` (a = f a_max), ``nao_angles``
+  directions starting at +x counter-clockwise (a single candidate for f =
+  0). Negative clearance: that constant acceleration collides within the
+  horizon if the predictions hold; nao_clip: nothing within reach.
+
+Rewards, terminations, truncations, infos
+-----------------------------------------
+Per step, with the weights of :class:`RewardWeights`: ``progress`` x the
+decrease of the distance to the goal (m) - ``collision`` x the contact
+episodes the robot started this step (bodies and walls) - ``accel_change``
+x |a_t - a_(t-1)| / a_max of the commanded accelerations - ``step`` +
+``goal`` on the step the goal is reached. Terminated: goal reached (within
+the map's goal tolerance), or a collision if ``terminate_on_collision``.
+Truncated: the time limit (``time_limit`` s, default the map's). Infos:
+``collisions`` (the step's contact events of this robot, as dicts, see
+:class:`nao_arena.stats.ContactEvent`), ``reached`` (bool), ``time`` (s),
+``faults`` (agent faults of the step, as dicts).
+
+Seeding
+-------
+``reset(seed=s)`` loads the map with ``seed=s`` when it declares a ``seed``
+parameter (unless ``reseed_map=False``) and calls ``Arena.reset(s)``; a
+reset without a seed draws the episode's seed from a generator seeded by
+the last seeded reset (fresh entropy if never seeded). Same seed, same
+actions: identical observations, rewards and infos.
+
+``state()`` is the global state (layout in :meth:`NaoArenaParallelEnv.state`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from gymnasium import spaces
+from numba import njit
+from numpy.typing import NDArray
+from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from nao_arena.arena import Arena, ArenaOptions, StepResult
+from nao_arena.geometry.clearance import path_clearance, sampled_path
+from nao_arena.geometry.walls import wall_discs
+from nao_arena.maps import MapSpec, load_map
+from nao_arena.predictors import get_predictor
+from nao_arena.sensing import Neighbours
+from nao_arena.world import clip_accelerations
+
+__all__ = [
+    "NEIGHBOUR_FEATURES",
+    "OWN_FEATURES",
+    "EnvOptions",
+    "NaoArenaParallelEnv",
+    "RewardWeights",
+    "env",
+    "nao_candidates",
+    "observation_layout",
+    "parallel_env",
+]
+
+OWN_FEATURES: tuple[str, ...] = (
+    "goal_dx", "goal_dy", "vx", "vy", "ax", "ay", "cmd_ax", "cmd_ay",
+    "a_max", "v_max", "radius", "x", "y", "goal_x", "goal_y", "time_left",
+)
+"""Names of the ``own`` block, in order (m, m/s, m/s^2, s; world frame)."""
+
+NEIGHBOUR_FEATURES: tuple[str, ...] = (
+    "mask", "dx", "dy", "dvx", "dvy", "ax", "ay", "radius", "is_traffic",
+)
+"""Names of one neighbour row, in order (relative = neighbour - own, world frame)."""
+
+_KINEMATIC_PREDICTORS = ("constant_velocity", "constant_acceleration", "turn_rate")
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Reward weights: progress (per m towards the goal), collision (per contact
+    episode started), accel_change (per unit of |a_t - a_(t-1)| / a_max), goal
+    (once, on arrival), step (per control step)."""
+
+    progress: float = 1.0
+    collision: float = 10.0
+    accel_change: float = 0.1
+    goal: float = 10.0
+    step: float = 0.0
+
+
+@dataclass(frozen=True)
+class EnvOptions:
+    """Settings of the environment (see the module docstring).
+
+    controlled: "all" or robot names / indices; max_neighbours: K rows of
+    the neighbour block; nao_*: the optional NAO clearance block (rings as
+    fractions of a_max, horizon s, samples per horizon, margin m, clip m);
+    rewards; terminate_on_collision; time_limit (s, None: the map's);
+    after_done: what drives a robot whose agent is done ("agent" or "hold");
+    reseed_map: reset(seed) also seeds the map; arena: options of the
+    control loop; render_size: frame (width, height) px; selected: robot
+    (name or index) shown in the viewer's acceleration panel (None: the
+    first controlled one).
+    """
+
+    controlled: str | Sequence[str | int] = "all"
+    max_neighbours: int = 6
+    nao_features: bool = False
+    nao_rings: tuple[float, ...] = (0.0, 0.5, 1.0)
+    nao_angles: int = 8
+    nao_horizon: float = 3.0
+    nao_samples: int = 31
+    nao_predictor: str = "turn_rate"
+    nao_margin: float = 0.0
+    nao_walls: bool = True
+    nao_clip: float = 10.0
+    rewards: RewardWeights = field(default_factory=RewardWeights)
+    terminate_on_collision: bool = False
+    time_limit: float | None = None
+    after_done: Literal["agent", "hold"] = "agent"
+    reseed_map: bool = True
+    arena: ArenaOptions = field(default_factory=ArenaOptions)
+    render_size: tuple[int, int] = (1200, 800)
+    selected: str | int | None = None
+
+    def __post_init__(self) -> None:
+        if self.max_neighbours < 0:
+            raise ValueError(f"max_neighbours: expected >= 0, got {self.max_neighbours}")
+        if self.after_done not in ("agent", "hold"):
+            raise ValueError(f"after_done: expected 'agent' or 'hold', got {self.after_done!r}")
+        if self.nao_predictor not in _KINEMATIC_PREDICTORS:
+            raise ValueError(f"nao_predictor: expected one of {', '.join(_KINEMATIC_PREDICTORS)}"
+                             f", got {self.nao_predictor!r}")
+        if self.nao_angles < 1 or self.nao_samples < 2 or not self.nao_horizon > 0:
+            raise ValueError("expected nao_angles >= 1, nao_samples >= 2, nao_horizon > 0")
+        if self.time_limit is not None and not self.time_limit > 0:
+            raise ValueError(f"time_limit: expected a positive number of s, got {self.time_limit}")
+
+
+def nao_candidates(options: EnvOptions) -> NDArray[np.float64]:
+    """Candidate accelerations (M, 2) of the NAO block as fractions of a_max (world frame)."""
+    ang = 2.0 * np.pi * np.arange(options.nao_angles) / options.nao_angles
+    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    rows = [np.zeros((1, 2)) if f == 0 else f * unit for f in options.nao_rings]
+    return np.concatenate(rows) if rows else np.zeros((0, 2))
+
+
+def observation_layout(options: EnvOptions | None = None) -> dict[str, slice]:
+    """Slices of the observation vector: "own", "neighbours" (reshape to (K, 9)), "nao"."""
+    options = options or EnvOptions()
+    n_own = len(OWN_FEATURES)
+    n_nb = options.max_neighbours * len(NEIGHBOUR_FEATURES)
+    n_nao = len(nao_candidates(options)) if options.nao_features else 0
+    return {
+        "own": slice(0, n_own),
+        "neighbours": slice(n_own, n_own + n_nb),
+        "nao": slice(n_own + n_nb, n_own + n_nb + n_nao),
+    }
+
+
+@njit(cache=True)
+def _observation_rows(
+    p: NDArray[np.float64], v: NDArray[np.float64], acc: NDArray[np.float64],
+    rad: NDArray[np.float64], is_traffic: NDArray[np.float64], a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64], bodies: NDArray[np.int64], goals: NDArray[np.float64],
+    prev_cmd: NDArray[np.float64], time_left: float, sensing_range: float,
+    out: NDArray[np.float64], idx: NDArray[np.int64], present: NDArray[np.bool_],
+) -> None:
+    """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
+    (goals (m, 2) m, last commands (m, 2) m/s^2), with the K = idx.shape[1] nearest bodies
+    within ``sensing_range`` (m), nearest first, ties by body index (absent rows stay zero);
+    ``idx`` / ``present`` (m, K) get the neighbours' body indices and the row mask."""
+    n = p.shape[0]
+    k = idx.shape[1]
+    n_own = 16
+    best_d = np.empty(max(k, 1))
+    best_j = np.empty(max(k, 1), dtype=np.int64)
+    for i in range(bodies.shape[0]):
+        b = bodies[i]
+        o = out[i]
+        o[0] = goals[i, 0] - p[b, 0]
+        o[1] = goals[i, 1] - p[b, 1]
+        o[2] = v[b, 0]
+        o[3] = v[b, 1]
+        o[4] = acc[b, 0]
+        o[5] = acc[b, 1]
+        o[6] = prev_cmd[i, 0]
+        o[7] = prev_cmd[i, 1]
+        o[8] = a_max[b]
+        o[9] = v_max[b]
+        o[10] = rad[b]
+        o[11] = p[b, 0]
+        o[12] = p[b, 1]
+        o[13] = goals[i, 0]
+        o[14] = goals[i, 1]
+        o[15] = time_left
+        found = 0
+        for j in range(n if k > 0 else 0):
+            if j == b:
+                continue
+            d = np.hypot(p[j, 0] - p[b, 0], p[j, 1] - p[b, 1])
+            if not d <= sensing_range:
+                continue
+            if found == k and d >= best_d[k - 1]:
+                continue  # on a tie the lower index, already listed, stays
+            # insertion into the sorted list (strict <: equal distances keep index order)
+            pos = found if found < k else k - 1
+            while pos > 0 and d < best_d[pos - 1]:
+                best_d[pos] = best_d[pos - 1]
+                best_j[pos] = best_j[pos - 1]
+                pos -= 1
+            best_d[pos] = d
+            best_j[pos] = j
+            if found < k:
+                found += 1
+        for r in range(found):
+            j = best_j[r]
+            idx[i, r] = j
+            present[i, r] = True
+            c = n_own + 9 * r
+            o[c] = 1.0
+            o[c + 1] = p[j, 0] - p[b, 0]
+            o[c + 2] = p[j, 1] - p[b, 1]
+            o[c + 3] = v[j, 0] - v[b, 0]
+            o[c + 4] = v[j, 1] - v[b, 1]
+            o[c + 5] = acc[j, 0]
+            o[c + 6] = acc[j, 1]
+            o[c + 7] = rad[j]
+            o[c + 8] = is_traffic[j]
+
+
+def _split_kwargs(
+    options: EnvOptions | None, map_params: Mapping[str, Any] | None, kwargs: Mapping[str, Any]
+) -> tuple[EnvOptions, dict[str, Any]]:
+    names = {f.name for f in dataclasses.fields(EnvOptions)}
+    opt_kw = {k: v for k, v in kwargs.items() if k in names}
+    params = {k: v for k, v in kwargs.items() if k not in names}
+    params.update(map_params or {})
+    if isinstance(opt_kw.get("rewards"), Mapping):
+        opt_kw["rewards"] = RewardWeights(**opt_kw["rewards"])
+    if isinstance(opt_kw.get("arena"), Mapping):
+        opt_kw["arena"] = ArenaOptions(**opt_kw["arena"])
+    base = options or EnvOptions()
+    return dataclasses.replace(base, **opt_kw) if opt_kw else base, params
+
+
+class NaoArenaParallelEnv(ParallelEnv):
+    """A map's arena as a PettingZoo parallel env (see the module docstring)."""
+
+    metadata: dict[str, Any] = {
+        "name": "nao_arena_v0",
+        "render_modes": ["human", "rgb_array"],
+        "is_parallelizable": True,
+        "render_fps": 10,
+    }
+
+    def __init__(
+        self,
+        map: str | Path = "roundabout",  # noqa: A002 - the issue's public keyword
+        render_mode: str | None = None,
+        options: EnvOptions | None = None,
+        map_params: Mapping[str, Any] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']} "
+                             f"or None, got {render_mode!r}")
+        self.options, self.map_params = _split_kwargs(options, map_params, kwargs)
+        self.map_source = map
+        self.render_mode = render_mode
+        spec = self._load(self.map_params)
+        self._declared = frozenset(load_map(map).parameters)
+        self._install(spec)
+        robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots)]
+        self._controlled = self._resolve_controlled(self.options.controlled, robot_names)
+        self.possible_agents: list[str] = [robot_names[k] for k in self._controlled]
+        self._row = {name: i for i, name in enumerate(self.possible_agents)}
+        self.agents: list[str] = []
+        self.metadata = {**self.metadata, "render_fps": 1.0 / spec.physics.dt}
+        self._cand = nao_candidates(self.options) if self.options.nao_features else None
+        self._build_spaces()
+        self._rng = np.random.default_rng()
+        self._viewer: Any = None
+        self.last_result: StepResult | None = None
+
+    # ------------------------------------------------------------------ setup
+
+    def _load(self, params: Mapping[str, Any]) -> MapSpec:
+        spec = load_map(self.map_source, **params)
+        if self.options.time_limit is not None:
+            episode = spec.episode.model_copy(update={"time_limit": float(self.options.time_limit)})
+            spec = spec.model_copy(update={"episode": episode})
+        return spec
+
+    def _install(self, spec: MapSpec) -> None:
+        """A fresh arena for ``spec`` and the per-robot constants derived from it."""
+        self.spec = spec
+        self.arena = Arena(spec, self.options.arena)
+        world = self.arena.world
+        self._kinds = np.array([k == "traffic" for k in world.kinds], dtype=float)
+        self._world_a_max = np.ascontiguousarray(world.a_max, dtype=np.float64)
+        self._world_v_max = np.ascontiguousarray(world.v_max, dtype=np.float64)
+        self._sensing_range = float(self.arena.sensing_range)
+        k = min(self.options.max_neighbours, world.n - 1)
+        if self.arena.max_neighbours is not None:
+            k = min(k, int(self.arena.max_neighbours))
+        self._k = max(k, 0)
+        self._walls = None
+        if self.options.nao_features and self.options.nao_walls and len(self.arena.walls):
+            grow = {float(r) for r in world.radii[world.robot_indices]}
+            self._walls = {
+                g: wall_discs(self.arena.walls, self.arena.wall_radius, g + self.options.nao_margin)
+                for g in grow
+            }
+
+    @staticmethod
+    def _resolve_controlled(
+        controlled: str | Sequence[str | int], names: list[str]
+    ) -> list[int]:
+        if isinstance(controlled, str):
+            if controlled == "all":
+                out = list(range(len(names)))
+            elif controlled in names:
+                out = [names.index(controlled)]
+            else:
+                raise ValueError(f"controlled: expected 'all', robot names or indices; unknown "
+                                 f"robot {controlled!r} (robots: {', '.join(names)})")
+        else:
+            out = []
+            for c in controlled:
+                if isinstance(c, int | np.integer) and not isinstance(c, bool):
+                    if not 0 <= int(c) < len(names):
+                        raise ValueError(f"controlled: robot index {c} out of range "
+                                         f"(0..{len(names) - 1})")
+                    out.append(int(c))
+                elif isinstance(c, str) and c in names:
+                    out.append(names.index(c))
+                else:
+                    raise ValueError(f"controlled: unknown robot {c!r} "
+                                     f"(robots: {', '.join(names)})")
+            out = sorted(set(out))
+        if not out:
+            raise ValueError("controlled: expected at least one robot; the map has none"
+                             if not names else "controlled: expected at least one robot")
+        return out
+
+    def _build_spaces(self) -> None:
+        lay = observation_layout(self.options)
+        dim = lay["nao"].stop
+        low = np.full(dim, -np.inf, dtype=np.float32)
+        high = np.full(dim, np.inf, dtype=np.float32)
+        k = self.options.max_neighbours
+        nb = len(NEIGHBOUR_FEATURES)
+        nb_low = low[lay["neighbours"]].reshape(k, nb)
+        nb_high = high[lay["neighbours"]].reshape(k, nb)
+        for col in (0, 8):  # mask, is_traffic
+            nb_low[:, col], nb_high[:, col] = 0.0, 1.0
+        nb_low[:, 7] = 0.0  # radius
+        low[lay["neighbours"]] = nb_low.ravel()
+        high[lay["neighbours"]] = nb_high.ravel()
+        for name in ("a_max", "v_max", "radius", "time_left"):
+            low[OWN_FEATURES.index(name)] = 0.0
+        low[lay["nao"]] = -self.options.nao_clip
+        high[lay["nao"]] = self.options.nao_clip
+        self._obs_dim = dim
+        self._observation_spaces = {
+            a: spaces.Box(low, high, shape=(dim,), dtype=np.float32) for a in self.possible_agents
+        }
+        self._action_spaces = {
+            a: spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32) for a in self.possible_agents
+        }
+        n, r = self.arena.world.n, len(self.arena.robots)
+        sdim = 1 + 8 * n + 2 * r
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(sdim,), dtype=np.float32)
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        """The agent's observation space (the same object on every call)."""
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """The agent's action space: normalized acceleration (2,) in [-1, 1]."""
+        return self._action_spaces[agent]
+
+    # ------------------------------------------------------------------ episode
+
+    @property
+    def time_limit(self) -> float:
+        """The episode's time limit (s)."""
+        return float(self.spec.episode.time_limit)
+
+    def reset(
+        self, seed: int | None = None, options: Mapping[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray[np.float32]], dict[str, dict[str, Any]]]:
+        """Start an episode; ``options`` is accepted for API compatibility and ignored."""
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+            episode_seed = int(seed)
+        else:
+            episode_seed = int(self._rng.integers(2**31 - 1))
+        if self.options.reseed_map and "seed" in self._declared:
+            if self.spec.parameters.get("seed") != episode_seed:
+                spec = self._load({**self.map_params, "seed": episode_seed})
+                old = [r.name for r in self.spec.robots]
+                if [r.name for r in spec.robots] != old:
+                    raise ValueError("the map's robots changed with its seed; expected the same "
+                                     "robot names in every episode")
+                self._install(spec)
+        self.arena.reset(episode_seed)
+        self.agents = list(self.possible_agents)
+        self._alive = np.ones(len(self.possible_agents), dtype=bool)
+        self._bodies = self.arena.robot_ids[self._controlled].astype(np.int64)
+        self._goals = self.arena.goals[self._controlled]
+        self._a_max = self.arena.world.a_max[self._bodies]
+        self._prev_cmd = np.zeros((len(self._controlled), 2))
+        state = self.arena.state
+        assert state is not None
+        self._dist = np.hypot(*(state.positions[self._bodies] - self._goals).T)
+        self.last_result = None
+        rows = np.arange(len(self.possible_agents))
+        obs = self._observe(rows)
+        infos = {a: {"collisions": [], "reached": False, "time": 0.0, "faults": []}
+                 for a in self.agents}
+        if self.render_mode == "human":
+            self.render()
+        return {a: obs[i] for i, a in enumerate(self.agents)}, infos
+
+    def _actions_array(self, actions: Mapping[str, Any], live: list[str]) -> NDArray[np.float64]:
+        """Validated actions (m, 2) of the live agents, in ``live`` order, clipped to [-1, 1]."""
+        if not self._row.keys() >= actions.keys():
+            name = next(a for a in actions if a not in self._row)
+            raise ValueError(f"action for unknown agent {name!r}; expected one of "
+                             f"{', '.join(self.possible_agents)}")
+        if len(actions) < len(live) or not actions.keys() >= set(live):
+            missing = [a for a in live if a not in actions]
+            raise ValueError(f"missing actions for live agents: {', '.join(missing)}")
+        try:
+            arr = np.array([actions[a] for a in live], dtype=np.float64)
+        except (TypeError, ValueError):
+            arr = None
+        if arr is None or arr.shape != (len(live), 2):
+            for a in live:
+                try:
+                    one = np.asarray(actions[a], dtype=np.float64)
+                except (TypeError, ValueError):
+                    raise ValueError(f"action of {a!r}: expected a numeric array of shape "
+                                     f"(2,), got {actions[a]!r}") from None
+                if one.shape != (2,):
+                    raise ValueError(f"action of {a!r}: expected shape (2,), got {one.shape}")
+            raise ValueError("expected actions of shape (2,)")
+        if not np.all(np.isfinite(arr)):
+            bad = [a for a, row in zip(live, arr, strict=True) if not np.all(np.isfinite(row))]
+            raise ValueError(f"action of {bad[0]!r}: expected finite values, got "
+                             f"{np.asarray(actions[bad[0]]).tolist()}")
+        return np.clip(arr, -1.0, 1.0)
+
+    def step(self, actions: Mapping[str, Any]) -> tuple[
+        dict[str, NDArray[np.float32]], dict[str, float], dict[str, bool], dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """One control period: the live agents' normalized accelerations -> the usual five dicts
+        over the agents live at the start of the step."""
+        if self.arena.stats is None:
+            raise RuntimeError("call reset() before step()")
+        live = self.agents
+        if not live:
+            return {}, {}, {}, {}, {}
+        rows = np.fromiter((self._row[a] for a in live), dtype=np.intp, count=len(live))
+        cmd = self._actions_array(actions, live) * self._a_max[rows, None]
+        arena_actions: dict[int, NDArray[np.float64]] = dict(
+            zip(np.asarray(self._controlled)[rows].tolist(), cmd, strict=True)
+        )
+        if self.options.after_done == "hold" and not np.all(self._alive):
+            dead = np.flatnonzero(~self._alive)
+            v = self.arena.state.velocities[self._bodies[dead]]
+            brake = clip_accelerations(-v / self.arena.world.dt, self._a_max[dead])
+            for i, a in zip(dead.tolist(), brake, strict=True):
+                arena_actions[self._controlled[i]] = a
+        res = self.arena.step(arena_actions)
+        self.last_result = res
+        state = res.state
+        opts = self.options
+        w = opts.rewards
+        bodies = self._bodies[rows]
+        # reward terms
+        dist = np.hypot(*(state.positions[bodies] - self._goals[rows]).T)
+        applied = clip_accelerations(cmd, self._a_max[rows])
+        change = np.hypot(*(applied - self._prev_cmd[rows]).T) / self._a_max[rows]
+        self._prev_cmd[rows] = applied
+        reached = self.arena.stats.reached[bodies]
+        reward = w.progress * (self._dist[rows] - dist) - w.accel_change * change - w.step
+        reward = reward + w.goal * reached
+        self._dist[rows] = dist
+        events: dict[int, list[dict[str, Any]]] = {}
+        for ev in res.contacts:
+            events.setdefault(ev.a, []).append(ev.to_dict())
+            if ev.kind_b != "wall":
+                events.setdefault(ev.b, []).append(ev.to_dict())
+        n_col = np.array([len(events.get(int(b), ())) for b in bodies]) if events else None
+        if n_col is not None:
+            reward = reward - w.collision * n_col
+        faults: dict[int, list[dict[str, Any]]] = {}
+        for f in res.faults:
+            faults.setdefault(int(self.arena.robot_ids[f.robot]), []).append(
+                dataclasses.asdict(f))
+        terminated = reached.copy()
+        if opts.terminate_on_collision and n_col is not None:
+            terminated |= n_col > 0
+        time_up = res.time >= self.time_limit - 1e-9
+        obs = self._observe(rows)
+        out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
+        reached_l = reached.tolist()
+        term_l = terminated.tolist()
+        rew_l = reward.tolist()
+        t = float(res.time)
+        for i, a in enumerate(live):
+            b = int(bodies[i])
+            out_obs[a] = obs[i]
+            out_rew[a] = rew_l[i]
+            out_term[a] = term_l[i]
+            out_trunc[a] = time_up
+            out_info[a] = {"collisions": events.get(b, []), "reached": reached_l[i], "time": t,
+                           "faults": faults.get(b, [])}
+        done = terminated | time_up
+        if np.any(done):
+            self._alive[rows[done]] = False
+            self.agents = [a for a, d in zip(live, done.tolist(), strict=True) if not d]
+        if self.render_mode == "human":
+            self.render()
+        return out_obs, out_rew, out_term, out_trunc, out_info
+
+    # ------------------------------------------------------------------ observations
+
+    def observations(self) -> dict[str, NDArray[np.float32]]:
+        """The live agents' observations of the current state (as returned by the last
+        reset or step)."""
+        if self.arena.state is None:
+            raise RuntimeError("call reset() first")
+        rows = np.fromiter((self._row[a] for a in self.agents), dtype=np.intp,
+                           count=len(self.agents))
+        obs = self._observe(rows)
+        return {a: obs[i] for i, a in enumerate(self.agents)}
+
+    def _observe(self, rows: NDArray[np.intp]) -> NDArray[np.float32]:
+        """Observation vectors (len(rows), D) of the controlled robots ``rows``."""
+        state = self.arena.state
+        assert state is not None
+        opts = self.options
+        m = len(rows)
+        out = np.zeros((m, self._obs_dim), dtype=np.float64)
+        if m == 0:
+            return out.astype(np.float32)
+        bodies = self._bodies[rows]
+        p, v, acc, rad = state.positions, state.velocities, state.accelerations, state.radii
+        k = self._k
+        idx = np.zeros((m, k), dtype=np.int64)
+        present = np.zeros((m, k), dtype=np.bool_)
+        _observation_rows(p, v, acc, rad, self._kinds, self._world_a_max, self._world_v_max,
+                          bodies, self._goals[rows], self._prev_cmd[rows],
+                          max(self.time_limit - state.time, 0.0), self._sensing_range, out,
+                          idx, present)
+        if self._cand is not None:
+            out[:, observation_layout(opts)["nao"]] = self._nao_block(bodies, idx, present)
+        return out.astype(np.float32)
+
+    def _nao_block(
+        self, bodies: NDArray[np.intp], idx: NDArray[np.intp], present: NDArray[np.bool_]
+    ) -> NDArray[np.float64]:
+        """Clipped clearance (m, M) of the candidate accelerations for each robot."""
+        state = self.arena.state
+        assert state is not None and self._cand is not None
+        opts = self.options
+        world = self.arena.world
+        times = np.linspace(0.0, opts.nao_horizon, opts.nao_samples)
+        flat = idx[present]
+        predicted = np.zeros((0, len(times), 2))
+        if len(flat):
+            nb = Neighbours(
+                ids=flat.astype(np.int64), kinds=tuple(world.kinds[i] for i in flat.tolist()),
+                positions=state.positions[flat], velocities=state.velocities[flat],
+                accelerations=state.accelerations[flat], radii=state.radii[flat],
+            )
+            predicted = get_predictor(opts.nao_predictor)(times, nb)
+        counts = present.sum(axis=1)
+        starts = np.concatenate([[0], np.cumsum(counts)])
+        out = np.full((len(bodies), len(self._cand)), opts.nao_clip)
+        for i, b in enumerate(bodies.tolist()):
+            pos = state.positions[b]
+            r_own = float(state.radii[b])
+            centres = [predicted[starts[i]:starts[i + 1]] - pos]
+            radii = [state.radii[flat[starts[i]:starts[i + 1]]] + r_own + opts.nao_margin]
+            a_max, v_max = float(world.a_max[b]), float(world.v_max[b])
+            if self._walls is not None:
+                wc, wr = self._walls[r_own]
+                h = opts.nao_horizon
+                reach = v_max * h + 0.5 * a_max * h * h
+                near = np.hypot(*(wc - pos).T) <= reach + wr
+                if np.any(near):
+                    centres.append(np.repeat((wc[near] - pos)[:, None, :], len(times), 1))
+                    radii.append(wr[near])
+            c = np.concatenate(centres)
+            if not len(c):
+                continue
+            path = sampled_path(times, c, np.concatenate(radii))
+            clear = path_clearance(self._cand * a_max, state.velocities[b], path, v_max=v_max)
+            out[i] = np.min(clear.clearance, axis=1)
+        return np.clip(out, -opts.nao_clip, opts.nao_clip)
+
+    def state(self) -> NDArray[np.float32]:
+        """Global state (float32): time (s); per body in world order x, y (m), vx, vy (m/s),
+        ax, ay (m/s^2), radius (m), is_traffic; per robot goal x, y (m)."""
+        st = self.arena.state
+        if st is None:
+            raise RuntimeError("call reset() before state()")
+        bodies = np.column_stack([st.positions, st.velocities, st.accelerations, st.radii,
+                                  self._kinds])
+        return np.concatenate([[st.time], bodies.ravel(), self.arena.goals.ravel()]).astype(
+            np.float32)
+
+    # ------------------------------------------------------------------ rendering
+
+    @property
+    def controlled_robots(self) -> list[int]:
+        """Robot indices (robot order) of the controlled robots, as ``possible_agents``."""
+        return list(self._controlled)
+
+    def _selected_robot(self) -> int:
+        sel = self.options.selected
+        names = [r.name for r in self.spec.robots]
+        if sel is None:
+            live = [self._controlled[self._row[a]] for a in self.agents]
+            return live[0] if live else self._controlled[0]
+        if isinstance(sel, str):
+            if sel not in names:
+                raise ValueError(f"selected: unknown robot {sel!r} (robots: {', '.join(names)})")
+            return names.index(sel)
+        return int(sel)
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """rgb_array: a (H, W, 3) uint8 frame (``render_size``); human: draw in a window."""
+        if self.render_mode is None:
+            return None
+        if self.arena.state is None:
+            raise RuntimeError("call reset() before render()")
+        from nao_arena.render import Viewer, ViewerOptions
+
+        if self._viewer is None:
+            self._viewer = Viewer(ViewerOptions(size=self.options.render_size),
+                                  human=self.render_mode == "human")
+        frame = self._viewer.draw(self.arena, selected=self._selected_robot(),
+                                  controlled=self._controlled, result=self.last_result)
+        return frame if self.render_mode == "rgb_array" else None
+
+    def close(self) -> None:
+        """Close the viewer's window, if any."""
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+
+    def __str__(self) -> str:
+        return f"nao_arena({self.spec.name})"
+
+
+def parallel_env(
+    map: str | Path = "roundabout",  # noqa: A002 - the issue's public keyword
+    render_mode: str | None = None,
+    **kwargs: Any,
+) -> NaoArenaParallelEnv:
+    """The map's PettingZoo parallel env; keywords: :class:`EnvOptions` fields, ``options=``,
+    ``map_params=``, and map parameters (see the module docstring)."""
+    return NaoArenaParallelEnv(map, render_mode=render_mode, **kwargs)
+
+
+def env(
+    map: str | Path = "roundabout",  # noqa: A002 - the issue's public keyword
+    render_mode: str | None = None,
+    **kwargs: Any,
+) -> AECEnv:
+    """The AEC version of :func:`parallel_env` (PettingZoo's ``parallel_to_aec``)."""
+    return parallel_to_aec(parallel_env(map, render_mode=render_mode, **kwargs))
+

@@ -1,0 +1,665 @@
+"""Drawing an arena with pygame: the world view and the acceleration-space panel.
+
+A frame is ``ViewerOptions.size`` pixels (default 1200 x 800, width x
+height): on the left a square world view (height x height px), on the
+right a side panel (the rest of the width) with the HUD, the selected
+robot's acceleration space and a legend.
+
+World view (world frame, x right, y up, metres): walls (dark), traffic
+lanes (light grey bands as wide as their vehicles, dashed centrelines),
+goals (rings with a cross, in the robot's colour), trails of the robots
+(the last ``trail_seconds`` s), robots coloured by agent type (externally
+controlled robots in red), traffic in brown, the selected robot ringed in
+black with a line to its goal; the predicted paths of its neighbours
+(the selected robot's own predictor and horizon when its agent has them,
+else turn-rate predictions over 3 s), one colour per neighbour, and its
+own path under its last command (dashed); contacts flashed as red rings
+for ``flash_seconds`` s of simulated time. Maps much longer than wide are
+followed: the view is a square of ``follow`` m (auto: 60 m or the map's
+short side, at least 40 m) around the selected robot, looking ahead towards its
+goal.
+
+Acceleration panel (m/s^2, world axes, origin at the centre): the NAO of
+every neighbour of the selected robot that some acceleration within the
+panel can reach, as the set of constant accelerations whose exact
+clearance (:func:`nao_arena.geometry.path_clearance`, radii grown by the
+robot's radius and its agent's margin) is negative over the horizon,
+evaluated on a grid and coloured like the neighbour's path; the walls'
+region (grey) from the robot's path, sampled at 41 times over the horizon,
+against the wall segments; the acceleration-limit circle |a| = a_max; the desired
+(goal-seeking) acceleration as a green arrow and the last commanded one as
+a black arrow.
+
+Headless: ``Viewer(human=False)`` draws on an off-screen surface and needs
+no display. ``human=True`` opens a window (``SDL_VIDEODRIVER=dummy`` is set
+first when there is no display, so that it never fails on a server); Tab
+cycles the selected robot there.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+import pygame  # noqa: E402
+
+from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
+from nao_arena.geometry.clearance import (  # noqa: E402
+    PiecewisePath,
+    path_clearance,
+    sampled_path,
+)
+from nao_arena.geometry.kernel import relevant_obstacles  # noqa: E402
+from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
+from nao_arena.predictors import get_predictor  # noqa: E402
+from nao_arena.traffic import CircleLane  # noqa: E402
+from nao_arena.world import speed_limit_time  # noqa: E402
+
+__all__ = ["AGENT_COLOURS", "FRAME_SIZE", "Viewer", "ViewerOptions"]
+
+FRAME_SIZE: tuple[int, int] = (1200, 800)
+"""Default frame size (width, height) px."""
+
+Colour = tuple[int, int, int]
+
+AGENT_COLOURS: dict[str, Colour] = {
+    "nao": (31, 119, 180),
+    "ao": (23, 190, 207),
+    "vo": (255, 127, 14),
+    "orca": (148, 103, 189),
+    "goal": (127, 127, 127),
+    "lane": (44, 160, 44),
+    "controlled": (214, 39, 40),
+    "traffic": (140, 86, 75),
+}
+"""Fill colour per agent type; plug-in agents get a colour derived from their name."""
+
+_PALETTE: list[Colour] = [
+    (230, 159, 0), (86, 180, 233), (0, 158, 115), (204, 121, 167), (213, 94, 0),
+    (0, 114, 178), (240, 228, 66), (120, 94, 240), (100, 143, 255), (254, 97, 0),
+]
+_WALL: Colour = (60, 60, 60)
+_WALL_REGION: Colour = (190, 190, 190)
+_BG: Colour = (250, 250, 247)
+_PANEL_BG: Colour = (238, 238, 235)
+_LANE: Colour = (222, 222, 218)
+_TEXT: Colour = (20, 20, 20)
+_RED: Colour = (220, 20, 30)
+_GREEN: Colour = (20, 150, 40)
+
+
+@dataclass(frozen=True)
+class ViewerOptions:
+    """Viewer settings: size (width, height) px; trail_seconds, flash_seconds (s of
+    simulated time); follow: side (m) of a view that follows the selected robot (None:
+    automatic for long maps, 0: never); panel_grid: grid points per axis of the
+    acceleration panel; panel_extent: half-width of the panel in units of a_max."""
+
+    size: tuple[int, int] = FRAME_SIZE
+    trail_seconds: float = 6.0
+    flash_seconds: float = 0.8
+    follow: float | None = None
+    panel_grid: int = 101
+    panel_extent: float = 1.3
+    predicted_paths: bool = True
+
+
+def _agent_colour(name: str) -> Colour:
+    if name in AGENT_COLOURS:
+        return AGENT_COLOURS[name]
+    h = sum((i + 1) * ord(c) for i, c in enumerate(name))
+    return _PALETTE[h % len(_PALETTE)]
+
+
+def _mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
+    """c blended with base: w = 1 gives c."""
+    return tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
+
+
+def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
+               times: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Displacements (K, T, 2) m under constant accelerations (K, 2), speed saturating at
+    v_max (the world's model, see :func:`nao_arena.world.speed_limit_time`)."""
+    vv = np.broadcast_to(v, accels.shape)
+    tau = speed_limit_time(vv, accels, np.full(len(accels), v_max))
+    t = np.minimum(times[None, :], tau[:, None])[..., None]
+    x = v * t + 0.5 * accels[:, None, :] * t * t
+    v_sat = v + accels * np.where(np.isfinite(tau), tau, 0.0)[:, None]
+    extra = np.maximum(times[None, :] - tau[:, None], 0.0)[..., None]
+    return x + v_sat[:, None, :] * extra
+
+
+def _segment_distance(p: NDArray[np.float64], segs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distances (n, W) m from points (n, 2) to segments (W, 2, 2)."""
+    a, b = segs[:, 0], segs[:, 1]
+    ab = b - a
+    ll = np.maximum(np.sum(ab * ab, axis=1), 1e-300)
+    rel = p[:, None, :] - a[None]
+    t = np.clip(np.sum(rel * ab[None], axis=2) / ll, 0.0, 1.0)
+    d = rel - t[..., None] * ab[None]
+    return np.hypot(d[..., 0], d[..., 1])
+
+
+class Viewer:
+    """Draws arenas to frames (H, W, 3) uint8; optionally shows them in a window."""
+
+    def __init__(self, options: ViewerOptions | None = None, human: bool = False) -> None:
+        self.options = options or ViewerOptions()
+        self.human = human
+        w, h = self.options.size
+        if w < h + 200 or h < 400:
+            raise ValueError(f"size: expected width >= height + 200 and height >= 400 px, "
+                             f"got {w}x{h}")
+        if not pygame.font.get_init():
+            pygame.font.init()
+        self._window: Any = None
+        if human:
+            if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+                os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+            pygame.display.init()
+            self._window = pygame.display.set_mode((w, h))
+            pygame.display.set_caption("nao_arena")
+        self.surface = pygame.Surface((w, h))
+        self._font = pygame.font.Font(None, 22)
+        self._small = pygame.font.Font(None, 18)
+        self._big = pygame.font.Font(None, 28)
+        self.selected_offset = 0
+        self._episode_key: Any = None
+        self._trails: list[deque[NDArray[np.float64]]] = []
+        self._last_time = -1.0
+        self._contacts_seen = 0
+        self._flashes: list[tuple[float, int, int, str]] = []
+        self._rate = 0.0
+        self._wall_clock: tuple[float, int] | None = None
+        self._steps = 0
+
+    # ------------------------------------------------------------------ public
+
+    def close(self) -> None:
+        """Close the window (if any)."""
+        if self._window is not None:
+            pygame.display.quit()
+            self._window = None
+
+    def draw(
+        self,
+        arena: Any,
+        selected: int = 0,
+        controlled: Sequence[int] = (),
+        result: Any = None,
+    ) -> NDArray[np.uint8]:
+        """Draw the arena's current state; returns the frame (H, W, 3) uint8.
+
+        selected: robot index (robot order) of the acceleration panel;
+        controlled: robot indices driven from outside (coloured as such);
+        result: unused beyond API symmetry with the env (contacts are read from
+        the arena's statistics).
+        """
+        assert arena.state is not None, "reset the arena first"
+        n_robots = len(arena.robots)
+        if self.human:
+            self._events(n_robots)
+        selected = (int(selected) + self.selected_offset) % max(n_robots, 1)
+        self._track(arena)
+        surf = self.surface
+        surf.fill(_BG)
+        w, h = self.options.size
+        view = pygame.Rect(0, 0, h, h)
+        panel = pygame.Rect(h, 0, w - h, h)
+        transform = self._transform(arena, selected, view)
+        surf.set_clip(view)
+        obs = arena.observations()[selected] if n_robots else None
+        self._draw_world(arena, transform, selected, set(controlled), obs)
+        surf.set_clip(None)
+        pygame.draw.rect(surf, _PANEL_BG, panel)
+        pygame.draw.line(surf, (180, 180, 180), panel.topleft, panel.bottomleft, 2)
+        self._draw_panel(arena, panel, selected, set(controlled), obs)
+        if self._window is not None:
+            self._window.blit(surf, (0, 0))
+            pygame.display.flip()
+        return np.ascontiguousarray(pygame.surfarray.array3d(surf).transpose(1, 0, 2))
+
+    # ------------------------------------------------------------------ state
+
+    def _events(self, n_robots: int) -> None:
+        for event in pygame.event.get():
+            if event.type == pygame.KEYDOWN and event.key == pygame.K_TAB:
+                self.selected_offset = (self.selected_offset + 1) % max(n_robots, 1)
+
+    def _track(self, arena: Any) -> None:
+        """Trails, contact flashes and the step rate, reset on a new episode."""
+        state = arena.state
+        key = (id(arena), id(arena.stats))
+        if key != self._episode_key or state.time < self._last_time:
+            self._episode_key = key
+            maxlen = max(2, int(self.options.trail_seconds / arena.world.dt) + 1)
+            self._trails = [deque(maxlen=maxlen) for _ in range(arena.world.n)]
+            self._contacts_seen = 0
+            self._flashes = []
+            self._wall_clock = None
+            self._rate = 0.0
+            self._last_time = -1.0
+        if state.time > self._last_time:
+            for trail, p in zip(self._trails, state.positions, strict=True):
+                trail.append(p.copy())
+            self._last_time = state.time
+        contacts = arena.stats.contacts
+        for ev in contacts[self._contacts_seen:]:
+            self._flashes.append((ev.time, ev.a, ev.b, ev.kind_b))
+        self._contacts_seen = len(contacts)
+        self._flashes = [f for f in self._flashes
+                         if state.time - f[0] <= self.options.flash_seconds]
+        steps = arena.stats.steps
+        now = time.perf_counter()
+        if self._wall_clock is not None and steps > self._wall_clock[1]:
+            dt = now - self._wall_clock[0]
+            rate = (steps - self._wall_clock[1]) / max(dt, 1e-9)
+            self._rate = rate if self._rate == 0 else 0.8 * self._rate + 0.2 * rate
+        self._wall_clock = (now, steps)
+        self._steps = steps
+
+    # ------------------------------------------------------------------ world view
+
+    def _transform(self, arena: Any, selected: int, view: pygame.Rect) -> tuple[float, ...]:
+        """(scale px/m, x0, y0) of the world -> pixel map x_px = (x - x0) s, y_px = (y0 - y) s."""
+        (bx0, by0), (bx1, by1) = arena.spec.bounds.min, arena.spec.bounds.max
+        bw, bh = bx1 - bx0, by1 - by0
+        follow = self.options.follow
+        if follow is None:
+            follow = max(min(bw, bh), 40.0) if max(bw, bh) > 2.5 * min(bw, bh) else 0.0
+        if follow and follow < max(bw, bh):
+            side = float(follow)
+            c = np.array([(bx0 + bx1) / 2, (by0 + by1) / 2])
+            if len(arena.robots):
+                body = arena.robot_ids[selected]
+                to_goal = arena.goals[selected] - arena.state.positions[body]
+                dist = float(np.hypot(*to_goal))
+                ahead = 0.25 * side * to_goal / dist if dist > 1e-6 else np.zeros(2)
+                c = arena.state.positions[body] + ahead
+            cx = float(np.clip(c[0], bx0 + side / 2, bx1 - side / 2)) if bw > side \
+                else (bx0 + bx1) / 2
+            cy = float(np.clip(c[1], by0 + side / 2, by1 - side / 2)) if bh > side \
+                else (by0 + by1) / 2
+            x0, x1, y0, y1 = cx - side / 2, cx + side / 2, cy - side / 2, cy + side / 2
+        else:
+            pad = 0.03 * max(bw, bh)
+            x0, x1, y0, y1 = bx0 - pad, bx1 + pad, by0 - pad, by1 + pad
+        s = min(view.width / (x1 - x0), view.height / (y1 - y0))
+        ox = (x0 + x1) / 2 - view.width / (2 * s)
+        oy = (y0 + y1) / 2 + view.height / (2 * s)
+        return s, ox, oy
+
+    @staticmethod
+    def _px(tr: tuple[float, ...], p: NDArray[np.float64]) -> NDArray[np.float64]:
+        s, ox, oy = tr
+        p = np.asarray(p, dtype=float)
+        return np.stack([(p[..., 0] - ox) * s, (oy - p[..., 1]) * s], axis=-1)
+
+    def _pt(self, tr: tuple[float, ...], p: NDArray[np.float64]) -> tuple[int, int]:
+        q = self._px(tr, p)
+        return int(round(q[0])), int(round(q[1]))
+
+    def _draw_world(self, arena: Any, tr: tuple[float, ...], selected: int,
+                    controlled: set[int], obs: Any) -> None:
+        surf = self.surface
+        s = tr[0]
+        state = arena.state
+        spec = arena.spec
+        # bounds
+        (bx0, by0), (bx1, by1) = spec.bounds.min, spec.bounds.max
+        corners = self._px(tr, np.array([[bx0, by1], [bx1, by0]]))
+        rect = pygame.Rect(int(corners[0, 0]), int(corners[0, 1]),
+                           int(corners[1, 0] - corners[0, 0]), int(corners[1, 1] - corners[0, 1]))
+        pygame.draw.rect(surf, (255, 255, 255), rect)
+        pygame.draw.rect(surf, (200, 200, 200), rect, 1)
+        # lanes
+        for grp, lane in zip(spec.traffic, arena.traffic.lanes, strict=True):
+            width = max(2, int(2 * grp.radius * s))
+            if isinstance(lane, CircleLane):
+                c = self._pt(tr, np.asarray(lane.center))
+                r = int(lane.radius * s)
+                pygame.draw.circle(surf, _LANE, c, r + width // 2, width)
+                n = max(24, int(2 * math.pi * lane.radius * s / 12))
+                ang = np.linspace(0, 2 * math.pi, n, endpoint=False)
+                pts = np.asarray(lane.center) + lane.radius * np.stack(
+                    [np.cos(ang), np.sin(ang)], 1)
+                self._dashed(self._px(tr, pts), (190, 190, 186), closed=True)
+            else:
+                pts = np.asarray(lane.points, float)
+                if lane.closed:
+                    pts = np.vstack([pts, pts[:1]])
+                q = self._px(tr, pts)
+                pygame.draw.lines(surf, _LANE, False, q.tolist(), width)
+                for p in q:
+                    pygame.draw.circle(surf, _LANE, p.tolist(), width // 2)
+                self._dashed(q, (190, 190, 186), closed=False)
+        # walls
+        for wall in spec.walls:
+            if isinstance(wall, SegmentWall):
+                self._capsule(tr, np.array([wall.a, wall.b]), wall.thickness / 2, _WALL)
+            elif isinstance(wall, PolygonWall):
+                pygame.draw.polygon(surf, _WALL, self._px(tr, np.array(wall.points)).tolist())
+        for a, b in spec.bound_wall_segments():
+            self._capsule(tr, np.array([a, b]), spec.bounds.wall_thickness / 2, _WALL)
+        colours = self._robot_colours(arena, controlled)
+        # goals
+        for k, goal in enumerate(arena.goals):
+            g = self._pt(tr, goal)
+            r = max(4, int(arena.world.radii[arena.robot_ids[k]] * s * 0.6))
+            pygame.draw.circle(surf, _mix(colours[k], 0.8), g, r, 2)
+            pygame.draw.line(surf, _mix(colours[k], 0.8), (g[0] - r, g[1]), (g[0] + r, g[1]), 1)
+            pygame.draw.line(surf, _mix(colours[k], 0.8), (g[0], g[1] - r), (g[0], g[1] + r), 1)
+        # trails
+        for k, body in enumerate(arena.robot_ids):
+            trail = self._trails[int(body)]
+            if len(trail) >= 2:
+                pygame.draw.lines(surf, _mix(colours[k], 0.45), False,
+                                  self._px(tr, np.array(trail)).tolist(), 2)
+        # selected robot: line to goal, predicted paths
+        if obs is not None:
+            body = int(arena.robot_ids[selected])
+            pygame.draw.line(surf, (170, 170, 170), self._pt(tr, state.positions[body]),
+                             self._pt(tr, arena.goals[selected]), 1)
+            if self.options.predicted_paths:
+                self._draw_predictions(arena, tr, selected, obs)
+        # bodies
+        flashing = set()
+        for _, a, b, kind_b in self._flashes:
+            flashing.add(a)
+            if kind_b != "wall":
+                flashing.add(b)
+        robot_of = {int(b): k for k, b in enumerate(arena.robot_ids)}
+        for i in range(arena.world.n):
+            p = self._pt(tr, state.positions[i])
+            r = max(2, int(round(state.radii[i] * s)))
+            if i in robot_of:
+                col = colours[robot_of[i]]
+            else:
+                col = AGENT_COLOURS["traffic"]
+            pygame.draw.circle(surf, col, p, r)
+            pygame.draw.circle(surf, _mix(col, 0.6, (0, 0, 0)), p, r, 1)
+            v = state.velocities[i]
+            sp = float(np.hypot(*v))
+            if sp > 1e-6 and r >= 4:
+                tip = state.positions[i] + v / sp * state.radii[i]
+                pygame.draw.line(surf, (255, 255, 255), p, self._pt(tr, tip), 2)
+            if i in flashing:
+                pygame.draw.circle(surf, _RED, p, r + 4, 3)
+        # contact flashes
+        for t0, a, b, kind_b in self._flashes:
+            age = (state.time - t0) / self.options.flash_seconds
+            if kind_b == "wall":
+                where = state.positions[a]
+            else:
+                where = 0.5 * (state.positions[a] + state.positions[b])
+            rr = int(8 + 30 * age)
+            pygame.draw.circle(surf, _mix(_RED, 1.0 - 0.6 * age), self._pt(tr, where), rr, 3)
+        if obs is not None:
+            body = int(arena.robot_ids[selected])
+            p = self._pt(tr, state.positions[body])
+            r = max(3, int(round(state.radii[body] * s)))
+            pygame.draw.circle(surf, (0, 0, 0), p, r + 3, 2)
+            label = self._small.render(arena.robots[selected].name or f"robot{selected}", True,
+                                       _TEXT)
+            surf.blit(label, (p[0] + r + 5, p[1] - r - 14))
+        # scale bar
+        bar_m = self._nice(80 / s)
+        x0, y0 = 16, self.options.size[1] - 20
+        pygame.draw.line(surf, _TEXT, (x0, y0), (x0 + int(bar_m * s), y0), 3)
+        surf.blit(self._small.render(f"{bar_m:g} m", True, _TEXT), (x0, y0 - 16))
+
+    @staticmethod
+    def _nice(x: float) -> float:
+        e = 10 ** math.floor(math.log10(max(x, 1e-9)))
+        for m in (1, 2, 5, 10):
+            if m * e >= x:
+                return m * e
+        return 10 * e
+
+    def _dashed(self, q: NDArray[np.float64], colour: Colour, closed: bool) -> None:
+        pts = np.vstack([q, q[:1]]) if closed else q
+        for k in range(0, len(pts) - 1, 2):
+            pygame.draw.line(self.surface, colour, pts[k].tolist(), pts[k + 1].tolist(), 1)
+
+    def _capsule(self, tr: tuple[float, ...], seg: NDArray[np.float64], half: float,
+                 colour: Colour) -> None:
+        q = self._px(tr, seg)
+        width = max(2, int(round(2 * half * tr[0])))
+        pygame.draw.line(self.surface, colour, q[0].tolist(), q[1].tolist(), width)
+        for p in q:
+            pygame.draw.circle(self.surface, colour, p.tolist(), width / 2)
+
+    def _robot_colours(self, arena: Any, controlled: set[int]) -> list[Colour]:
+        return [AGENT_COLOURS["controlled"] if k in controlled else _agent_colour(name)
+                for k, name in enumerate(arena.agent_names)]
+
+    # ------------------------------------------------------------------ predictions
+
+    def _predictions(self, arena: Any, selected: int, obs: Any) -> tuple[
+        NDArray[np.float64], NDArray[np.float64], PiecewisePath,
+        tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+    ]:
+        """(times (T,) s, predicted neighbour centres (n, T, 2) world m, their paths
+        robot-relative with grown radii, the nearby walls (robot-relative segments (W, 2, 2)
+        m, grown half-thicknesses (W,) m) or None)."""
+        agent = arena.agents[selected] if selected < len(arena.agents) else None
+        nb = obs.neighbours
+        times = getattr(agent, "times", None)
+        predict = getattr(agent, "predict", None)
+        if times is None or predict is None:
+            times = np.linspace(0.0, 3.0, 31)
+            predict = get_predictor("turn_rate")
+        grow = obs.radius + float(getattr(agent, "margin", 0.0))
+        centres = predict(times, nb) if len(nb) else np.zeros((0, len(times), 2))
+        path = sampled_path(times, centres - obs.position, nb.radii + grow)
+        walls = None
+        if len(obs.walls):
+            h = float(times[-1])
+            reach = obs.v_max * h + 0.5 * obs.a_max * h * h
+            segs = obs.walls - obs.position
+            near = _segment_distance(np.zeros((1, 2)), segs)[0] <= reach + obs.wall_radius + grow
+            if np.any(near):
+                walls = (segs[near], obs.wall_radius[near] + grow)
+        return times, centres, path, walls
+
+    def _draw_predictions(self, arena: Any, tr: tuple[float, ...], selected: int,
+                          obs: Any) -> None:
+        times, centres, _, _ = self._predictions(arena, selected, obs)
+        surf = self.surface
+        for j in range(len(centres)):
+            col = _PALETTE[j % len(_PALETTE)]
+            q = self._px(tr, centres[j])
+            pygame.draw.lines(surf, col, False, q.tolist(), 2)
+            end = q[-1]
+            pygame.draw.circle(surf, col, end.tolist(), max(2, int(obs.neighbours.radii[j]
+                                                                   * tr[0])), 1)
+        body = int(arena.robot_ids[selected])
+        a = arena.commanded[body]
+        a_n = float(np.hypot(*a))
+        if a_n > obs.a_max:
+            a = a * obs.a_max / a_n
+        own = obs.position + _own_paths(obs.velocity, a[None], obs.v_max, times)[0]
+        self._dashed(self._px(tr, own), (0, 0, 0), closed=False)
+
+    # ------------------------------------------------------------------ panel
+
+    def _text(self, text: str, pos: tuple[int, int], font: Any = None,
+              colour: Colour = _TEXT) -> None:
+        self.surface.blit((font or self._font).render(text, True, colour), pos)
+
+    def _draw_panel(self, arena: Any, panel: pygame.Rect, selected: int,
+                    controlled: set[int], obs: Any) -> None:
+        x = panel.left + 14
+        state = arena.state
+        stats = arena.stats
+        limit = arena.spec.episode.time_limit
+        robot_contacts = sum(1 for c in stats.contacts if "robot" in (c.kind_a, c.kind_b))
+        self._text(f"{arena.spec.name}", (x, 10), self._big)
+        self._text(f"t = {state.time:6.1f} s  / {limit:g} s     step {self._steps}", (x, 40))
+        rate = f"{self._rate:6.0f} steps/s ({self._rate * arena.world.dt:.1f}x real time)" \
+            if self._rate > 0 else "-- steps/s"
+        self._text(rate, (x, 62))
+        reached = int(np.sum(stats.reached[arena.robot_ids])) if len(arena.robots) else 0
+        self._text(f"collisions: {robot_contacts} involving robots ({len(stats.contacts)} "
+                   f"total)", (x, 84), colour=_RED if robot_contacts else _TEXT)
+        self._text(f"robots at goal: {reached} / {len(arena.robots)}", (x, 106))
+        if obs is None:
+            return
+        body = int(arena.robot_ids[selected])
+        name = arena.robots[selected].name or f"robot{selected}"
+        who = "controlled" if selected in controlled else arena.agent_names[selected]
+        self._text(f"selected: {name} ({who})", (x, 136), self._font)
+        speed = float(np.hypot(*state.velocities[body]))
+        self._text(f"|v| = {speed:.2f} / {obs.v_max:g} m/s   a_max = {obs.a_max:g} m/s^2",
+                   (x, 158), self._small)
+        size = min(panel.width - 28, panel.height - 360)
+        plot = pygame.Rect(x, 200, size, size)
+        self._draw_accel_space(arena, plot, selected, controlled, obs)
+        self._draw_legend(arena, controlled, (x, plot.bottom + 34))
+
+    def _draw_accel_space(self, arena: Any, plot: pygame.Rect, selected: int,
+                          controlled: set[int], obs: Any) -> None:
+        surf = self.surface
+        ext = self.options.panel_extent * obs.a_max
+        g = self.options.panel_grid
+        xs = np.linspace(-ext, ext, g)
+        gx, gy = np.meshgrid(xs, xs[::-1])
+        grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
+        _, _, path, walls = self._predictions(arena, selected, obs)
+        img = np.full((g * g, 3), 255, dtype=np.uint8)
+        # label per grid point: -1 free, -2 walls, j >= 0 the neighbour with least clearance
+        lab = np.full(g * g, -1)
+        best = np.zeros(g * g)
+        shown = 0
+        if path.n_obstacles:
+            keep = relevant_obstacles(obs.velocity, ext * math.sqrt(2), obs.v_max, path.t,
+                                      path.c, path.w, path.b, path.radius, 0.0)
+            idx = np.flatnonzero(keep)
+            if len(idx):
+                shown += len(idx)
+                sub = PiecewisePath(path.t, path.c[idx], path.w[idx], path.b[idx],
+                                    path.radius[idx])
+                clear = path_clearance(grid, obs.velocity, sub, v_max=obs.v_max).clearance
+                owner = np.argmin(clear, axis=1)
+                best = clear[np.arange(len(grid)), owner]
+                lab[best < 0] = idx[owner[best < 0]]
+        if walls is not None:
+            times = np.linspace(0.0, float(path.t[-1]), 41)
+            own = _own_paths(obs.velocity, grid, obs.v_max, times)
+            pts = own.reshape(-1, 2)
+            wall_clear = np.full(len(grid), np.inf)
+            for seg, grown in zip(walls[0], walls[1], strict=True):
+                d = _segment_distance(pts, seg[None])[:, 0].reshape(len(grid), len(times))
+                wall_clear = np.minimum(wall_clear, np.min(d, axis=1) - grown)
+            lab[(wall_clear < 0) & (wall_clear < best)] = -2
+            shown += len(walls[1])
+        hit = lab != -1
+        if np.any(hit):
+            cols = np.array([_mix(_PALETTE[j % len(_PALETTE)], 0.55) for j in range(len(_PALETTE))]
+                            + [_WALL_REGION], dtype=np.uint8)
+            img[hit] = cols[np.where(lab[hit] >= 0, lab[hit] % len(_PALETTE), len(_PALETTE))]
+            grid_lab = lab.reshape(g, g)
+            edge = np.zeros((g, g), dtype=bool)
+            edge[:-1] |= grid_lab[:-1] != grid_lab[1:]
+            edge[1:] |= grid_lab[1:] != grid_lab[:-1]
+            edge[:, :-1] |= grid_lab[:, :-1] != grid_lab[:, 1:]
+            edge[:, 1:] |= grid_lab[:, 1:] != grid_lab[:, :-1]
+            edge = (edge & (grid_lab != -1)).ravel()
+            img[edge] = (img[edge] * 0.6).astype(np.uint8)
+        n_obs = path.n_obstacles + (len(walls[1]) if walls is not None else 0)
+        status = f"{shown} of {n_obs} obstacles within reach" if n_obs else "no obstacles"
+        image = pygame.surfarray.make_surface(img.reshape(g, g, 3).transpose(1, 0, 2))
+        surf.blit(pygame.transform.smoothscale(image, plot.size), plot.topleft)
+        pygame.draw.rect(surf, (120, 120, 120), plot, 1)
+        s = plot.width / (2 * ext)
+        cx, cy = plot.center
+
+        def to_px(a: NDArray[np.float64]) -> tuple[int, int]:
+            return int(round(cx + a[0] * s)), int(round(cy - a[1] * s))
+
+        pygame.draw.line(surf, (170, 170, 170), (plot.left, cy), (plot.right, cy), 1)
+        pygame.draw.line(surf, (170, 170, 170), (cx, plot.top), (cx, plot.bottom), 1)
+        step = self._nice(ext / 3)
+        for k in range(1, int(ext / step) + 1):
+            for sgn in (-1, 1):
+                px = cx + sgn * k * step * s
+                pygame.draw.line(surf, (120, 120, 120), (px, cy - 3), (px, cy + 3), 1)
+                py = cy - sgn * k * step * s
+                pygame.draw.line(surf, (120, 120, 120), (cx - 3, py), (cx + 3, py), 1)
+            self._text(f"{k * step:g}", (int(cx + k * step * s) - 6, cy + 5), self._small,
+                       (90, 90, 90))
+        pygame.draw.circle(surf, (60, 60, 60), (cx, cy), int(round(obs.a_max * s)), 2)
+        agent = arena.agents[selected]
+        desired = goal_seeking_accel(obs, getattr(agent, "v_pref", None),
+                                     heading_offset=float(getattr(agent, "detour", 0.0)))
+        body = int(arena.robot_ids[selected])
+        chosen = np.asarray(arena.commanded[body], dtype=float)
+        n = float(np.hypot(*chosen))
+        if n > obs.a_max:
+            chosen = chosen * obs.a_max / n
+        self._arrow(to_px(np.zeros(2)), to_px(desired), _GREEN)
+        self._arrow(to_px(np.zeros(2)), to_px(chosen), (0, 0, 0))
+        self._text("acceleration space (m/s^2), world axes", (plot.left, plot.top - 20),
+                   self._small)
+        sel = getattr(agent, "last_selection", None)
+        if selected not in controlled and sel is not None:
+            status = f"last selection: {sel.status}; " + status
+        self._text(status, (plot.left, plot.bottom + 6), self._small, (70, 70, 70))
+
+    def _arrow(self, p0: tuple[int, int], p1: tuple[int, int], colour: Colour) -> None:
+        surf = self.surface
+        pygame.draw.line(surf, colour, p0, p1, 3)
+        dx, dy = p1[0] - p0[0], p1[1] - p0[1]
+        n = math.hypot(dx, dy)
+        if n < 1:
+            pygame.draw.circle(surf, colour, p0, 4)
+            return
+        ux, uy = dx / n, dy / n
+        head = min(12.0, 0.5 * n)
+        left = (p1[0] - head * (ux - 0.5 * uy), p1[1] - head * (uy + 0.5 * ux))
+        right = (p1[0] - head * (ux + 0.5 * uy), p1[1] - head * (uy - 0.5 * ux))
+        pygame.draw.polygon(surf, colour, [p1, left, right])
+
+    def _draw_legend(self, arena: Any, controlled: set[int], at: tuple[int, int]) -> None:
+        x, y = at
+        surf = self.surface
+        kinds = []
+        for k, name in enumerate(arena.agent_names):
+            label = "controlled" if k in controlled else name
+            if label not in kinds:
+                kinds.append(label)
+        if len(arena.traffic.indices):
+            kinds.append("traffic")
+        col_w = 120
+        for i, kind in enumerate(kinds):
+            px, py = x + (i % 3) * col_w, y + (i // 3) * 22
+            pygame.draw.circle(surf, _agent_colour(kind), (px + 7, py + 8), 7)
+            self._text(kind, (px + 20, py + 1), self._small)
+        y += ((len(kinds) + 2) // 3) * 22 + 6
+        self._arrow((x, y + 8), (x + 30, y + 8), _GREEN)
+        self._text("desired", (x + 36, y + 1), self._small)
+        self._arrow((x + 120, y + 8), (x + 150, y + 8), (0, 0, 0))
+        self._text("commanded", (x + 156, y + 1), self._small)
+        y += 22
+        pygame.draw.circle(surf, (60, 60, 60), (x + 15, y + 8), 8, 2)
+        self._text("|a| = a_max", (x + 36, y + 1), self._small)
+        pygame.draw.rect(surf, _mix(_PALETTE[0], 0.55), (x + 120, y + 1, 30, 14))
+        self._text("NAO of a neighbour", (x + 156, y + 1), self._small)
+        y += 22
+        pygame.draw.line(surf, _PALETTE[1], (x, y + 8), (x + 30, y + 8), 2)
+        self._text("neighbour's predicted path", (x + 36, y + 1), self._small)
+        y += 22
+        self._dashed(np.array([[x + 2.0 * k, y + 8.0] for k in range(16)]), (0, 0, 0), False)
+        self._text("own path under the command", (x + 36, y + 1), self._small)
+        y += 22
+        pygame.draw.circle(surf, _RED, (x + 15, y + 8), 8, 3)
+        self._text("contact (flashed)", (x + 36, y + 1), self._small)
