@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 import pymunk.batch as pb
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
@@ -130,6 +131,84 @@ def velocity_after_period(
     v_c, _ = _scale_to_vmax(np.asarray(v, float), np.asarray(v_max, float))
     tau = speed_limit_time(v_c, a_c, v_max)
     return v_c + a_c * np.minimum(tau, dt)[:, None]
+
+
+@njit(cache=True)
+def _plan_period(
+    accels: FloatArray, v: FloatArray, a_max: FloatArray, v_max: FloatArray,
+    masses: FloatArray, dt: float, rows: NDArray[np.intp], forces: FloatArray,
+    v_out: FloatArray,
+) -> tuple[bool, bool]:
+    """The speed-limit model of one period for every body, in one pass.
+
+    Writes the substep forces (substeps, rows, 2) N (row rows[i] for body i)
+    and the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s;
+    returns (all commands finite, some start velocity was scaled). Same
+    arithmetic as :func:`clip_accelerations`, :func:`speed_limit_time` and
+    :func:`substep_weights` (bit-identical results; tested).
+    """
+    n = accels.shape[0]
+    substeps = forces.shape[0]
+    h = dt / substeps
+    for i in range(n):
+        if not (np.isfinite(accels[i, 0]) and np.isfinite(accels[i, 1])):
+            return False, False
+    any_over = False
+    for i in range(n):
+        ax, ay = accels[i, 0], accels[i, 1]
+        norm = np.hypot(ax, ay)
+        scale = min(1.0, a_max[i] / max(norm, 1e-300))
+        ax, ay = ax * scale, ay * scale
+        vx, vy = v[i, 0], v[i, 1]
+        speed = np.hypot(vx, vy)
+        if speed > v_max[i]:
+            f = v_max[i] / speed
+            vx, vy = vx * f, vy * f
+            any_over = True
+        v_out[i, 0], v_out[i, 1] = vx, vy
+        aa = ax * ax + ay * ay
+        b = ax * vx + ay * vy
+        c = min(vx * vx + vy * vy - v_max[i] * v_max[i], 0.0)
+        if aa > 0.0:
+            root = np.sqrt(b * b - aa * c)
+            forward = b + root
+            if b >= 0.0:
+                tau = (0.0 - c) / (forward if forward > 0.0 else 1.0)
+            else:
+                tau = (root - b) / aa
+        else:
+            tau = np.inf
+        fx, fy = masses[i] * ax, masses[i] * ay
+        r = rows[i]
+        for j in range(substeps):
+            w = min(max((tau - j * h) / h, 0.0), 1.0)
+            forces[j, r, 0] = w * fx
+            forces[j, r, 1] = w * fy
+    return True, any_over
+
+
+@njit(cache=True)
+def _finish_period(
+    data: FloatArray, rows: NDArray[np.intp], v_max: FloatArray, v_start: FloatArray,
+    dt: float, pos: FloatArray, vel: FloatArray, acc: FloatArray,
+) -> bool:
+    """Read back one period: positions and velocities from the batch rows ``data`` (rows, 4)
+    into pos / vel (N, 2), velocities above v_max scaled back, mean accelerations
+    (vel - v_start) / dt into acc; returns whether some velocity was scaled."""
+    any_over = False
+    for i in range(pos.shape[0]):
+        r = rows[i]
+        pos[i, 0], pos[i, 1] = data[r, 0], data[r, 1]
+        vx, vy = data[r, 2], data[r, 3]
+        speed = np.hypot(vx, vy)
+        if speed > v_max[i]:
+            f = v_max[i] / speed
+            vx, vy = vx * f, vy * f
+            any_over = True
+        vel[i, 0], vel[i, 1] = vx, vy
+        acc[i, 0] = (vx - v_start[i, 0]) / dt
+        acc[i, 1] = (vy - v_start[i, 1]) / dt
+    return any_over
 
 
 class World:
@@ -287,34 +366,34 @@ class World:
 
         Applies the speed-limit model of the module docstring; returns the new state.
         """
-        a = np.asarray(accels, dtype=float)
+        a = np.asarray(accels, dtype=np.float64)
         if a.shape != (self.n, 2):
             raise ValueError(f"expected accelerations of shape ({self.n}, 2), got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError("expected finite accelerations")
         v_start = self._vel
-        a = clip_accelerations(a, self.a_max)
-        v, over = _scale_to_vmax(v_start, self.v_max)
-        if np.any(over):
+        v = np.empty_like(v_start)
+        finite, over = _plan_period(a, v_start, self.a_max, self.v_max, self.masses, self.dt,
+                                    self._rows, self._forces, v)
+        if not finite:
+            raise ValueError("expected finite accelerations")
+        if over:
             self._write_velocities(v)
-        tau = speed_limit_time(v, a, self.v_max)
-        weights = substep_weights(tau, self.dt, self.substeps)
-        force = self.masses[:, None] * a
-        if self._identity:
-            self._forces[:, : self.n, :] = weights[:, :, None] * force[None]
-        else:
-            self._forces[:, self._rows, :] = weights[:, :, None] * force[None]
         h = self.dt / self.substeps
         space = self._space
         for buf in self._force_bufs:
             pb.set_space_bodies(space, pb.BodyFields.FORCE, buf)
             space.step(h)
         self._prev_positions = self._pos
-        self._read()
-        v_end, over = _scale_to_vmax(self._vel, self.v_max)
-        if np.any(over):
-            self._write_velocities(v_end)
-        self._acc = (self._vel - v_start) / self.dt
+        buf = self._get_buf
+        buf.clear()
+        pb.get_space_bodies(space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY, buf)
+        data = np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(self._n_rows, 4)
+        self._pos = np.empty((self.n, 2))
+        vel = np.empty((self.n, 2))
+        self._acc = np.empty((self.n, 2))
+        if _finish_period(data, self._rows, self.v_max, v_start, self.dt, self._pos, vel,
+                          self._acc):
+            self._write_velocities(vel)
+        self._vel = vel
         self._steps += 1
         self.time = self._steps * self.dt
         return self.state()

@@ -342,3 +342,37 @@ def test_shipped_map_runs_200_steps(name: str) -> None:
     assert np.mean(np.hypot(*(state.positions[:n] - goals).T)) < np.mean(
         np.hypot(*(starts - goals).T)
     )
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
+    """The fused kernel of World.step gives exactly the numpy helpers' forces and velocities."""
+    from nao_arena.world import (
+        _plan_period,
+        _scale_to_vmax,
+        clip_accelerations,
+        speed_limit_time,
+        substep_weights,
+    )
+
+    rng = np.random.default_rng(seed)
+    n, substeps, dt = int(rng.integers(1, 30)), int(rng.integers(1, 12)), 0.1
+    a_max, v_max = rng.uniform(0.5, 3.0, n), rng.uniform(0.5, 3.0, n)
+    masses = rng.uniform(0.5, 5.0, n)
+    a = rng.normal(0.0, 3.0, (n, 2))
+    a[rng.random(n) < 0.2] = 0.0  # some zero commands
+    v = rng.normal(0.0, 2.0, (n, 2))  # some above v_max
+    on_limit = rng.random(n) < 0.2
+    v[on_limit] *= (v_max / np.hypot(*v.T))[on_limit, None]  # some exactly at v_max
+    rows = rng.permutation(n + 2)[:n].astype(np.intp)  # body order != batch order
+    forces = np.full((substeps, n + 2, 2), np.nan)
+    v_out = np.empty((n, 2))
+    finite, over = _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)
+    v_ref, over_ref = _scale_to_vmax(v, v_max)
+    a_ref = clip_accelerations(a, a_max)
+    w = substep_weights(speed_limit_time(v_ref, a_ref, v_max), dt, substeps)
+    assert finite and over == bool(np.any(over_ref))
+    np.testing.assert_array_equal(v_out, v_ref)
+    np.testing.assert_array_equal(forces[:, rows], w[:, :, None] * (masses[:, None] * a_ref)[None])
+    a[int(rng.integers(n))] = np.nan
+    assert _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)[0] is False
