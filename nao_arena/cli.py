@@ -6,6 +6,7 @@ Sub-commands::
                   [--time-limit S] [--render human|gif|mp4 --out FILE] [--json FILE]
     nao-arena trial --map MAP[,MAP...] --agent A[,B...] --episodes N --seed S
                     --workers W --out DIR [--csv] [--set key=value ...] [--time-limit S]
+                    [--backend local|ray [--address ADDR]]
     nao-arena report DIR [--out PLOTS_DIR]
     nao-arena maps
     nao-arena agents
@@ -144,18 +145,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_trial(args: argparse.Namespace) -> int:
+    from nao_arena.backends import BackendError
     from nao_arena.maps import MapError
     from nao_arena.trials import TrialConfig, format_table, run_trial
 
+    if args.address is not None and args.backend != "ray":
+        return _err("--address is for the ray backend: add --backend ray")
     try:
         config = TrialConfig(
             maps=_split(args.map), agents=_split(args.agent), episodes=args.episodes,
             seed=args.seed, workers=args.workers, out=Path(args.out),
             overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
-            retry_failed=args.retry_failed,
+            retry_failed=args.retry_failed, backend=args.backend, address=args.address,
         )
         result = run_trial(config, progress=None if args.quiet else sys.stderr)
-    except (MapError, ValueError) as exc:
+    except (MapError, ValueError, BackendError) as exc:
         return _err(str(exc))
     except KeyboardInterrupt:
         print(f"\ninterrupted: finished episodes are kept in {Path(args.out) / 'episodes'}; "
@@ -252,13 +256,21 @@ def build_parser() -> argparse.ArgumentParser:
     trial.add_argument("--agent", required=True, help="comma-separated agents")
     trial.add_argument("--episodes", type=int, default=10, help="episodes per map x agent")
     trial.add_argument("--seed", type=int, default=0, help="the trial's root seed")
-    trial.add_argument("--workers", type=int, default=1, help="local worker processes")
+    trial.add_argument("--workers", type=int, default=1,
+                       help="local worker processes (with --backend ray and no --address: "
+                            "the CPUs of the local Ray instance)")
     trial.add_argument("--out", required=True, help="results folder (resumed if it exists)")
     trial.add_argument("--csv", action="store_true", help="also write CSV files")
     _add_map_options(trial)
     trial.add_argument("--retry-failed", action="store_true",
                        help="run again the episodes recorded as failed")
     trial.add_argument("--quiet", action="store_true", help="no progress line")
+    trial.add_argument("--backend", choices=["local", "ray"], default="local",
+                       help="where the episodes run: local processes (default) or Ray tasks "
+                            "(needs `pip install nao-arena[ray]`)")
+    trial.add_argument("--address", default=None, metavar="ADDR",
+                       help="with --backend ray: the Ray cluster to connect to (e.g. auto, "
+                            "HOST:6379, ray://HOST:10001); default: start a local Ray")
     trial.set_defaults(func=_cmd_trial)
 
     report = sub.add_parser("report", help="table and plots of a trial's results")

@@ -24,6 +24,16 @@ A trial runs every episode of the grid headless through :meth:`Arena.run`
 - with ``csv``: ``episodes.csv``, ``collisions.csv``, ``summary.csv``.
 - ``trial.json``: the trial's settings.
 
+Backends
+--------
+The episodes run on a backend (:mod:`nao_arena.backends`): ``local``
+(default; ``workers`` processes of this machine, or this process) or
+``ray`` (Ray tasks on a local Ray instance or on the cluster at
+``address``; ``pip install nao-arena[ray]``). A backend only executes
+:func:`compute_episode` on the episodes' :class:`EpisodeTask` and hands each
+record back to this process, which writes the episode's file and counts it
+on the progress line: resume, files and tables do not depend on the backend.
+
 All these files are (re)built from the per-episode files at the end of a
 run, in grid order (maps, then agents, then episodes, as given), and are
 written to a temporary name then ``os.replace``-d.
@@ -73,7 +83,6 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import os
 import re
 import sys
@@ -81,8 +90,6 @@ import tempfile
 import time
 import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, TextIO
@@ -94,6 +101,7 @@ import pyarrow.parquet as pq
 
 from nao_arena.agent import load_agent
 from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.backends import BACKENDS, make_backend
 from nao_arena.maps import MapError, MapSpec, load_map
 from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text
 
@@ -106,6 +114,7 @@ __all__ = [
     "TrialResult",
     "atomic_write_with",
     "build_results",
+    "compute_episode",
     "episode_seed",
     "format_table",
     "load_summary",
@@ -174,11 +183,14 @@ class TrialConfig:
     maps: shipped map names or map file paths; agents: agent references
     (built-in names, ``FILE.py:Class``, ``module:Class``, plug-in names);
     seed: the trial's root seed; workers: local processes (1 = in this
-    process); out: the results folder; overrides: map parameters
-    (``name -> value``), each applied to the maps of the grid that declare
-    it; time_limit: episode time limit (s) replacing the maps' own (None:
-    keep them); csv: also write CSV files; retry_failed: run again the
-    episodes whose recorded result is an error.
+    process), or the CPUs of the local Ray instance; out: the results
+    folder; overrides: map parameters (``name -> value``), each applied to
+    the maps of the grid that declare it; time_limit: episode time limit
+    (s) replacing the maps' own (None: keep them); csv: also write CSV
+    files; retry_failed: run again the episodes whose recorded result is an
+    error; backend: ``local`` or ``ray`` (see :mod:`nao_arena.backends`);
+    address: the Ray cluster to connect to (None: a local Ray instance;
+    only with ``backend="ray"``).
     """
 
     maps: tuple[str, ...]
@@ -191,6 +203,8 @@ class TrialConfig:
     time_limit: float | None = None
     csv: bool = False
     retry_failed: bool = False
+    backend: str = "local"
+    address: str | None = None
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -207,6 +221,11 @@ class TrialConfig:
             raise ValueError(f"seed: expected >= 0, got {self.seed}")
         if self.workers < 1:
             raise ValueError(f"workers: expected >= 1, got {self.workers}")
+        if self.backend not in BACKENDS:
+            raise ValueError(f"unknown backend {self.backend!r}; choose from "
+                             f"{', '.join(BACKENDS)}")
+        if self.address is not None and self.backend != "ray":
+            raise ValueError("an address is for the ray backend (--backend ray)")
         if self.time_limit is not None and not self.time_limit > 0:
             raise ValueError(f"time limit: expected > 0 s, got {self.time_limit}")
         if "seed" in self.overrides:
@@ -343,9 +362,10 @@ def _done_record(task: EpisodeTask, retry_failed: bool) -> dict[str, Any] | None
     return None if retry_failed and rec.get("error") is not None else rec
 
 
-def run_episode(task: EpisodeTask) -> dict[str, Any]:
-    """Run one episode and write its result file atomically; returns the record.
+def compute_episode(task: EpisodeTask) -> dict[str, Any]:
+    """Run one episode; returns its record (what the episode's result file holds).
 
+    This is what every backend executes, wherever it runs: it writes no file.
     An exception while loading the map, building the arena or running is
     recorded (``error``: its type and message, ``result``: null) instead of
     propagating. The record's ``wall_time_s`` is informative only (it is in
@@ -360,7 +380,18 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     except Exception as exc:  # noqa: BLE001 - a failing episode must not stop the trial
         record["error"] = f"{type(exc).__name__}: {exc}"
     record["wall_time_s"] = time.perf_counter() - start
+    return record
+
+
+def _write_record(task: EpisodeTask, record: Mapping[str, Any]) -> None:
+    """Write an episode's result file atomically."""
     atomic_write_text(task.path, json.dumps(record, indent=1) + "\n")
+
+
+def run_episode(task: EpisodeTask) -> dict[str, Any]:
+    """Run one episode here and write its result file atomically; returns the record."""
+    record = compute_episode(task)
+    _write_record(task, record)
     return record
 
 
@@ -457,11 +488,15 @@ def run_trial(
     """Run the episodes of the grid not done yet, then (re)build the results files.
 
     progress: stream for the progress line (None: silent); on_episode: called
-    in this process with each new episode's record. Raises ValueError /
+    in this process with each new episode's record. The episodes run on
+    ``config.backend``; their records come back to this process, which
+    writes each episode's file as soon as it arrives. Raises ValueError /
     :class:`~nao_arena.maps.MapError` for unknown maps or agents and bad
-    overrides before any episode runs.
+    overrides, and :class:`~nao_arena.backends.BackendError` if the backend
+    is not installed, before any episode runs.
     """
     per_map = _validate(config)
+    backend = make_backend(config.backend, config.workers, config.address)
     out = Path(config.out)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
     settings = {k: v for k, v in asdict(config).items() if k != "out"}
@@ -487,43 +522,20 @@ def run_trial(
         progress.write(f"resuming: {len(tasks) - len(todo)} of {len(tasks)} episodes "
                        f"already in {out / 'episodes'}\n")
 
-    def finished(record: dict[str, Any]) -> None:
+    def finished(task: EpisodeTask, record: dict[str, Any]) -> None:
+        _write_record(task, record)
         bar.update(record)
         if on_episode is not None:
             on_episode(record)
 
-    if config.workers == 1 or len(todo) <= 1:
-        for task in todo:
-            finished(run_episode(task))
-    else:
-        _run_pool(todo, min(config.workers, len(todo)), finished)
+    with backend:
+        if todo:
+            backend.prepare()
+            bar.start = time.perf_counter()  # the ETA leaves out starting the backend
+        backend.run(compute_episode, todo, finished)
     bar.show(final=True)
     summary, files = build_results(config, tasks)
     return TrialResult(summary, len(todo), len(tasks) - len(todo), files)
-
-
-def _run_pool(
-    todo: Sequence[EpisodeTask], workers: int, finished: Callable[[dict[str, Any]], None]
-) -> None:
-    """Run tasks on local processes ("spawn" context); each worker writes its own file."""
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        pending: set[Future[dict[str, Any]]] = set()
-        try:
-            pending = {pool.submit(run_episode, t) for t in todo}
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    finished(fut.result())
-        except BrokenProcessPool as exc:
-            raise RuntimeError(
-                "a worker process died abruptly (e.g. out of memory); the episodes finished "
-                "so far are kept: run the same command again to resume"
-            ) from exc
-        except BaseException:
-            for fut in pending:
-                fut.cancel()
-            raise
 
 
 # --------------------------------------------------------------------------- results files
