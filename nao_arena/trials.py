@@ -86,7 +86,6 @@ import math
 import os
 import re
 import sys
-import tempfile
 import time
 import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -103,7 +102,7 @@ from nao_arena.agent import load_agent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.backends import BACKENDS, make_backend
 from nao_arena.maps import MapError, MapSpec, load_map
-from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text
+from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text, temporary_sibling
 
 __all__ = [
     "COLLISION_SCHEMA",
@@ -571,7 +570,7 @@ def _table(rows: Sequence[Mapping[str, Any]], schema: pa.Schema) -> pa.Table:
 
 def atomic_write_with(path: Path, write: Callable[[str], None]) -> None:
     """Call write(tmp) for a temporary name next to path, then os.replace it onto path."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = temporary_sibling(path)
     os.close(fd)
     try:
         write(tmp)
