@@ -118,6 +118,10 @@ class LocalBackend(Backend[T, R]):
             except BaseException:
                 for fut in pending:
                     fut.cancel()
+                # unfinished episodes are discarded anyway: stop their workers now
+                # rather than letting them run to the end (e.g. on SIGTERM)
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                    proc.terminate()
                 raise
 
 

@@ -19,6 +19,7 @@ choices, exit status 2.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -144,6 +145,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- trial
 
 
+def _terminate_as_interrupt(signum: int, frame: object) -> None:
+    """SIGTERM handler: stop a trial like Ctrl-C (workers stopped, finished episodes kept)."""
+    raise KeyboardInterrupt
+
+
 def _cmd_trial(args: argparse.Namespace) -> int:
     from nao_arena.backends import BackendError
     from nao_arena.maps import MapError
@@ -158,7 +164,11 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
             retry_failed=args.retry_failed, backend=args.backend, address=args.address,
         )
-        result = run_trial(config, progress=None if args.quiet else sys.stderr)
+        previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
+        try:
+            result = run_trial(config, progress=None if args.quiet else sys.stderr)
+        finally:
+            signal.signal(signal.SIGTERM, previous)
     except (MapError, ValueError, BackendError) as exc:
         return _err(str(exc))
     except KeyboardInterrupt:

@@ -104,3 +104,46 @@ def test_figures_still_listed():
     with pytest.raises(SystemExit) as exc:
         main(["figures", "--help"])
     assert exc.value.code == 0
+
+
+def _parent_pid(pid: str) -> int | None:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return int(fh.read().rsplit(")", 1)[1].split()[1])
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals and /proc")
+def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
+    """SIGTERM ends a running trial like Ctrl-C: exit 130, no worker left running."""
+    import os
+    import signal
+    import subprocess
+    import time
+
+    out = tmp_path / "res"
+    code = ("import sys; from nao_arena.cli import main; sys.exit(main(sys.argv[1:]))")
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "trial", "--map", "crowd", "--agent", "nao",
+         "--episodes", "6", "--workers", "2", "--out", str(out), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (out / "trial.json").exists():
+        time.sleep(0.2)
+    time.sleep(3.0)  # the workers are running episodes now
+    children = [d for d in os.listdir("/proc") if d.isdigit() and _parent_pid(d) == proc.pid]
+    assert children  # the worker processes
+    os.kill(proc.pid, signal.SIGTERM)
+    try:  # running episodes are abandoned, not finished (a crowd episode takes longer)
+        _, err = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    assert "run the same command again to resume" in err
+    time.sleep(0.5)
+    alive = [pid for pid in children if os.path.exists(f"/proc/{pid}")
+             and "zombie" not in open(f"/proc/{pid}/status").read().lower()]
+    assert not alive
