@@ -25,10 +25,16 @@ Its own predicted path includes its speed limit, so "admissible" means
 collision-free for the world's real dynamics over the horizon (up to the
 physics integration error, covered by the margin).
 ``ao`` is the same agent with constant-acceleration predictions (the AO).
+
+In the arena the agents of one class act together (:meth:`NAOAgent.act_batch`,
+the same results as :meth:`NAOAgent.act` robot by robot): predictions once
+per step for all bodies, goal seeking vectorised, the keep test (1.) in one
+compiled call; only the robots that must re-select run the selection.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -36,10 +42,14 @@ from numpy.typing import NDArray
 
 from nao_arena.agents.goal import goal_seeking_accel
 from nao_arena.geometry import AccelLimits, PiecewisePath, sampled_path, select_acceleration
-from nao_arena.geometry.kernel import admissible_kernel, piece_sweep
+from nao_arena.geometry.kernel import (
+    admissible_kernel,
+    piece_sweep,
+    sampled_admissible_batch,
+)
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor
-from nao_arena.sensing import Observation
+from nao_arena.sensing import Observation, SensingBatch
 
 
 class NAOAgent:
@@ -83,26 +93,32 @@ class NAOAgent:
         """Track crawling away from the goal; start or end a detour to the right."""
         speed = float(np.hypot(*obs.velocity))
         far = obs.goal is not None and float(np.hypot(*(obs.goal - obs.position))) > 4 * obs.radius
-        if far and speed < 0.25 * obs.v_max:
-            self.crawl_time += obs.dt
-            self.free_time = 0.0
-        else:
-            self.free_time += obs.dt
-            self.crawl_time = 0.0
-        if self.detour == 0.0 and self.crawl_time >= self.detour_after:
-            self.detour = -float(self.rng.uniform(np.pi / 6, np.pi / 3))
-        elif self.detour != 0.0 and self.free_time >= self.detour_after:
-            self.detour = 0.0
+        self._detour_step(far, speed < 0.25 * obs.v_max, obs.dt)
 
     def obstacle_paths(self, obs: Observation) -> PiecewisePath:
         """Neighbours' predicted paths and wall discs, robot-relative (m)."""
         nb = obs.neighbours
-        centres = [self.predict(self.times, nb) - obs.position] if len(nb) else []
-        radii = [nb.radii + obs.radius + self.margin] if len(nb) else []
-        if len(obs.walls):
-            wc, wr = wall_discs(obs.walls, obs.wall_radius, obs.radius + self.margin)
-            near = np.hypot(*(wc - obs.position).T) <= self.sensing_range + wr
-            centres.append(np.repeat((wc[near] - obs.position)[:, None, :], len(self.times), 1))
+        predicted = self.predict(self.times, nb) if len(nb) else None
+        return self._paths(predicted, nb.radii, obs.position, obs.radius, obs.walls,
+                           obs.wall_radius)
+
+    def _paths(
+        self,
+        predicted: NDArray[np.float64] | None,
+        nb_radii: NDArray[np.float64],
+        position: NDArray[np.float64],
+        radius: float,
+        walls: NDArray[np.float64],
+        wall_radius: NDArray[np.float64],
+    ) -> PiecewisePath:
+        """Sampled paths of the neighbours' predicted centres (n, T, 2) m (world frame,
+        None: no neighbours) and of the wall discs in range, relative to ``position``."""
+        centres = [predicted - position] if predicted is not None else []
+        radii = [nb_radii + radius + self.margin] if predicted is not None else []
+        if len(walls):
+            wc, wr = _wall_discs(walls, wall_radius, radius + self.margin)
+            near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
+            centres.append(np.repeat((wc[near] - position)[:, None, :], len(self.times), 1))
             radii.append(wr[near])
         if not centres:
             return sampled_path(self.times, np.zeros((0, len(self.times), 2)), np.zeros(0))
@@ -120,6 +136,17 @@ class NAOAgent:
         )
         return bool(ok[0])
 
+    def _select(
+        self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
+        a_max: float, v_max: float,
+    ) -> NDArray[np.float64]:
+        """The full selection (m/s^2); becomes the current acceleration."""
+        sel = select_acceleration(desired, velocity, path, AccelLimits(a_max),
+                                  v_max=v_max, with_clearance=False)
+        self.last_selection = sel
+        self.current = np.asarray(sel.accel, dtype=np.float64)
+        return self.current
+
     def act(self, obs: Observation) -> NDArray[np.float64]:
         if not self.replan and self.last_selection is not None:
             return self.current
@@ -131,11 +158,239 @@ class NAOAgent:
             and self._admissible(self.current, obs, path)
         ):
             return self.current
-        sel = select_acceleration(desired, obs.velocity, path, AccelLimits(obs.a_max),
-                                  v_max=obs.v_max, with_clearance=False)
-        self.last_selection = sel
-        self.current = np.asarray(sel.accel, dtype=np.float64)
-        return self.current
+        return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max)
+
+    @classmethod
+    def act_batch(
+        cls, agents: Sequence[NAOAgent], batch: SensingBatch, rows: Sequence[int]
+    ) -> list[NDArray[np.float64] | Exception]:
+        """:meth:`act` for many robots at once, from the bulk arrays (same results).
+
+        Predictions are made once per step for all bodies (per predictor and
+        time grid) and indexed per robot; goal seeking is vectorised; whether
+        the current accelerations stay admissible is decided in one compiled
+        call; only the robots that must re-select run the full selection.
+        Returns one acceleration (m/s^2) or exception per row.
+        """
+        n = len(rows)
+        out: list[NDArray[np.float64] | Exception | None] = [None] * n
+        rows_a = np.asarray(rows, dtype=np.int64)
+        bodies = batch.bodies[rows_a]
+        pos = batch.positions[bodies]
+        vel = batch.velocities[bodies]
+        rad = batch.radii[bodies]
+        a_max = batch.a_max[bodies]
+        v_max = batch.v_max[bodies]
+        goals = batch.goals[rows_a]
+        own = [i for i, ag in enumerate(agents) if not _batchable(type(ag))]
+        for i in own:
+            # a subclass with its own act / paths / keep test acts robot by robot
+            try:
+                out[i] = agents[i].act(batch.observation(int(rows_a[i])))
+            except Exception as exc:  # noqa: BLE001 - the agent's failure
+                out[i] = exc
+        live = [i for i, ag in enumerate(agents)
+                if (ag.replan or ag.last_selection is None) and out[i] is None]
+        for i, ag in enumerate(agents):
+            if out[i] is None and not (ag.replan or ag.last_selection is None):
+                out[i] = ag.current
+        if not live:
+            return out  # type: ignore[return-value]
+        # liveness bookkeeping, as _update_detour
+        speed = np.hypot(vel[:, 0], vel[:, 1])
+        far = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1]) > 4 * rad
+        for i in live:
+            agents[i]._detour_step(bool(far[i]), bool(speed[i] < 0.25 * v_max[i]), batch.dt)
+        desired = _goal_seeking_batch(agents, batch, rows_a, pos, vel, a_max, v_max, goals)
+        # predictions: once per (predictor, time grid) for every body
+        groups: dict[tuple[str, bytes], list[int]] = {}
+        for i in live:
+            ag = agents[i]
+            groups.setdefault((ag.predictor_name, ag.times.tobytes()), []).append(i)
+        current = np.array([ag.current for ag in agents]).reshape(n, 2)
+        for members in groups.values():
+            ag0 = agents[members[0]]
+            try:
+                pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
+                                            dtype=np.float64)
+            except Exception as exc:  # noqa: BLE001 - the agents' failure
+                for i in members:
+                    out[i] = exc
+                continue
+            status = _keep_current(members, agents, batch, rows_a, pred, pos, vel, rad, a_max,
+                                   v_max, current, desired)
+            for i, st in zip(members, status, strict=True):
+                ag = agents[i]
+                if st == 1:
+                    out[i] = ag.current
+                    continue
+                k = int(rows_a[i])
+                try:
+                    idx = batch.neighbour_ids(k)
+                    path = ag._paths(pred[idx] if len(idx) else None, batch.radii[idx], pos[i],
+                                     float(rad[i]), batch.walls, batch.wall_radius)
+                    if st == 2 and ag._admissible_arrays(current[i], vel[i], float(a_max[i]),
+                                                         float(v_max[i]), path):
+                        out[i] = ag.current
+                        continue
+                    out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
+                                        float(v_max[i]))
+                except Exception as exc:  # noqa: BLE001 - the agent's failure
+                    out[i] = exc
+        return out  # type: ignore[return-value]
+
+    def _detour_step(self, far: bool, crawling: bool, dt: float) -> None:
+        """:meth:`_update_detour` from precomputed tests (far from the goal, below v_max / 4)."""
+        if far and crawling:
+            self.crawl_time += dt
+            self.free_time = 0.0
+        else:
+            self.free_time += dt
+            self.crawl_time = 0.0
+        if self.detour == 0.0 and self.crawl_time >= self.detour_after:
+            self.detour = -float(self.rng.uniform(np.pi / 6, np.pi / 3))
+        elif self.detour != 0.0 and self.free_time >= self.detour_after:
+            self.detour = 0.0
+
+    def _admissible_arrays(
+        self, a: NDArray[np.float64], v: NDArray[np.float64], a_max: float, v_max: float,
+        path: PiecewisePath,
+    ) -> bool:
+        """:meth:`_admissible` from arrays: a (m/s^2), v (m/s), limits a_max, v_max."""
+        if float(np.hypot(*a)) > a_max * (1 + 1e-9):
+            return False
+        if path.n_obstacles == 0:
+            return True
+        ok = np.empty(1, dtype=bool)
+        admissible_kernel(
+            v[None].copy(), a[None].copy(), v_max, path.t, path.c, path.w,
+            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+        )
+        return bool(ok[0])
+
+
+def _batchable(cls: type) -> bool:
+    """Whether :meth:`NAOAgent.act_batch` computes what ``cls.act`` computes (no override
+    of the per-robot steps it reimplements)."""
+    return all(getattr(cls, name) is getattr(NAOAgent, name)
+               for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
+                            "_select", "_paths"))
+
+
+_WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+
+def _wall_discs(
+    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`wall_discs` (centres m, radii m), memoised: walls do not move."""
+    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
+           float(grow))
+    hit = _WALL_CACHE.get(key)
+    if hit is None:
+        if len(_WALL_CACHE) > 64:
+            _WALL_CACHE.clear()
+        hit = wall_discs(walls, wall_radius, grow)
+        _WALL_CACHE[key] = hit
+    return hit
+
+
+def _goal_seeking_batch(
+    agents: Sequence[NAOAgent], batch: SensingBatch, rows: NDArray[np.int64],
+    pos: NDArray[np.float64], vel: NDArray[np.float64], a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64], goals: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """:func:`goal_seeking_accel` (default time constant and braking) per row, (n, 2) m/s^2,
+    with the same floating-point operations; rows it does not cover (no finite goal)
+    go through the function itself."""
+    cap = np.array([float(v) if ag.v_pref is None else min(ag.v_pref, float(v))
+                    for ag, v in zip(agents, v_max, strict=True)])
+    to_goal = goals - pos
+    dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        speed = np.minimum(cap, np.sqrt(2.0 * 0.5 * a_max * dist))
+        v_target = to_goal / dist[:, None] * speed[:, None]
+    still = dist < 1e-9
+    v_target[still] = 0.0
+    for i, ag in enumerate(agents):
+        if ag.detour and not still[i]:
+            c, s_ = np.cos(ag.detour), np.sin(ag.detour)
+            vt = v_target[i].copy()
+            v_target[i] = (c * vt[0] - s_ * vt[1], s_ * vt[0] + c * vt[1])
+    acc = (v_target - vel) / 0.5
+    norm = np.hypot(acc[:, 0], acc[:, 1])
+    over = norm > a_max
+    acc[over] *= (a_max[over] / norm[over])[:, None]
+    bad = ~np.isfinite(dist)
+    for i in np.flatnonzero(bad):
+        acc[i] = goal_seeking_accel(batch.observation(int(rows[i])), agents[i].v_pref,
+                                    heading_offset=agents[i].detour)
+    return acc
+
+
+def _keep_current(
+    members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
+    rows: NDArray[np.int64], pred: NDArray[np.float64], pos: NDArray[np.float64],
+    vel: NDArray[np.float64], rad: NDArray[np.float64], a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
+) -> list[int]:
+    """Per member: 1 keep the current acceleration (within keep_band of the desired one and
+    admissible), 0 select anew, 2 undecided here (decide from the full path)."""
+    ag0 = agents[members[0]]
+    times = ag0.times
+    m = np.asarray(members, dtype=np.int64)
+    band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
+        [agents[i].keep_band for i in members])
+    inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
+    status = np.where(band & inside, 2, 0)
+    if not (len(times) >= 2 and times[0] == 0.0 and np.all(np.diff(times) > 0)
+            and np.all(np.isfinite(times))) or not np.any(status == 2):
+        return status.tolist()
+    # the obstacles each member sees: neighbours, then the wall discs in its range
+    k_rows = rows[m]
+    nb_start = np.zeros(len(m) + 1, dtype=np.int64)
+    nb_index = []
+    wall_start = np.zeros(len(m) + 1, dtype=np.int64)
+    wall_index = []
+    wall_c_parts: list[NDArray[np.float64]] = []
+    wall_r_parts: list[NDArray[np.float64]] = []
+    offset = 0
+    seen: dict[float, int] = {}
+    for j, i in enumerate(members):
+        idx = batch.neighbour_ids(int(k_rows[j]))
+        nb_index.append(idx)
+        nb_start[j + 1] = nb_start[j] + len(idx)
+        near_idx = np.zeros(0, dtype=np.int64)
+        if len(batch.walls):
+            ag = agents[i]
+            grow = float(rad[i]) + ag.margin
+            wc, wr = _wall_discs(batch.walls, batch.wall_radius, grow)
+            if grow not in seen:
+                seen[grow] = offset
+                wall_c_parts.append(wc)
+                wall_r_parts.append(wr)
+                offset += len(wc)
+            near = np.hypot(*(wc - pos[i]).T) <= ag.sensing_range + wr
+            near_idx = seen[grow] + np.flatnonzero(near)
+        wall_index.append(near_idx)
+        wall_start[j + 1] = wall_start[j] + len(near_idx)
+    wall_c = np.concatenate(wall_c_parts) if wall_c_parts else np.zeros((0, 2))
+    wall_r = np.concatenate(wall_r_parts) if wall_r_parts else np.zeros(0)
+    todo = np.flatnonzero(status == 2)
+    res = np.zeros(len(m), dtype=np.int64)
+    sampled_admissible_batch(
+        np.ascontiguousarray(times, dtype=np.float64), pred, nb_start,
+        np.concatenate(nb_index).astype(np.int64), np.ascontiguousarray(batch.radii),
+        np.ascontiguousarray(wall_c), np.ascontiguousarray(wall_r), wall_start,
+        np.concatenate(wall_index).astype(np.int64), todo, np.ascontiguousarray(pos[m]),
+        np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
+        np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]),
+        np.array([agents[i].margin for i in members]), res,
+    )
+    # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
+    return [int(status[j]) if status[j] != 2 else (1 if res[j] == 1 else
+                                                   (0 if res[j] == 0 else 2))
+            for j in range(len(m))]
 
 
 class AOAgent(NAOAgent):

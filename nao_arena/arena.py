@@ -5,13 +5,19 @@ the scripted lane followers of the map's traffic and the episode's
 :class:`~nao_arena.stats.EpisodeStats`. Each :meth:`Arena.step`:
 
 1. reads the world state (bulk arrays);
-2. builds one :class:`~nao_arena.sensing.Observation` per robot: own state,
-   goal/route, neighbours within ``sensing_range`` (with the true future
-   paths of traffic and the accelerations other robots committed to), walls;
+2. senses for every robot at once (:class:`~nao_arena.sensing.SensingBatch`):
+   own state, goal/route, neighbours within ``sensing_range`` (with the true
+   future paths of traffic and the accelerations other robots committed
+   to), walls; a per-robot agent gets it as an
+   :class:`~nao_arena.sensing.Observation`;
 3. asks every robot's agent for an acceleration (m/s^2, world frame) —
    external actions (e.g. from the PettingZoo env) replace the agents of
    the robots they name; a failing agent gets zero acceleration and a fault
-   is recorded; traffic gets its lane followers' accelerations;
+   is recorded; traffic gets its lane followers' accelerations. Agent
+   classes with a ``act_batch(agents, batch, rows)`` classmethod are asked
+   once per class for all their robots (one acceleration or exception per
+   row, checked like :func:`~nao_arena.agent.safe_act`); the result must be
+   what ``act`` would give robot by robot;
 4. steps the world (limits enforced there);
 5. updates the statistics (swept contact check, metrics).
 
@@ -31,7 +37,7 @@ from numpy.typing import NDArray
 
 from nao_arena.agent import AgentFault, load_agent, safe_act
 from nao_arena.maps import MapSpec, RobotSpec
-from nao_arena.sensing import Neighbours, Observation, neighbours_in_range
+from nao_arena.sensing import Observation, SensingBatch, neighbour_lists
 from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState
@@ -121,6 +127,7 @@ class Arena:
         self.stats: EpisodeStats | None = None
         self.state: WorldState | None = None
         self.commanded = np.zeros((self.world.n, 2))
+        self._kinds: NDArray[np.str_] | None = None
 
     # ------------------------------------------------------------------ episode
 
@@ -169,39 +176,33 @@ class Arena:
             out[idx] = self.traffic.future_paths(state.positions, self.path_times)
         return out
 
-    def observations(self) -> list[Observation]:
-        """One observation per robot (robot order), for the current state."""
+    def sensing(self) -> SensingBatch:
+        """Every robot's view of the current state as bulk arrays (see
+        :class:`~nao_arena.sensing.SensingBatch`); :meth:`observations` unpacks it."""
         state = self.state
         assert state is not None
         known = self._known_paths(state) if len(self.traffic.indices) else None
         plans = np.full((self.world.n, 2), np.nan)
         plans[self.robot_ids] = self.commanded[self.robot_ids]
-        kinds = np.array(self.world.kinds)
-        out = []
-        for k, body in enumerate(self.robot_ids):
-            idx = neighbours_in_range(
-                int(body), state.positions, self.sensing_range, self.max_neighbours,
-            )
-            nb = Neighbours(
-                ids=idx,
-                kinds=tuple(kinds[idx]),
-                positions=state.positions[idx],
-                velocities=state.velocities[idx],
-                accelerations=state.accelerations[idx],
-                radii=state.radii[idx],
-                path_times=self.path_times,
-                known_paths=None if known is None else known[idx],
-                plans=plans[idx],
-            )
-            out.append(Observation(
-                time=state.time, dt=self.world.dt, robot_id=int(k),
-                position=state.positions[body], velocity=state.velocities[body],
-                acceleration=state.accelerations[body], radius=float(state.radii[body]),
-                a_max=float(self.world.a_max[body]), v_max=float(self.world.v_max[body]),
-                goal=self.goals[k], route=self.routes[k], neighbours=nb,
-                walls=self.walls, wall_radius=self.wall_radius,
-            ))
-        return out
+        if self._kinds is None:
+            self._kinds = np.array(self.world.kinds)
+        start, index = neighbour_lists(
+            self.robot_ids, state.positions, self.sensing_range, self.max_neighbours,
+        )
+        return SensingBatch(
+            time=state.time, dt=self.world.dt, positions=state.positions,
+            velocities=state.velocities, accelerations=state.accelerations, radii=state.radii,
+            a_max=self.world.a_max, v_max=self.world.v_max, kinds=self._kinds, plans=plans,
+            known_paths=known, path_times=self.path_times,
+            bodies=np.asarray(self.robot_ids, dtype=np.int64), goals=self.goals,
+            routes=self.routes, walls=self.walls, wall_radius=self.wall_radius,
+            nb_start=start, nb_index=index,
+        )
+
+    def observations(self) -> list[Observation]:
+        """One observation per robot (robot order), for the current state."""
+        batch = self.sensing()
+        return [batch.observation(k) for k in range(len(self.robot_ids))]
 
     # ------------------------------------------------------------------ step
 
@@ -213,16 +214,31 @@ class Arena:
         commanded = np.zeros((self.world.n, 2))
         faults: list[AgentFault] = []
         actions = actions or {}
-        for k, obs in enumerate(self.observations()):
+        batch = self.sensing()
+        found: dict[int, AgentFault] = {}
+        batched: dict[type, list[int]] = {}
+        for k in range(len(self.robot_ids)):
             body = self.robot_ids[k]
             if k in actions:
                 commanded[body] = actions[k]
                 continue
-            acc, fault = safe_act(self.agents[k], obs, self.agent_names[k])
+            if callable(getattr(type(self.agents[k]), "act_batch", None)):
+                # agents of one class that act on the bulk arrays all at once
+                batched.setdefault(type(self.agents[k]), []).append(k)
+                continue
+            acc, fault = safe_act(self.agents[k], batch.observation(k), self.agent_names[k])
             commanded[body] = acc
             if fault is not None:
-                faults.append(fault)
-                self.stats.record_fault(fault.time, int(body), fault.message)
+                found[k] = fault
+        for cls, rows in batched.items():
+            for k, (acc, fault) in zip(rows, self._act_batch(cls, batch, rows), strict=True):
+                commanded[self.robot_ids[k]] = acc
+                if fault is not None:
+                    found[k] = fault
+        for k in sorted(found):
+            fault = found[k]
+            faults.append(fault)
+            self.stats.record_fault(fault.time, int(self.robot_ids[k]), fault.message)
         idx = self.traffic.indices
         if len(idx):
             commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)
@@ -236,6 +252,45 @@ class Arena:
             state.time, before, new_state.positions, new_state.velocities, commanded, reached
         )
         return StepResult(new_state.time, new_state, commanded, contacts, faults)
+
+    def _act_batch(
+        self, cls: type, batch: SensingBatch, rows: list[int]
+    ) -> list[tuple[NDArray[np.float64], AgentFault | None]]:
+        """``cls.act_batch(agents, batch, rows)`` checked like :func:`safe_act`: each
+        result must be a finite (2,) acceleration (an exception instance is that
+        agent's failure); a failing call fails every agent of the group."""
+        agents = [self.agents[k] for k in rows]
+        try:
+            results = list(cls.act_batch(agents, batch, rows))
+            if len(results) != len(rows):
+                raise ValueError(
+                    f"act_batch returned {len(results)} results for {len(rows)} agents"
+                )
+        except Exception as exc:  # noqa: BLE001 - any agent failure is contained
+            results = [exc] * len(rows)
+        out = []
+        for k, res in zip(rows, results, strict=True):
+            name = self.agent_names[k]
+            if isinstance(res, BaseException):
+                out.append((np.zeros(2), AgentFault(batch.time, k, name,
+                                                    f"{type(res).__name__}: {res}")))
+                continue
+            try:
+                acc = np.asarray(res, dtype=np.float64)
+            except Exception as exc:  # noqa: BLE001
+                out.append((np.zeros(2), AgentFault(batch.time, k, name,
+                                                    f"{type(exc).__name__}: {exc}")))
+                continue
+            if acc.shape != (2,):
+                out.append((np.zeros(2), AgentFault(
+                    batch.time, k, name,
+                    f"expected an acceleration of shape (2,), got {acc.shape}")))
+            elif not np.all(np.isfinite(acc)):
+                out.append((np.zeros(2), AgentFault(batch.time, k, name,
+                                                    f"non-finite acceleration {acc.tolist()}")))
+            else:
+                out.append((acc, None))
+        return out
 
     def run(self, seed: int | None = None, max_steps: int | None = None) -> EpisodeSummary:
         """Reset, step until done (or max_steps), return the episode's summary."""

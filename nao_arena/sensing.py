@@ -3,7 +3,10 @@
 All positions, velocities and accelerations are in the world frame (m,
 m/s, m/s^2); times in s. Known paths (the true future centres of scripted
 traffic) and shared plans (the acceleration a cooperative agent committed
-to) are included where the map provides them.
+to) are included where the map provides them. :class:`SensingBatch` holds
+every robot's view of one step as bulk arrays (batched agents read it
+directly; :meth:`SensingBatch.observation` gives one robot's
+:class:`Observation`).
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Neighbours", "Observation", "neighbours_in_range"]
+__all__ = ["Neighbours", "Observation", "SensingBatch", "neighbour_lists", "neighbours_in_range"]
 
 
 def _vec(n: int = 0) -> NDArray[np.float64]:
@@ -89,3 +92,112 @@ def neighbours_in_range(
     if max_neighbours is not None:
         idx = idx[:max_neighbours]
     return idx.astype(np.int64)
+
+
+def neighbour_lists(
+    bodies: NDArray[np.int64],
+    positions: NDArray[np.float64],
+    sensing_range: float,
+    max_neighbours: int | None = None,
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`neighbours_in_range` for every body of ``bodies`` at once (same lists, same order).
+
+    Returns CSR arrays (start (B + 1,), index (E,)): the neighbours of
+    bodies[k] are index[start[k]:start[k + 1]], nearest first, ties by index.
+    """
+    bodies = np.asarray(bodies, dtype=np.int64)
+    b = len(bodies)
+    if b == 0 or len(positions) == 0:
+        return np.zeros(b + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    d = np.hypot(
+        positions[None, :, 0] - positions[bodies, 0][:, None],
+        positions[None, :, 1] - positions[bodies, 1][:, None],
+    )
+    d[np.arange(b), bodies] = np.inf
+    order = np.argsort(d, axis=1, kind="stable")  # by distance, ties by index
+    counts = np.count_nonzero(d <= sensing_range, axis=1)
+    if max_neighbours is not None:
+        counts = np.minimum(counts, max_neighbours)
+    start = np.zeros(b + 1, dtype=np.int64)
+    np.cumsum(counts, out=start[1:])
+    take = np.arange(d.shape[1])[None, :] < counts[:, None]
+    return start, order[take].astype(np.int64)
+
+
+@dataclass
+class SensingBatch:
+    """Every robot's view at one control step, as bulk arrays (world frame, m, m/s, m/s^2).
+
+    Body arrays (N bodies): positions, velocities, accelerations (N, 2),
+    radii, a_max, v_max (N,), kinds; plans (N, 2) and known_paths (N, T, 2)
+    at ``path_times`` (s) as in :class:`Neighbours`. Robot arrays (R robots,
+    robot order): bodies (R,) body indices, goals (R, 2), routes. The
+    neighbours of robot k are ``nb_index[nb_start[k]:nb_start[k + 1]]``
+    (nearest first). :meth:`observation` builds the :class:`Observation` a
+    per-robot agent sees; batched agents read the arrays directly.
+    """
+
+    time: float
+    dt: float
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    accelerations: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    a_max: NDArray[np.float64]
+    v_max: NDArray[np.float64]
+    kinds: NDArray[np.str_]
+    plans: NDArray[np.float64] | None
+    known_paths: NDArray[np.float64] | None
+    path_times: NDArray[np.float64]
+    bodies: NDArray[np.int64]
+    goals: NDArray[np.float64]
+    routes: list[NDArray[np.float64] | None]
+    walls: NDArray[np.float64]
+    wall_radius: NDArray[np.float64]
+    nb_start: NDArray[np.int64]
+    nb_index: NDArray[np.int64]
+    _everyone: Neighbours | None = None
+
+    def neighbour_ids(self, k: int) -> NDArray[np.int64]:
+        """Body indices robot k senses, nearest first."""
+        return self.nb_index[self.nb_start[k]:self.nb_start[k + 1]]
+
+    def everyone(self) -> Neighbours:
+        """All bodies as one :class:`Neighbours` (row i = body i): predict once, index per robot."""
+        if self._everyone is None:
+            self._everyone = Neighbours(
+                ids=np.arange(len(self.positions), dtype=np.int64),
+                kinds=tuple(self.kinds),
+                positions=self.positions,
+                velocities=self.velocities,
+                accelerations=self.accelerations,
+                radii=self.radii,
+                path_times=self.path_times,
+                known_paths=self.known_paths,
+                plans=self.plans,
+            )
+        return self._everyone
+
+    def observation(self, k: int) -> Observation:
+        """Robot k's :class:`Observation` (robot order)."""
+        idx = self.neighbour_ids(k)
+        body = int(self.bodies[k])
+        nb = Neighbours(
+            ids=idx,
+            kinds=tuple(self.kinds[idx]),
+            positions=self.positions[idx],
+            velocities=self.velocities[idx],
+            accelerations=self.accelerations[idx],
+            radii=self.radii[idx],
+            path_times=self.path_times,
+            known_paths=None if self.known_paths is None else self.known_paths[idx],
+            plans=None if self.plans is None else self.plans[idx],
+        )
+        return Observation(
+            time=self.time, dt=self.dt, robot_id=int(k),
+            position=self.positions[body], velocity=self.velocities[body],
+            acceleration=self.accelerations[body], radius=float(self.radii[body]),
+            a_max=float(self.a_max[body]), v_max=float(self.v_max[body]),
+            goal=self.goals[k], route=self.routes[k], neighbours=nb,
+            walls=self.walls, wall_radius=self.wall_radius,
+        )

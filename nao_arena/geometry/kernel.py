@@ -432,9 +432,13 @@ def _samples_in_piece(t0, t1, n_sub, per_second):
 
 
 @njit(cache=True)
-def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
               per_second=16.0):
-    """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
+    """The sampled disks of :func:`nao_disks` before containment is filtered:
+    (M, 4) rows (m_x, m_y, rho, distance of m from q), m/s^2 — for
+    :func:`nao_disks_within`, which gives nao_disks for any smaller reach.
+
+    Sampled disks of the NAO union near q, in acceleration space (m/s^2).
 
     A constant acceleration a collides with an obstacle at time t iff
     |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
@@ -449,7 +453,7 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_
     total = 0
     for j in range(S):
         total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
-    out = np.empty((N * total, 3))
+    out = np.empty((N * total, 4))
     cnt = 0
     for n in range(N):
         rr = radius[n] + margin
@@ -485,23 +489,77 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_
                 out[cnt, 0] = mx
                 out[cnt, 1] = my
                 out[cnt, 2] = rho
+                out[cnt, 3] = dq
                 cnt += 1
-    return _drop_contained(out[:cnt])
+    return out[:cnt]
+
+
+@njit(cache=True)
+def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+              per_second=16.0):
+    """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
+
+    A constant acceleration a collides with an obstacle at time t iff
+    |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
+    (no speed saturation). Samples every piece at max(n_sub, per_second * h)
+    times (and the first piece also geometrically towards t = 0), grows r by
+    ``margin`` and keeps the disks that intersect both the ball B(q, reach)
+    and the limit disc |a| <= a_max; disks inside another are dropped.
+    Returns (M, 3) rows (m_x, m_y, rho).
+    """
+    return _drop_contained(np.ascontiguousarray(nao_disk_samples(
+        v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second,
+    )[:, :3]))
+
+
+@njit(cache=True)
+def nao_disks_within(samples, reach):
+    """:func:`nao_disks` for ``reach`` (m/s^2) from the samples of
+    :func:`nao_disk_samples` taken with a reach at least as large."""
+    M = samples.shape[0]
+    keep = np.empty(M, dtype=np.bool_)
+    for i in range(M):
+        keep[i] = not (samples[i, 3] > samples[i, 2] + reach)
+    return _drop_contained(np.ascontiguousarray(samples[keep][:, :3]))
 
 
 @njit(cache=True)
 def _drop_contained(disks):
-    """The disks (M, 3) that no other disk contains (of identical ones, the first)."""
+    """The disks (M, 3) that no other disk contains (of identical ones, the first).
+
+    Only a disk at least as large can contain another, and containment is
+    transitive, so the disks are visited largest first and each is tested
+    against the disks kept so far only (few, typically), not against all M.
+    """
     M = disks.shape[0]
-    keep = np.ones(M, dtype=np.bool_)
-    for i in range(M):
-        for j in range(M):
-            if i == j or not keep[j]:
+    keep = np.zeros(M, dtype=np.bool_)
+    # largest radius first; equal radii in index order (a stable sort)
+    order = np.argsort(-disks[:, 2], kind="mergesort")
+    kept = np.empty(M, dtype=np.int64)
+    n_kept = 0
+    for oi in range(M):
+        i = order[oi]
+        xi = disks[i, 0]
+        yi = disks[i, 1]
+        ri = disks[i, 2]
+        inside = False
+        for kk in range(n_kept):
+            j = kept[kk]
+            rj = disks[j, 2]
+            dx = disks[j, 0] - xi
+            dy = disks[j, 1] - yi
+            lim = rj - ri + 1e-9 * rj
+            # cheap reject: clearly further apart than rj - ri (the exact test would fail)
+            if rj < ri or dx * dx + dy * dy > lim * lim:
                 continue
-            d = math.hypot(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
-            if d + disks[i, 2] <= disks[j, 2] and (d + disks[i, 2] < disks[j, 2] or j < i):
-                keep[i] = False
+            d = math.hypot(xi - disks[j, 0], yi - disks[j, 1])
+            if d + ri <= rj and (d + ri < rj or j < i):
+                inside = True
                 break
+        if not inside:
+            keep[i] = True
+            kept[n_kept] = i
+            n_kept += 1
     return disks[keep]
 
 
@@ -509,58 +567,223 @@ _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True)
-def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
-    """Append to ``out`` (from row k) the point nearest q of every free arc of the
-    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
-    and, when ``in_limit``, inside the limit disc |a| <= a_max.
-    Returns the new row count, or -1 when the whole circle is covered.
+def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
+    """Add the angular interval of the circle (cx, cy, rho) that disk j of ``circ``
+    covers (j == len(circ): the outside of the limit disc, when ``in_limit``) to
+    starts/ends from row n. Returns the new row count, or -1 when that disk covers
+    the whole circle."""
+    M = circ.shape[0]
+    if j == M:
+        if not in_limit:
+            return n
+        d = math.hypot(cx, cy)
+        if d + rho <= a_max:
+            return n
+        if d >= rho + a_max or d + a_max <= rho:
+            return -1
+        cosb = (d * d + rho * rho - a_max * a_max) / (2.0 * d * rho)
+        beta = math.acos(min(1.0, max(-1.0, cosb)))
+        # allowed: the arc facing the origin, [alpha - beta, alpha + beta]
+        lo = math.atan2(-cy, -cx) + beta
+        width = _TWO_PI - 2.0 * beta
+    else:
+        if j == skip:
+            return n
+        dx = circ[j, 0] - cx
+        dy = circ[j, 1] - cy
+        rj = circ[j, 2]
+        far = rho + rj
+        if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
+            # clearly apart (the exact test below would skip it too)
+            return n
+        d = math.hypot(dx, dy)
+        if d + rho <= rj * (1.0 - 1e-12):
+            return -1
+        if d >= rho + rj or d + rj <= rho or d <= 0.0:
+            return n
+        cosb = (d * d + rho * rho - rj * rj) / (2.0 * d * rho)
+        beta = math.acos(min(1.0, max(-1.0, cosb)))
+        lo = math.atan2(dy, dx) - beta
+        width = 2.0 * beta
+    lo = lo % _TWO_PI
+    hi = lo + width
+    if hi > _TWO_PI:
+        starts[n] = lo
+        ends[n] = _TWO_PI
+        n += 1
+        starts[n] = 0.0
+        ends[n] = hi - _TWO_PI
+        n += 1
+    else:
+        starts[n] = lo
+        ends[n] = hi
+        n += 1
+    return n
+
+
+_BINS = 256
+
+
+@njit(cache=True, inline="always")
+def _pseudo_angle(x, y):
+    """A monotone stand-in for atan2(y, x) mod 2 pi, in [0, 4): no trigonometry.
+    Its derivative with respect to the angle is at most 1."""
+    s = abs(x) + abs(y)
+    if s == 0.0:
+        return 0.0
+    if y >= 0.0:
+        return 1.0 - x / s
+    return 3.0 + x / s
+
+
+@njit(cache=True, inline="always")
+def _cover_bins(p0, p1, shrink, cover):
+    """Mark in the difference array ``cover`` the bins inside the ccw arc [p0, p1]
+    (pseudo-angles) shrunk by ``shrink`` at both ends."""
+    if p1 < p0:
+        p1 += 4.0
+    lo = p0 + shrink
+    hi = p1 - shrink
+    if hi <= lo:
+        return
+    first = int(math.ceil(lo * (_BINS / 4.0)))
+    last = int(math.floor(hi * (_BINS / 4.0)))  # bins first .. last - 1 lie inside
+    if last - first >= _BINS:
+        cover[0] += 1
+        cover[_BINS] -= 1
+        return
+    if last <= first:
+        return
+    if last <= _BINS:
+        cover[first] += 1
+        cover[last] -= 1
+    elif first >= _BINS:
+        cover[first - _BINS] += 1
+        cover[last - _BINS] -= 1
+    else:
+        cover[first] += 1
+        cover[_BINS] -= 1
+        cover[0] += 1
+        cover[last - _BINS] -= 1
+
+
+@njit(cache=True)
+def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
+    """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
+    (a cheap proof; False means: not proven).
+
+    The circle is cut into bins of pseudo-angle; each disk marks the bins its
+    covered arc (from the two intersection points, no trigonometry) contains
+    with a margin well above the rounding error of the exact angles, so every
+    marked bin is covered in the exact computation too. All bins marked:
+    covered. Disks near tangency or with ill-conditioned angles are left out
+    (leaving out can only fail to prove).
     """
     M = circ.shape[0]
-    starts = np.empty(2 * M + 4)
-    ends = np.empty(2 * M + 4)
-    n = 0
-    for j in range(M + 1):
+    for i in range(_BINS + 1):
+        cover[i] = 0
+    # visiting order: the limit disc, the rows next to ``skip`` (the same obstacle at
+    # nearby times, which cover most), then the rest; stop as soon as all is proven
+    lo_w = max(0, skip - 8) if skip >= 0 else 0
+    hi_w = min(M, skip + 9) if skip >= 0 else 0
+    width = hi_w - lo_w
+    marked = 0
+    checked = 0
+    for step in range(M + 1):
+        if step == 0:
+            j = M
+        elif step <= width:
+            j = lo_w + step - 1
+        else:
+            j = step - 1 - width
+            if j >= lo_w:
+                j += width
+        if step == width + 1 or marked >= checked + 32:
+            checked = marked
+            if _all_binned(cover):
+                return True
         if j == M:
             if not in_limit:
                 continue
-            d = math.hypot(cx, cy)
-            if d + rho <= a_max:
-                continue
-            if d >= rho + a_max or d + a_max <= rho:
-                return -1
-            cosb = (d * d + rho * rho - a_max * a_max) / (2.0 * d * rho)
-            beta = math.acos(min(1.0, max(-1.0, cosb)))
-            # allowed: the arc facing the origin, [alpha - beta, alpha + beta]
-            lo = math.atan2(-cy, -cx) + beta
-            width = _TWO_PI - 2.0 * beta
+            dx = -cx
+            dy = -cy
+            rj = a_max
         else:
             if j == skip:
                 continue
             dx = circ[j, 0] - cx
             dy = circ[j, 1] - cy
             rj = circ[j, 2]
-            d = math.hypot(dx, dy)
-            if d + rho <= rj * (1.0 - 1e-12):
-                return -1
-            if d >= rho + rj or d + rj <= rho or d <= 0.0:
+            far = rho + rj
+            if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
                 continue
-            cosb = (d * d + rho * rho - rj * rj) / (2.0 * d * rho)
-            beta = math.acos(min(1.0, max(-1.0, cosb)))
-            lo = math.atan2(dy, dx) - beta
-            width = 2.0 * beta
-        lo = lo % _TWO_PI
-        hi = lo + width
-        if hi > _TWO_PI:
-            starts[n] = lo
-            ends[n] = _TWO_PI
-            n += 1
-            starts[n] = 0.0
-            ends[n] = hi - _TWO_PI
-            n += 1
+        d = math.sqrt(dx * dx + dy * dy)
+        if j == M:
+            if d + rho <= a_max * (1.0 - 1e-9):
+                continue  # the circle lies inside the limit disc: nothing to cover
+            if d >= (rho + a_max) * (1.0 + 1e-9) or d + a_max <= rho * (1.0 - 1e-9):
+                return True  # the exact computation finds it all outside (-1)
+        if not (d > 0.0 and d < (rho + rj) * (1.0 - 1e-9) and d + rj > rho * (1.0 + 1e-9)
+                and d + rho > rj * (1.0 + 1e-9)):
+            if j == M:
+                return False
+            continue
+        scale = d * d + rho * rho + rj * rj
+        a = (d * d + rho * rho - rj * rj) / (2.0 * d)
+        h2 = rho * rho - a * a
+        if h2 <= (1e-4 * rho) ** 2:
+            continue
+        h = math.sqrt(h2)
+        sin_b = h / rho
+        # bound on the angle error of the exact (acos, atan2) and of this computation
+        err = 1e-15 * scale / (2.0 * d * rho) / sin_b + 1e-13
+        if err > 1e-6:
+            continue
+        ux = dx / d
+        uy = dy / d
+        # intersection directions at angles alpha -/+ beta (alpha: towards the disk)
+        p_minus = _pseudo_angle(a * ux + h * uy, a * uy - h * ux)
+        p_plus = _pseudo_angle(a * ux - h * uy, a * uy + h * ux)
+        shrink = 8.0 * err
+        if j == M:
+            _cover_bins(p_plus, p_minus, shrink, cover)  # outside the limit disc
         else:
-            starts[n] = lo
-            ends[n] = hi
-            n += 1
+            _cover_bins(p_minus, p_plus, shrink, cover)
+        marked += 1
+    return _all_binned(cover)
+
+
+@njit(cache=True, inline="always")
+def _all_binned(cover):
+    """Whether the difference array ``cover`` marks every bin."""
+    run = 0
+    for i in range(_BINS):
+        run += cover[i]
+        if run <= 0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends,
+                     cover):
+    """Append to ``out`` (from row k) the point nearest q of every free arc of the
+    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
+    and, when ``in_limit``, inside the limit disc |a| <= a_max.
+    Returns the new row count, or -1 when the whole circle is covered.
+    starts/ends: scratch of at least 2 len(circ) + 4 rows; cover: of _BINS + 1.
+
+    Most circles of a crowded picture are covered entirely: a cheap proof
+    (:func:`_surely_covered`) skips the exact angles for them.
+    """
+    M = circ.shape[0]
+    if _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
+        return k
+    n = 0
+    for j in range(M + 1):
+        n = _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n)
+        if n < 0:
+            return -1
     phi_q = math.atan2(q[1] - cy, q[0] - cx) % _TWO_PI
     if n == 0:
         out[k, 0] = cx + rho * math.cos(phi_q)
@@ -629,14 +852,18 @@ def nearest_outside_disks(q, disks, a_max, max_out):
     lower[M] = abs(math.hypot(q[0], q[1]) - a_max)
     order = np.argsort(lower)
     cand = np.empty((2 * M + 8, 2))
+    starts = np.empty(2 * M + 4)
+    ends = np.empty(2 * M + 4)
+    cover = np.empty(_BINS + 1, dtype=np.int64)
     for i in order:
         if lower[i] >= res[max_out - 1, 2]:
             break
         if i < M:
             k = _free_arc_points(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
-                                 a_max, cand, 0)
+                                 a_max, cand, 0, starts, ends, cover)
         else:
-            k = _free_arc_points(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
+            k = _free_arc_points(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0,
+                                 starts, ends, cover)
         for c in range(max(k, 0)):
             d = math.hypot(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:
@@ -724,3 +951,234 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
         out_first[k] = tf
         if tf > best:
             best = tf
+
+
+@njit(cache=True)
+def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
+                             wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
+                             out):
+    """Admissibility of one acceleration per robot against sampled obstacle paths.
+
+    For each robot k of ``rows``: its obstacles are the bodies
+    nb_index[nb_start[k]:nb_start[k + 1]] with world-frame centres pred[body]
+    (T, 2) m at ``times`` (s, times[0] = 0, T >= 2), radii nb_radius[body] +
+    radius[k] + margin[k] (m), then the static discs wall_index[...] of
+    wall_c (m) with radii wall_r (m). The paths are built exactly as
+    :func:`~nao_arena.geometry.clearance.sampled_path` builds them from the
+    robot-relative centres, and acc[k] (m/s^2) is tested as
+    :func:`admissible_kernel` tests it (velocity vel[k] m/s, speed limit
+    v_max[k] m/s, margin 0). out[k] = 1 admissible, 0 not, -1 non-finite
+    centres (left to the caller).
+    """
+    T = times.shape[0]
+    S = T - 1
+    buf = np.empty(3)
+    res = np.empty(3)
+    horizon = times[-1]
+    for k in rows:
+        n_nb = nb_start[k + 1] - nb_start[k]
+        n_w = wall_start[k + 1] - wall_start[k]
+        ax = acc[k, 0]
+        ay = acc[k, 1]
+        vx, vy, tau, bound = _candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
+        px = pos[k, 0]
+        py = pos[k, 1]
+        # skip the obstacles that stay far: |x(t)| <= bound t for the robot, and a
+        # sampled path stays within its largest sample excursion from its start
+        travel = bound * horizon
+        keep = np.empty(n_nb + n_w, dtype=np.int64)
+        n = 0
+        finite = True
+        for i in range(n_nb + n_w):
+            if i < n_nb:
+                body = nb_index[nb_start[k] + i]
+                r = nb_radius[body] + radius[k] + margin[k]
+                x0 = pred[body, 0, 0] - px
+                y0 = pred[body, 0, 1] - py
+                ex = 0.0
+                for j in range(1, T):
+                    dx = pred[body, j, 0] - pred[body, 0, 0]
+                    dy = pred[body, j, 1] - pred[body, 0, 1]
+                    e2 = dx * dx + dy * dy
+                    if not math.isfinite(e2):
+                        finite = False
+                    elif e2 > ex:
+                        ex = e2
+                if not (finite and math.isfinite(x0) and math.isfinite(y0)):
+                    finite = False
+                    break
+                ex = math.sqrt(ex)
+            else:
+                d = wall_index[wall_start[k] + i - n_nb]
+                r = wall_r[d]
+                x0 = wall_c[d, 0] - px
+                y0 = wall_c[d, 1] - py
+                ex = 0.0
+            gap = math.sqrt(x0 * x0 + y0 * y0) - travel - ex
+            if gap > (r + 1e-9) * (1.0 + 1e-9):
+                continue
+            keep[n] = i
+            n += 1
+        if not finite:
+            out[k] = -1
+            continue
+        if n == 0:
+            out[k] = 1
+            continue
+        c = np.empty((n, S, 2))
+        w = np.empty((n, S, 2))
+        b = np.zeros((n, S, 2))
+        rad = np.empty(n)
+        for q in range(n):
+            i = keep[q]
+            if i < n_nb:
+                body = nb_index[nb_start[k] + i]
+                rad[q] = nb_radius[body] + radius[k] + margin[k]
+                x0 = pred[body, 0, 0] - px
+                y0 = pred[body, 0, 1] - py
+                for j in range(S):
+                    x1 = pred[body, j + 1, 0] - px
+                    y1 = pred[body, j + 1, 1] - py
+                    dt = times[j + 1] - times[j]
+                    c[q, j, 0] = x0
+                    c[q, j, 1] = y0
+                    w[q, j, 0] = (x1 - x0) / dt
+                    w[q, j, 1] = (y1 - y0) / dt
+                    x0 = x1
+                    y0 = y1
+            else:
+                d = wall_index[wall_start[k] + i - n_nb]
+                rad[q] = wall_r[d]
+                x0 = wall_c[d, 0] - px
+                y0 = wall_c[d, 1] - py
+                for j in range(S):
+                    c[q, j, 0] = x0
+                    c[q, j, 1] = y0
+                    w[q, j, 0] = (x0 - x0) / (times[j + 1] - times[j])
+                    w[q, j, 1] = (y0 - y0) / (times[j + 1] - times[j])
+        sweep = piece_sweep(times, w, b)
+        ok = 1
+        for q in range(n):
+            _scan(vx, vy, ax, ay, tau, bound, times, c, w, b, sweep, q, rad[q], 0.0, False,
+                  buf, res)
+            if res[0] < (rad[q] + 0.0) ** 2:
+                ok = 0
+                break
+        out[k] = ok
+
+
+@njit(cache=True)
+def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
+             buf, res, hint):
+    """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
+    returns (admissible, 1 if it was tested against the obstacles (inside the disc)).
+
+    hint[0]: the obstacle that last rejected a candidate; it is tested first (the
+    answer does not depend on the order) and updated on a rejection.
+    """
+    if x * x + y * y > a_max * a_max * (1 + 1e-12) + 1e-300:
+        return False, 0
+    N = seg_c.shape[0]
+    if N == 0:
+        return True, 1
+    cvx, cvy, tau, bound = _candidate_setup(vx, vy, x, y, v_max, seg_t[-1])
+    first = hint[0] if 0 <= hint[0] < N else 0
+    for i in range(N):
+        n = first if i == 0 else (i - 1 if i <= first else i)
+        _scan(cvx, cvy, x, y, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, radius[n],
+              margin, False, buf, res)
+        if res[0] < (radius[n] + margin) ** 2:
+            hint[0] = n
+            return False, 1
+    return True, 1
+
+
+@njit(cache=True)
+def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b,
+                 radius, sweep, margin, buf, res, hint):
+    gap = math.hypot(gx - bx, gy - by)
+    count = 0
+    while gap > tol:
+        mx = 0.5 * (bx + gx)
+        my = 0.5 * (by + gy)
+        ok, c = _ok_disc(mx, my, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                         sweep, margin, buf, res, hint)
+        count += c
+        if ok:
+            gx = mx
+            gy = my
+        else:
+            bx = mx
+            by = my
+        gap *= 0.5
+    return gx, gy, count
+
+
+@njit(cache=True)
+def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                margin):
+    """Shrink the segment [bad, good] (m/s^2; good admissible) onto the NAO boundary
+    within tol (m/s^2), with the limit disc |a| <= a_max. Returns (the admissible end
+    x, y, how many candidates were tested) — :func:`selection._bisect` compiled."""
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.zeros(1, dtype=np.int64)
+    return _bisect_disc(bad[0], bad[1], good[0], good[1], tol, a_max, v[0], v[1], v_max,
+                        seg_t, seg_c, seg_w, seg_b, radius, sweep, margin, buf, res, hint)
+
+
+@njit(cache=True)
+def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+               margin):
+    """Rotate the admissible boundary point ``best`` about a_d (m/s^2) by shrinking angles,
+    pulling each admissible probe back onto the boundary, while it gets nearer a_d by
+    more than tol (m/s^2). Returns (x, y, candidates tested) —
+    :func:`selection._slide_towards` compiled for the limit disc."""
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.zeros(1, dtype=np.int64)
+    ax = a_d[0]
+    ay = a_d[1]
+    bx = best[0]
+    by = best[1]
+    count = 0
+    dist = math.hypot(bx - ax, by - ay)
+    angle = 0.5
+    while angle > 1e-3 and dist > tol:
+        phi = math.atan2(by - ay, bx - ax)
+        moved = False
+        for side in range(2):
+            sgn = 1.0 if side == 0 else -1.0
+            ux = math.cos(phi + sgn * angle)
+            uy = math.sin(phi + sgn * angle)
+            fx = ax + 1.5 * dist * ux
+            fy = ay + 1.5 * dist * uy
+            # projection onto the limit disc, as AccelLimits.project
+            if not math.isfinite(fx):
+                fx = 0.0
+            if not math.isfinite(fy):
+                fy = 0.0
+            norm = math.hypot(fx, fy)
+            if norm > a_max:
+                scale = a_max / max(norm, 1e-300)
+                fx = fx * scale
+                fy = fy * scale
+            ok, c = _ok_disc(fx, fy, a_max, v[0], v[1], v_max, seg_t, seg_c, seg_w, seg_b,
+                             radius, sweep, margin, buf, res, hint)
+            count += c
+            if not ok:
+                continue
+            px, py, c = _bisect_disc(ax, ay, fx, fy, tol, a_max, v[0], v[1], v_max, seg_t,
+                                     seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
+                                     hint)
+            count += c
+            d = math.hypot(px - ax, py - ay)
+            if d < dist - tol:
+                bx = px
+                by = py
+                dist = d
+                moved = True
+                break
+        if not moved:
+            angle *= 0.5
+    return bx, by, count

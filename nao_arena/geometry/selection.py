@@ -34,11 +34,14 @@ from numpy.typing import ArrayLike, NDArray
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.kernel import (
     admissible_kernel,
+    bisect_disc,
     latest_contact_kernel,
-    nao_disks,
+    nao_disk_samples,
+    nao_disks_within,
     nearest_outside_disks,
     piece_sweep,
     relevant_obstacles,
+    slide_disc,
 )
 
 __all__ = ["AccelLimits", "Selection", "select_acceleration"]
@@ -241,6 +244,14 @@ def _ring(center: NDArray[np.float64], radius: float, n: int, phase: float) -> N
 
 def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float):
     """Shrink [bad, good] to a boundary point within tol; returns the admissible end."""
+    if t.limits.box_lo is None:
+        p = t.path
+        gx, gy, count = bisect_disc(
+            np.asarray(bad, dtype=np.float64), np.asarray(good, dtype=np.float64), tol,
+            t.limits.a_max, t.v, t.v_max, p.t, p.c, p.w, p.b, p.radius, t.sweep, t.margin,
+        )
+        t.count += count
+        return np.array([gx, gy])
     gap = float(np.hypot(*(good - bad)))
     while gap > tol:
         mid = 0.5 * (bad + good)
@@ -339,6 +350,15 @@ def _slide_towards(
 ) -> NDArray[np.float64]:
     """Improve an admissible boundary point: rotate its ray about a_d by shrinking
     angles and pull each admissible probe back onto the boundary by bisection."""
+    if limits.box_lo is None:
+        p = tester.path
+        x, y, count = slide_disc(
+            np.asarray(a_d, dtype=np.float64), np.asarray(best, dtype=np.float64), tol,
+            limits.a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b, p.radius, tester.sweep,
+            tester.margin,
+        )
+        tester.count += count
+        return np.array([x, y])
     dist = float(np.hypot(*(best - a_d)))
     angle = 0.5
     while angle > 1e-3 and dist > tol:
@@ -412,11 +432,22 @@ def _nearest_by_disks(
     a_max = tester.limits.a_max
     reach = max(a_max / 16.0, 4.0 * tol)
     limit = float(np.hypot(*a_d)) + a_max
+    if max_disks is None:
+        # Without a cap every ball's candidates within its radius are a prefix of the
+        # next ball's (nearest first, the same points), and a failed candidate fails
+        # again: the doubling would end as the largest ball alone does.
+        while reach < limit:
+            reach *= 2.0
+    # sample once for the largest ball the doubling can reach; each ball keeps its part
+    last = reach
+    while last < limit:
+        last *= 2.0
+    samples = nao_disk_samples(
+        tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
+        a_d, last, a_max,
+    )
     while True:
-        disks = nao_disks(
-            tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
-            a_d, reach, a_max,
-        )
+        disks = nao_disks_within(samples, reach)
         if max_disks is not None and len(disks) > max_disks:
             return None
         cands = nearest_outside_disks(a_d, disks, a_max, 8)

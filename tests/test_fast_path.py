@@ -1,0 +1,605 @@
+"""The compiled fast paths agree with the reference (numpy / earlier) implementations.
+
+The all-NAO loop runs on compiled kernels and batched agents; each is checked
+here against the path it replaces, on random and on crowded inputs:
+neighbour lists, the turn-rate predictor, the containment filter and the
+nearest-point search of the disk picture (against copies of the previous
+kernels), the batched admissibility test (against ``admissible_kernel`` on
+the same sampled paths), compiled bisection and sliding (against the Python
+loops), and whole episodes with ``act_batch`` against the per-robot ``act``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from nao_arena.agents.nao import AOAgent, NAOAgent
+from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.geometry.clearance import sampled_path
+from nao_arena.geometry.kernel import (
+    _drop_contained,
+    admissible_kernel,
+    bisect_disc,
+    nao_disk_samples,
+    nao_disks,
+    nao_disks_within,
+    nearest_outside_disks,
+    piece_sweep,
+    sampled_admissible_batch,
+    slide_disc,
+)
+from nao_arena.geometry.selection import AccelLimits, _Tester
+from nao_arena.maps import load_map
+from nao_arena.predictors import _turn_rate_numpy, turn_rate
+from nao_arena.sensing import Neighbours, neighbour_lists, neighbours_in_range
+
+_TWO_PI = 2.0 * math.pi
+
+# ---------------------------------------------------------------- references
+# The kernels as they were before the fast paths (O(M^2) containment filter,
+# exact angles for every circle), compiled without caching.
+
+
+@njit
+def drop_contained_ref(disks):
+    """The disks (M, 3) that no other disk contains (of identical ones, the first)."""
+    M = disks.shape[0]
+    keep = np.ones(M, dtype=np.bool_)
+    for i in range(M):
+        for j in range(M):
+            if i == j or not keep[j]:
+                continue
+            d = math.hypot(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
+            if d + disks[i, 2] <= disks[j, 2] and (d + disks[i, 2] < disks[j, 2] or j < i):
+                keep[i] = False
+                break
+    return disks[keep]
+
+@njit
+def _free_arc_points_ref(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
+    """Append to ``out`` (from row k) the point nearest q of every free arc of the
+    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
+    and, when ``in_limit``, inside the limit disc |a| <= a_max.
+    Returns the new row count, or -1 when the whole circle is covered.
+    """
+    M = circ.shape[0]
+    starts = np.empty(2 * M + 4)
+    ends = np.empty(2 * M + 4)
+    n = 0
+    for j in range(M + 1):
+        if j == M:
+            if not in_limit:
+                continue
+            d = math.hypot(cx, cy)
+            if d + rho <= a_max:
+                continue
+            if d >= rho + a_max or d + a_max <= rho:
+                return -1
+            cosb = (d * d + rho * rho - a_max * a_max) / (2.0 * d * rho)
+            beta = math.acos(min(1.0, max(-1.0, cosb)))
+            # allowed: the arc facing the origin, [alpha - beta, alpha + beta]
+            lo = math.atan2(-cy, -cx) + beta
+            width = _TWO_PI - 2.0 * beta
+        else:
+            if j == skip:
+                continue
+            dx = circ[j, 0] - cx
+            dy = circ[j, 1] - cy
+            rj = circ[j, 2]
+            d = math.hypot(dx, dy)
+            if d + rho <= rj * (1.0 - 1e-12):
+                return -1
+            if d >= rho + rj or d + rj <= rho or d <= 0.0:
+                continue
+            cosb = (d * d + rho * rho - rj * rj) / (2.0 * d * rho)
+            beta = math.acos(min(1.0, max(-1.0, cosb)))
+            lo = math.atan2(dy, dx) - beta
+            width = 2.0 * beta
+        lo = lo % _TWO_PI
+        hi = lo + width
+        if hi > _TWO_PI:
+            starts[n] = lo
+            ends[n] = _TWO_PI
+            n += 1
+            starts[n] = 0.0
+            ends[n] = hi - _TWO_PI
+            n += 1
+        else:
+            starts[n] = lo
+            ends[n] = hi
+            n += 1
+    phi_q = math.atan2(q[1] - cy, q[0] - cx) % _TWO_PI
+    if n == 0:
+        out[k, 0] = cx + rho * math.cos(phi_q)
+        out[k, 1] = cy + rho * math.sin(phi_q)
+        return k + 1
+    order = np.argsort(starts[:n])
+    first_start = starts[order[0]]
+    cur_end = ends[order[0]]
+    for idx in range(1, n + 1):
+        if idx < n:
+            i = order[idx]
+            if starts[i] <= cur_end:
+                cur_end = max(cur_end, ends[i])
+                continue
+            lo = cur_end
+            hi = starts[i]
+            cur_end = ends[i]
+        else:
+            # the gap that wraps from the last covered end round to the first start
+            lo = cur_end
+            hi = first_start + _TWO_PI
+            if hi <= lo:
+                break
+        # nearest point of the free arc [lo, hi] to q: phi_q if inside, else an end
+        ph = phi_q if phi_q >= lo else phi_q + _TWO_PI
+        if ph <= hi:
+            best = ph
+        else:
+            d_lo = ph - hi
+            d_hi = lo + _TWO_PI - ph
+            best = hi if d_lo <= d_hi else lo
+        out[k, 0] = cx + rho * math.cos(best)
+        out[k, 1] = cy + rho * math.sin(best)
+        k += 1
+    return k
+
+
+@njit
+def nearest_outside_disks_ref(q, disks, a_max, max_out):
+    """Points nearest q that lie outside every disk and inside |a| <= a_max.
+
+    The nearest point of the complement of a union of disks (within the limit
+    disc) is q itself or lies on a free arc of one of the circles, the limit
+    circle included. Free arcs come from the angular intervals the other
+    disks cover; on each, the nearest point to q is its radial projection or
+    an end. Circles are visited in order of their distance from q and the
+    search stops once no unvisited circle can beat the ``max_out``-th best
+    candidate. Returns up to ``max_out`` candidates (rows x, y, distance) in
+    increasing distance.
+    """
+    M = disks.shape[0]
+    res = np.full((max_out, 3), math.inf)
+    # q itself, when no disk contains it
+    q_free = q[0] * q[0] + q[1] * q[1] <= a_max * a_max
+    for i in range(M):
+        if (q[0] - disks[i, 0]) ** 2 + (q[1] - disks[i, 1]) ** 2 < disks[i, 2] ** 2:
+            q_free = False
+            break
+    if q_free:
+        res[0, 0] = q[0]
+        res[0, 1] = q[1]
+        res[0, 2] = 0.0
+    lower = np.empty(M + 1)
+    for i in range(M):
+        lower[i] = abs(math.hypot(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
+    lower[M] = abs(math.hypot(q[0], q[1]) - a_max)
+    order = np.argsort(lower)
+    cand = np.empty((2 * M + 8, 2))
+    for i in order:
+        if lower[i] >= res[max_out - 1, 2]:
+            break
+        if i < M:
+            k = _free_arc_points_ref(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
+                                 a_max, cand, 0)
+        else:
+            k = _free_arc_points_ref(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
+        for c in range(max(k, 0)):
+            d = math.hypot(cand[c, 0] - q[0], cand[c, 1] - q[1])
+            if d < res[max_out - 1, 2]:
+                # insert keeping res sorted by distance
+                pos = max_out - 1
+                while pos > 0 and res[pos - 1, 2] > d:
+                    res[pos, 0] = res[pos - 1, 0]
+                    res[pos, 1] = res[pos - 1, 1]
+                    res[pos, 2] = res[pos - 1, 2]
+                    pos -= 1
+                res[pos, 0] = cand[c, 0]
+                res[pos, 1] = cand[c, 1]
+                res[pos, 2] = d
+    found = 0
+    while found < max_out and res[found, 2] < math.inf:
+        found += 1
+    return res[:found].copy()
+
+
+def _bisect_ref(t: _Tester, bad, good, tol):
+    """selection._bisect as a Python loop over ``_Tester.ok1``."""
+    gap = float(np.hypot(*(good - bad)))
+    while gap > tol:
+        mid = 0.5 * (bad + good)
+        if t.ok1(mid):
+            good = mid
+        else:
+            bad = mid
+        gap *= 0.5
+    return good
+
+
+def _slide_ref(t: _Tester, a_d, best, limits: AccelLimits, tol):
+    """selection._slide_towards as a Python loop."""
+    dist = float(np.hypot(*(best - a_d)))
+    angle = 0.5
+    while angle > 1e-3 and dist > tol:
+        phi = math.atan2(best[1] - a_d[1], best[0] - a_d[0])
+        moved = False
+        for sgn in (1.0, -1.0):
+            u = np.array([math.cos(phi + sgn * angle), math.sin(phi + sgn * angle)])
+            far = limits.project(a_d + 1.5 * dist * u)
+            if not t.ok1(far):
+                continue
+            p = _bisect_ref(t, a_d, far, tol)
+            d = float(np.hypot(*(p - a_d)))
+            if d < dist - tol:
+                best, dist, moved = p, d, True
+                break
+        if not moved:
+            angle *= 0.5
+    return best
+
+
+# ---------------------------------------------------------------- scenes
+
+
+def _neighbours(rng: np.random.Generator, n: int, spread: float = 6.0) -> Neighbours:
+    speed = rng.choice([0.0, 1e-7, 0.5, 1.5], size=(n, 1))
+    return Neighbours(
+        ids=np.arange(n), kinds=("robot",) * n,
+        positions=rng.normal(size=(n, 2)) * spread,
+        velocities=rng.normal(size=(n, 2)) * speed,
+        accelerations=rng.normal(size=(n, 2)),
+        radii=rng.uniform(0.2, 0.6, size=n),
+    )
+
+
+def _disk_scene(rng: np.random.Generator, crowded: bool):
+    """Sampled NAO disks of random straight-moving obstacles around the robot."""
+    n = int(rng.integers(3, 12 if crowded else 5))
+    times = np.linspace(0.0, 3.0, 31)
+    pos = rng.normal(size=(n, 2)) * (2.0 if crowded else 5.0)
+    vel = rng.normal(size=(n, 2))
+    centres = pos[:, None, :] + vel[:, None, :] * times[None, :, None]
+    path = sampled_path(times, centres, rng.uniform(0.6, 1.2, size=n))
+    v = rng.normal(size=2)
+    q = rng.normal(size=2)
+    reach = float(rng.choice([0.25, 1.0, 4.0]))
+    return nao_disks(v, path.t, path.c, path.w, path.b, path.radius, 0.0, 4, q, reach, 2.0), q
+
+
+# ---------------------------------------------------------------- sensing
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_neighbour_lists_match_neighbours_in_range(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 40))
+    pos = np.round(rng.normal(size=(n, 2)) * 5.0, 1)  # rounded: equal distances occur
+    bodies = rng.permutation(n)[: int(rng.integers(1, n + 1))]
+    for rng_m, cap in [(4.0, None), (8.0, 3), (np.inf, None), (0.0, None)]:
+        start, index = neighbour_lists(bodies, pos, rng_m, cap)
+        for k, b in enumerate(bodies):
+            expect = neighbours_in_range(int(b), pos, rng_m, cap)
+            np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
+
+
+def test_arena_observations_match_per_robot_sensing():
+    arena = Arena(load_map("roundabout", seed=1))
+    arena.reset(1)
+    for _ in range(20):
+        arena.step()
+    state = arena.state
+    for k, obs in enumerate(arena.observations()):
+        body = int(arena.robot_ids[k])
+        idx = neighbours_in_range(body, state.positions, arena.sensing_range,
+                                  arena.max_neighbours)
+        nb = obs.neighbours
+        np.testing.assert_array_equal(nb.ids, idx)
+        assert nb.kinds == tuple(np.array(arena.world.kinds)[idx])
+        np.testing.assert_array_equal(nb.positions, state.positions[idx])
+        np.testing.assert_array_equal(nb.velocities, state.velocities[idx])
+        np.testing.assert_array_equal(nb.accelerations, state.accelerations[idx])
+        np.testing.assert_array_equal(nb.radii, state.radii[idx])
+        assert nb.known_paths is not None and nb.known_paths.shape[0] == len(idx)
+        np.testing.assert_array_equal(obs.position, state.positions[body])
+        np.testing.assert_array_equal(obs.goal, arena.goals[k])
+        assert obs.a_max == float(arena.world.a_max[body])
+
+
+# ---------------------------------------------------------------- predictor
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_compiled_turn_rate_matches_numpy(seed):
+    rng = np.random.default_rng(seed)
+    nb = _neighbours(rng, int(rng.integers(1, 30)))
+    times = (np.linspace(0.0, 3.0, 31) if seed % 2
+             else np.sort(rng.uniform(0.0, 5.0, size=int(rng.integers(1, 20)))))
+    fast = turn_rate(times, nb)
+    ref = _turn_rate_numpy(times, nb)
+    assert fast.shape == ref.shape == (len(nb), len(times), 2)
+    np.testing.assert_allclose(fast, ref, rtol=1e-13, atol=1e-12)
+
+
+def test_turn_rate_rows_do_not_depend_on_the_others():
+    """Agents predict every body at once and index: row i must not depend on the batch."""
+    rng = np.random.default_rng(3)
+    nb = _neighbours(rng, 25)
+    times = np.linspace(0.0, 3.0, 31)
+    everyone = turn_rate(times, nb)
+    for keep in (np.array([4]), np.array([0, 7, 3, 24])):
+        sub = Neighbours(ids=nb.ids[keep], kinds=tuple(nb.kinds[i] for i in keep),
+                         positions=nb.positions[keep], velocities=nb.velocities[keep],
+                         accelerations=nb.accelerations[keep], radii=nb.radii[keep])
+        np.testing.assert_array_equal(turn_rate(times, sub), everyone[keep])
+
+
+# ---------------------------------------------------------------- disk picture
+
+
+def _random_disks(rng: np.random.Generator) -> np.ndarray:
+    m = int(rng.integers(0, 60))
+    d = np.column_stack([rng.normal(size=(m, 2)) * 1.5, rng.lognormal(-1.0, 1.0, size=m)])
+    if m > 4:  # exact duplicates and nested copies
+        d[1] = d[0]
+        d[3] = (d[2, 0] + 0.01, d[2, 1], d[2, 2] * 0.5)
+    return d
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_drop_contained_matches_reference(seed):
+    rng = np.random.default_rng(seed)
+    disks = _random_disks(rng) if seed % 2 else _disk_scene(rng, True)[0]
+    np.testing.assert_array_equal(_drop_contained(disks), drop_contained_ref(disks))
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_nearest_outside_disks_matches_reference(seed):
+    rng = np.random.default_rng(100 + seed)
+    if seed % 3 == 0:
+        disks = drop_contained_ref(_random_disks(rng))
+        q = rng.normal(size=2)
+    else:
+        disks, q = _disk_scene(rng, crowded=seed % 3 == 1)
+    for max_out in (1, 8):
+        np.testing.assert_array_equal(
+            nearest_outside_disks(q, disks, 2.0, max_out),
+            nearest_outside_disks_ref(q, disks, 2.0, max_out),
+        )
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
+    rng = np.random.default_rng(300 + seed)
+    n = int(rng.integers(1, 8))
+    times = np.linspace(0.0, 3.0, 31)
+    pos = rng.normal(size=(n, 2)) * 3.0
+    vel = rng.normal(size=(n, 2))
+    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(0.5, 1.0, size=n))
+    v = rng.normal(size=2)
+    q = rng.normal(size=2)
+    args = (v, path.t, path.c, path.w, path.b, path.radius, 0.1, 4, q)
+    samples = nao_disk_samples(*args, 8.0, 2.0)
+    for reach in (0.125, 0.5, 2.0, 8.0):
+        np.testing.assert_array_equal(nao_disks_within(samples, reach),
+                                      nao_disks(*args, reach, 2.0))
+
+
+# ---------------------------------------------------------------- admissibility
+
+
+def _batch_scene(seed: int):
+    rng = np.random.default_rng(seed)
+    n_bodies = int(rng.integers(2, 25))
+    nb_all = _neighbours(rng, n_bodies, spread=3.0)
+    times = np.linspace(0.0, 3.0, 31)
+    pred = turn_rate(times, nb_all)
+    rows = np.arange(n_bodies)
+    start, index = neighbour_lists(rows, nb_all.positions, float(rng.uniform(2.0, 10.0)))
+    wall_c = rng.normal(size=(int(rng.integers(0, 8)), 2)) * 4.0
+    wall_r = rng.uniform(0.2, 0.8, size=len(wall_c))
+    near = [np.flatnonzero(rng.random(len(wall_c)) < 0.6) for _ in rows]
+    wall_start = np.concatenate([[0], np.cumsum([len(x) for x in near])]).astype(np.int64)
+    wall_index = (np.concatenate(near) if near else np.zeros(0)).astype(np.int64)
+    acc = rng.normal(size=(n_bodies, 2)) * 1.5
+    v_max = rng.choice([1.0, 2.0, np.inf], size=n_bodies)
+    margin = rng.uniform(0.0, 0.3, size=n_bodies)
+    return (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc,
+            v_max, margin)
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_batched_admissibility_matches_admissible_kernel(seed):
+    (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
+     margin) = _batch_scene(seed)
+    n = len(nb_all)
+    pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
+    out = np.full(n, 7, dtype=np.int64)
+    sampled_admissible_batch(times, pred, start, index, rad, wall_c, wall_r, wall_start,
+                             wall_index, np.arange(n), pos, vel, acc, v_max, rad, margin, out)
+    for k in range(n):
+        idx = index[start[k]:start[k + 1]]
+        widx = wall_index[wall_start[k]:wall_start[k + 1]]
+        centres = np.concatenate([
+            pred[idx] - pos[k],
+            np.repeat((wall_c[widx] - pos[k])[:, None, :], len(times), 1),
+        ])
+        radii = np.concatenate([rad[idx] + rad[k] + margin[k], wall_r[widx]])
+        if len(radii) == 0:
+            assert out[k] == 1
+            continue
+        path = sampled_path(times, centres, radii)
+        ok = np.empty(1, dtype=bool)
+        admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], path.t, path.c,
+                          path.w, path.b, path.radius, piece_sweep(path.t, path.w, path.b),
+                          0.0, ok)
+        assert out[k] == int(ok[0]), k
+
+
+def test_batched_admissibility_flags_non_finite_paths():
+    (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
+     margin) = _batch_scene(1)
+    pred = pred.copy()
+    pred[:, 5, 0] = np.nan
+    n = len(nb_all)
+    out = np.zeros(n, dtype=np.int64)
+    sampled_admissible_batch(times, pred, start, index, nb_all.radii, wall_c, wall_r,
+                             wall_start, wall_index, np.arange(n), nb_all.positions,
+                             nb_all.velocities, acc, v_max, nb_all.radii, margin, out)
+    has_nb = np.diff(start) > 0
+    assert np.all(out[has_nb] == -1)
+
+
+# ---------------------------------------------------------------- bisection, sliding
+
+
+def _tester(seed: int):
+    rng = np.random.default_rng(seed)
+    times = np.linspace(0.0, 3.0, 31)
+    n = int(rng.integers(1, 6))
+    pos = rng.normal(size=(n, 2)) * 2.5
+    vel = rng.normal(size=(n, 2))
+    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(0.6, 1.2, size=n))
+    limits = AccelLimits(2.0)
+    return _Tester(rng.normal(size=2), path, limits, 0.0, float(rng.choice([1.5, np.inf]))), rng
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_compiled_bisect_and_slide_match_python_loops(seed):
+    for attempt in range(20):  # a scene with both admissible and colliding accelerations
+        t, rng = _tester(1000 * seed + attempt)
+        limits = t.limits
+        grid = rng.uniform(-2.0, 2.0, size=(200, 2))
+        grid = grid[np.hypot(*grid.T) <= 2.0]
+        ok = t.ok(grid)
+        if ok.any() and not ok.all():
+            break
+    else:
+        pytest.fail("no scene with a boundary")
+    good = grid[ok][0]
+    bad = grid[~ok][0]
+    p = t.path
+    args = (limits.a_max, t.v, t.v_max, p.t, p.c, p.w, p.b, p.radius, t.sweep, t.margin)
+    before = t.count
+    ref = _bisect_ref(t, bad, good, 1e-3)
+    ref_count = t.count - before
+    x, y, count = bisect_disc(bad, good, 1e-3, *args)
+    np.testing.assert_array_equal([x, y], ref)
+    assert count == ref_count
+    before = t.count
+    ref = _slide_ref(t, bad, ref, limits, 1e-3)
+    ref_count = t.count - before
+    x, y, count = slide_disc(bad, np.array([x, y]), 1e-3, *args)
+    np.testing.assert_array_equal([x, y], ref)
+    assert count == ref_count
+
+
+# ---------------------------------------------------------------- whole episodes
+
+
+class _PerRobotNAO(NAOAgent):
+    act_batch = None  # the Arena then calls act() robot by robot
+
+
+class _PerRobotAO(AOAgent):
+    act_batch = None
+
+
+def _trajectory(map_name: str, episode: int, steps: int, per_robot: bool,
+                agent: str | None = None, **params):
+    arena = Arena(load_map(map_name, **params), ArenaOptions(agent=agent) if agent else None)
+    arena.reset(episode)
+    if per_robot:
+        for ag in arena.agents:
+            ag.__class__ = _PerRobotAO if isinstance(ag, AOAgent) else _PerRobotNAO
+    rows = []
+    for _ in range(steps):
+        if arena.done:
+            break
+        res = arena.step()
+        rows.append(np.concatenate([res.state.positions.ravel(), res.commanded.ravel()]))
+        assert not res.faults
+    return np.array(rows)
+
+
+@pytest.mark.parametrize(
+    ("map_name", "agent", "params"),
+    [
+        ("circle_swap", None, {"n": 12, "radius": 6.0, "lo": -10.0, "hi": 10.0}),
+        ("roundabout", None, {"seed": 2}),
+        ("roundabout", None, {"seed": 4, "predictor": "known_path"}),
+        ("crossing", "ao", {"seed": 1}),
+    ],
+)
+def test_act_batch_reproduces_per_robot_act(map_name, agent, params):
+    batched = _trajectory(map_name, 3, 80, False, agent, **params)
+    single = _trajectory(map_name, 3, 80, True, agent, **params)
+    np.testing.assert_array_equal(batched, single)
+
+
+class _Batchy:
+    """act_batch returning a bad value, an exception and a good one."""
+
+    def reset(self, spec, rng):
+        pass
+
+    def act(self, obs):
+        return np.zeros(2)
+
+    @classmethod
+    def act_batch(cls, agents, batch, rows):
+        out = []
+        for k in rows:
+            if k == 0:
+                out.append(np.array([np.nan, 0.0]))
+            elif k == 1:
+                out.append(ValueError("boom"))
+            else:
+                out.append(np.full(2, 0.1))
+        return out
+
+
+class _Broken(_Batchy):
+    @classmethod
+    def act_batch(cls, agents, batch, rows):
+        raise RuntimeError("all down")
+
+
+def test_arena_contains_act_batch_failures():
+    arena = Arena(load_map("circle_swap", n=4, radius=5.0, lo=-8.0, hi=8.0))
+    arena.reset(0)
+    arena.agents = [_Batchy() for _ in arena.agents]
+    res = arena.step()
+    assert [f.robot for f in res.faults] == [0, 1]
+    assert "non-finite" in res.faults[0].message and "ValueError: boom" in res.faults[1].message
+    np.testing.assert_array_equal(res.commanded[arena.robot_ids[:2]], 0.0)
+    np.testing.assert_array_equal(res.commanded[arena.robot_ids[2:]], 0.1)
+    arena.agents = [_Broken() for _ in arena.agents]
+    res = arena.step()
+    assert [f.robot for f in res.faults] == [0, 1, 2, 3]
+    assert all("RuntimeError: all down" in f.message for f in res.faults)
+    # external actions still replace agents
+    res = arena.step({2: np.array([0.2, 0.0])})
+    assert [f.robot for f in res.faults] == [0, 1, 3]
+
+
+class _CustomNAO(NAOAgent):
+    """Overrides act: the inherited act_batch must defer to it."""
+
+    def act(self, obs):
+        return np.array([0.05, -0.05])
+
+
+def test_act_batch_defers_to_an_overridden_act():
+    arena = Arena(load_map("circle_swap", n=4, radius=5.0, lo=-8.0, hi=8.0))
+    arena.reset(0)
+    for ag in arena.agents:
+        ag.__class__ = _CustomNAO
+    res = arena.step()
+    assert not res.faults
+    np.testing.assert_array_equal(res.commanded[arena.robot_ids], [[0.05, -0.05]] * 4)
