@@ -128,6 +128,7 @@ def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
         [sys.executable, "-c", code, "trial", "--map", "two_lane_road", "--agent", "nao",
          "--episodes", "8", "--workers", "2", "--out", str(out), "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        cwd=tmp_path,  # outside the source tree: import the installed package
     )
     children: list[str] = []
     deadline = time.monotonic() + 120
@@ -137,7 +138,9 @@ def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
         time.sleep(0.2)
         children = [d for d in os.listdir("/proc")
                     if d.isdigit() and _parent_pid(d) == proc.pid]
-    assert children, "no worker processes"
+    if not children:
+        proc.kill()
+        pytest.fail(f"no worker processes; the trial said: {proc.communicate()[1]}")
     time.sleep(2.0)  # the workers are running episodes now (one takes tens of seconds)
     assert proc.poll() is None
     os.kill(proc.pid, signal.SIGTERM)
