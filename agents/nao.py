@@ -4,12 +4,16 @@ Each step the agent predicts its neighbours' centres over the horizon
 (predictor option), builds their NAOs (grown by both radii and a safety
 margin, walls as chains of static discs), and
 
-1. keeps its current acceleration while that stays admissible and within
-   ``keep_band`` (m/s^2) of the desired one (the paper's premise: few
-   adjustments);
+1. keeps its current acceleration while that stays admissible and either
+   lies within ``keep_band`` (m/s^2) of the desired one or is an avoidance
+   adjustment younger than ``reselect_after`` (s) (the paper's premise: few
+   adjustments; an adjustment is revisited toward the goal that often);
 2. otherwise takes the admissible acceleration nearest the desired one
    (goal seeking, see :func:`nao_arena.agents.goal.goal_seeking_accel`);
-3. if none is admissible, the one that postpones contact longest.
+3. if none is admissible, brakes as hard as it can toward standing still
+   (``infeasible="brake"``, the default: in a crowd whose predictions keep
+   changing, stopping is what keeps contacts rare) or takes the acceleration
+   that postpones contact longest (``infeasible="latest_contact"``).
 
 With ``replan=False`` the agent selects once, at its first step, and
 holds that acceleration for the whole episode (the paper's open-loop
@@ -20,6 +24,10 @@ Liveness: a robot that has crawled (speed below a quarter of v_max) for
 right by a random angle in [30, 60] degrees (drawn from its own generator)
 until it has moved freely again for as long; symmetric stand-offs then
 resolve like traffic keeping right.
+
+A neighbour or wall already closer than its grown radius (inside the
+margin, or touching) counts with just under its current distance: the
+robot may not close in further but may move away.
 
 Its own predicted path includes its speed limit, so "admissible" means
 collision-free for the world's real dynamics over the horizon (up to the
@@ -43,6 +51,7 @@ from numpy.typing import NDArray
 from nao_arena.agents.goal import goal_seeking_accel
 from nao_arena.geometry import AccelLimits, PiecewisePath, sampled_path, select_acceleration
 from nao_arena.geometry.kernel import (
+    _INSIDE,
     admissible_kernel,
     piece_sweep,
     sampled_admissible_batch,
@@ -55,7 +64,7 @@ from nao_arena.sensing import Observation, SensingBatch
 class NAOAgent:
     """NAO avoidance. Options: horizon (s), samples (per horizon), predictor name,
     margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m), detour_after (s),
-    replan."""
+    replan, reselect_after (s), infeasible ("brake" or "latest_contact")."""
 
     def __init__(
         self,
@@ -68,8 +77,15 @@ class NAOAgent:
         sensing_range: float = 30.0,
         detour_after: float = 1.0,
         replan: bool = True,
+        reselect_after: float = 0.5,
+        infeasible: str = "brake",
     ) -> None:
+        if infeasible not in ("latest_contact", "brake"):
+            raise ValueError(
+                f"infeasible: expected 'latest_contact' or 'brake', got {infeasible!r}")
+        self.infeasible = infeasible
         self.replan = bool(replan)
+        self.reselect_after = float(reselect_after)
         self.horizon = float(horizon)
         self.detour_after = float(detour_after)
         self.times = np.linspace(0.0, self.horizon, int(samples))
@@ -84,6 +100,7 @@ class NAOAgent:
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
         self.current = np.zeros(2)
         self.last_selection = None
+        self.age = 0.0
         self.rng = rng
         self.crawl_time = 0.0
         self.free_time = 0.0
@@ -114,12 +131,14 @@ class NAOAgent:
         """Sampled paths of the neighbours' predicted centres (n, T, 2) m (world frame,
         None: no neighbours) and of the wall discs in range, relative to ``position``."""
         centres = [predicted - position] if predicted is not None else []
-        radii = [nb_radii + radius + self.margin] if predicted is not None else []
+        radii = ([_within_reach(nb_radii + radius + self.margin, centres[0][:, 0])]
+                 if predicted is not None else [])
         if len(walls):
             wc, wr = _wall_discs(walls, wall_radius, radius + self.margin)
             near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
-            centres.append(np.repeat((wc[near] - position)[:, None, :], len(self.times), 1))
-            radii.append(wr[near])
+            rel = wc[near] - position
+            centres.append(np.repeat(rel[:, None, :], len(self.times), 1))
+            radii.append(_within_reach(wr[near], rel))
         if not centres:
             return sampled_path(self.times, np.zeros((0, len(self.times), 2)), np.zeros(0))
         return sampled_path(self.times, np.concatenate(centres), np.concatenate(radii))
@@ -138,27 +157,42 @@ class NAOAgent:
 
     def _select(
         self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
-        a_max: float, v_max: float,
+        a_max: float, v_max: float, dt: float,
     ) -> NDArray[np.float64]:
         """The full selection (m/s^2); becomes the current acceleration."""
+        fallback = None
+        if self.infeasible == "brake":
+            speed = float(np.hypot(*velocity))
+            fallback = (np.zeros(2) if speed == 0.0
+                        else velocity * (-min(a_max, speed / dt) / speed))
         sel = select_acceleration(desired, velocity, path, AccelLimits(a_max),
-                                  v_max=v_max, with_clearance=False)
+                                  v_max=v_max, with_clearance=False, fallback=fallback)
         self.last_selection = sel
+        self.age = 0.0
         self.current = np.asarray(sel.accel, dtype=np.float64)
         return self.current
+
+    def _holds_adjustment(self) -> bool:
+        """Whether the current acceleration is an avoidance adjustment young enough to keep
+        (while admissible) even though it lies outside keep_band of the desired one."""
+        sel = self.last_selection
+        return (sel is not None and sel.status == "adjusted"
+                and self.age < self.reselect_after - 1e-9)
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         if not self.replan and self.last_selection is not None:
             return self.current
         self._update_detour(obs)
+        self.age += obs.dt
         desired = goal_seeking_accel(obs, self.v_pref, heading_offset=self.detour)
         path = self.obstacle_paths(obs)
         if (
-            float(np.hypot(*(self.current - desired))) <= self.keep_band
+            (float(np.hypot(*(self.current - desired))) <= self.keep_band
+             or self._holds_adjustment())
             and self._admissible(self.current, obs, path)
         ):
             return self.current
-        return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max)
+        return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max, obs.dt)
 
     @classmethod
     def act_batch(
@@ -201,6 +235,7 @@ class NAOAgent:
         far = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1]) > 4 * rad
         for i in live:
             agents[i]._detour_step(bool(far[i]), bool(speed[i] < 0.25 * v_max[i]), batch.dt)
+            agents[i].age += batch.dt
         desired = _goal_seeking_batch(agents, batch, rows_a, pos, vel, a_max, v_max, goals)
         # predictions: once per (predictor, time grid) for every body
         groups: dict[tuple[str, bytes], list[int]] = {}
@@ -234,7 +269,7 @@ class NAOAgent:
                         out[i] = ag.current
                         continue
                     out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
-                                        float(v_max[i]))
+                                        float(v_max[i]), batch.dt)
                 except Exception as exc:  # noqa: BLE001 - the agent's failure
                     out[i] = exc
         return out  # type: ignore[return-value]
@@ -269,12 +304,23 @@ class NAOAgent:
         return bool(ok[0])
 
 
+def _within_reach(
+    radii: NDArray[np.float64], rel: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Grown radii (m) cut to just under the current distances of the centres ``rel``
+    (n, 2) m: an obstacle already inside its margin (or touching) keeps the robot from
+    closing in further but lets it move away, instead of making every acceleration
+    inadmissible. The same operations as the compiled keep test."""
+    dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
+    return np.minimum(radii, dist * _INSIDE)
+
+
 def _batchable(cls: type) -> bool:
     """Whether :meth:`NAOAgent.act_batch` computes what ``cls.act`` computes (no override
     of the per-robot steps it reimplements)."""
     return all(getattr(cls, name) is getattr(NAOAgent, name)
                for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
-                            "_select", "_paths"))
+                            "_select", "_paths", "_holds_adjustment"))
 
 
 _WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
@@ -341,6 +387,7 @@ def _keep_current(
     m = np.asarray(members, dtype=np.int64)
     band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
         [agents[i].keep_band for i in members])
+    band |= np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
     inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
     status = np.where(band & inside, 2, 0)
     if not (len(times) >= 2 and times[0] == 0.0 and np.all(np.diff(times) > 0)
@@ -407,6 +454,8 @@ class AOAgent(NAOAgent):
         sensing_range: float = 30.0,
         detour_after: float = 1.0,
         replan: bool = True,
+        reselect_after: float = 0.5,
+        infeasible: str = "brake",
     ) -> None:
         super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
-                         sensing_range, detour_after, replan)
+                         sensing_range, detour_after, replan, reselect_after, infeasible)

@@ -393,8 +393,9 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     radius + margin (m) of over the horizon.
 
     Uses |x(t) - v t| <= a_max t^2 / 2, which also holds under speed
-    saturation; v is first clamped to v_max. Obstacles outside the mask can
-    be dropped from any selection with that acceleration limit.
+    saturation, and |x(t)| <= v_max t (the speed never exceeds v_max); v is
+    first clamped to v_max. Obstacles outside the mask can be dropped from
+    any selection with those limits.
     """
     N = seg_c.shape[0]
     S = seg_c.shape[1]
@@ -418,7 +419,16 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
             rel = math.sqrt((seg_w[n, j, 0] - vx) ** 2 + (seg_w[n, j, 1] - vy) ** 2)
             bb = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
             reach = radius[n] + margin + 0.5 * a_max * t1 * t1 + rel * h + 0.5 * bb * h * h
-            if dx * dx + dy * dy <= reach * reach:
+            if dx * dx + dy * dy > reach * reach:
+                continue
+            if not math.isfinite(v_max):
+                out[n] = True
+                break
+            own = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
+            reach = radius[n] + margin + v_max * t1 + own * h + 0.5 * bb * h * h
+            cx = seg_c[n, j, 0]
+            cy = seg_c[n, j, 1]
+            if cx * cx + cy * cy <= reach * reach:
                 out[n] = True
                 break
     return out
@@ -953,6 +963,11 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
             best = tf
 
 
+# An obstacle already closer than its grown radius counts with (just under) its current
+# distance: the robot may not close in further but may move away (see agents/nao.py).
+_INSIDE = 1.0 - 1e-9
+
+
 @njit(cache=True)
 def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
                              wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
@@ -965,7 +980,8 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
     radius[k] + margin[k] (m), then the static discs wall_index[...] of
     wall_c (m) with radii wall_r (m). The paths are built exactly as
     :func:`~nao_arena.geometry.clearance.sampled_path` builds them from the
-    robot-relative centres, and acc[k] (m/s^2) is tested as
+    robot-relative centres (a radius larger than the distance at t = 0 is cut to
+    that distance times 1 - 1e-9), and acc[k] (m/s^2) is tested as
     :func:`admissible_kernel` tests it (velocity vel[k] m/s, speed limit
     v_max[k] m/s, margin 0). out[k] = 1 admissible, 0 not, -1 non-finite
     centres (left to the caller).
@@ -992,9 +1008,10 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         for i in range(n_nb + n_w):
             if i < n_nb:
                 body = nb_index[nb_start[k] + i]
-                r = nb_radius[body] + radius[k] + margin[k]
                 x0 = pred[body, 0, 0] - px
                 y0 = pred[body, 0, 1] - py
+                r = min(nb_radius[body] + radius[k] + margin[k],
+                        math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
                 ex = 0.0
                 for j in range(1, T):
                     dx = pred[body, j, 0] - pred[body, 0, 0]
@@ -1010,9 +1027,9 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                 ex = math.sqrt(ex)
             else:
                 d = wall_index[wall_start[k] + i - n_nb]
-                r = wall_r[d]
                 x0 = wall_c[d, 0] - px
                 y0 = wall_c[d, 1] - py
+                r = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
                 ex = 0.0
             gap = math.sqrt(x0 * x0 + y0 * y0) - travel - ex
             if gap > (r + 1e-9) * (1.0 + 1e-9):
@@ -1033,9 +1050,10 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
             i = keep[q]
             if i < n_nb:
                 body = nb_index[nb_start[k] + i]
-                rad[q] = nb_radius[body] + radius[k] + margin[k]
                 x0 = pred[body, 0, 0] - px
                 y0 = pred[body, 0, 1] - py
+                rad[q] = min(nb_radius[body] + radius[k] + margin[k],
+                             math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
                 for j in range(S):
                     x1 = pred[body, j + 1, 0] - px
                     y1 = pred[body, j + 1, 1] - py
@@ -1048,9 +1066,9 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                     y0 = y1
             else:
                 d = wall_index[wall_start[k] + i - n_nb]
-                rad[q] = wall_r[d]
                 x0 = wall_c[d, 0] - px
                 y0 = wall_c[d, 1] - py
+                rad[q] = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
                 for j in range(S):
                     c[q, j, 0] = x0
                     c[q, j, 1] = y0

@@ -275,6 +275,7 @@ def select_acceleration(
     rings: int = 8,
     ring_points: int = 16,
     with_clearance: bool = True,
+    fallback: ArrayLike | None = None,
 ) -> Selection:
     """Admissible acceleration nearest ``desired`` (m/s^2) for a robot with velocity v (m/s).
 
@@ -283,8 +284,10 @@ def select_acceleration(
     clearance (m); v_max: the robot's speed limit (m/s), part of its
     predicted path; tol: refinement tolerance (m/s^2); with_clearance:
     also compute the exact clearance of the result (skipped, and reported
-    as None, when False and the result is feasible). Never raises on
-    degenerate input and never returns NaN.
+    as None, when False and the result is feasible); fallback: when no
+    acceleration is admissible, return this one (m/s^2, projected onto the
+    limit set) instead of searching for the one that postpones contact
+    longest. Never raises on degenerate input and never returns NaN.
     """
     v_arr = np.asarray(v, dtype=np.float64)
     if v_arr.shape != (2,) or not np.all(np.isfinite(v_arr)):
@@ -336,7 +339,11 @@ def select_acceleration(
     if best is not None:
         return done(best, "adjusted")
 
-    # 4. nothing admissible: postpone contact as long as possible, then least penetration
+    # 4. nothing admissible: the caller's fallback, or postpone contact as long as
+    #    possible, then least penetration
+    if fallback is not None:
+        fb = np.asarray(fallback, dtype=np.float64).reshape(-1)[:2]
+        return done(limits.project(fb if fb.shape == (2,) else np.zeros(2)), "infeasible")
     cand = np.ascontiguousarray(np.concatenate(tried + [np.zeros((1, 2))]))
     return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
 
