@@ -21,9 +21,11 @@ crossing; choose a horizon that covers the manoeuvre).
 
 Liveness: a robot that has crawled (speed below a quarter of v_max) for
 ``detour_after`` s while away from its goal turns its goal direction to the
-right by a random angle in [30, 60] degrees (drawn from its own generator)
-until it has moved freely again for as long; symmetric stand-offs then
-resolve like traffic keeping right.
+right by a random angle in [30, 60] degrees (drawn from its own generator),
+and by another such angle after each further ``detour_after`` s of crawling
+(up to about 180 degrees: backing off), until it has moved freely again for
+``detour_after`` s; symmetric stand-offs then resolve like traffic keeping
+right, and a robot boxed in by its neighbours eventually backs out.
 
 A neighbour or wall already closer than its grown radius (inside the
 margin, or touching) counts with just under its current distance: the
@@ -105,6 +107,7 @@ class NAOAgent:
         self.crawl_time = 0.0
         self.free_time = 0.0
         self.detour = 0.0
+        self.detour_turns = 0
 
     def _update_detour(self, obs: Observation) -> None:
         """Track crawling away from the goal; start or end a detour to the right."""
@@ -282,10 +285,14 @@ class NAOAgent:
         else:
             self.free_time += dt
             self.crawl_time = 0.0
-        if self.detour == 0.0 and self.crawl_time >= self.detour_after:
-            self.detour = -float(self.rng.uniform(np.pi / 6, np.pi / 3))
+        if (self.crawl_time >= self.detour_after * (self.detour_turns + 1)
+                and self.detour > -5.0 * np.pi / 6.0):
+            # each further detour_after of crawling turns another 30-60 degrees right
+            self.detour -= float(self.rng.uniform(np.pi / 6, np.pi / 3))
+            self.detour_turns += 1
         elif self.detour != 0.0 and self.free_time >= self.detour_after:
             self.detour = 0.0
+            self.detour_turns = 0
 
     def _admissible_arrays(
         self, a: NDArray[np.float64], v: NDArray[np.float64], a_max: float, v_max: float,

@@ -50,7 +50,9 @@ def constant_acceleration(times: NDArray[np.float64], nb: Neighbours) -> NDArray
 def turn_rate(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
     """Constant turn rate omega = (v x a) / |v|^2 and tangential acceleration a.v / |v|.
 
-    The speed is held at >= 0 (a vehicle does not reverse by braking). The
+    The speed is held at >= 0 (a vehicle does not reverse by braking), and a
+    neighbour at rest stays at rest (its observed acceleration is the braking
+    that stopped it). The
     path is integrated exactly for the arc on a fine internal grid (8 steps
     per sample interval, midpoint rule), (n, T, 2) m. The integration is
     compiled (:func:`_arcs`); :func:`_turn_rate_numpy` is the same
@@ -92,10 +94,12 @@ def _turn_rate(times: NDArray[np.float64], nb: Neighbours, compiled: bool) -> ND
             [np.zeros((n, 1, 2)), np.cumsum(step, axis=1)], axis=1
         )
         out = pos[:, 8::8][:, : len(times)]
-    # a stationary neighbour (no heading) accelerating from rest: constant acceleration
+    # a neighbour at rest (no heading) stays at rest: its observed acceleration, the mean
+    # over the last period, is the braking that stopped it (one that sets off from rest
+    # is already moving when observed)
     still = ~moving
     if np.any(still):
-        out[still] = constant_acceleration(times, _subset(nb, still))
+        out[still] = nb.positions[still][:, None, :]
     return out
 
 
@@ -123,17 +127,6 @@ def _arcs(positions, speed, omega, a_t, heading, mid, fine, n_times):
                     out[i, j, 1] = positions[i, 1] + sy
                 j += 1
     return out
-
-
-def _subset(nb: Neighbours, mask: NDArray[np.bool_]) -> Neighbours:
-    return Neighbours(
-        ids=nb.ids[mask],
-        kinds=tuple(k for k, m in zip(nb.kinds, mask, strict=True) if m),
-        positions=nb.positions[mask],
-        velocities=nb.velocities[mask],
-        accelerations=nb.accelerations[mask],
-        radii=nb.radii[mask],
-    )
 
 
 def _resample(path_times, paths, times):

@@ -11,7 +11,7 @@ from nao_arena.cli import main
 from nao_arena.maps import available_maps
 from nao_arena.report import REPORT_FILES
 
-SMALL = ["--set", "n=4", "--time-limit", "15"]
+SMALL = ["--set", "n=4", "--time-limit", "25"]
 
 
 def test_maps_and_agents(capsys):

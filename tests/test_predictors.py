@@ -7,7 +7,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nao_arena.predictors import PREDICTORS, get_predictor, known_path, shared_plan, turn_rate
+from nao_arena.predictors import (
+    PREDICTORS,
+    constant_acceleration,
+    get_predictor,
+    known_path,
+    shared_plan,
+    turn_rate,
+)
 from nao_arena.sensing import Neighbours
 
 TIMES = np.linspace(0.0, 4.0, 41)
@@ -92,6 +99,14 @@ def test_every_predictor_handles_no_neighbours_and_standing_still():
         out = fn(TIMES, still)
         assert np.all(np.isfinite(out)), name
         np.testing.assert_allclose(out[0], np.tile([3.0, 4.0], (len(TIMES), 1)), atol=1e-12)
+
+
+def test_turn_rate_keeps_a_neighbour_that_braked_to_rest_at_rest():
+    # observed at rest after braking from (1, 0) m/s within the last period: a = (-10, 0)
+    braked = one((3, 4), (0, 0), (-10, 0))
+    np.testing.assert_array_equal(turn_rate(TIMES, braked)[0], np.tile([3.0, 4.0], (len(TIMES), 1)))
+    # the AO's model extrapolates the braking into reversing
+    assert constant_acceleration(TIMES, braked)[0, -1, 0] < 3.0 - 1.0
 
 
 def test_unknown_predictor_names_the_choices():

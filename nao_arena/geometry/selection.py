@@ -421,7 +421,7 @@ def _latest_contact_search(
 
 
 _MAX_DISKS = 96
-_DISKS_PER_PIECE = 4
+_DISKS_PER_PIECE = 2
 
 
 def _nearest_by_disks(
@@ -457,8 +457,19 @@ def _nearest_by_disks(
         disks = nao_disks_within(samples, reach)
         if max_disks is not None and len(disks) > max_disks:
             return None
-        cands = nearest_outside_disks(a_d, disks, a_max, 8)
-        for x, y, dist in cands:
+        # the nearest candidate alone first (usually confirmed: a much cheaper search, the
+        # same first row), then the others in order if it fails
+        cands = nearest_outside_disks(a_d, disks, a_max, 1)
+        full = False
+        i = 0
+        while True:
+            if i == 1 and not full:
+                cands = nearest_outside_disks(a_d, disks, a_max, 8)  # row 0: the one tried
+                full = True
+            if i >= len(cands):
+                break
+            x, y, dist = cands[i]
+            i += 1
             if dist > reach:
                 break
             point = np.array([x, y])
