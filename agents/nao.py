@@ -10,10 +10,12 @@ margin, walls as chains of static discs), and
    adjustments; an adjustment is revisited toward the goal that often);
 2. otherwise takes the admissible acceleration nearest the desired one
    (goal seeking, see :func:`nao_arena.agents.goal.goal_seeking_accel`);
-3. if none is admissible, brakes as hard as it can toward standing still
-   (``infeasible="brake"``, the default: in a crowd whose predictions keep
-   changing, stopping is what keeps contacts rare) or takes the acceleration
-   that postpones contact longest (``infeasible="latest_contact"``).
+3. if none is admissible: with ``infeasible="auto"`` (the default) it brakes
+   as hard as it can toward standing still when its neighbours are robots
+   (they avoid a robot that stands still; in a crowd whose predictions keep
+   changing, stopping is what keeps contacts rare) and takes the acceleration
+   that postpones contact longest when traffic is among them (traffic does
+   not stop for it); ``"brake"`` and ``"latest_contact"`` force either.
 
 With ``replan=False`` the agent selects once, at its first step, and
 holds that acceleration for the whole episode (the paper's open-loop
@@ -66,7 +68,7 @@ from nao_arena.sensing import Observation, SensingBatch
 class NAOAgent:
     """NAO avoidance. Options: horizon (s), samples (per horizon), predictor name,
     margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m), detour_after (s),
-    replan, reselect_after (s), infeasible ("brake" or "latest_contact")."""
+    replan, reselect_after (s), infeasible ("auto", "brake" or "latest_contact")."""
 
     def __init__(
         self,
@@ -80,11 +82,11 @@ class NAOAgent:
         detour_after: float = 1.0,
         replan: bool = True,
         reselect_after: float = 0.5,
-        infeasible: str = "brake",
+        infeasible: str = "auto",
     ) -> None:
-        if infeasible not in ("latest_contact", "brake"):
-            raise ValueError(
-                f"infeasible: expected 'latest_contact' or 'brake', got {infeasible!r}")
+        if infeasible not in ("auto", "latest_contact", "brake"):
+            raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
+                             f"got {infeasible!r}")
         self.infeasible = infeasible
         self.replan = bool(replan)
         self.reselect_after = float(reselect_after)
@@ -132,12 +134,14 @@ class NAOAgent:
         wall_radius: NDArray[np.float64],
     ) -> PiecewisePath:
         """Sampled paths of the neighbours' predicted centres (n, T, 2) m (world frame,
-        None: no neighbours) and of the wall discs in range, relative to ``position``."""
+        None: no neighbours) and of the wall discs in range, relative to ``position``,
+        grown by the robot's radius and the margin (m)."""
+        grow = radius + self.margin
         centres = [predicted - position] if predicted is not None else []
-        radii = ([_within_reach(nb_radii + radius + self.margin, centres[0][:, 0])]
+        radii = ([_within_reach(nb_radii + grow, centres[0][:, 0])]
                  if predicted is not None else [])
         if len(walls):
-            wc, wr = _wall_discs(walls, wall_radius, radius + self.margin)
+            wc, wr = _wall_discs(walls, wall_radius, grow)
             near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
             rel = wc[near] - position
             centres.append(np.repeat(rel[:, None, :], len(self.times), 1))
@@ -160,11 +164,12 @@ class NAOAgent:
 
     def _select(
         self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
-        a_max: float, v_max: float, dt: float,
+        a_max: float, v_max: float, dt: float, traffic: bool = False,
     ) -> NDArray[np.float64]:
-        """The full selection (m/s^2); becomes the current acceleration."""
+        """The full selection (m/s^2); becomes the current acceleration. traffic: whether
+        non-reactive traffic is among the neighbours (``infeasible="auto"`` then dodges)."""
         fallback = None
-        if self.infeasible == "brake":
+        if self.infeasible == "brake" or (self.infeasible == "auto" and not traffic):
             speed = float(np.hypot(*velocity))
             fallback = (np.zeros(2) if speed == 0.0
                         else velocity * (-min(a_max, speed / dt) / speed))
@@ -195,7 +200,9 @@ class NAOAgent:
             and self._admissible(self.current, obs, path)
         ):
             return self.current
-        return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max, obs.dt)
+        traffic = "traffic" in obs.neighbours.kinds
+        return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max, obs.dt,
+                            traffic)
 
     @classmethod
     def act_batch(
@@ -271,8 +278,9 @@ class NAOAgent:
                                                          float(v_max[i]), path):
                         out[i] = ag.current
                         continue
+                    traffic = bool(np.any(batch.kinds[idx] == "traffic"))
                     out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
-                                        float(v_max[i]), batch.dt)
+                                        float(v_max[i]), batch.dt, traffic)
                 except Exception as exc:  # noqa: BLE001 - the agent's failure
                     out[i] = exc
         return out  # type: ignore[return-value]
@@ -462,7 +470,7 @@ class AOAgent(NAOAgent):
         detour_after: float = 1.0,
         replan: bool = True,
         reselect_after: float = 0.5,
-        infeasible: str = "brake",
+        infeasible: str = "auto",
     ) -> None:
         super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
                          sensing_range, detour_after, replan, reselect_after, infeasible)
