@@ -25,7 +25,12 @@ from nao_arena.geometry.clearance import (
     sampled_path,
     vo_clearance,
 )
-from nao_arena.geometry.selection import AccelLimits, Selection, select_acceleration
+from nao_arena.geometry.selection import (
+    AccelLimits,
+    Selection,
+    repair_acceleration,
+    select_acceleration,
+)
 
 __all__ = [
     "AccelLimits",
@@ -44,6 +49,7 @@ __all__ = [
     "path_boundary",
     "path_clearance",
     "sampled_path",
+    "repair_acceleration",
     "select_acceleration",
     "vo_clearance",
     "vo_cone",

@@ -44,7 +44,7 @@ from nao_arena.geometry.kernel import (
     slide_disc,
 )
 
-__all__ = ["AccelLimits", "Selection", "select_acceleration"]
+__all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
 
 
 
@@ -346,6 +346,46 @@ def select_acceleration(
         return done(limits.project(fb if fb.shape == (2,) else np.zeros(2)), "infeasible")
     cand = np.ascontiguousarray(np.concatenate(tried + [np.zeros((1, 2))]))
     return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
+
+
+_REPAIR_STEPS = (0.05, 0.1, 0.2, 0.4)  # ring radii around the previous choice, x a_max
+_REPAIR_POINTS = 12
+
+
+def repair_acceleration(
+    previous: ArrayLike,
+    desired: ArrayLike,
+    v: ArrayLike,
+    path: PiecewisePath,
+    limits: AccelLimits,
+    *,
+    v_max: float = np.inf,
+) -> NDArray[np.float64] | None:
+    """A cheap local fix of an acceleration that has just become inadmissible (m/s^2).
+
+    Tests rings of candidates around ``previous`` (radii 0.05, 0.1, 0.2, 0.4
+    a_max, 12 points each, projected onto the limit set) exactly, in one
+    compiled call, and returns the admissible one nearest ``desired``; None
+    when none is admissible. Unlike :func:`select_acceleration` the result is
+    admissible but not the nearest to ``desired`` over the whole limit set: a
+    warm start, for re-using a recent avoidance choice between full selections.
+    """
+    prev = np.asarray(previous, dtype=np.float64).reshape(2)
+    want = np.asarray(desired, dtype=np.float64).reshape(2)
+    v_arr = np.asarray(v, dtype=np.float64).reshape(2)
+    if not (np.all(np.isfinite(prev)) and np.all(np.isfinite(want))
+            and np.all(np.isfinite(v_arr))):
+        return None
+    ang = 2.0 * np.pi * np.arange(_REPAIR_POINTS) / _REPAIR_POINTS
+    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    cand = np.concatenate([prev + limits.a_max * r * unit for r in _REPAIR_STEPS])
+    cand = limits.project(cand)
+    # nearest the desired acceleration first: the first admissible one wins
+    cand = cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]),
+                           kind="stable")]
+    ok = _Tester(v_arr, path, limits, 0.0, float(v_max)).ok(cand)
+    hit = np.flatnonzero(ok)
+    return cand[hit[0]].copy() if len(hit) else None
 
 
 def _slide_towards(
