@@ -323,13 +323,16 @@ def select_acceleration(
     #    admissible candidate on rings of growing radius, pulled onto the boundary
     span = 2.0 * max(limits.a_max, 1e-12)
     radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
-    tried = [a_d[None]]
-    for i, rad in enumerate(radii):
-        cand = limits.project(_ring(a_d, rad, ring_points, 0.5 * i))
-        ok = tester.ok(cand)
-        tried.append(cand)
-        if np.any(ok):
-            good = cand[ok]
+    # every ring tested in one call (crowds test nearly all of them anyway); the
+    # innermost ring with an admissible candidate wins
+    ring_cands = limits.project(np.concatenate(
+        [_ring(a_d, rad, ring_points, 0.5 * i) for i, rad in enumerate(radii)]))
+    ring_ok = tester.ok(ring_cands).reshape(len(radii), ring_points)
+    tried = [a_d[None], ring_cands]
+    for i in range(len(radii)):
+        if np.any(ring_ok[i]):
+            cand = ring_cands[i * ring_points:(i + 1) * ring_points]
+            good = cand[ring_ok[i]]
             dist = np.hypot(*(good - a_d).T)
             start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
             return done(_slide_towards(tester, a_d, start, limits, tol), "adjusted")
