@@ -32,6 +32,7 @@ from nao_arena.geometry.kernel import (
     sampled_admissible_batch,
     slide_disc,
 )
+from nao_arena.geometry import selection
 from nao_arena.geometry.selection import AccelLimits, _Tester
 from nao_arena.maps import load_map
 from nao_arena.predictors import _turn_rate_numpy, turn_rate
@@ -606,3 +607,27 @@ def test_act_batch_defers_to_an_overridden_act():
     res = arena.step()
     assert not res.faults
     np.testing.assert_array_equal(res.commanded[arena.robot_ids], [[0.05, -0.05]] * 4)
+
+
+# ---------------------------------------------------------------- disk candidates
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_candidate_loop_matches_the_python_loop(seed):
+    """_nearest_by_disks confirms its candidates in a compiled loop for the limit disc;
+    with a box that never binds it runs the Python loop: the same answers and counts."""
+    t, rng = _tester(seed)
+    boxed = _Tester(t.v, t.path, AccelLimits(2.0, (-10.0, -10.0), (10.0, 10.0)), 0.0,
+                    t.v_max)
+    for _ in range(10):
+        a_d = rng.uniform(-2.5, 2.5, size=2)
+        a_d = t.limits.project(a_d)
+        for cap in (selection._MAX_DISKS, None):
+            before_disc, before_box = t.count, boxed.count
+            got = selection._nearest_by_disks(t, a_d, 1e-3, max_disks=cap)
+            ref = selection._nearest_by_disks(boxed, a_d, 1e-3, max_disks=cap)
+            if ref is None:
+                assert got is None
+            else:
+                np.testing.assert_array_equal(got, ref)
+            assert t.count - before_disc == boxed.count - before_box

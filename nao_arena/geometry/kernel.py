@@ -1146,6 +1146,57 @@ def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, rad
 
 
 @njit(cache=True)
+def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
+                        seg_b, radius, sweep, margin):
+    """Confirm disk-picture candidates exactly, nearest first (limit disc |a| <= a_max).
+
+    cands: (K, 3) rows (x, y, distance from a_d) m/s^2 in increasing distance, tried
+    from row ``start`` while the distance is <= reach: a candidate that is admissible
+    is the answer; one that is not (it lies in a sliver between sampled disks) is
+    pushed outwards along its ray from a_d by tol, 2 tol, 4 tol, ... below a_max / 4,
+    and the first admissible push is bisected back onto the boundary within tol.
+    Returns (found, x, y, candidates tested, stopped at a row beyond reach) —
+    :func:`selection._nearest_by_disks`'s candidate loop compiled.
+    """
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.zeros(1, dtype=np.int64)
+    vx = v[0]
+    vy = v[1]
+    count = 0
+    for i in range(start, cands.shape[0]):
+        x = cands[i, 0]
+        y = cands[i, 1]
+        dist = cands[i, 2]
+        if dist > reach:
+            return False, 0.0, 0.0, count, True
+        ok, c = _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                         sweep, margin, buf, res, hint)
+        count += c
+        if ok:
+            return True, x, y, count, False
+        if dist <= 0.0:
+            continue
+        ux = (x - a_d[0]) / dist
+        uy = (y - a_d[1]) / dist
+        step = tol
+        while step < 0.25 * a_max:
+            px = x + step * ux
+            py = y + step * uy
+            ok, c = _ok_disc(px, py, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                             sweep, margin, buf, res, hint)
+            count += c
+            if ok:
+                hint[0] = 0
+                gx, gy, c = _bisect_disc(x, y, px, py, tol, a_max, vx, vy, v_max, seg_t,
+                                         seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
+                                         hint)
+                return True, gx, gy, count + c, False
+            step *= 2.0
+    return False, 0.0, 0.0, count, False
+
+
+@njit(cache=True)
 def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
                margin):
     """Rotate the admissible boundary point ``best`` about a_d (m/s^2) by shrinking angles,

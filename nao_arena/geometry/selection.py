@@ -42,6 +42,7 @@ from nao_arena.geometry.kernel import (
     piece_sweep,
     relevant_obstacles,
     slide_disc,
+    try_candidates_disc,
 )
 
 __all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
@@ -502,6 +503,25 @@ def _nearest_by_disks(
             return None
         # the nearest candidate alone first (usually confirmed: a much cheaper search, the
         # same first row), then the others in order if it fails
+        if tester.limits.box_lo is None:
+            # the same loop, compiled
+            cands = nearest_outside_disks(a_d, disks, a_max, 1)
+            found, x, y, count, beyond = try_candidates_disc(
+                cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
+                p.radius, tester.sweep, tester.margin)
+            tester.count += count
+            if not found and not beyond and len(cands) == 1:
+                cands = nearest_outside_disks(a_d, disks, a_max, 8)
+                found, x, y, count, beyond = try_candidates_disc(
+                    cands, 1, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w,
+                    p.b, p.radius, tester.sweep, tester.margin)
+                tester.count += count
+            if found:
+                return np.array([x, y])
+            if reach >= limit:
+                return None
+            reach *= 2.0
+            continue
         cands = nearest_outside_disks(a_d, disks, a_max, 1)
         full = False
         i = 0
