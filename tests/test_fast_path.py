@@ -19,6 +19,7 @@ from numba import njit
 
 from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.geometry import selection
 from nao_arena.geometry.clearance import sampled_path
 from nao_arena.geometry.kernel import (
     _drop_contained,
@@ -32,7 +33,6 @@ from nao_arena.geometry.kernel import (
     sampled_admissible_batch,
     slide_disc,
 )
-from nao_arena.geometry import selection
 from nao_arena.geometry.selection import AccelLimits, _Tester
 from nao_arena.maps import load_map
 from nao_arena.predictors import _turn_rate_numpy, turn_rate
