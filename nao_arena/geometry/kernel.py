@@ -1197,6 +1197,24 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
 
 
 @njit(cache=True)
+def first_admissible_disc(cands, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                          margin):
+    """Index of the first admissible row of ``cands`` (K, 2) m/s^2 within the limit disc
+    |a| <= a_max (-1: none), and how many rows were tested against the obstacles."""
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.zeros(1, dtype=np.int64)
+    count = 0
+    for k in range(cands.shape[0]):
+        ok, c = _ok_disc(cands[k, 0], cands[k, 1], a_max, v[0], v[1], v_max, seg_t, seg_c,
+                         seg_w, seg_b, radius, sweep, margin, buf, res, hint)
+        count += c
+        if ok:
+            return k, count
+    return -1, count
+
+
+@njit(cache=True)
 def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
                margin):
     """Rotate the admissible boundary point ``best`` about a_d (m/s^2) by shrinking angles,

@@ -35,6 +35,7 @@ from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.kernel import (
     admissible_kernel,
     bisect_disc,
+    first_admissible_disc,
     latest_contact_kernel,
     nao_disk_samples,
     nao_disks_within,
@@ -238,9 +239,18 @@ class _Tester:
         return bool(self._res1[0])
 
 
+_UNIT_RINGS: dict[tuple[int, float], NDArray[np.float64]] = {}
+
+
 def _ring(center: NDArray[np.float64], radius: float, n: int, phase: float) -> NDArray[np.float64]:
-    ang = phase + 2.0 * np.pi * np.arange(n) / n
-    return center + radius * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    """n points on the circle (center, radius), the first at angle ``phase`` (rad)."""
+    unit = _UNIT_RINGS.get((n, phase))
+    if unit is None:
+        ang = phase + 2.0 * np.pi * np.arange(n) / n
+        unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        if len(_UNIT_RINGS) < 256:
+            _UNIT_RINGS[(n, phase)] = unit
+    return center + radius * unit
 
 
 def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float):
@@ -354,6 +364,8 @@ def select_acceleration(
 
 _REPAIR_STEPS = (0.05, 0.1, 0.2, 0.4)  # ring radii around the previous choice, x a_max
 _REPAIR_POINTS = 12
+_REPAIR_ANGLES = 2.0 * np.pi * np.arange(_REPAIR_POINTS) / _REPAIR_POINTS
+_REPAIR_UNIT = np.stack([np.cos(_REPAIR_ANGLES), np.sin(_REPAIR_ANGLES)], axis=1)
 
 
 def repair_acceleration(
@@ -380,16 +392,20 @@ def repair_acceleration(
     if not (np.all(np.isfinite(prev)) and np.all(np.isfinite(want))
             and np.all(np.isfinite(v_arr))):
         return None
-    ang = 2.0 * np.pi * np.arange(_REPAIR_POINTS) / _REPAIR_POINTS
-    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    cand = np.concatenate([prev + limits.a_max * r * unit for r in _REPAIR_STEPS])
+    cand = np.concatenate([prev + limits.a_max * r * _REPAIR_UNIT for r in _REPAIR_STEPS])
     cand = limits.project(cand)
     # nearest the desired acceleration first: the first admissible one wins
-    cand = cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]),
-                           kind="stable")]
-    ok = _Tester(v_arr, path, limits, 0.0, float(v_max)).ok(cand)
-    hit = np.flatnonzero(ok)
-    return cand[hit[0]].copy() if len(hit) else None
+    cand = np.ascontiguousarray(
+        cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]), kind="stable")])
+    tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
+    if limits.box_lo is None:
+        p = tester.path
+        hit, count = first_admissible_disc(cand, limits.a_max, tester.v, tester.v_max, p.t, p.c,
+                                           p.w, p.b, p.radius, tester.sweep, 0.0)
+        return cand[hit].copy() if hit >= 0 else None
+    ok = tester.ok(cand)
+    hits = np.flatnonzero(ok)
+    return cand[hits[0]].copy() if len(hits) else None
 
 
 def _slide_towards(
