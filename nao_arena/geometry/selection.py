@@ -513,56 +513,74 @@ def _nearest_by_disks(
         tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
         a_d, last, a_max,
     )
-    while True:
-        disks = nao_disks_within(samples, reach)
-        if max_disks is not None and len(disks) > max_disks:
-            return None
-        # the nearest candidate alone first (usually confirmed: a much cheaper search, the
-        # same first row), then the others in order if it fails
-        if tester.limits.box_lo is None:
-            # the same loop, compiled
-            cands = nearest_outside_disks(a_d, disks, a_max, 1)
-            found, x, y, count, beyond = try_candidates_disc(
-                cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
-                p.radius, tester.sweep, tester.margin)
-            tester.count += count
-            if not found and not beyond and len(cands) == 1:
-                cands = nearest_outside_disks(a_d, disks, a_max, 8)
-                found, x, y, count, beyond = try_candidates_disc(
-                    cands, 1, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w,
-                    p.b, p.radius, tester.sweep, tester.margin)
-                tester.count += count
-            if found:
-                return np.array([x, y])
-            if reach >= limit:
-                return None
-            reach *= 2.0
-            continue
-        cands = nearest_outside_disks(a_d, disks, a_max, 1)
-        full = False
-        i = 0
-        while True:
-            if i == 1 and not full:
-                cands = nearest_outside_disks(a_d, disks, a_max, 8)  # row 0: the one tried
-                full = True
-            if i >= len(cands):
-                break
-            x, y, dist = cands[i]
-            i += 1
-            if dist > reach:
-                break
-            point = np.array([x, y])
-            if tester.ok1(point):
-                return point
-            if dist <= 0.0:
-                continue
-            u = (point - a_d) / dist
-            step = tol
-            while step < 0.25 * a_max:
-                pushed = point + step * u
-                if tester.ok1(pushed):
-                    return _bisect(tester, point, pushed, tol)
-                step *= 2.0
-        if reach >= limit:
-            return None
+    disks = nao_disks_within(samples, reach)
+    if max_disks is not None and len(disks) > max_disks:
+        return None
+    hit = _try_ball(tester, a_d, disks, reach, tol)
+    if hit is not None or reach >= limit:
+        return hit
+    # The doubling would go on ball by ball; every ball's candidates within a smaller
+    # ball are that ball's (nearest first, the same points) and fail again, so the
+    # largest ball within the disk cap alone decides as the doubling would.
+    chosen = None
+    while reach < limit:
         reach *= 2.0
+        more = nao_disks_within(samples, reach)
+        if max_disks is not None and len(more) > max_disks:
+            break
+        chosen = (reach, more)
+    if chosen is None:
+        return None
+    return _try_ball(tester, a_d, chosen[1], chosen[0], tol)
+
+
+def _try_ball(
+    tester: _Tester, a_d: NDArray[np.float64], disks: NDArray[np.float64], reach: float,
+    tol: float,
+) -> NDArray[np.float64] | None:
+    """The nearest candidate outside ``disks`` within ``reach`` of a_d that is admissible
+    (or pushed out of a sliver and bisected back onto the boundary), or None."""
+    p = tester.path
+    a_max = tester.limits.a_max
+    # the nearest candidate alone first (usually confirmed: a much cheaper search, the
+    # same first row), then the others in order if it fails
+    if tester.limits.box_lo is None:
+        # the loop below, compiled
+        cands = nearest_outside_disks(a_d, disks, a_max, 1)
+        found, x, y, count, beyond = try_candidates_disc(
+            cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
+            p.radius, tester.sweep, tester.margin)
+        tester.count += count
+        if not found and not beyond and len(cands) == 1:
+            cands = nearest_outside_disks(a_d, disks, a_max, 8)
+            found, x, y, count, beyond = try_candidates_disc(
+                cands, 1, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w,
+                p.b, p.radius, tester.sweep, tester.margin)
+            tester.count += count
+        return np.array([x, y]) if found else None
+    cands = nearest_outside_disks(a_d, disks, a_max, 1)
+    full = False
+    i = 0
+    while True:
+        if i == 1 and not full:
+            cands = nearest_outside_disks(a_d, disks, a_max, 8)  # row 0: the one tried
+            full = True
+        if i >= len(cands):
+            break
+        x, y, dist = cands[i]
+        i += 1
+        if dist > reach:
+            break
+        point = np.array([x, y])
+        if tester.ok1(point):
+            return point
+        if dist <= 0.0:
+            continue
+        u = (point - a_d) / dist
+        step = tol
+        while step < 0.25 * a_max:
+            pushed = point + step * u
+            if tester.ok1(pushed):
+                return _bisect(tester, point, pushed, tol)
+            step *= 2.0
+    return None
