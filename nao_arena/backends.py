@@ -25,6 +25,7 @@ import multiprocessing
 import os
 import pickle
 import sys
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -57,11 +58,12 @@ class BackendError(RuntimeError):
     """A backend is unavailable (e.g. Ray not installed) or its workers failed."""
 
 
-class Backend(Generic[T, R]):
+class Backend(ABC, Generic[T, R]):
     """Runs ``fn`` on tasks; a context manager (``close`` releases its resources)."""
 
     name = "backend"
 
+    @abstractmethod
     def run(self, fn: Callable[[T], R], tasks: Sequence[T],
             finished: Callable[[T, R], None]) -> None:
         """Call ``fn(task)`` for every task; ``finished(task, result)`` here, as each ends.
@@ -69,7 +71,6 @@ class Backend(Generic[T, R]):
         An exception from ``finished`` (or KeyboardInterrupt) cancels the tasks
         not started yet and propagates.
         """
-        raise NotImplementedError
 
     def prepare(self) -> None:
         """Get ready to run tasks (e.g. start or connect to Ray); nothing by default."""
