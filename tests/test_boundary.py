@@ -37,8 +37,10 @@ from nao_arena.geometry.boundary import (
 
 try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
     from tests.forward_sim import Parabola, Polyline, simulate
+    from tests.strategies import floats, unit, vec
 except ImportError:  # pragma: no cover
     from forward_sim import Parabola, Polyline, simulate
+    from strategies import floats, unit, vec
 
 FloatArray = NDArray[np.float64]
 CentreFn = Callable[[FloatArray], FloatArray]
@@ -201,18 +203,6 @@ def pick(n_total: int, n: int) -> FloatArray:
 
 
 # ------------------------------------------------------------------ scenarios
-
-
-def floats(lo: float, hi: float) -> st.SearchStrategy[float]:
-    return st.floats(lo, hi, allow_nan=False, allow_infinity=False)
-
-
-def vec(bound: float) -> st.SearchStrategy[FloatArray]:
-    return st.tuples(floats(-bound, bound), floats(-bound, bound)).map(np.array)
-
-
-def unit(angle: float) -> FloatArray:
-    return np.array([math.cos(angle), math.sin(angle)])
 
 
 class AOCase:

@@ -28,9 +28,11 @@ from nao_arena.geometry.clearance import sampled_path
 from nao_arena.geometry.kernel import relevant_obstacles
 
 try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
-    from tests.forward_sim import Polyline, Robot, simulate
+    from tests.forward_sim import Polyline, Robot, screened_min_distance, simulate
+    from tests.strategies import floats, unit, vec
 except ImportError:  # pragma: no cover
-    from forward_sim import Polyline, Robot, simulate
+    from forward_sim import Polyline, Robot, screened_min_distance, simulate
+    from strategies import floats, unit, vec
 
 FloatArray = NDArray[np.float64]
 
@@ -67,35 +69,12 @@ class Case:
         inner = np.stack([r * np.cos(ang), r * np.sin(ang)], 1)
         return np.concatenate([rim, inner, np.zeros((1, 2))])
 
-    def clamped_v(self) -> FloatArray:
-        return Robot.make(self.v, (0.0, 0.0), self.v_max).v
-
 
 def forward_min_distances(case: Case, n: int, accels: FloatArray) -> FloatArray:
-    """(K,) forward-simulated minimum centre distance to obstacle n for each acceleration.
-
-    Grid minimum over the horizon; where it is within the Lipschitz slack of
-    radius + margin, the refined ``simulate`` minimum instead (a grid minimum
-    that clears the limit by more than the slack certifies the true minimum).
-    """
-    times, centers = case.times, case.centers[n]
-    path = Polyline.make(times, centers)
-    h = float(times[-1])
-    grid = np.unique(np.concatenate([np.linspace(0.0, h, N_GRID), times]))
-    spacing = float(np.max(np.diff(grid)))
-    obs = path.position(grid)
-    obs_speed = float(np.max(np.hypot(*(np.diff(centers, axis=0) / np.diff(times)[:, None]).T)))
-    robot_speed = min(float(np.hypot(*case.clamped_v())) + case.a_max * h, case.v_max)
-    slack = (robot_speed + obs_speed) * spacing / 2 + 1e-9
-    limit = case.radius[n] + case.margin
-    out = np.empty(len(accels))
-    for k, a in enumerate(accels):
-        d = Robot.make(case.v, a, case.v_max).position(grid) - obs
-        out[k] = float(np.min(np.hypot(d[:, 0], d[:, 1])))
-        if out[k] - slack < limit:
-            res = simulate(case.v, a, path, case.radius[n], v_max=case.v_max)
-            out[k] = min(out[k], res.clearance + case.radius[n])
-    return out
+    """(K,) forward-simulated minimum centre distance to obstacle n for each acceleration
+    (exact wherever it comes near radius + margin)."""
+    return screened_min_distance(case.v, accels, case.v_max, case.a_max, case.times,
+                                 case.centers[n], case.radius[n] + case.margin, N_GRID)
 
 
 def check_left_out(case: Case) -> list[float]:
@@ -121,18 +100,6 @@ def check_left_out(case: Case) -> list[float]:
 
 
 # ------------------------------------------------------------------ cases
-
-
-def floats(lo: float, hi: float) -> st.SearchStrategy[float]:
-    return st.floats(lo, hi, allow_nan=False, allow_infinity=False)
-
-
-def vec(bound: float) -> st.SearchStrategy[FloatArray]:
-    return st.tuples(floats(-bound, bound), floats(-bound, bound)).map(np.array)
-
-
-def unit(angle: float) -> FloatArray:
-    return np.array([math.cos(angle), math.sin(angle)])
 
 
 @st.composite

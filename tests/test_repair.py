@@ -28,9 +28,11 @@ from numpy.typing import NDArray
 from nao_arena.geometry import AccelLimits, repair_acceleration, sampled_path
 
 try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
-    from tests.forward_sim import Polyline, Robot, simulate
+    from tests.forward_sim import Robot, screened_min_distance
+    from tests.strategies import floats, unit, vec
 except ImportError:  # pragma: no cover
-    from forward_sim import Polyline, Robot, simulate
+    from forward_sim import Robot, screened_min_distance
+    from strategies import floats, unit, vec
 
 FloatArray = NDArray[np.float64]
 
@@ -72,28 +74,14 @@ class Scene:
         return self.limits.project(raw)
 
     def forward_clearance(self, accels: FloatArray) -> FloatArray:
-        """(K,) min over obstacles of the forward-simulated clearance (distance - radius)."""
+        """(K,) min over obstacles of the forward-simulated clearance (distance - radius),
+        exact wherever it comes near KNIFE_EDGE."""
         accels = np.atleast_2d(accels)
         out = np.full(len(accels), np.inf)
-        h = float(self.times[-1])
-        grid = np.unique(np.concatenate([np.linspace(0.0, h, N_GRID), self.times]))
-        spacing = float(np.max(np.diff(grid)))
-        robots = [Robot.make(self.v, a, self.v_max) for a in accels]
-        robot_speed = min(float(np.hypot(*robots[0].v)) + self.limits.a_max * h, self.v_max)
-        positions = [rb.position(grid) for rb in robots]
         for c, r in zip(self.centers, self.radius, strict=True):
-            path = Polyline.make(self.times, c)
-            obs = path.position(grid)
-            seg_v = np.diff(c, axis=0) / np.diff(self.times)[:, None]
-            obs_speed = float(np.max(np.hypot(*seg_v.T))) if len(seg_v) else 0.0
-            slack = (robot_speed + obs_speed) * spacing / 2 + 1e-9
-            for k, a in enumerate(accels):
-                d = positions[k] - obs
-                clear = float(np.min(np.hypot(d[:, 0], d[:, 1]))) - r
-                if clear - slack < KNIFE_EDGE:
-                    res = simulate(self.v, a, path, r, v_max=self.v_max)
-                    clear = min(clear, res.clearance)
-                out[k] = min(out[k], clear)
+            dist = screened_min_distance(self.v, accels, self.v_max, self.limits.a_max,
+                                         self.times, c, r + KNIFE_EDGE, N_GRID)
+            out = np.minimum(out, dist - r)
         return out
 
 
@@ -102,18 +90,6 @@ def in_disc(a: FloatArray, limits: AccelLimits) -> bool:
 
 
 # ------------------------------------------------------------------ scenes
-
-
-def floats(lo: float, hi: float) -> st.SearchStrategy[float]:
-    return st.floats(lo, hi, allow_nan=False, allow_infinity=False)
-
-
-def vec(bound: float) -> st.SearchStrategy[FloatArray]:
-    return st.tuples(floats(-bound, bound), floats(-bound, bound)).map(np.array)
-
-
-def unit(angle: float) -> FloatArray:
-    return np.array([math.cos(angle), math.sin(angle)])
 
 
 def in_disc_point(draw: st.DrawFn, a_max: float) -> FloatArray:
