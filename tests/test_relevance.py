@@ -188,6 +188,19 @@ def test_obstacle_on_the_path_is_relevant() -> None:
     check_left_out(case)
 
 
+@pytest.mark.parametrize("delta", [0.01, 1e-4])
+def test_obstacle_at_the_full_speed_reach_is_relevant(delta) -> None:
+    """Already at v_max towards a static obstacle whose grown disc the robot's straight
+    run (a = 0) just enters at the horizon: the speed bound |x(t)| <= v_max t is sharp."""
+    v_max, h, r = 1.5, 2.0, 0.3
+    times = np.linspace(0.0, h, 5)
+    centers = np.array([[[v_max * h + r - delta, 0.0]] * 5])
+    case = Case(np.array([v_max, 0.0]), 1.0, v_max, 0.0, times, centers, np.array([r]), 0)
+    res = simulate(case.v, (0.0, 0.0), Polyline.make(times, centers[0]), r, v_max=v_max)
+    assert res.clearance < 0  # the forward simulation enters the disc
+    assert case.mask().tolist() == [True]
+
+
 @pytest.mark.parametrize("v", [(0.0, 0.0), (0.8, -0.3)])
 def test_comoving_obstacle_within_reach_is_relevant(v) -> None:
     """0.01 m inside the attainable a_max h^2 / 2: in the mask, and the rim acceleration
