@@ -66,7 +66,7 @@ from nao_arena.geometry import (
     select_acceleration,
 )
 from nao_arena.geometry.kernel import (
-    _INSIDE,
+    RADIUS_CUT,
     admissible_kernel,
     piece_sweep,
     sampled_admissible_batch,
@@ -361,7 +361,7 @@ def _within_reach(
     closing in further but lets it move away, instead of making every acceleration
     inadmissible. The same operations as the compiled keep test."""
     dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
-    return np.minimum(radii, dist * _INSIDE)
+    return np.minimum(radii, dist * RADIUS_CUT)
 
 
 def _batchable(cls: type) -> bool:

@@ -965,7 +965,7 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
 
 # An obstacle already closer than its grown radius counts with (just under) its current
 # distance: the robot may not close in further but may move away (see agents/nao.py).
-_INSIDE = 1.0 - 1e-9
+RADIUS_CUT = 1.0 - 1e-9
 
 
 @njit(cache=True)
@@ -1003,6 +1003,7 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         # sampled path stays within its largest sample excursion from its start
         travel = bound * horizon
         keep = np.empty(n_nb + n_w, dtype=np.int64)
+        keep_r = np.empty(n_nb + n_w)
         n = 0
         finite = True
         for i in range(n_nb + n_w):
@@ -1011,7 +1012,7 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                 x0 = pred[body, 0, 0] - px
                 y0 = pred[body, 0, 1] - py
                 r = min(nb_radius[body] + radius[k] + margin[k],
-                        math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
+                        math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
                 ex = 0.0
                 for j in range(1, T):
                     dx = pred[body, j, 0] - pred[body, 0, 0]
@@ -1029,12 +1030,13 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                 d = wall_index[wall_start[k] + i - n_nb]
                 x0 = wall_c[d, 0] - px
                 y0 = wall_c[d, 1] - py
-                r = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
+                r = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
                 ex = 0.0
             gap = math.sqrt(x0 * x0 + y0 * y0) - travel - ex
             if gap > (r + 1e-9) * (1.0 + 1e-9):
                 continue
             keep[n] = i
+            keep_r[n] = r
             n += 1
         if not finite:
             out[k] = -1
@@ -1045,15 +1047,13 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         c = np.empty((n, S, 2))
         w = np.empty((n, S, 2))
         b = np.zeros((n, S, 2))
-        rad = np.empty(n)
+        rad = keep_r[:n]
         for q in range(n):
             i = keep[q]
             if i < n_nb:
                 body = nb_index[nb_start[k] + i]
                 x0 = pred[body, 0, 0] - px
                 y0 = pred[body, 0, 1] - py
-                rad[q] = min(nb_radius[body] + radius[k] + margin[k],
-                             math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
                 for j in range(S):
                     x1 = pred[body, j + 1, 0] - px
                     y1 = pred[body, j + 1, 1] - py
@@ -1068,7 +1068,6 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                 d = wall_index[wall_start[k] + i - n_nb]
                 x0 = wall_c[d, 0] - px
                 y0 = wall_c[d, 1] - py
-                rad[q] = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * _INSIDE)
                 for j in range(S):
                     c[q, j, 0] = x0
                     c[q, j, 1] = y0

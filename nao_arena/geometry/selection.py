@@ -7,9 +7,10 @@ it lies outside the union of the (grown) NAOs.
 
 Method: if the desired acceleration (projected onto the limit set) is
 admissible it is returned as is. Otherwise the NAO union is pictured as the
-disks |a - m(t)| <= rho(t) sampled in t (see DESIGN.md); in balls of
-doubling radius around the desired acceleration, the nearest point outside
-the disks is found exactly (free arcs of the circles) and confirmed by the
+disks |a - m(t)| <= rho(t) sampled in t (see DESIGN.md); in a small ball
+around the desired acceleration, then in the largest ball whose disks stay
+within a cap (what a doubling of the ball would find), the nearest point
+outside the disks is found exactly (free arcs of the circles) and confirmed by the
 exact clearance (a point in a sliver between samples is pushed outwards and
 bisected back onto the boundary). Fallbacks, for box limits and very
 crowded scenes: rings of candidates nearest-first, the nearest admissible
@@ -20,7 +21,8 @@ disk union when the robot cannot reach v_max within the horizon; with speed
 saturation the disks only approximate the NAO, and the result is admissible
 but may not be the nearest. When no candidate is admissible, the one that
 maximises the time to first contact (then the clearance, i.e. least
-penetration) is returned with ``feasible=False``.
+penetration), or the caller's ``fallback``, is returned with
+``feasible=False``.
 """
 
 from __future__ import annotations
