@@ -51,6 +51,7 @@ compiled call; only the robots that must re-select run the selection.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -69,6 +70,7 @@ from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     admissible_kernel,
     piece_sweep,
+    relevant_sampled_paths,
     sampled_admissible_batch,
 )
 from nao_arena.geometry.walls import wall_discs
@@ -110,6 +112,8 @@ class NAOAgent:
         self.keep_band = float(keep_band)
         self.v_pref = v_pref
         self.sensing_range = float(sensing_range)
+        self._grid_checked: NDArray[np.float64] | None = None
+        self._grid_regular = False
         self.reset(None, np.random.default_rng(0))
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
@@ -152,14 +156,67 @@ class NAOAgent:
         radii = ([_within_reach(nb_radii + grow, centres[0][:, 0])]
                  if predicted is not None else [])
         if len(walls):
-            wc, wr = _wall_discs(walls, wall_radius, grow)
-            near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
-            rel = wc[near] - position
+            rel, wr = self._near_walls(walls, wall_radius, grow, position)
             centres.append(np.repeat(rel[:, None, :], len(self.times), 1))
-            radii.append(_within_reach(wr[near], rel))
+            radii.append(_within_reach(wr, rel))
         if not centres:
             return sampled_path(self.times, np.zeros((0, len(self.times), 2)), np.zeros(0))
         return sampled_path(self.times, np.concatenate(centres), np.concatenate(radii))
+
+    def _regular_grid(self) -> bool:
+        """Whether the time grid starts at 0 and increases (what the compiled paths
+        assume); checked once per grid."""
+        times = self.times
+        if self._grid_checked is not times:
+            self._grid_regular = bool(
+                len(times) >= 2 and times[0] == 0.0 and np.all(np.diff(times) > 0)
+                and np.all(np.isfinite(times)))
+            self._grid_checked = times
+        return self._grid_regular
+
+    def _near_walls(
+        self, walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float,
+        position: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The wall discs in sensing range: centres relative to ``position`` (m), radii
+        grown by ``grow`` (m)."""
+        wc, wr = _wall_discs(walls, wall_radius, grow)
+        near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
+        return wc[near] - position, wr[near]
+
+    def _relevant_paths(
+        self,
+        predicted: NDArray[np.float64],
+        idx: NDArray[np.int64],
+        nb_radii: NDArray[np.float64],
+        position: NDArray[np.float64],
+        radius: float,
+        walls: NDArray[np.float64],
+        wall_radius: NDArray[np.float64],
+        velocity: NDArray[np.float64],
+        a_max: float,
+        v_max: float,
+    ) -> PiecewisePath:
+        """:meth:`_paths` of the neighbours predicted[idx] (radii nb_radii[idx]) and walls,
+        without the obstacles that no acceleration within a_max (m/s^2) can reach
+        (velocity m/s, speed limit v_max m/s): what every selection drops first
+        (:func:`relevant_obstacles`), built in one compiled pass."""
+        times = self.times
+        if not (self._regular_grid() and math.isfinite(velocity[0])
+                and math.isfinite(velocity[1])):
+            return self._paths(predicted[idx] if len(idx) else None, nb_radii[idx], position,
+                               radius, walls, wall_radius)
+        grow = radius + self.margin
+        if len(walls):
+            wall_rel, wall_r = self._near_walls(walls, wall_radius, grow, position)
+        else:
+            wall_rel, wall_r = _NO_WALLS
+        c, w, b, rad, finite = relevant_sampled_paths(
+            times, predicted, idx, position, nb_radii, grow, np.ascontiguousarray(wall_rel),
+            np.ascontiguousarray(wall_r), velocity, float(a_max) * (1.0 + 1e-9), float(v_max))
+        if not finite:
+            raise ValueError("centers: expected finite values")
+        return PiecewisePath(times, c, w, b, rad)
 
     def _admissible(self, a: NDArray[np.float64], obs: Observation, path: PiecewisePath) -> bool:
         if float(np.hypot(*a)) > obs.a_max * (1 + 1e-9):
@@ -219,7 +276,12 @@ class NAOAgent:
         self._update_detour(obs)
         self.age += obs.dt
         desired = goal_seeking_accel(obs, self.v_pref, heading_offset=self.detour)
-        path = self.obstacle_paths(obs)
+        nb = obs.neighbours
+        predicted = (np.ascontiguousarray(self.predict(self.times, nb), dtype=np.float64)
+                     if len(nb) else np.zeros((0, len(self.times), 2)))
+        path = self._relevant_paths(predicted, np.arange(len(nb)), np.asarray(nb.radii, float),
+                                    obs.position, obs.radius, obs.walls, obs.wall_radius,
+                                    obs.velocity, obs.a_max, obs.v_max)
         if (
             (float(np.hypot(*(self.current - desired))) <= self.keep_band
              or self._holds_adjustment())
@@ -301,8 +363,9 @@ class NAOAgent:
                 k = int(rows_a[i])
                 try:
                     idx = batch.neighbour_ids(k)
-                    path = ag._paths(pred[idx] if len(idx) else None, batch.radii[idx], pos[i],
-                                     float(rad[i]), batch.walls, batch.wall_radius)
+                    path = ag._relevant_paths(pred, idx, batch.radii, pos[i], float(rad[i]),
+                                              batch.walls, batch.wall_radius, vel[i],
+                                              float(a_max[i]), float(v_max[i]))
                     if st == 2 and ag._admissible_arrays(current[i], vel[i], float(a_max[i]),
                                                          float(v_max[i]), path):
                         out[i] = ag.current
@@ -364,14 +427,26 @@ def _within_reach(
     return np.minimum(radii, dist * RADIUS_CUT)
 
 
+_BATCHABLE: dict[type, bool] = {}
+
+
 def _batchable(cls: type) -> bool:
     """Whether :meth:`NAOAgent.act_batch` computes what ``cls.act`` computes (no override
-    of the per-robot steps it reimplements)."""
+    of the per-robot steps it reimplements); memoised per class."""
+    known = _BATCHABLE.get(cls)
+    if known is None:
+        known = _BATCHABLE[cls] = _overrides_nothing(cls)
+    return known
+
+
+def _overrides_nothing(cls: type) -> bool:
     return all(getattr(cls, name) is getattr(NAOAgent, name)
                for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
-                            "_select", "_paths", "_holds_adjustment", "_repair"))
+                            "_select", "_paths", "_relevant_paths", "_near_walls",
+                            "_regular_grid", "_holds_adjustment", "_repair"))
 
 
+_NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
 _WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
 
 

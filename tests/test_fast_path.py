@@ -22,6 +22,7 @@ from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry.clearance import sampled_path
 from nao_arena.geometry.kernel import (
+    RADIUS_CUT,
     _drop_contained,
     admissible_kernel,
     bisect_disc,
@@ -30,10 +31,13 @@ from nao_arena.geometry.kernel import (
     nao_disks_within,
     nearest_outside_disks,
     piece_sweep,
+    relevant_obstacles,
+    relevant_sampled_paths,
+    ring_search_disc,
     sampled_admissible_batch,
     slide_disc,
 )
-from nao_arena.geometry.selection import AccelLimits, _Tester
+from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
 from nao_arena.predictors import _turn_rate_numpy, turn_rate
 from nao_arena.sensing import Neighbours, neighbour_lists, neighbours_in_range
@@ -366,10 +370,12 @@ def test_nearest_outside_disks_matches_reference(seed):
     else:
         disks, q = _disk_scene(rng, crowded=seed % 3 == 1)
     for max_out in (1, 8):
-        np.testing.assert_array_equal(
-            nearest_outside_disks(q, disks, 2.0, max_out),
-            nearest_outside_disks_ref(q, disks, 2.0, max_out),
-        )
+        ref = nearest_outside_disks_ref(q, disks, 2.0, max_out)
+        np.testing.assert_array_equal(nearest_outside_disks(q, disks, 2.0, max_out), ref)
+        # ``within``: the same rows, cut at that distance
+        for within in (0.0, 0.3, 1.0):
+            np.testing.assert_array_equal(
+                nearest_outside_disks(q, disks, 2.0, max_out, within), ref[ref[:, 2] <= within])
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -631,3 +637,118 @@ def test_compiled_candidate_loop_matches_the_python_loop(seed):
             else:
                 np.testing.assert_array_equal(got, ref)
             assert t.count - before_disc == boxed.count - before_box
+
+
+def _boundary_scene(seed: int):
+    """A _tester scene with both admissible and colliding accelerations: (tester, rng,
+    grid points in the limit disc, their admissibility)."""
+    for attempt in range(20):
+        t, rng = _tester(1000 * seed + attempt)
+        grid = rng.uniform(-2.0, 2.0, size=(200, 2))
+        grid = grid[np.hypot(*grid.T) <= 2.0]
+        ok = t.ok(grid)
+        if ok.any() and not ok.all():
+            return t, rng, grid, ok
+    pytest.fail("no scene with a boundary")
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_rings_match_the_python_rings(seed):
+    """The ring fallback of select_acceleration, compiled for the limit disc, against the
+    Python loop it replaces (all rings tested, the innermost with an admissible candidate
+    wins, its nearest admissible candidate is bisected and slid): the same answers."""
+    t, rng, _, _ = _boundary_scene(seed)
+    p = t.path
+    radii = 4.0 * 0.5 ** np.arange(7, -1, -1)
+    found_any = 0
+    for _ in range(10):
+        a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
+        found, x, y, _ = ring_search_disc(
+            a_d, radii, selection._unit_rings(8, 16), 1e-3, 2.0, t.v, t.v_max, p.t, p.c,
+            p.w, p.b, p.radius, t.sweep, 0.0)
+        cands = selection._ring_candidates(a_d, radii, 16, t.limits)
+        ok = t.ok(cands).reshape(8, 16)
+        ref = None
+        for i in range(8):
+            if ok[i].any():
+                good = cands[i * 16:(i + 1) * 16][ok[i]]
+                start = _bisect_ref(t, a_d, good[int(np.argmin(np.hypot(*(good - a_d).T)))],
+                                    1e-3)
+                ref = _slide_ref(t, a_d, start, t.limits, 1e-3)
+                break
+        assert found == (ref is not None)
+        if ref is not None:
+            found_any += 1
+            np.testing.assert_array_equal([x, y], ref)
+    assert found_any
+
+
+def _repair_ref(t: _Tester, prev, want):
+    """repair_acceleration as numpy and a Python loop: rings around prev, projected onto
+    the limit disc, nearest ``want`` first, the first admissible one."""
+    cand = np.concatenate([prev + t.limits.a_max * r * selection._REPAIR_UNIT
+                           for r in selection._REPAIR_STEPS])
+    cand = t.limits.project(cand)
+    cand = cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]),
+                           kind="stable")]
+    for a in cand:
+        if t.ok1(a):
+            return a
+    return None
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_repair_matches_the_python_loop(seed):
+    """repair_acceleration for the limit disc (compiled) against the loop it replaces."""
+    t, rng, grid, ok = _boundary_scene(seed)
+    answers = 0
+    for k in range(20):
+        # previous accelerations just inside the NAO, next to admissible ones
+        prev = t.limits.project(grid[~ok][k % (~ok).sum()] + rng.normal(size=2) * 0.05)
+        want = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
+        got = repair_acceleration(prev, want, t.v, t.path, t.limits, v_max=t.v_max)
+        ref = _repair_ref(t, prev, want)
+        if ref is None:
+            assert got is None
+        else:
+            answers += 1
+            np.testing.assert_array_equal(got, ref)
+    assert answers
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_relevant_paths_match_sampled_path_then_relevance(seed):
+    """The agents' compiled path building keeps exactly the obstacles relevant_obstacles
+    keeps from the sampled_path of all of them, with the same pieces."""
+    rng = np.random.default_rng(seed)
+    times = np.linspace(0.0, 3.0, 31)
+    n = int(rng.integers(0, 12))
+    pred = (rng.normal(size=(n, 1, 2)) * 6.0
+            + rng.normal(size=(n, 1, 2)) * times[None, :, None])
+    radii = rng.uniform(0.2, 0.6, size=n)
+    idx = rng.permutation(n)[: int(rng.integers(0, n + 1))].astype(np.int64)
+    position, velocity = rng.normal(size=2), rng.normal(size=2)
+    wall_rel = rng.normal(size=(int(rng.integers(0, 5)), 2)) * 5.0
+    wall_r = rng.uniform(0.2, 0.6, size=len(wall_rel))
+    grow = 0.45
+    a_max, v_max = 2.0, float(rng.choice([1.5, np.inf]))
+    c, w, b, rad, finite = relevant_sampled_paths(times, pred, idx, position, radii, grow,
+                                                   wall_rel, wall_r, velocity, a_max, v_max)
+    assert finite
+    centres = np.concatenate([pred[idx] - position,
+                              np.repeat(wall_rel[:, None, :], len(times), 1)])
+    all_r = np.minimum(np.concatenate([radii[idx] + grow, wall_r]),
+                       np.sqrt(centres[:, 0, 0] * centres[:, 0, 0]
+                               + centres[:, 0, 1] * centres[:, 0, 1]) * RADIUS_CUT)
+    full = sampled_path(times, centres.reshape(-1, len(times), 2), all_r)
+    keep = relevant_obstacles(velocity, a_max, v_max, full.t, full.c, full.w, full.b,
+                              full.radius, 0.0)
+    np.testing.assert_array_equal(c, full.c[keep])
+    np.testing.assert_array_equal(w, full.w[keep])
+    np.testing.assert_array_equal(b, full.b[keep])
+    np.testing.assert_array_equal(rad, full.radius[keep])
+    if n:
+        bad = pred.copy()
+        bad[0, 3, 1] = np.nan
+        assert not relevant_sampled_paths(times, bad, np.arange(n), position, radii, grow,
+                                          wall_rel, wall_r, velocity, a_max, v_max)[4]

@@ -387,6 +387,46 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
         out_ok[k] = ok
 
 
+@njit(cache=True, inline="always")
+def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
+    """Whether obstacle n (combined radius r, m) is within reach: see
+    :func:`relevant_obstacles` (v already clamped to v_max)."""
+    S = seg_c.shape[1]
+    for j in range(S):
+        t0 = seg_t[j]
+        t1 = seg_t[j + 1]
+        h = t1 - t0
+        if not math.isfinite(h):
+            return True
+        dx = seg_c[n, j, 0] - vx * t0
+        dy = seg_c[n, j, 1] - vy * t0
+        rel = math.sqrt((seg_w[n, j, 0] - vx) ** 2 + (seg_w[n, j, 1] - vy) ** 2)
+        bb = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
+        reach = r + 0.5 * a_max * t1 * t1 + rel * h + 0.5 * bb * h * h
+        if dx * dx + dy * dy > reach * reach:
+            continue
+        if not math.isfinite(v_max):
+            return True
+        own = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
+        reach = r + v_max * t1 + own * h + 0.5 * bb * h * h
+        cx = seg_c[n, j, 0]
+        cy = seg_c[n, j, 1]
+        if cx * cx + cy * cy <= reach * reach:
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _clamped(v, v_max):
+    vx = v[0]
+    vy = v[1]
+    spd = math.sqrt(vx * vx + vy * vy)
+    if spd > v_max:
+        vx *= v_max / spd
+        vy *= v_max / spd
+    return vx, vy
+
+
 @njit(cache=True)
 def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
     """(N,) mask of obstacles that some acceleration with |a| <= a_max could come within
@@ -398,40 +438,82 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     any selection with those limits.
     """
     N = seg_c.shape[0]
-    S = seg_c.shape[1]
-    vx = v[0]
-    vy = v[1]
-    spd = math.sqrt(vx * vx + vy * vy)
-    if spd > v_max:
-        vx *= v_max / spd
-        vy *= v_max / spd
+    vx, vy = _clamped(v, v_max)
     out = np.zeros(N, dtype=np.bool_)
     for n in range(N):
-        for j in range(S):
-            t0 = seg_t[j]
-            t1 = seg_t[j + 1]
-            h = t1 - t0
-            if not math.isfinite(h):
-                out[n] = True
-                break
-            dx = seg_c[n, j, 0] - vx * t0
-            dy = seg_c[n, j, 1] - vy * t0
-            rel = math.sqrt((seg_w[n, j, 0] - vx) ** 2 + (seg_w[n, j, 1] - vy) ** 2)
-            bb = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
-            reach = radius[n] + margin + 0.5 * a_max * t1 * t1 + rel * h + 0.5 * bb * h * h
-            if dx * dx + dy * dy > reach * reach:
-                continue
-            if not math.isfinite(v_max):
-                out[n] = True
-                break
-            own = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
-            reach = radius[n] + margin + v_max * t1 + own * h + 0.5 * bb * h * h
-            cx = seg_c[n, j, 0]
-            cy = seg_c[n, j, 1]
-            if cx * cx + cy * cy <= reach * reach:
-                out[n] = True
-                break
+        out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n,
+                           radius[n] + margin)
     return out
+
+
+@njit(cache=True)
+def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
+                           a_max, v_max):
+    """The pieces :func:`~nao_arena.geometry.clearance.sampled_path` builds, of the
+    obstacles :func:`relevant_obstacles` keeps (margin 0), in one pass.
+
+    Obstacles: the bodies ``idx`` with world-frame centres pred[body] (T, 2) m at
+    ``times`` (s; times[0] = 0, increasing, T >= 2) and radii nb_radius[body] + grow
+    (m), then static discs at wall_rel (robot-relative, m) with radii wall_r (m); every
+    radius cut to just under the obstacle's current distance (RADIUS_CUT). Centres
+    are taken relative to ``position`` (m). Robot: velocity v (m/s), limits a_max,
+    v_max. Returns (c, w, b, radius, finite): the pieces' start centres, velocities
+    and accelerations (zero) (n, T - 1, 2) and radii (n,) of the kept obstacles in
+    input order; finite is
+    False (and nothing is kept) when a neighbour's centres are not all finite.
+    """
+    T = times.shape[0]
+    S = T - 1
+    n_nb = idx.shape[0]
+    n_w = wall_rel.shape[0]
+    total = n_nb + n_w
+    c = np.empty((total, S, 2))
+    w = np.empty((total, S, 2))
+    b = np.zeros((total, S, 2))
+    rad = np.empty(total)
+    for i in range(n_nb):
+        body = idx[i]
+        for j in range(T):
+            if not (math.isfinite(pred[body, j, 0]) and math.isfinite(pred[body, j, 1])):
+                return c[:0], w[:0], b[:0], rad[:0], False
+    vx, vy = _clamped(v, v_max)
+    px = position[0]
+    py = position[1]
+    n = 0
+    for i in range(total):
+        if i < n_nb:
+            body = idx[i]
+            x0 = pred[body, 0, 0] - px
+            y0 = pred[body, 0, 1] - py
+            r = nb_radius[body] + grow
+            dist = math.sqrt(x0 * x0 + y0 * y0)
+            r = min(r, dist * RADIUS_CUT)
+            for j in range(S):
+                x1 = pred[body, j + 1, 0] - px
+                y1 = pred[body, j + 1, 1] - py
+                dt = times[j + 1] - times[j]
+                c[n, j, 0] = x0
+                c[n, j, 1] = y0
+                w[n, j, 0] = (x1 - x0) / dt
+                w[n, j, 1] = (y1 - y0) / dt
+                x0 = x1
+                y0 = y1
+        else:
+            d = i - n_nb
+            x0 = wall_rel[d, 0]
+            y0 = wall_rel[d, 1]
+            dist = math.sqrt(x0 * x0 + y0 * y0)
+            r = min(wall_r[d], dist * RADIUS_CUT)
+            for j in range(S):
+                dt = times[j + 1] - times[j]
+                c[n, j, 0] = x0
+                c[n, j, 1] = y0
+                w[n, j, 0] = (x0 - x0) / dt
+                w[n, j, 1] = (y0 - y0) / dt
+        rad[n] = r
+        if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
+            n += 1
+    return c[:n], w[:n], b[:n], rad[:n], True
 
 
 @njit(cache=True)
@@ -531,6 +613,26 @@ def nao_disks_within(samples, reach):
     for i in range(M):
         keep[i] = not (samples[i, 3] > samples[i, 2] + reach)
     return _drop_contained(np.ascontiguousarray(samples[keep][:, :3]))
+
+
+@njit(cache=True)
+def largest_capped_reach(samples, reach, limit, max_disks):
+    """Double ``reach`` (m/s^2) while below ``limit``: the last doubled reach whose
+    :func:`nao_disks_within` holds at most ``max_disks`` disks, stopping at the first
+    that holds more; -1.0 when there is none. Containment is only worked out for a
+    ball whose samples alone exceed the cap."""
+    M = samples.shape[0]
+    chosen = -1.0
+    while reach < limit:
+        reach *= 2.0
+        raw = 0
+        for i in range(M):
+            if not (samples[i, 3] > samples[i, 2] + reach):
+                raw += 1
+        if raw > max_disks and nao_disks_within(samples, reach).shape[0] > max_disks:
+            break
+        chosen = reach
+    return chosen
 
 
 @njit(cache=True)
@@ -832,7 +934,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
 
 
 @njit(cache=True)
-def nearest_outside_disks(q, disks, a_max, max_out):
+def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf):
     """Points nearest q that lie outside every disk and inside |a| <= a_max.
 
     The nearest point of the complement of a union of disks (within the limit
@@ -842,10 +944,13 @@ def nearest_outside_disks(q, disks, a_max, max_out):
     an end. Circles are visited in order of their distance from q and the
     search stops once no unvisited circle can beat the ``max_out``-th best
     candidate. Returns up to ``max_out`` candidates (rows x, y, distance) in
-    increasing distance.
+    increasing distance, only those within distance ``within`` of q (m/s^2): circles
+    that cannot come that close are not visited.
     """
     M = disks.shape[0]
     res = np.full((max_out, 3), math.inf)
+    # candidates farther than ``within`` are never kept: start the bound just above it
+    res[:, 2] = np.nextafter(within, math.inf)
     # q itself, when no disk contains it
     q_free = q[0] * q[0] + q[1] * q[1] <= a_max * a_max
     for i in range(M):
@@ -888,7 +993,7 @@ def nearest_outside_disks(q, disks, a_max, max_out):
                 res[pos, 1] = cand[c, 1]
                 res[pos, 2] = d
     found = 0
-    while found < max_out and res[found, 2] < math.inf:
+    while found < max_out and res[found, 2] <= within and res[found, 2] < math.inf:
         found += 1
     return res[:found].copy()
 
@@ -1196,21 +1301,87 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
 
 
 @njit(cache=True)
-def first_admissible_disc(cands, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-                          margin):
-    """Index of the first admissible row of ``cands`` (K, 2) m/s^2 within the limit disc
-    |a| <= a_max (-1: none), and how many rows were tested against the obstacles."""
+def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                sweep):
+    """:func:`selection.repair_acceleration` compiled for the limit disc: the candidates
+    prev + a_max * steps[i] * unit[k] (m/s^2), projected onto |a| <= a_max, tested
+    nearest ``want`` first (a stable order); returns (found, x, y, candidates tested)."""
+    K = steps.shape[0] * unit.shape[0]
+    cand = np.empty((K, 2))
+    dist = np.empty(K)
+    k = 0
+    for i in range(steps.shape[0]):
+        s = a_max * steps[i]
+        for u in range(unit.shape[0]):
+            x = prev[0] + s * unit[u, 0]
+            y = prev[1] + s * unit[u, 1]
+            norm = math.hypot(x, y)
+            scale = a_max / max(norm, 1e-300) if norm > a_max else 1.0
+            cand[k, 0] = x * scale
+            cand[k, 1] = y * scale
+            dist[k] = math.hypot(cand[k, 0] - want[0], cand[k, 1] - want[1])
+            k += 1
+    order = np.argsort(dist, kind="mergesort")
     buf = np.empty(3)
     res = np.empty(3)
     hint = np.zeros(1, dtype=np.int64)
     count = 0
-    for k in range(cands.shape[0]):
-        ok, c = _ok_disc(cands[k, 0], cands[k, 1], a_max, v[0], v[1], v_max, seg_t, seg_c,
-                         seg_w, seg_b, radius, sweep, margin, buf, res, hint)
+    for o in range(K):
+        k = order[o]
+        ok, c = _ok_disc(cand[k, 0], cand[k, 1], a_max, v[0], v[1], v_max, seg_t, seg_c,
+                         seg_w, seg_b, radius, sweep, 0.0, buf, res, hint)
         count += c
         if ok:
-            return k, count
-    return -1, count
+            return True, cand[k, 0], cand[k, 1], count
+    return False, 0.0, 0.0, count
+
+
+@njit(cache=True)
+def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                     radius, sweep, margin):
+    """The ring fallback of :func:`selection.select_acceleration` compiled for the limit
+    disc: rings a_d + radii[i] * unit[i] (m/s^2, projected onto |a| <= a_max), innermost
+    first; the admissible candidate of the first ring that has one, nearest a_d, is
+    bisected back towards a_d onto the boundary within tol and slid along it
+    (:func:`bisect_disc`, :func:`slide_disc`). Returns (found, x, y, candidates tested)."""
+    P = unit.shape[1]
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.zeros(1, dtype=np.int64)
+    cand = np.empty((P, 2))
+    count = 0
+    for i in range(radii.shape[0]):
+        best = -1
+        best_d = math.inf
+        for k in range(P):
+            x = a_d[0] + radii[i] * unit[i, k, 0]
+            y = a_d[1] + radii[i] * unit[i, k, 1]
+            norm = math.hypot(x, y)
+            scale = a_max / max(norm, 1e-300) if norm > a_max else 1.0
+            x = x * scale
+            y = y * scale
+            cand[k, 0] = x
+            cand[k, 1] = y
+            d = math.hypot(x - a_d[0], y - a_d[1])
+            if d >= best_d:
+                continue  # cannot become the nearest admissible one of this ring
+            ok, c = _ok_disc(x, y, a_max, v[0], v[1], v_max, seg_t, seg_c, seg_w, seg_b,
+                             radius, sweep, margin, buf, res, hint)
+            count += c
+            if ok:
+                best = k
+                best_d = d
+        if best >= 0:
+            gx, gy, c = bisect_disc(a_d, cand[best], tol, a_max, v, v_max, seg_t, seg_c,
+                                    seg_w, seg_b, radius, sweep, margin)
+            count += c
+            start = np.empty(2)
+            start[0] = gx
+            start[1] = gy
+            x, y, c = slide_disc(a_d, start, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
+                                 seg_b, radius, sweep, margin)
+            return True, x, y, count + c
+    return False, 0.0, 0.0, count
 
 
 @njit(cache=True)

@@ -37,13 +37,15 @@ from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.kernel import (
     admissible_kernel,
     bisect_disc,
-    first_admissible_disc,
+    largest_capped_reach,
     latest_contact_kernel,
     nao_disk_samples,
     nao_disks_within,
     nearest_outside_disks,
     piece_sweep,
     relevant_obstacles,
+    repair_disc,
+    ring_search_disc,
     slide_disc,
     try_candidates_disc,
 )
@@ -168,14 +170,18 @@ class _Tester:
         keep = relevant_obstacles(
             v, limits.a_max, v_max, path.t, path.c, path.w, path.b, path.radius, margin
         )
-        idx = np.flatnonzero(keep)
-        self.path = PiecewisePath(
-            path.t,
-            np.ascontiguousarray(path.c[idx]),
-            np.ascontiguousarray(path.w[idx]),
-            np.ascontiguousarray(path.b[idx]),
-            np.ascontiguousarray(path.radius[idx]),
-        )
+        if keep.all() and all(a.flags.c_contiguous for a in (path.c, path.w, path.b,
+                                                              path.radius)):
+            self.path = path  # already only the relevant obstacles (agents filter first)
+        else:
+            idx = np.flatnonzero(keep)
+            self.path = PiecewisePath(
+                path.t,
+                np.ascontiguousarray(path.c[idx]),
+                np.ascontiguousarray(path.w[idx]),
+                np.ascontiguousarray(path.b[idx]),
+                np.ascontiguousarray(path.radius[idx]),
+            )
         self.sweep = piece_sweep(self.path.t, self.path.w, self.path.b)
         self.v = v
         self.limits = limits
@@ -253,6 +259,29 @@ def _ring(center: NDArray[np.float64], radius: float, n: int, phase: float) -> N
         if len(_UNIT_RINGS) < 256:
             _UNIT_RINGS[(n, phase)] = unit
     return center + radius * unit
+
+
+_RING_SETS: dict[tuple[int, int], NDArray[np.float64]] = {}
+
+
+def _unit_rings(rings: int, points: int) -> NDArray[np.float64]:
+    """(rings, points, 2) unit vectors of the fallback rings (ring i turned by 0.5 i rad)."""
+    unit = _RING_SETS.get((rings, points))
+    if unit is None:
+        unit = np.ascontiguousarray(np.stack(
+            [_ring(np.zeros(2), 1.0, points, 0.5 * i) for i in range(rings)]))
+        if len(_RING_SETS) < 64:
+            _RING_SETS[(rings, points)] = unit
+    return unit
+
+
+def _ring_candidates(
+    a_d: NDArray[np.float64], radii: NDArray[np.float64], points: int, limits: AccelLimits
+) -> NDArray[np.float64]:
+    """The fallback rings around a_d (m/s^2), radii innermost first, projected onto the
+    limit set: (len(radii) * points, 2)."""
+    return limits.project(np.concatenate(
+        [_ring(a_d, rad, points, 0.5 * i) for i, rad in enumerate(radii)]))
 
 
 def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float):
@@ -336,19 +365,27 @@ def select_acceleration(
     #    admissible candidate on rings of growing radius, pulled onto the boundary
     span = 2.0 * max(limits.a_max, 1e-12)
     radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
-    # every ring tested in one call (crowds test nearly all of them anyway); the
-    # innermost ring with an admissible candidate wins
-    ring_cands = limits.project(np.concatenate(
-        [_ring(a_d, rad, ring_points, 0.5 * i) for i, rad in enumerate(radii)]))
-    ring_ok = tester.ok(ring_cands).reshape(len(radii), ring_points)
-    tried = [a_d[None], ring_cands]
-    for i in range(len(radii)):
-        if np.any(ring_ok[i]):
-            cand = ring_cands[i * ring_points:(i + 1) * ring_points]
-            good = cand[ring_ok[i]]
-            dist = np.hypot(*(good - a_d).T)
-            start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
-            return done(_slide_towards(tester, a_d, start, limits, tol), "adjusted")
+    if limits.box_lo is None:
+        # the loop below, compiled
+        p = tester.path
+        found, x, y, count = ring_search_disc(
+            a_d, radii, _unit_rings(rings, ring_points), tol, limits.a_max, tester.v,
+            tester.v_max, p.t, p.c, p.w, p.b, p.radius, tester.sweep, tester.margin)
+        tester.count += count
+        if found:
+            return done(np.array([x, y]), "adjusted")
+    else:
+        # every ring tested in one call; the innermost ring with an admissible
+        # candidate wins
+        ring_cands = _ring_candidates(a_d, radii, ring_points, limits)
+        ring_ok = tester.ok(ring_cands).reshape(len(radii), ring_points)
+        for i in range(len(radii)):
+            if np.any(ring_ok[i]):
+                cand = ring_cands[i * ring_points:(i + 1) * ring_points]
+                good = cand[ring_ok[i]]
+                dist = np.hypot(*(good - a_d).T)
+                start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
+                return done(_slide_towards(tester, a_d, start, limits, tol), "adjusted")
 
     # 3. before giving up: the disk search without its size cap (small pockets)
     best = _nearest_by_disks(tester, a_d, tol, max_disks=None)
@@ -360,7 +397,8 @@ def select_acceleration(
     if fallback is not None:
         fb = np.asarray(fallback, dtype=np.float64).reshape(-1)[:2]
         return done(limits.project(fb if fb.shape == (2,) else np.zeros(2)), "infeasible")
-    cand = np.ascontiguousarray(np.concatenate(tried + [np.zeros((1, 2))]))
+    cand = np.ascontiguousarray(np.concatenate(
+        [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]))
     return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
 
 
@@ -368,6 +406,7 @@ _REPAIR_STEPS = (0.05, 0.1, 0.2, 0.4)  # ring radii around the previous choice, 
 _REPAIR_POINTS = 12
 _REPAIR_ANGLES = 2.0 * np.pi * np.arange(_REPAIR_POINTS) / _REPAIR_POINTS
 _REPAIR_UNIT = np.stack([np.cos(_REPAIR_ANGLES), np.sin(_REPAIR_ANGLES)], axis=1)
+_REPAIR_STEPS_A = np.array(_REPAIR_STEPS)
 
 
 def repair_acceleration(
@@ -394,17 +433,19 @@ def repair_acceleration(
     if not (np.all(np.isfinite(prev)) and np.all(np.isfinite(want))
             and np.all(np.isfinite(v_arr))):
         return None
+    tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
+    if limits.box_lo is None:
+        # the loop below, compiled
+        p = tester.path
+        found, x, y, _ = repair_disc(prev, want, limits.a_max, _REPAIR_STEPS_A, _REPAIR_UNIT,
+                                     tester.v, tester.v_max, p.t, p.c, p.w, p.b, p.radius,
+                                     tester.sweep)
+        return np.array([x, y]) if found else None
     cand = np.concatenate([prev + limits.a_max * r * _REPAIR_UNIT for r in _REPAIR_STEPS])
     cand = limits.project(cand)
     # nearest the desired acceleration first: the first admissible one wins
     cand = np.ascontiguousarray(
         cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]), kind="stable")])
-    tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
-    if limits.box_lo is None:
-        p = tester.path
-        hit, count = first_admissible_disc(cand, limits.a_max, tester.v, tester.v_max, p.t, p.c,
-                                           p.w, p.b, p.radius, tester.sweep, 0.0)
-        return cand[hit].copy() if hit >= 0 else None
     ok = tester.ok(cand)
     hits = np.flatnonzero(ok)
     return cand[hits[0]].copy() if len(hits) else None
@@ -483,7 +524,12 @@ def _latest_contact_search(
 
 
 _MAX_DISKS = 96
+# the disk picture: one disk per piece of the obstacle paths (0.1 s for the agents'
+# default grid), at least _DISKS_PER_SECOND per second of a longer piece; finer pictures
+# cost more disks than they save in sliver pushes (100-robot swap: 2 per piece, 25 %
+# slower, the same outcome)
 _DISKS_PER_PIECE = 2
+_DISKS_PER_SECOND = 16.0
 
 
 def _nearest_by_disks(
@@ -513,7 +559,7 @@ def _nearest_by_disks(
         last *= 2.0
     samples = nao_disk_samples(
         tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
-        a_d, last, a_max,
+        a_d, last, a_max, _DISKS_PER_SECOND,
     )
     disks = nao_disks_within(samples, reach)
     if max_disks is not None and len(disks) > max_disks:
@@ -524,16 +570,11 @@ def _nearest_by_disks(
     # The doubling would go on ball by ball; every ball's candidates within a smaller
     # ball are that ball's (nearest first, the same points) and fail again, so the
     # largest ball within the disk cap alone decides as the doubling would.
-    chosen = None
-    while reach < limit:
-        reach *= 2.0
-        more = nao_disks_within(samples, reach)
-        if max_disks is not None and len(more) > max_disks:
-            break
-        chosen = (reach, more)
-    if chosen is None:
+    assert max_disks is not None  # without a cap the first ball is the largest
+    chosen = largest_capped_reach(samples, reach, limit, max_disks)
+    if chosen < 0.0:
         return None
-    return _try_ball(tester, a_d, chosen[1], chosen[0], tol)
+    return _try_ball(tester, a_d, nao_disks_within(samples, chosen), chosen, tol)
 
 
 def _try_ball(
@@ -548,24 +589,24 @@ def _try_ball(
     # same first row), then the others in order if it fails
     if tester.limits.box_lo is None:
         # the loop below, compiled
-        cands = nearest_outside_disks(a_d, disks, a_max, 1)
+        cands = nearest_outside_disks(a_d, disks, a_max, 1, reach)
         found, x, y, count, beyond = try_candidates_disc(
             cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
             p.radius, tester.sweep, tester.margin)
         tester.count += count
         if not found and not beyond and len(cands) == 1:
-            cands = nearest_outside_disks(a_d, disks, a_max, 8)
+            cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)
             found, x, y, count, beyond = try_candidates_disc(
                 cands, 1, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w,
                 p.b, p.radius, tester.sweep, tester.margin)
             tester.count += count
         return np.array([x, y]) if found else None
-    cands = nearest_outside_disks(a_d, disks, a_max, 1)
+    cands = nearest_outside_disks(a_d, disks, a_max, 1, reach)
     full = False
     i = 0
     while True:
         if i == 1 and not full:
-            cands = nearest_outside_disks(a_d, disks, a_max, 8)  # row 0: the one tried
+            cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)  # row 0: the one tried
             full = True
         if i >= len(cands):
             break
