@@ -396,6 +396,38 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
                                       nao_disks(*args, reach, 2.0))
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
+    """nao_disk_samples(thin > 0) keeps a subsequence of the full samples of one obstacle;
+    each left-out disk lies within sqrt(8 thin rho) of the last kept one, which is at
+    least as large; the last disk is kept; thinning leaves out disks."""
+    rng = np.random.default_rng(500 + seed)
+    times = np.linspace(0.0, 3.0, 31)
+    pos = rng.normal(size=(1, 2)) * 3.0
+    vel = rng.normal(size=(1, 2))
+    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(0.5, 1.0, size=1))
+    args = (rng.normal(size=2), path.t, path.c, path.w, path.b, path.radius, 0.1, 2,
+            np.zeros(2), 8.0, 2.0, 16.0)
+    full = nao_disk_samples(*args)
+    thin = 0.02
+    kept = nao_disk_samples(*args, thin)
+    if len(full) == 0:
+        assert len(kept) == 0
+        return
+    assert len(kept) < len(full) or len(full) < 10
+    j = -1
+    for row in full:
+        if j + 1 < len(kept) and np.array_equal(row, kept[j + 1]):
+            j += 1
+            continue
+        assert j >= 0, "the first disk is kept"
+        assert kept[j, 2] >= row[2]
+        assert np.sum((row[:2] - kept[j, :2]) ** 2) <= 8.0 * thin * row[2]
+    assert j == len(kept) - 1, "the kept disks are a subsequence"
+    assert np.array_equal(full[-1], kept[-1])
+
+
 # ---------------------------------------------------------------- admissibility
 
 

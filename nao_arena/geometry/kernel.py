@@ -525,7 +525,7 @@ def _samples_in_piece(t0, t1, n_sub, per_second):
 
 @njit(cache=True)
 def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
-              per_second=16.0):
+              per_second=16.0, thin=0.0):
     """The sampled disks of :func:`nao_disks` before containment is filtered:
     (M, 4) rows (m_x, m_y, rho, distance of m from q), m/s^2 — for
     :func:`nao_disks_within`, which gives nao_disks for any smaller reach.
@@ -537,8 +537,13 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
     (no speed saturation). Samples every piece at max(n_sub, per_second * h)
     times (and the first piece also geometrically towards t = 0), grows r by
     ``margin`` and keeps the disks that intersect both the ball B(q, reach)
-    and the limit disc |a| <= a_max; disks inside another are dropped.
-    Returns (M, 3) rows (m_x, m_y, rho).
+    and the limit disc |a| <= a_max.
+
+    thin (m/s^2): when > 0, a disk is left out while its centre lies within
+    sqrt(8 thin rho) of the obstacle's last kept disk (whose radius is at least
+    rho): two kept disks that far apart leave a sliver at most about ``thin``
+    deep. The obstacle's last disk before a gap (a disk outside the ball or the
+    limit disc) and at the end of the horizon is always kept.
     """
     N = seg_c.shape[0]
     S = seg_c.shape[1]
@@ -549,6 +554,12 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
     cnt = 0
     for n in range(N):
         rr = radius[n] + margin
+        last = -1  # row of the obstacle's last kept disk; -1: none (or a gap since)
+        pend = False  # a disk was thinned out after it
+        px = 0.0
+        py = 0.0
+        prho = 0.0
+        pdq = 0.0
         for j in range(S):
             t0 = seg_t[j]
             t1 = seg_t[j + 1]
@@ -574,15 +585,39 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                 my = (cy - v[1] * t) * inv
                 rho = rr * inv
                 dq = math.hypot(mx - q[0], my - q[1])
-                if dq > rho + reach:
+                if dq > rho + reach or math.hypot(mx, my) > rho + a_max:
+                    if pend:
+                        out[cnt, 0] = px
+                        out[cnt, 1] = py
+                        out[cnt, 2] = prho
+                        out[cnt, 3] = pdq
+                        cnt += 1
+                        pend = False
+                    last = -1
                     continue
-                if math.hypot(mx, my) > rho + a_max:
-                    continue
+                if thin > 0.0 and last >= 0:
+                    ex = mx - out[last, 0]
+                    ey = my - out[last, 1]
+                    if ex * ex + ey * ey <= 8.0 * thin * rho:
+                        pend = True
+                        px = mx
+                        py = my
+                        prho = rho
+                        pdq = dq
+                        continue
+                pend = False
                 out[cnt, 0] = mx
                 out[cnt, 1] = my
                 out[cnt, 2] = rho
                 out[cnt, 3] = dq
+                last = cnt
                 cnt += 1
+        if pend:
+            out[cnt, 0] = px
+            out[cnt, 1] = py
+            out[cnt, 2] = prho
+            out[cnt, 3] = pdq
+            cnt += 1
     return out[:cnt]
 
 
@@ -1250,15 +1285,60 @@ def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, rad
 
 
 @njit(cache=True)
+def _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                 sweep, margin, buf, res, hint):
+    """Push the inadmissible point (x, y) along the unit direction (ux, uy) by tol, 2 tol,
+    4 tol, ... below a_max / 4; the first admissible push is bisected back onto the
+    boundary within tol. Returns (found, x, y, candidates tested)."""
+    count = 0
+    step = tol
+    while step < 0.25 * a_max:
+        px = x + step * ux
+        py = y + step * uy
+        ok, c = _ok_disc(px, py, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                         sweep, margin, buf, res, hint)
+        count += c
+        if ok:
+            hint[0] = 0
+            gx, gy, c = _bisect_disc(x, y, px, py, tol, a_max, vx, vy, v_max, seg_t,
+                                     seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
+                                     hint)
+            return True, gx, gy, count + c
+        step *= 2.0
+    return False, 0.0, 0.0, count
+
+
+@njit(cache=True)
+def _outward_normal(x, y, disks):
+    """Unit direction away from the disks whose circles pass through (x, y) (m/s^2): the
+    mean of their outward normals; (0, 0) when none or they cancel."""
+    nx = 0.0
+    ny = 0.0
+    for i in range(disks.shape[0]):
+        dx = x - disks[i, 0]
+        dy = y - disks[i, 1]
+        d = math.sqrt(dx * dx + dy * dy)
+        if d > 0.0 and abs(d - disks[i, 2]) <= 1e-9 * (disks[i, 2] + 1.0):
+            nx += dx / d
+            ny += dy / d
+    norm = math.sqrt(nx * nx + ny * ny)
+    if norm < 1e-6:
+        return 0.0, 0.0
+    return nx / norm, ny / norm
+
+
+@njit(cache=True)
 def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
-                        seg_b, radius, sweep, margin):
+                        seg_b, radius, sweep, margin, disks):
     """Confirm disk-picture candidates exactly, nearest first (limit disc |a| <= a_max).
 
     cands: (K, 3) rows (x, y, distance from a_d) m/s^2 in increasing distance, tried
     from row ``start`` while the distance is <= reach: a candidate that is admissible
     is the answer; one that is not (it lies in a sliver between sampled disks) is
     pushed outwards along its ray from a_d by tol, 2 tol, 4 tol, ... below a_max / 4,
-    and the first admissible push is bisected back onto the boundary within tol.
+    then, if none of those is admissible, away from the ``disks`` (M, 3) whose circles
+    pass through it (a notch between two disks opens that way); the first admissible
+    push is bisected back onto the boundary within tol.
     Returns (found, x, y, candidates tested, stopped at a row beyond reach) —
     :func:`selection._nearest_by_disks`'s candidate loop compiled.
     """
@@ -1279,24 +1359,21 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
         count += c
         if ok:
             return True, x, y, count, False
-        if dist <= 0.0:
-            continue
-        ux = (x - a_d[0]) / dist
-        uy = (y - a_d[1]) / dist
-        step = tol
-        while step < 0.25 * a_max:
-            px = x + step * ux
-            py = y + step * uy
-            ok, c = _ok_disc(px, py, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                             sweep, margin, buf, res, hint)
+        if dist > 0.0:
+            found, gx, gy, c = _sliver_push(x, y, (x - a_d[0]) / dist, (y - a_d[1]) / dist,
+                                            tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
+                                            seg_b, radius, sweep, margin, buf, res, hint)
             count += c
-            if ok:
-                hint[0] = 0
-                gx, gy, c = _bisect_disc(x, y, px, py, tol, a_max, vx, vy, v_max, seg_t,
-                                         seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
-                                         hint)
-                return True, gx, gy, count + c, False
-            step *= 2.0
+            if found:
+                return True, gx, gy, count, False
+        ux, uy = _outward_normal(x, y, disks)
+        if ux != 0.0 or uy != 0.0:
+            found, gx, gy, c = _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t,
+                                            seg_c, seg_w, seg_b, radius, sweep, margin, buf,
+                                            res, hint)
+            count += c
+            if found:
+                return True, gx, gy, count, False
     return False, 0.0, 0.0, count, False
 
 
