@@ -241,7 +241,7 @@ class NAOAgent:
             speed = float(np.hypot(*velocity))
             fallback = (np.zeros(2) if speed == 0.0
                         else velocity * (-min(a_max, speed / dt) / speed))
-        sel = select_acceleration(desired, velocity, path, AccelLimits(a_max),
+        sel = select_acceleration(desired, velocity, path, _limits(a_max),
                                   v_max=v_max, with_clearance=False, fallback=fallback)
         self.last_selection = sel
         self.age = 0.0
@@ -257,7 +257,7 @@ class NAOAgent:
         without restarting the adjustment's age; None: select in full."""
         if not self._holds_adjustment():
             return None
-        fixed = repair_acceleration(self.current, desired, velocity, path, AccelLimits(a_max),
+        fixed = repair_acceleration(self.current, desired, velocity, path, _limits(a_max),
                                     v_max=v_max)
         if fixed is not None:
             self.current = fixed
@@ -425,6 +425,19 @@ def _within_reach(
     inadmissible. The same operations as the compiled keep test."""
     dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
     return np.minimum(radii, dist * RADIUS_CUT)
+
+
+_LIMITS: dict[float, AccelLimits] = {}
+
+
+def _limits(a_max: float) -> AccelLimits:
+    """AccelLimits(a_max), memoised (robots share a few limits)."""
+    lim = _LIMITS.get(a_max)
+    if lim is None:
+        if len(_LIMITS) > 256:
+            _LIMITS.clear()
+        lim = _LIMITS[a_max] = AccelLimits(a_max)
+    return lim
 
 
 _BATCHABLE: dict[type, bool] = {}

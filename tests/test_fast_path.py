@@ -784,3 +784,29 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
         bad[0, 3, 1] = np.nan
         assert not relevant_sampled_paths(times, bad, np.arange(n), position, radii, grow,
                                           wall_rel, wall_r, velocity, a_max, v_max)[4]
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_selection_matches_the_python_steps(seed):
+    """select_disc (steps 1-3 of select_acceleration compiled for the limit disc) against
+    the same steps run from Python (_search_boxed, with the disc): the same answers."""
+    t, rng, grid, ok = _boundary_scene(seed)
+    p = t.path
+    radii = 4.0 * 0.5 ** np.arange(7, -1, -1)
+    statuses = set()
+    for k in range(10):
+        # half of them inside the NAO
+        a_d = (grid[~ok][k % (~ok).sum()] if k % 2 else
+               t.limits.project(rng.uniform(-2.5, 2.5, size=2)))
+        status, x, y, _ = selection.select_disc(
+            a_d, t.v, 2.0, t.v_max, p.t, p.c, p.w, p.b, p.radius, 0.0, 1e-3, radii,
+            selection._unit_rings(8, 16), selection._MAX_DISKS, selection._DISKS_PER_PIECE,
+            selection._DISKS_PER_SECOND, selection._SLIVER_DEPTH * 2.0)
+        ref = selection._search_boxed(t, a_d, radii, 16, t.limits, 1e-3)
+        statuses.add(status)
+        if ref is None:
+            assert status == 2
+        else:
+            assert selection._STATUS[status] == ref[1]
+            np.testing.assert_array_equal([x, y], ref[0])
+    assert statuses - {0}

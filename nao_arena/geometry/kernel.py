@@ -479,6 +479,9 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
     vx, vy = _clamped(v, v_max)
     px = position[0]
     py = position[1]
+    # |x(t)| <= v_max t: an obstacle that stays farther than v_max times the horizon
+    # (plus its radius) is dropped before its pieces are built
+    travel = v_max * times[-1]
     n = 0
     for i in range(total):
         if i < n_nb:
@@ -488,6 +491,16 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
             r = nb_radius[body] + grow
             dist = math.sqrt(x0 * x0 + y0 * y0)
             r = min(r, dist * RADIUS_CUT)
+            if math.isfinite(travel):
+                ex = 0.0
+                for j in range(1, T):
+                    dx = pred[body, j, 0] - pred[body, 0, 0]
+                    dy = pred[body, j, 1] - pred[body, 0, 1]
+                    ex = max(ex, dx * dx + dy * dy)
+                ex = math.sqrt(ex)
+                # every piece starts within ex of the first centre and moves at most 2 ex
+                if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
+                    continue
             for j in range(S):
                 x1 = pred[body, j + 1, 0] - px
                 y1 = pred[body, j + 1, 1] - py
@@ -504,6 +517,8 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
             y0 = wall_rel[d, 1]
             dist = math.sqrt(x0 * x0 + y0 * y0)
             r = min(wall_r[d], dist * RADIUS_CUT)
+            if dist > (r + travel) * (1.0 + 1e-9) + 1e-12:
+                continue
             for j in range(S):
                 dt = times[j + 1] - times[j]
                 c[n, j, 0] = x0
@@ -514,6 +529,18 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
         if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
             n += 1
     return c[:n], w[:n], b[:n], rad[:n], True
+
+
+@njit(cache=True, inline="always")
+def _farther(x, y, lim):
+    """math.hypot(x, y) > lim, without the hypot unless the answer is close."""
+    d2 = x * x + y * y
+    l2 = lim * lim
+    if d2 > l2 * (1.0 + 1e-9):
+        return True
+    if d2 < l2 * (1.0 - 1e-9):
+        return False
+    return math.hypot(x, y) > lim
 
 
 @njit(cache=True)
@@ -584,8 +611,8 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                 mx = (cx - v[0] * t) * inv
                 my = (cy - v[1] * t) * inv
                 rho = rr * inv
-                dq = math.hypot(mx - q[0], my - q[1])
-                if dq > rho + reach or math.hypot(mx, my) > rho + a_max:
+                if (_farther(mx - q[0], my - q[1], rho + reach)
+                        or _farther(mx, my, rho + a_max)):
                     if pend:
                         out[cnt, 0] = px
                         out[cnt, 1] = py
@@ -595,6 +622,7 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                         pend = False
                     last = -1
                     continue
+                dq = math.hypot(mx - q[0], my - q[1])
                 if thin > 0.0 and last >= 0:
                     ex = mx - out[last, 0]
                     ey = my - out[last, 1]
@@ -1378,11 +1406,14 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
 
 
 @njit(cache=True)
-def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                sweep):
+def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                radius):
     """:func:`selection.repair_acceleration` compiled for the limit disc: the candidates
     prev + a_max * steps[i] * unit[k] (m/s^2), projected onto |a| <= a_max, tested
-    nearest ``want`` first (a stable order); returns (found, x, y, candidates tested)."""
+    nearest ``want`` first (a stable order) against the relevant obstacles (margin 0);
+    returns (found, x, y, candidates tested)."""
+    seg_c, seg_w, seg_b, radius, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w,
+                                                         seg_b, radius, 0.0)
     K = steps.shape[0] * unit.shape[0]
     cand = np.empty((K, 2))
     dist = np.empty(K)
@@ -1516,3 +1547,108 @@ def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radi
         if not moved:
             angle *= 0.5
     return bx, by, count
+
+
+@njit(cache=True)
+def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
+    """The obstacles :func:`relevant_obstacles` keeps, as contiguous arrays (the inputs
+    themselves when all are kept), and their :func:`piece_sweep`:
+    (c, w, b, radius, sweep)."""
+    keep = relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
+    n = 0
+    for i in range(keep.shape[0]):
+        if keep[i]:
+            n += 1
+    if n == keep.shape[0]:
+        c = np.ascontiguousarray(seg_c)
+        w = np.ascontiguousarray(seg_w)
+        b = np.ascontiguousarray(seg_b)
+        r = np.ascontiguousarray(radius)
+    else:
+        S = seg_c.shape[1]
+        c = np.empty((n, S, 2))
+        w = np.empty((n, S, 2))
+        b = np.empty((n, S, 2))
+        r = np.empty(n)
+        k = 0
+        for i in range(keep.shape[0]):
+            if keep[i]:
+                c[k] = seg_c[i]
+                w[k] = seg_w[i]
+                b[k] = seg_b[i]
+                r[k] = radius[i]
+                k += 1
+    return c, w, b, r, piece_sweep(seg_t, w, b)
+
+
+@njit(cache=True)
+def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                   radius, sweep, margin):
+    """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested)."""
+    cands = nearest_outside_disks(a_d, disks, a_max, 1, reach)
+    found, x, y, count, beyond = try_candidates_disc(
+        cands, 0, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+        margin, disks)
+    if not found and not beyond and cands.shape[0] == 1:
+        cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)
+        found, x, y, c, beyond = try_candidates_disc(
+            cands, 1, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+            sweep, margin, disks)
+        count += c
+    return found, x, y, count
+
+
+@njit(cache=True)
+def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin, tol,
+                ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
+    """The search of :func:`selection.select_acceleration` for the limit disc, compiled:
+    a_d (the desired acceleration, inside the disc) if admissible, else the disk search
+    in a small ball and in the largest ball within ``max_disks`` disks, the rings, and
+    the disk search without a cap. Returns (status, x, y, candidates tested): status 0
+    desired, 1 adjusted, 2 nothing admissible found (the caller falls back)."""
+    c, w, b, r, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                                        margin)
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.zeros(1, dtype=np.int64)
+    ok, count = _ok_disc(a_d[0], a_d[1], a_max, v[0], v[1], v_max, seg_t, c, w, b, r, sweep,
+                         margin, buf, res, hint)
+    if ok:
+        return 0, a_d[0], a_d[1], count
+    reach = max(a_max / 16.0, 4.0 * tol)
+    limit = math.hypot(a_d[0], a_d[1]) + a_max
+    last = reach
+    while last < limit:
+        last *= 2.0
+    samples = nao_disk_samples(v, seg_t, c, w, b, r, margin, n_sub, a_d, last, a_max,
+                               per_second, thin)
+    # 1. the disk search in a small ball, then in the largest within the cap
+    disks = nao_disks_within(samples, reach)
+    if disks.shape[0] <= max_disks:
+        found, x, y, k = _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, c, w,
+                                        b, r, sweep, margin)
+        count += k
+        if found:
+            return 1, x, y, count
+        if reach < limit:
+            chosen = largest_capped_reach(samples, reach, limit, max_disks)
+            if chosen >= 0.0:
+                found, x, y, k = _try_ball_disc(a_d, nao_disks_within(samples, chosen), chosen,
+                                                tol, a_max, v, v_max, seg_t, c, w, b, r,
+                                                sweep, margin)
+                count += k
+                if found:
+                    return 1, x, y, count
+    # 2. rings of candidates
+    found, x, y, k = ring_search_disc(a_d, ring_radii, unit_rings, tol, a_max, v, v_max,
+                                      seg_t, c, w, b, r, sweep, margin)
+    count += k
+    if found:
+        return 1, x, y, count
+    # 3. the disk search without a cap, in the largest ball
+    found, x, y, k = _try_ball_disc(a_d, nao_disks_within(samples, last), last, tol, a_max, v,
+                                    v_max, seg_t, c, w, b, r, sweep, margin)
+    count += k
+    if found:
+        return 1, x, y, count
+    return 2, 0.0, 0.0, count

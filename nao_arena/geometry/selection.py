@@ -47,7 +47,7 @@ from nao_arena.geometry.kernel import (
     piece_sweep,
     relevant_obstacles,
     repair_disc,
-    ring_search_disc,
+    select_disc,
     slide_disc,
     try_candidates_disc,
 )
@@ -340,8 +340,21 @@ def select_acceleration(
     if d_arr.shape != (2,):
         d_arr = np.zeros(2)
     a_d = limits.project(d_arr)
-    tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
     tol = max(float(tol), 1e-9 * max(limits.a_max, 1.0))
+    span = 2.0 * max(limits.a_max, 1e-12)
+    radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
+    if limits.box_lo is None:
+        # steps 1-3 below, compiled for the limit disc
+        status, x, y, count = select_disc(
+            a_d, v_arr, limits.a_max, float(v_max), np.ascontiguousarray(path.t),
+            np.ascontiguousarray(path.c), np.ascontiguousarray(path.w),
+            np.ascontiguousarray(path.b), np.ascontiguousarray(path.radius), float(margin), tol,
+            radii, _unit_rings(rings, ring_points), _MAX_DISKS, _DISKS_PER_PIECE,
+            _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
+        found = a_d if status == 0 else np.array([x, y])
+        if status < 2 and not with_clearance:
+            return Selection(found, _STATUS[status], None, math.inf, count)
+    tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
 
     def done(a: NDArray[np.float64], status: str) -> Selection:
         if not with_clearance and status != "infeasible":
@@ -354,45 +367,14 @@ def select_acceleration(
         return Selection(a, status, clear, first if status == "infeasible" else math.inf,
                          tester.count)
 
-    if tester.ok1(a_d):
-        return done(a_d, "desired")
-
-    # 1. exact nearest point outside the sampled disks of the NAO union,
-    #    searched in balls of doubling radius around the desired acceleration
-    best = _nearest_by_disks(tester, a_d, tol)
-    if best is not None:
-        return done(best, "adjusted")
-
-    # 2. fallback (box limits, speed saturation, very crowded scenes): nearest
-    #    admissible candidate on rings of growing radius, pulled onto the boundary
-    span = 2.0 * max(limits.a_max, 1e-12)
-    radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
     if limits.box_lo is None:
-        # the loop below, compiled
-        p = tester.path
-        found, x, y, count = ring_search_disc(
-            a_d, radii, _unit_rings(rings, ring_points), tol, limits.a_max, tester.v,
-            tester.v_max, p.t, p.c, p.w, p.b, p.radius, tester.sweep, tester.margin)
-        tester.count += count
-        if found:
-            return done(np.array([x, y]), "adjusted")
+        tester.count = count
+        if status < 2:
+            return done(found, _STATUS[status])
     else:
-        # every ring tested in one call; the innermost ring with an admissible
-        # candidate wins
-        ring_cands = _ring_candidates(a_d, radii, ring_points, limits)
-        ring_ok = tester.ok(ring_cands).reshape(len(radii), ring_points)
-        for i in range(len(radii)):
-            if np.any(ring_ok[i]):
-                cand = ring_cands[i * ring_points:(i + 1) * ring_points]
-                good = cand[ring_ok[i]]
-                dist = np.hypot(*(good - a_d).T)
-                start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
-                return done(_slide_towards(tester, a_d, start, limits, tol), "adjusted")
-
-    # 3. before giving up: the disk search without its size cap (small pockets)
-    best = _nearest_by_disks(tester, a_d, tol, max_disks=None)
-    if best is not None:
-        return done(best, "adjusted")
+        found = _search_boxed(tester, a_d, radii, ring_points, limits, tol)
+        if found is not None:
+            return done(found[0], found[1])
 
     # 4. nothing admissible: the caller's fallback, or postpone contact as long as
     #    possible, then least penetration
@@ -402,6 +384,44 @@ def select_acceleration(
     cand = np.ascontiguousarray(np.concatenate(
         [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]))
     return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
+
+
+_STATUS = ("desired", "adjusted")
+
+
+def _search_boxed(
+    tester: _Tester, a_d: NDArray[np.float64], radii: NDArray[np.float64], ring_points: int,
+    limits: AccelLimits, tol: float,
+) -> tuple[NDArray[np.float64], str] | None:
+    """Steps 1-3 of :func:`select_acceleration` (what :func:`select_disc` does for the
+    limit disc) in Python, for box limits: (acceleration, status) or None."""
+    if tester.ok1(a_d):
+        return a_d, "desired"
+
+    # 1. exact nearest point outside the sampled disks of the NAO union, in a small
+    #    ball around the desired acceleration, then in the largest within the disk cap
+    best = _nearest_by_disks(tester, a_d, tol)
+    if best is not None:
+        return best, "adjusted"
+
+    # 2. speed saturation, very crowded scenes: the nearest admissible candidate on
+    #    rings of growing radius (all tested in one call; the innermost ring with an
+    #    admissible candidate wins), pulled onto the boundary and slid along it
+    ring_cands = _ring_candidates(a_d, radii, ring_points, limits)
+    ring_ok = tester.ok(ring_cands).reshape(len(radii), ring_points)
+    for i in range(len(radii)):
+        if np.any(ring_ok[i]):
+            cand = ring_cands[i * ring_points:(i + 1) * ring_points]
+            good = cand[ring_ok[i]]
+            dist = np.hypot(*(good - a_d).T)
+            start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
+            return _slide_towards(tester, a_d, start, limits, tol), "adjusted"
+
+    # 3. before giving up: the disk search without its size cap (small pockets)
+    best = _nearest_by_disks(tester, a_d, tol, max_disks=None)
+    if best is not None:
+        return best, "adjusted"
+    return None
 
 
 _REPAIR_STEPS = (0.05, 0.1, 0.2, 0.4)  # ring radii around the previous choice, x a_max
@@ -435,14 +455,15 @@ def repair_acceleration(
     if not (np.all(np.isfinite(prev)) and np.all(np.isfinite(want))
             and np.all(np.isfinite(v_arr))):
         return None
-    tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
     if limits.box_lo is None:
         # the loop below, compiled
-        p = tester.path
-        found, x, y, _ = repair_disc(prev, want, limits.a_max, _REPAIR_STEPS_A, _REPAIR_UNIT,
-                                     tester.v, tester.v_max, p.t, p.c, p.w, p.b, p.radius,
-                                     tester.sweep)
+        found, x, y, _ = repair_disc(
+            prev, want, limits.a_max, _REPAIR_STEPS_A, _REPAIR_UNIT, v_arr, float(v_max),
+            np.ascontiguousarray(path.t), np.ascontiguousarray(path.c),
+            np.ascontiguousarray(path.w), np.ascontiguousarray(path.b),
+            np.ascontiguousarray(path.radius))
         return np.array([x, y]) if found else None
+    tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
     cand = np.concatenate([prev + limits.a_max * r * _REPAIR_UNIT for r in _REPAIR_STEPS])
     cand = limits.project(cand)
     # nearest the desired acceleration first: the first admissible one wins
