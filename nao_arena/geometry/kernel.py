@@ -692,8 +692,12 @@ def largest_capped_reach(samples, reach, limit, max_disks):
         for i in range(M):
             if not (samples[i, 3] > samples[i, 2] + reach):
                 raw += 1
-        if raw > max_disks and nao_disks_within(samples, reach).shape[0] > max_disks:
-            break
+        if raw > max_disks:
+            keep = np.empty(M, dtype=np.bool_)
+            for i in range(M):
+                keep[i] = not (samples[i, 3] > samples[i, 2] + reach)
+            if _uncontained(np.ascontiguousarray(samples[keep][:, :3]), max_disks)[1] > max_disks:
+                break
         chosen = reach
     return chosen
 
@@ -706,6 +710,14 @@ def _drop_contained(disks):
     transitive, so the disks are visited largest first and each is tested
     against the disks kept so far only (few, typically), not against all M.
     """
+    keep, _ = _uncontained(disks, disks.shape[0])
+    return disks[keep]
+
+
+@njit(cache=True)
+def _uncontained(disks, stop_after):
+    """:func:`_drop_contained`'s mask and count of kept disks; the visit stops as soon as
+    more than ``stop_after`` are kept (the mask is then partial)."""
     M = disks.shape[0]
     keep = np.zeros(M, dtype=np.bool_)
     # largest radius first; equal radii in index order (a stable sort)
@@ -735,7 +747,9 @@ def _drop_contained(disks):
             keep[i] = True
             kept[n_kept] = i
             n_kept += 1
-    return disks[keep]
+            if n_kept > stop_after:
+                break
+    return keep, n_kept
 
 
 _TWO_PI = 2.0 * math.pi
@@ -997,7 +1011,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
 
 
 @njit(cache=True)
-def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf):
+def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0):
     """Points nearest q that lie outside every disk and inside |a| <= a_max.
 
     The nearest point of the complement of a union of disks (within the limit
@@ -1008,7 +1022,9 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf):
     search stops once no unvisited circle can beat the ``max_out``-th best
     candidate. Returns up to ``max_out`` candidates (rows x, y, distance) in
     increasing distance, only those within distance ``within`` of q (m/s^2): circles
-    that cannot come that close are not visited.
+    that cannot come that close are not visited. ``covered`` (m/s^2): the caller
+    knows that every point within that distance of q is covered (or outside the
+    limit disc); circles that lie entirely that close are not visited.
     """
     M = disks.shape[0]
     res = np.full((max_out, 3), math.inf)
@@ -1036,6 +1052,13 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf):
     for i in order:
         if lower[i] >= res[max_out - 1, 2]:
             break
+        if covered > 0.0:
+            if i < M:
+                far = math.hypot(q[0] - disks[i, 0], q[1] - disks[i, 1]) + disks[i, 2]
+            else:
+                far = math.hypot(q[0], q[1]) + a_max
+            if far < covered:
+                continue
         if i < M:
             k = _free_arc_points(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
                                  a_max, cand, 0, starts, ends, cover)
@@ -1583,19 +1606,21 @@ def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
 
 @njit(cache=True)
 def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                   radius, sweep, margin):
-    """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested)."""
-    cands = nearest_outside_disks(a_d, disks, a_max, 1, reach)
+                   radius, sweep, margin, covered):
+    """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
+    whether the disks cover the whole ball). ``covered``: see
+    :func:`nearest_outside_disks`."""
+    cands = nearest_outside_disks(a_d, disks, a_max, 1, reach, covered)
     found, x, y, count, beyond = try_candidates_disc(
         cands, 0, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
         margin, disks)
     if not found and not beyond and cands.shape[0] == 1:
-        cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)
+        cands = nearest_outside_disks(a_d, disks, a_max, 8, reach, covered)
         found, x, y, c, beyond = try_candidates_disc(
             cands, 1, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
             sweep, margin, disks)
         count += c
-    return found, x, y, count
+    return found, x, y, count, cands.shape[0] == 0
 
 
 @njit(cache=True)
@@ -1624,21 +1649,26 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
                                per_second, thin)
     # 1. the disk search in a small ball, then in the largest within the cap
     disks = nao_disks_within(samples, reach)
+    covered = 0.0  # the disks are known to cover the ball of this radius around a_d
     if disks.shape[0] <= max_disks:
-        found, x, y, k = _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, c, w,
-                                        b, r, sweep, margin)
+        found, x, y, k, empty = _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t,
+                                               c, w, b, r, sweep, margin, 0.0)
         count += k
         if found:
             return 1, x, y, count
+        if empty:
+            covered = reach
         if reach < limit:
             chosen = largest_capped_reach(samples, reach, limit, max_disks)
             if chosen >= 0.0:
-                found, x, y, k = _try_ball_disc(a_d, nao_disks_within(samples, chosen), chosen,
-                                                tol, a_max, v, v_max, seg_t, c, w, b, r,
-                                                sweep, margin)
+                found, x, y, k, empty = _try_ball_disc(
+                    a_d, nao_disks_within(samples, chosen), chosen, tol, a_max, v, v_max,
+                    seg_t, c, w, b, r, sweep, margin, covered)
                 count += k
                 if found:
                     return 1, x, y, count
+                if empty:
+                    covered = chosen
     # 2. rings of candidates
     found, x, y, k = ring_search_disc(a_d, ring_radii, unit_rings, tol, a_max, v, v_max,
                                       seg_t, c, w, b, r, sweep, margin)
@@ -1646,8 +1676,8 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
     if found:
         return 1, x, y, count
     # 3. the disk search without a cap, in the largest ball
-    found, x, y, k = _try_ball_disc(a_d, nao_disks_within(samples, last), last, tol, a_max, v,
-                                    v_max, seg_t, c, w, b, r, sweep, margin)
+    found, x, y, k, _ = _try_ball_disc(a_d, nao_disks_within(samples, last), last, tol, a_max,
+                                       v, v_max, seg_t, c, w, b, r, sweep, margin, covered)
     count += k
     if found:
         return 1, x, y, count

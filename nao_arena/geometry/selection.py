@@ -142,8 +142,9 @@ class Selection:
     acceleration was admissible), "adjusted" (nearest admissible one) or
     "infeasible" (nothing admissible found: the candidate that postpones
     contact longest). clearance: its exact clearance (m) to the obstacles
-    that some acceleration within the limits could reach (inf if none);
-    time_of_first_contact: s, inf when feasible.
+    that some acceleration within the limits could reach (inf if none; None
+    when not asked for); time_of_first_contact: s, inf when feasible (or not
+    asked for).
     evaluations: how many candidates were tested.
     """
 
@@ -327,8 +328,9 @@ def select_acceleration(
     :func:`~nao_arena.geometry.clearance.sampled_path`); margin: required
     clearance (m); v_max: the robot's speed limit (m/s), part of its
     predicted path; tol: refinement tolerance (m/s^2); with_clearance:
-    also compute the exact clearance of the result (skipped, and reported
-    as None, when False and the result is feasible); fallback: when no
+    also compute the exact clearance of the result and, when infeasible, its
+    time of first contact (skipped, and reported as None and inf, when
+    False); fallback: when no
     acceleration is admissible, return this one (m/s^2, projected onto the
     limit set) instead of searching for the one that postpones contact
     longest. Never raises on degenerate input and never returns NaN.
@@ -354,10 +356,14 @@ def select_acceleration(
         found = a_d if status == 0 else np.array([x, y])
         if status < 2 and not with_clearance:
             return Selection(found, _STATUS[status], None, math.inf, count)
+        if status == 2 and fallback is not None and not with_clearance:
+            fb = np.asarray(fallback, dtype=np.float64).reshape(-1)[:2]
+            return Selection(limits.project(fb if fb.shape == (2,) else np.zeros(2)),
+                             "infeasible", None, math.inf, count)
     tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
 
     def done(a: NDArray[np.float64], status: str) -> Selection:
-        if not with_clearance and status != "infeasible":
+        if not with_clearance:
             return Selection(a, status, None, math.inf, tester.count)
         if tester.path.n_obstacles == 0:
             return Selection(a, status, math.inf, math.inf, tester.count)
