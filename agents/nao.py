@@ -69,6 +69,7 @@ from nao_arena.geometry import (
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     admissible_kernel,
+    path_excursions,
     piece_sweep,
     relevant_sampled_paths,
     sampled_admissible_batch,
@@ -187,6 +188,7 @@ class NAOAgent:
     def _relevant_paths(
         self,
         predicted: NDArray[np.float64],
+        excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
         idx: NDArray[np.int64],
         nb_radii: NDArray[np.float64],
         position: NDArray[np.float64],
@@ -200,7 +202,8 @@ class NAOAgent:
         """:meth:`_paths` of the neighbours predicted[idx] (radii nb_radii[idx]) and walls,
         without the obstacles that no acceleration within a_max (m/s^2) can reach
         (velocity m/s, speed limit v_max m/s): what every selection drops first
-        (:func:`relevant_obstacles`), built in one compiled pass."""
+        (:func:`relevant_obstacles`), built in one compiled pass. excursions:
+        :func:`path_excursions` of ``predicted`` (shared by the robots of a step)."""
         times = self.times
         if not (self._regular_grid() and math.isfinite(velocity[0])
                 and math.isfinite(velocity[1])):
@@ -213,7 +216,8 @@ class NAOAgent:
             wall_rel, wall_r = _NO_WALLS
         c, w, b, rad, finite = relevant_sampled_paths(
             times, predicted, idx, position, nb_radii, grow, np.ascontiguousarray(wall_rel),
-            np.ascontiguousarray(wall_r), velocity, float(a_max) * (1.0 + 1e-9), float(v_max))
+            np.ascontiguousarray(wall_r), velocity, float(a_max) * (1.0 + 1e-9), float(v_max),
+            excursions[0], excursions[1])
         if not finite:
             raise ValueError("centers: expected finite values")
         return PiecewisePath(times, c, w, b, rad)
@@ -279,7 +283,8 @@ class NAOAgent:
         nb = obs.neighbours
         predicted = (np.ascontiguousarray(self.predict(self.times, nb), dtype=np.float64)
                      if len(nb) else np.zeros((0, len(self.times), 2)))
-        path = self._relevant_paths(predicted, np.arange(len(nb)), np.asarray(nb.radii, float),
+        path = self._relevant_paths(predicted, path_excursions(predicted), np.arange(len(nb)),
+                                    np.asarray(nb.radii, float),
                                     obs.position, obs.radius, obs.walls, obs.wall_radius,
                                     obs.velocity, obs.a_max, obs.v_max)
         if (
@@ -355,6 +360,7 @@ class NAOAgent:
                 continue
             status = _keep_current(members, agents, batch, rows_a, pred, pos, vel, rad, a_max,
                                    v_max, current, desired)
+            excursions = path_excursions(pred)
             for i, st in zip(members, status, strict=True):
                 ag = agents[i]
                 if st == 1:
@@ -363,7 +369,8 @@ class NAOAgent:
                 k = int(rows_a[i])
                 try:
                     idx = batch.neighbour_ids(k)
-                    path = ag._relevant_paths(pred, idx, batch.radii, pos[i], float(rad[i]),
+                    path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
+                                              float(rad[i]),
                                               batch.walls, batch.wall_radius, vel[i],
                                               float(a_max[i]), float(v_max[i]))
                     if st == 2 and ag._admissible_arrays(current[i], vel[i], float(a_max[i]),

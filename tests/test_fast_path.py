@@ -30,6 +30,7 @@ from nao_arena.geometry.kernel import (
     nao_disks,
     nao_disks_within,
     nearest_outside_disks,
+    path_excursions,
     piece_sweep,
     relevant_obstacles,
     relevant_sampled_paths,
@@ -765,7 +766,8 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
     grow = 0.45
     a_max, v_max = 2.0, float(rng.choice([1.5, np.inf]))
     c, w, b, rad, finite = relevant_sampled_paths(times, pred, idx, position, radii, grow,
-                                                   wall_rel, wall_r, velocity, a_max, v_max)
+                                                   wall_rel, wall_r, velocity, a_max, v_max,
+                                                   *path_excursions(pred))
     assert finite
     centres = np.concatenate([pred[idx] - position,
                               np.repeat(wall_rel[:, None, :], len(times), 1)])
@@ -783,7 +785,8 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
         bad = pred.copy()
         bad[0, 3, 1] = np.nan
         assert not relevant_sampled_paths(times, bad, np.arange(n), position, radii, grow,
-                                          wall_rel, wall_r, velocity, a_max, v_max)[4]
+                                          wall_rel, wall_r, velocity, a_max, v_max,
+                                          *path_excursions(bad))[4]
 
 
 @pytest.mark.parametrize("seed", range(40))

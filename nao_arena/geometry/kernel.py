@@ -448,7 +448,7 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
 
 @njit(cache=True)
 def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
-                           a_max, v_max):
+                           a_max, v_max, excursion, finite_path):
     """The pieces :func:`~nao_arena.geometry.clearance.sampled_path` builds, of the
     obstacles :func:`relevant_obstacles` keeps (margin 0), in one pass.
 
@@ -457,7 +457,8 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
     (m), then static discs at wall_rel (robot-relative, m) with radii wall_r (m); every
     radius cut to just under the obstacle's current distance (RADIUS_CUT). Centres
     are taken relative to ``position`` (m). Robot: velocity v (m/s), limits a_max,
-    v_max. Returns (c, w, b, radius, finite): the pieces' start centres, velocities
+    v_max. excursion, finite_path: :func:`path_excursions` of ``pred``.
+    Returns (c, w, b, radius, finite): the pieces' start centres, velocities
     and accelerations (zero) (n, T - 1, 2) and radii (n,) of the kept obstacles in
     input order; finite is
     False (and nothing is kept) when a neighbour's centres are not all finite.
@@ -472,10 +473,8 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
     b = np.zeros((total, S, 2))
     rad = np.empty(total)
     for i in range(n_nb):
-        body = idx[i]
-        for j in range(T):
-            if not (math.isfinite(pred[body, j, 0]) and math.isfinite(pred[body, j, 1])):
-                return c[:0], w[:0], b[:0], rad[:0], False
+        if not finite_path[idx[i]]:
+            return c[:0], w[:0], b[:0], rad[:0], False
     vx, vy = _clamped(v, v_max)
     px = position[0]
     py = position[1]
@@ -492,12 +491,7 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
             dist = math.sqrt(x0 * x0 + y0 * y0)
             r = min(r, dist * RADIUS_CUT)
             if math.isfinite(travel):
-                ex = 0.0
-                for j in range(1, T):
-                    dx = pred[body, j, 0] - pred[body, 0, 0]
-                    dy = pred[body, j, 1] - pred[body, 0, 1]
-                    ex = max(ex, dx * dx + dy * dy)
-                ex = math.sqrt(ex)
+                ex = excursion[body]
                 # every piece starts within ex of the first centre and moves at most 2 ex
                 if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
                     continue
@@ -1160,6 +1154,30 @@ RADIUS_CUT = 1.0 - 1e-9
 
 
 @njit(cache=True)
+def path_excursions(pred):
+    """Per body of ``pred`` (n, T, 2) m: the largest distance (m) of a sampled centre from
+    the first one, and whether all its centres are finite."""
+    n = pred.shape[0]
+    T = pred.shape[1]
+    excursion = np.zeros(n)
+    finite = np.ones(n, dtype=np.bool_)
+    for body in range(n):
+        ex = 0.0
+        for j in range(1, T):
+            dx = pred[body, j, 0] - pred[body, 0, 0]
+            dy = pred[body, j, 1] - pred[body, 0, 1]
+            e2 = dx * dx + dy * dy
+            if not math.isfinite(e2):
+                finite[body] = False
+            elif e2 > ex:
+                ex = e2
+        if not (math.isfinite(pred[body, 0, 0]) and math.isfinite(pred[body, 0, 1])):
+            finite[body] = False
+        excursion[body] = math.sqrt(ex)
+    return excursion, finite
+
+
+@njit(cache=True)
 def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
                              wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
                              out):
@@ -1182,6 +1200,7 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
     buf = np.empty(3)
     res = np.empty(3)
     horizon = times[-1]
+    excursion, finite_path = path_excursions(pred)
     for k in rows:
         n_nb = nb_start[k + 1] - nb_start[k]
         n_w = wall_start[k + 1] - wall_start[k]
@@ -1204,19 +1223,10 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                 y0 = pred[body, 0, 1] - py
                 r = min(nb_radius[body] + radius[k] + margin[k],
                         math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
-                ex = 0.0
-                for j in range(1, T):
-                    dx = pred[body, j, 0] - pred[body, 0, 0]
-                    dy = pred[body, j, 1] - pred[body, 0, 1]
-                    e2 = dx * dx + dy * dy
-                    if not math.isfinite(e2):
-                        finite = False
-                    elif e2 > ex:
-                        ex = e2
-                if not (finite and math.isfinite(x0) and math.isfinite(y0)):
+                if not finite_path[body]:
                     finite = False
                     break
-                ex = math.sqrt(ex)
+                ex = excursion[body]
             else:
                 d = wall_index[wall_start[k] + i - n_nb]
                 x0 = wall_c[d, 0] - px
