@@ -28,6 +28,7 @@ loop of its own.
 from __future__ import annotations
 
 import inspect
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -285,7 +286,7 @@ class Arena:
                 out.append((np.zeros(2), AgentFault(
                     batch.time, k, name,
                     f"expected an acceleration of shape (2,), got {acc.shape}")))
-            elif not np.all(np.isfinite(acc)):
+            elif not (math.isfinite(acc[0]) and math.isfinite(acc[1])):
                 out.append((np.zeros(2), AgentFault(batch.time, k, name,
                                                     f"non-finite acceleration {acc.tolist()}")))
             else:

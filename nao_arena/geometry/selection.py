@@ -458,8 +458,7 @@ def repair_acceleration(
     prev = np.asarray(previous, dtype=np.float64).reshape(2)
     want = np.asarray(desired, dtype=np.float64).reshape(2)
     v_arr = np.asarray(v, dtype=np.float64).reshape(2)
-    if not (np.all(np.isfinite(prev)) and np.all(np.isfinite(want))
-            and np.all(np.isfinite(v_arr))):
+    if not all(math.isfinite(x) for x in (*prev, *want, *v_arr)):
         return None
     if limits.box_lo is None:
         # the loop below, compiled
