@@ -358,9 +358,9 @@ class NAOAgent:
                 for i in members:
                     out[i] = exc
                 continue
-            status = _keep_current(members, agents, batch, rows_a, pred, pos, vel, rad, a_max,
-                                   v_max, current, desired)
             excursions = path_excursions(pred)
+            status = _keep_current(members, agents, batch, rows_a, pred, excursions, pos, vel,
+                                   rad, a_max, v_max, current, desired)
             for i, st in zip(members, status, strict=True):
                 ag = agents[i]
                 if st == 1:
@@ -520,7 +520,8 @@ def _goal_seeking_batch(
 
 def _keep_current(
     members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
-    rows: NDArray[np.int64], pred: NDArray[np.float64], pos: NDArray[np.float64],
+    rows: NDArray[np.int64], pred: NDArray[np.float64],
+    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]], pos: NDArray[np.float64],
     vel: NDArray[np.float64], rad: NDArray[np.float64], a_max: NDArray[np.float64],
     v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
 ) -> list[int]:
@@ -576,7 +577,7 @@ def _keep_current(
         np.concatenate(wall_index).astype(np.int64), todo, np.ascontiguousarray(pos[m]),
         np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
         np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]),
-        np.array([agents[i].margin for i in members]), res,
+        np.array([agents[i].margin for i in members]), excursions[0], excursions[1], res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
     return [int(status[j]) if status[j] != 2 else (1 if res[j] == 1 else

@@ -460,7 +460,8 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
     pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
     out = np.full(n, 7, dtype=np.int64)
     sampled_admissible_batch(times, pred, start, index, rad, wall_c, wall_r, wall_start,
-                             wall_index, np.arange(n), pos, vel, acc, v_max, rad, margin, out)
+                             wall_index, np.arange(n), pos, vel, acc, v_max, rad, margin,
+                             *path_excursions(pred), out)
     for k in range(n):
         idx = index[start[k]:start[k + 1]]
         widx = wall_index[wall_start[k]:wall_start[k + 1]]
@@ -492,7 +493,8 @@ def test_batched_admissibility_flags_non_finite_paths():
     out = np.zeros(n, dtype=np.int64)
     sampled_admissible_batch(times, pred, start, index, nb_all.radii, wall_c, wall_r,
                              wall_start, wall_index, np.arange(n), nb_all.positions,
-                             nb_all.velocities, acc, v_max, nb_all.radii, margin, out)
+                             nb_all.velocities, acc, v_max, nb_all.radii, margin,
+                             *path_excursions(pred), out)
     has_nb = np.diff(start) > 0
     assert np.all(out[has_nb] == -1)
 

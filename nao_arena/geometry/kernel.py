@@ -446,6 +446,37 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     return out
 
 
+@njit(cache=True, inline="always")
+def _moving_pieces(pred, body, px, py, times, c, w, row):
+    """Write into c, w [row] the pieces of body's sampled centres pred[body] (T, 2) m,
+    relative to (px, py): start centres (m) and velocities (m/s), as
+    :func:`~nao_arena.geometry.clearance.sampled_path` builds them."""
+    x0 = pred[body, 0, 0] - px
+    y0 = pred[body, 0, 1] - py
+    for j in range(times.shape[0] - 1):
+        x1 = pred[body, j + 1, 0] - px
+        y1 = pred[body, j + 1, 1] - py
+        dt = times[j + 1] - times[j]
+        c[row, j, 0] = x0
+        c[row, j, 1] = y0
+        w[row, j, 0] = (x1 - x0) / dt
+        w[row, j, 1] = (y1 - y0) / dt
+        x0 = x1
+        y0 = y1
+
+
+@njit(cache=True, inline="always")
+def _static_pieces(x0, y0, times, c, w, row):
+    """Write into c, w [row] the pieces of a disc at rest at (x0, y0) m (robot-relative),
+    as :func:`~nao_arena.geometry.clearance.sampled_path` builds them."""
+    for j in range(times.shape[0] - 1):
+        dt = times[j + 1] - times[j]
+        c[row, j, 0] = x0
+        c[row, j, 1] = y0
+        w[row, j, 0] = (x0 - x0) / dt
+        w[row, j, 1] = (y0 - y0) / dt
+
+
 @njit(cache=True)
 def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
                            a_max, v_max, excursion, finite_path):
@@ -495,16 +526,7 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
                 # every piece starts within ex of the first centre and moves at most 2 ex
                 if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
                     continue
-            for j in range(S):
-                x1 = pred[body, j + 1, 0] - px
-                y1 = pred[body, j + 1, 1] - py
-                dt = times[j + 1] - times[j]
-                c[n, j, 0] = x0
-                c[n, j, 1] = y0
-                w[n, j, 0] = (x1 - x0) / dt
-                w[n, j, 1] = (y1 - y0) / dt
-                x0 = x1
-                y0 = y1
+            _moving_pieces(pred, body, px, py, times, c, w, n)
         else:
             d = i - n_nb
             x0 = wall_rel[d, 0]
@@ -513,12 +535,7 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
             r = min(wall_r[d], dist * RADIUS_CUT)
             if dist > (r + travel) * (1.0 + 1e-9) + 1e-12:
                 continue
-            for j in range(S):
-                dt = times[j + 1] - times[j]
-                c[n, j, 0] = x0
-                c[n, j, 1] = y0
-                w[n, j, 0] = (x0 - x0) / dt
-                w[n, j, 1] = (y0 - y0) / dt
+            _static_pieces(x0, y0, times, c, w, n)
         rad[n] = r
         if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
             n += 1
@@ -542,6 +559,16 @@ def _samples_in_piece(t0, t1, n_sub, per_second):
     if not math.isfinite(t1):
         return 12
     return max(n_sub, min(256, int(math.ceil(per_second * (t1 - t0)))))
+
+
+@njit(cache=True, inline="always")
+def _put(out, row, x, y, rho, dq):
+    """Write the disk (x, y, rho, dq) into out[row]; returns the next row."""
+    out[row, 0] = x
+    out[row, 1] = y
+    out[row, 2] = rho
+    out[row, 3] = dq
+    return row + 1
 
 
 @njit(cache=True)
@@ -608,11 +635,7 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                 if (_farther(mx - q[0], my - q[1], rho + reach)
                         or _farther(mx, my, rho + a_max)):
                     if pend:
-                        out[cnt, 0] = px
-                        out[cnt, 1] = py
-                        out[cnt, 2] = prho
-                        out[cnt, 3] = pdq
-                        cnt += 1
+                        cnt = _put(out, cnt, px, py, prho, pdq)
                         pend = False
                     last = -1
                     continue
@@ -628,18 +651,10 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                         pdq = dq
                         continue
                 pend = False
-                out[cnt, 0] = mx
-                out[cnt, 1] = my
-                out[cnt, 2] = rho
-                out[cnt, 3] = dq
                 last = cnt
-                cnt += 1
+                cnt = _put(out, cnt, mx, my, rho, dq)
         if pend:
-            out[cnt, 0] = px
-            out[cnt, 1] = py
-            out[cnt, 2] = prho
-            out[cnt, 3] = pdq
-            cnt += 1
+            cnt = _put(out, cnt, px, py, prho, pdq)
     return out[:cnt]
 
 
@@ -1180,7 +1195,7 @@ def path_excursions(pred):
 @njit(cache=True)
 def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
                              wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
-                             out):
+                             excursion, finite_path, out):
     """Admissibility of one acceleration per robot against sampled obstacle paths.
 
     For each robot k of ``rows``: its obstacles are the bodies
@@ -1192,15 +1207,15 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
     robot-relative centres (a radius larger than the distance at t = 0 is cut to
     that distance times 1 - 1e-9), and acc[k] (m/s^2) is tested as
     :func:`admissible_kernel` tests it (velocity vel[k] m/s, speed limit
-    v_max[k] m/s, margin 0). out[k] = 1 admissible, 0 not, -1 non-finite
-    centres (left to the caller).
+    v_max[k] m/s, margin 0). excursion, finite_path: :func:`path_excursions` of
+    ``pred``. out[k] = 1 admissible, 0 not, -1 non-finite centres (left to the
+    caller).
     """
     T = times.shape[0]
     S = T - 1
     buf = np.empty(3)
     res = np.empty(3)
     horizon = times[-1]
-    excursion, finite_path = path_excursions(pred)
     for k in rows:
         n_nb = nb_start[k + 1] - nb_start[k]
         n_w = wall_start[k + 1] - wall_start[k]
@@ -1252,28 +1267,10 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         for q in range(n):
             i = keep[q]
             if i < n_nb:
-                body = nb_index[nb_start[k] + i]
-                x0 = pred[body, 0, 0] - px
-                y0 = pred[body, 0, 1] - py
-                for j in range(S):
-                    x1 = pred[body, j + 1, 0] - px
-                    y1 = pred[body, j + 1, 1] - py
-                    dt = times[j + 1] - times[j]
-                    c[q, j, 0] = x0
-                    c[q, j, 1] = y0
-                    w[q, j, 0] = (x1 - x0) / dt
-                    w[q, j, 1] = (y1 - y0) / dt
-                    x0 = x1
-                    y0 = y1
+                _moving_pieces(pred, nb_index[nb_start[k] + i], px, py, times, c, w, q)
             else:
                 d = wall_index[wall_start[k] + i - n_nb]
-                x0 = wall_c[d, 0] - px
-                y0 = wall_c[d, 1] - py
-                for j in range(S):
-                    c[q, j, 0] = x0
-                    c[q, j, 1] = y0
-                    w[q, j, 0] = (x0 - x0) / (times[j + 1] - times[j])
-                    w[q, j, 1] = (y0 - y0) / (times[j + 1] - times[j])
+                _static_pieces(wall_c[d, 0] - px, wall_c[d, 1] - py, times, c, w, q)
         sweep = piece_sweep(times, w, b)
         ok = 1
         for q in range(n):
@@ -1438,6 +1435,14 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
     return False, 0.0, 0.0, count, False
 
 
+@njit(cache=True, inline="always")
+def _onto_disc(x, y, a_max):
+    """(x, y) m/s^2 projected onto |a| <= a_max, as AccelLimits.project does it."""
+    norm = math.hypot(x, y)
+    scale = a_max / max(norm, 1e-300) if norm > a_max else 1.0
+    return x * scale, y * scale
+
+
 @njit(cache=True)
 def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
                 radius):
@@ -1454,12 +1459,8 @@ def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, s
     for i in range(steps.shape[0]):
         s = a_max * steps[i]
         for u in range(unit.shape[0]):
-            x = prev[0] + s * unit[u, 0]
-            y = prev[1] + s * unit[u, 1]
-            norm = math.hypot(x, y)
-            scale = a_max / max(norm, 1e-300) if norm > a_max else 1.0
-            cand[k, 0] = x * scale
-            cand[k, 1] = y * scale
+            cand[k, 0], cand[k, 1] = _onto_disc(prev[0] + s * unit[u, 0],
+                                                prev[1] + s * unit[u, 1], a_max)
             dist[k] = math.hypot(cand[k, 0] - want[0], cand[k, 1] - want[1])
             k += 1
     order = np.argsort(dist, kind="mergesort")
@@ -1495,12 +1496,8 @@ def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w
         best = -1
         best_d = math.inf
         for k in range(P):
-            x = a_d[0] + radii[i] * unit[i, k, 0]
-            y = a_d[1] + radii[i] * unit[i, k, 1]
-            norm = math.hypot(x, y)
-            scale = a_max / max(norm, 1e-300) if norm > a_max else 1.0
-            x = x * scale
-            y = y * scale
+            x, y = _onto_disc(a_d[0] + radii[i] * unit[i, k, 0],
+                              a_d[1] + radii[i] * unit[i, k, 1], a_max)
             cand[k, 0] = x
             cand[k, 1] = y
             d = math.hypot(x - a_d[0], y - a_d[1])

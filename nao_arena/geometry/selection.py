@@ -430,11 +430,10 @@ def _search_boxed(
     return None
 
 
-_REPAIR_STEPS = (0.05, 0.1, 0.2, 0.4)  # ring radii around the previous choice, x a_max
+_REPAIR_STEPS = np.array([0.05, 0.1, 0.2, 0.4])  # ring radii around the previous choice, x a_max
 _REPAIR_POINTS = 12
 _REPAIR_ANGLES = 2.0 * np.pi * np.arange(_REPAIR_POINTS) / _REPAIR_POINTS
 _REPAIR_UNIT = np.stack([np.cos(_REPAIR_ANGLES), np.sin(_REPAIR_ANGLES)], axis=1)
-_REPAIR_STEPS_A = np.array(_REPAIR_STEPS)
 
 
 def repair_acceleration(
@@ -463,7 +462,7 @@ def repair_acceleration(
     if limits.box_lo is None:
         # the loop below, compiled
         found, x, y, _ = repair_disc(
-            prev, want, limits.a_max, _REPAIR_STEPS_A, _REPAIR_UNIT, v_arr, float(v_max),
+            prev, want, limits.a_max, _REPAIR_STEPS, _REPAIR_UNIT, v_arr, float(v_max),
             np.ascontiguousarray(path.t), np.ascontiguousarray(path.c),
             np.ascontiguousarray(path.w), np.ascontiguousarray(path.b),
             np.ascontiguousarray(path.radius))
