@@ -134,7 +134,9 @@ class NAOAgent:
         self._detour_step(far, speed < 0.25 * obs.v_max, obs.dt)
 
     def obstacle_paths(self, obs: Observation) -> PiecewisePath:
-        """Neighbours' predicted paths and wall discs, robot-relative (m)."""
+        """Every neighbour's predicted path and every wall disc in range, robot-relative
+        (m): the whole picture, for display and analysis (the agent itself keeps only
+        the obstacles some acceleration within a_max can reach)."""
         nb = obs.neighbours
         predicted = self.predict(self.times, nb) if len(nb) else None
         return self._paths(predicted, nb.radii, obs.position, obs.radius, obs.walls,
@@ -535,8 +537,7 @@ def _keep_current(
     band |= np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
     inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
     status = np.where(band & inside, 2, 0)
-    if not (len(times) >= 2 and times[0] == 0.0 and np.all(np.diff(times) > 0)
-            and np.all(np.isfinite(times))) or not np.any(status == 2):
+    if not ag0._regular_grid() or not np.any(status == 2):
         return status.tolist()
     # the obstacles each member sees: neighbours, then the wall discs in its range
     k_rows = rows[m]
