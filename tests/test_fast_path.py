@@ -24,8 +24,10 @@ from nao_arena.geometry.clearance import sampled_path
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     _drop_contained,
+    _outward_normal,
     admissible_kernel,
     bisect_disc,
+    largest_capped_reach,
     nao_disk_samples,
     nao_disks,
     nao_disks_within,
@@ -37,6 +39,7 @@ from nao_arena.geometry.kernel import (
     ring_search_disc,
     sampled_admissible_batch,
     slide_disc,
+    try_candidates_disc,
 )
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
@@ -377,6 +380,35 @@ def test_nearest_outside_disks_matches_reference(seed):
         for within in (0.0, 0.3, 1.0):
             np.testing.assert_array_equal(
                 nearest_outside_disks(q, disks, 2.0, max_out, within), ref[ref[:, 2] <= within])
+        # ``covered``: any ball with no free point (closer than the nearest candidate)
+        # may be skipped without changing the answer
+        if len(ref) and ref[0, 2] > 0.0:
+            np.testing.assert_array_equal(
+                nearest_outside_disks(q, disks, 2.0, max_out, math.inf, 0.999 * ref[0, 2]), ref)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_largest_capped_reach_matches_the_doubling(seed):
+    """The last doubled reach whose disks (after containment) stay within the cap, as
+    the ball-by-ball doubling finds it."""
+    rng = np.random.default_rng(700 + seed)
+    n = int(rng.integers(1, 12))
+    times = np.linspace(0.0, 3.0, 31)
+    pos = rng.normal(size=(n, 2)) * 2.0
+    vel = rng.normal(size=(n, 2))
+    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(0.5, 1.0, size=n))
+    q = rng.normal(size=2)
+    samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
+                               path.radius, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
+    for cap in (4, 16, 48):
+        reach, ref = 0.125, -1.0
+        while reach < 8.0:
+            reach *= 2.0
+            if len(nao_disks_within(samples, reach)) > cap:
+                break
+            ref = reach
+        assert largest_capped_reach(samples, 0.125, 8.0, cap) == ref
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -815,3 +847,38 @@ def test_compiled_selection_matches_the_python_steps(seed):
             assert selection._STATUS[status] == ref[1]
             np.testing.assert_array_equal([x, y], ref[0])
     assert statuses - {0}
+
+
+def test_outward_normal_points_away_from_the_circles_through_the_point():
+    # two unit circles centred at (-0.6, 0) and (0.6, 0) meet at (0, 0.8): away from both
+    # is straight up; a point on one circle only gets that circle's normal; off all: none
+    disks = np.array([[-0.6, 0.0, 1.0], [0.6, 0.0, 1.0], [5.0, 5.0, 0.5]])
+    np.testing.assert_allclose(_outward_normal(0.0, 0.8, disks), (0.0, 1.0), atol=1e-12)
+    np.testing.assert_allclose(_outward_normal(-1.6, 0.0, disks), (-1.0, 0.0), atol=1e-12)
+    assert _outward_normal(3.0, 3.0, disks) == (0.0, 0.0)
+
+
+def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
+    """A candidate in a sliver of a thinned disk picture whose ray push from the desired
+    acceleration stays inside the NAO is pushed away from the circles through it: more
+    candidates are confirmed than by the ray alone, and every one is admissible."""
+    only_normal = 0
+    for seed in range(20):
+        t, rng = _tester(seed)
+        p = t.path
+        for _ in range(3):
+            a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
+            samples = nao_disk_samples(t.v, p.t, p.c, p.w, p.b, p.radius, 0.0, 2, a_d, 8.0,
+                                       2.0, 16.0, 0.02)
+            disks = nao_disks_within(samples, 8.0)
+            cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
+            for k in range(len(cands)):
+                args = (cands[k:k + 1], 0, 8.0, a_d, 1e-3, 2.0, t.v, t.v_max, p.t, p.c, p.w,
+                        p.b, p.radius, t.sweep, 0.0)
+                found, x, y, _, _ = try_candidates_disc(*args, disks)
+                ray_only = try_candidates_disc(*args, np.zeros((0, 3)))[0]
+                assert found or not ray_only
+                if found:
+                    assert t.ok1(np.array([x, y]))
+                    only_normal += not ray_only
+    assert only_normal >= 10

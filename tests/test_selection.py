@@ -469,3 +469,23 @@ def test_arbitrary_desired_values(desired, a_max) -> None:
     limits = AccelLimits(a_max)
     sel = select_acceleration(desired, (0.3, 0.0), sampled_path(times, centers, radius), limits)
     assert np.all(np.isfinite(sel.accel)) and in_limits(sel.accel, limits)
+
+
+def test_fallback_when_nothing_is_admissible() -> None:
+    """Obstacles all around a robot driving at 2 m/s towards them (0.6 m away; braking
+    at a_max = 2 m/s^2 takes 1 m): nothing is admissible, the caller's fallback is
+    returned (projected onto the limits) with status "infeasible"; its clearance and
+    contact time are reported only when asked for."""
+    times = np.linspace(0.0, 2.0, 21)
+    ring = 1.5 * np.stack([np.cos(np.arange(12) * np.pi / 6),
+                           np.sin(np.arange(12) * np.pi / 6)], axis=1)
+    path = sampled_path(times, np.repeat(ring[:, None, :], len(times), 1), np.full(12, 0.9))
+    limits = AccelLimits(2.0)
+    quick = select_acceleration((1.0, 0.0), (2.0, 0.0), path, limits, with_clearance=False,
+                                fallback=(-5.0, 0.0))
+    assert quick.status == "infeasible" and quick.clearance is None
+    np.testing.assert_array_equal(quick.accel, (-2.0, 0.0))
+    full = select_acceleration((1.0, 0.0), (2.0, 0.0), path, limits, fallback=(-5.0, 0.0))
+    assert full.status == "infeasible" and full.clearance < 0.0
+    assert full.time_of_first_contact < 2.0
+    np.testing.assert_array_equal(full.accel, quick.accel)
