@@ -24,6 +24,7 @@ from nao_arena.geometry.clearance import sampled_path
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     _drop_contained,
+    _ok_disc,
     _outward_normal,
     admissible_kernel,
     bisect_disc,
@@ -882,3 +883,28 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
                     assert t.ok1(np.array([x, y]))
                     only_normal += not ray_only
     assert only_normal >= 10
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_exact_test_answer_does_not_depend_on_its_hint(seed):
+    """_ok_disc tests the (obstacle, piece) that last rejected first: whatever the hint
+    (none, random, the one a nearby candidate left), the answer is admissible_kernel's."""
+    for attempt in range(20):  # a scene with both admissible and colliding accelerations
+        t, rng = _tester(1000 * seed + attempt)
+        cands = rng.uniform(-2.0, 2.0, size=(150, 2))
+        cands = cands[np.hypot(*cands.T) <= 2.0]
+        ref = t.ok(cands)
+        if ref.any() and not ref.all():
+            break
+    else:
+        pytest.fail("no scene with a boundary")
+    p = t.path
+    n_obs, n_pieces = p.c.shape[0], p.c.shape[1]
+    buf, res = np.empty(3), np.empty(3)
+    carried = np.full(2, -1, dtype=np.int64)
+    for a, want in zip(cands, ref, strict=True):
+        for hint in (np.full(2, -1, dtype=np.int64), carried,
+                     np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64)):
+            ok, tested = _ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, p.t, p.c, p.w,
+                                  p.b, p.radius, t.sweep, 0.0, buf, res, hint)
+            assert ok == want and tested == 1

@@ -229,8 +229,9 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
 
     With a finite ``thresh`` (m) the scan only decides whether the clearance
     falls below it: it prunes pieces that cannot come that close and returns
-    at the first that does (out[0] is then some distance below thresh + r).
-    Otherwise out = (min squared distance, its time, first contact time).
+    at the first that does (out[0] is then some distance below thresh + r) with that
+    piece's index (else -1). Otherwise out = (min squared distance, its time, first contact
+    time), and it returns -1.
     """
     S = seg_c.shape[1]
     r2 = r * r
@@ -256,16 +257,8 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
         ta = t0
         while ta < t1:
             tb = min(t1, tau) if ta < tau else t1
-            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, ta)
-            dt0 = ta - t0
-            obx = seg_b[n, j, 0]
-            oby = seg_b[n, j, 1]
-            Ax = 0.5 * (rax - obx)
-            Ay = 0.5 * (ray - oby)
-            Bx = rvx - (seg_w[n, j, 0] + obx * dt0)
-            By = rvy - (seg_w[n, j, 1] + oby * dt0)
-            Cx = rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0)
-            Cy = rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0)
+            Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w,
+                                               seg_b, n, j)
             hp = tb - ta
             skip = False
             if math.isfinite(hp) and not decide:
@@ -289,7 +282,7 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
                     out[0] = best
                     out[1] = best_t
                     out[2] = first
-                    return
+                    return j
             ta = tb
     if best == math.inf and not decide:
         # an empty horizon [0, 0]: just the distance at the start
@@ -299,6 +292,39 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
     out[0] = best
     out[1] = best_t
     out[2] = first
+    return -1
+
+
+@njit(cache=True, inline="always")
+def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
+    """Robot minus obstacle n from time ta within piece j (which starts at t0), as
+    A s^2 + B s + C (s = time since ta): (Ax, Ay, Bx, By, Cx, Cy)."""
+    rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, ta)
+    dt0 = ta - t0
+    obx = seg_b[n, j, 0]
+    oby = seg_b[n, j, 1]
+    return (0.5 * (rax - obx), 0.5 * (ray - oby),
+            rvx - (seg_w[n, j, 0] + obx * dt0), rvy - (seg_w[n, j, 1] + oby * dt0),
+            rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
+            rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0))
+
+
+@njit(cache=True)
+def _piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
+    """Whether the candidate (as in :func:`_scan`) comes closer than sqrt(reach2) (m) to
+    obstacle n during piece j: the test :func:`_scan` makes there, without its prune."""
+    t0 = seg_t[j]
+    t1 = seg_t[j + 1]
+    ta = t0
+    while ta < t1:
+        tb = min(t1, tau) if ta < tau else t1
+        Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b,
+                                           n, j)
+        _piece(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, False, buf)
+        if buf[0] < reach2:
+            return True
+        ta = tb
+    return False
 
 
 @njit(cache=True)
@@ -1288,8 +1314,9 @@ def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, swe
     """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
     returns (admissible, 1 if it was tested against the obstacles (inside the disc)).
 
-    hint[0]: the obstacle that last rejected a candidate; it is tested first (the
-    answer does not depend on the order) and updated on a rejection.
+    hint: (obstacle, piece) that last rejected a candidate (-1: none). That piece is
+    tested first, then that obstacle, then the others (a rejection anywhere is the
+    same answer, so the order does not change it); updated on a rejection.
     """
     if x * x + y * y > a_max * a_max * (1 + 1e-12) + 1e-300:
         return False, 0
@@ -1298,12 +1325,18 @@ def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, swe
         return True, 1
     cvx, cvy, tau, bound = _candidate_setup(vx, vy, x, y, v_max, seg_t[-1])
     first = hint[0] if 0 <= hint[0] < N else 0
+    if first == hint[0] and 0 <= hint[1] < seg_c.shape[1]:
+        reach = radius[first] + margin
+        if _piece_within(cvx, cvy, x, y, tau, seg_t, seg_c, seg_w, seg_b, first, hint[1],
+                         reach * reach, buf):
+            return False, 1
     for i in range(N):
         n = first if i == 0 else (i - 1 if i <= first else i)
-        _scan(cvx, cvy, x, y, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, radius[n],
-              margin, False, buf, res)
+        j = _scan(cvx, cvy, x, y, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n,
+                  radius[n], margin, False, buf, res)
         if res[0] < (radius[n] + margin) ** 2:
             hint[0] = n
+            hint[1] = j
             return False, 1
     return True, 1
 
@@ -1337,7 +1370,7 @@ def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, rad
     x, y, how many candidates were tested) — :func:`selection._bisect` compiled."""
     buf = np.empty(3)
     res = np.empty(3)
-    hint = np.zeros(1, dtype=np.int64)
+    hint = np.full(2, -1, dtype=np.int64)
     return _bisect_disc(bad[0], bad[1], good[0], good[1], tol, a_max, v[0], v[1], v_max,
                         seg_t, seg_c, seg_w, seg_b, radius, sweep, margin, buf, res, hint)
 
@@ -1357,7 +1390,8 @@ def _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, s
                          sweep, margin, buf, res, hint)
         count += c
         if ok:
-            hint[0] = 0
+            hint[0] = -1
+            hint[1] = -1
             gx, gy, c = _bisect_disc(x, y, px, py, tol, a_max, vx, vy, v_max, seg_t,
                                      seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
                                      hint)
@@ -1402,7 +1436,7 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
     """
     buf = np.empty(3)
     res = np.empty(3)
-    hint = np.zeros(1, dtype=np.int64)
+    hint = np.full(2, -1, dtype=np.int64)
     vx = v[0]
     vy = v[1]
     count = 0
@@ -1466,7 +1500,7 @@ def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, s
     order = np.argsort(dist, kind="mergesort")
     buf = np.empty(3)
     res = np.empty(3)
-    hint = np.zeros(1, dtype=np.int64)
+    hint = np.full(2, -1, dtype=np.int64)
     count = 0
     for o in range(K):
         k = order[o]
@@ -1489,7 +1523,7 @@ def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w
     P = unit.shape[1]
     buf = np.empty(3)
     res = np.empty(3)
-    hint = np.zeros(1, dtype=np.int64)
+    hint = np.full(2, -1, dtype=np.int64)
     cand = np.empty((P, 2))
     count = 0
     for i in range(radii.shape[0]):
@@ -1531,7 +1565,7 @@ def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radi
     :func:`selection._slide_towards` compiled for the limit disc."""
     buf = np.empty(3)
     res = np.empty(3)
-    hint = np.zeros(1, dtype=np.int64)
+    hint = np.full(2, -1, dtype=np.int64)
     ax = a_d[0]
     ay = a_d[1]
     bx = best[0]
@@ -1642,7 +1676,7 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
                                         margin)
     buf = np.empty(3)
     res = np.empty(3)
-    hint = np.zeros(1, dtype=np.int64)
+    hint = np.full(2, -1, dtype=np.int64)
     ok, count = _ok_disc(a_d[0], a_d[1], a_max, v[0], v[1], v_max, seg_t, c, w, b, r, sweep,
                          margin, buf, res, hint)
     if ok:
