@@ -66,6 +66,14 @@ from nao_arena.geometry import (
     sampled_path,
     select_acceleration,
 )
+from nao_arena.geometry.decide import (
+    ADJUSTED,
+    DESIRED,
+    INFEASIBLE,
+    REPAIRED,
+    UNDECIDED,
+    decide_batch,
+)
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     admissible_kernel,
@@ -73,6 +81,16 @@ from nao_arena.geometry.kernel import (
     piece_sweep,
     relevant_sampled_paths,
     sampled_admissible_batch,
+)
+from nao_arena.geometry.selection import (
+    _DISKS_PER_PIECE,
+    _DISKS_PER_SECOND,
+    _MAX_DISKS,
+    _REPAIR_STEPS,
+    _REPAIR_UNIT,
+    _SLIVER_DEPTH,
+    Selection,
+    _unit_rings,
 )
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor
@@ -242,13 +260,25 @@ class NAOAgent:
     ) -> NDArray[np.float64]:
         """The full selection (m/s^2); becomes the current acceleration. traffic: whether
         non-reactive traffic is among the neighbours (``infeasible="auto"`` then dodges)."""
-        fallback = None
+        sel = select_acceleration(desired, velocity, path, _limits(a_max), v_max=v_max,
+                                  with_clearance=False,
+                                  fallback=self._fallback(velocity, a_max, dt, traffic))
+        return self._commit(sel)
+
+    def _fallback(
+        self, velocity: NDArray[np.float64], a_max: float, dt: float, traffic: bool
+    ) -> NDArray[np.float64] | None:
+        """The acceleration (m/s^2) taken when nothing is admissible: braking towards
+        standing still within one step dt (s), or None: the one that postpones contact
+        longest (see ``infeasible``)."""
         if self.infeasible == "brake" or (self.infeasible == "auto" and not traffic):
             speed = float(np.hypot(*velocity))
-            fallback = (np.zeros(2) if speed == 0.0
-                        else velocity * (-min(a_max, speed / dt) / speed))
-        sel = select_acceleration(desired, velocity, path, _limits(a_max),
-                                  v_max=v_max, with_clearance=False, fallback=fallback)
+            return (np.zeros(2) if speed == 0.0
+                    else velocity * (-min(a_max, speed / dt) / speed))
+        return None
+
+    def _commit(self, sel: Selection) -> NDArray[np.float64]:
+        """A full selection becomes the current acceleration (m/s^2); its age restarts."""
         self.last_selection = sel
         self.age = 0.0
         self.current = np.asarray(sel.accel, dtype=np.float64)
@@ -361,14 +391,25 @@ class NAOAgent:
                     out[i] = exc
                 continue
             excursions = path_excursions(pred)
-            status = _keep_current(members, agents, batch, rows_a, pred, excursions, pos, vel,
-                                   rad, a_max, v_max, current, desired)
-            for i, st in zip(members, status, strict=True):
+            lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
+                     if ag0._regular_grid() else None)
+            status = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
+                                   vel, rad, v_max, current, desired, a_max)
+            decided = (_decide(members, status, agents, batch, pred, excursions, lists, pos,
+                               vel, rad, a_max, v_max, current, desired)
+                       if lists is not None else None)
+            for j, (i, st) in enumerate(zip(members, status, strict=True)):
                 ag = agents[i]
                 if st == 1:
                     out[i] = ag.current
                     continue
                 k = int(rows_a[i])
+                if decided is not None and st == 0:
+                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch,
+                                          k)
+                    if done is not None:
+                        out[i] = done
+                        continue
                 try:
                     idx = batch.neighbour_ids(k)
                     path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
@@ -436,6 +477,8 @@ def _within_reach(
     return np.minimum(radii, dist * RADIUS_CUT)
 
 
+_RINGS, _RING_POINTS = 8, 16  # select_acceleration's defaults
+_UNIT_RINGS = _unit_rings(_RINGS, _RING_POINTS)
 _LIMITS: dict[float, AccelLimits] = {}
 
 
@@ -465,7 +508,8 @@ def _overrides_nothing(cls: type) -> bool:
     return all(getattr(cls, name) is getattr(NAOAgent, name)
                for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
                             "_select", "_paths", "_relevant_paths", "_near_walls",
-                            "_regular_grid", "_holds_adjustment", "_repair"))
+                            "_regular_grid", "_holds_adjustment", "_repair", "_fallback",
+                            "_commit"))
 
 
 _NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
@@ -520,37 +564,24 @@ def _goal_seeking_batch(
     return acc
 
 
-def _keep_current(
+def _obstacle_lists(
     members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
-    rows: NDArray[np.int64], pred: NDArray[np.float64],
-    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]], pos: NDArray[np.float64],
-    vel: NDArray[np.float64], rad: NDArray[np.float64], a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
-) -> list[int]:
-    """Per member: 1 keep the current acceleration (within keep_band of the desired one and
-    admissible), 0 select anew, 2 undecided here (decide from the full path)."""
-    ag0 = agents[members[0]]
-    times = ag0.times
-    m = np.asarray(members, dtype=np.int64)
-    band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
-        [agents[i].keep_band for i in members])
-    band |= np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
-    inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
-    status = np.where(band & inside, 2, 0)
-    if not ag0._regular_grid() or not np.any(status == 2):
-        return status.tolist()
-    # the obstacles each member sees: neighbours, then the wall discs in its range
-    k_rows = rows[m]
-    nb_start = np.zeros(len(m) + 1, dtype=np.int64)
+    rows: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.int64], NDArray[np.int64]]:
+    """The obstacles each member sees, as CSR lists (members' order): neighbours
+    (nb_start, nb_index: body indices), then the wall discs in its range (wall_c m,
+    wall_r m grown by the member's radius and margin, wall_start, wall_index)."""
+    nb_start = np.zeros(len(members) + 1, dtype=np.int64)
     nb_index = []
-    wall_start = np.zeros(len(m) + 1, dtype=np.int64)
+    wall_start = np.zeros(len(members) + 1, dtype=np.int64)
     wall_index = []
     wall_c_parts: list[NDArray[np.float64]] = []
     wall_r_parts: list[NDArray[np.float64]] = []
     offset = 0
     seen: dict[float, int] = {}
     for j, i in enumerate(members):
-        idx = batch.neighbour_ids(int(k_rows[j]))
+        idx = batch.neighbour_ids(int(rows[i]))
         nb_index.append(idx)
         nb_start[j + 1] = nb_start[j] + len(idx)
         near_idx = np.zeros(0, dtype=np.int64)
@@ -569,13 +600,39 @@ def _keep_current(
         wall_start[j + 1] = wall_start[j] + len(near_idx)
     wall_c = np.concatenate(wall_c_parts) if wall_c_parts else np.zeros((0, 2))
     wall_r = np.concatenate(wall_r_parts) if wall_r_parts else np.zeros(0)
+    return (nb_start, np.concatenate(nb_index).astype(np.int64), np.ascontiguousarray(wall_c),
+            np.ascontiguousarray(wall_r), wall_start,
+            np.concatenate(wall_index).astype(np.int64))
+
+
+def _keep_current(
+    members: list[int], agents: Sequence[NAOAgent], pred: NDArray[np.float64],
+    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    lists: tuple[NDArray[Any], ...] | None, nb_radius: NDArray[np.float64],
+    pos: NDArray[np.float64], vel: NDArray[np.float64], rad: NDArray[np.float64],
+    v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+) -> list[int]:
+    """Per member: 1 keep the current acceleration (within keep_band of the desired one and
+    admissible), 0 select anew, 2 undecided here (decide from the full path).
+    lists: :func:`_obstacle_lists` (None: an irregular time grid, nothing decided here)."""
+    ag0 = agents[members[0]]
+    times = ag0.times
+    m = np.asarray(members, dtype=np.int64)
+    band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
+        [agents[i].keep_band for i in members])
+    band |= np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
+    inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
+    status = np.where(band & inside, 2, 0)
+    if lists is None or not np.any(status == 2):
+        return status.tolist()
+    nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
     todo = np.flatnonzero(status == 2)
     res = np.zeros(len(m), dtype=np.int64)
     sampled_admissible_batch(
-        np.ascontiguousarray(times, dtype=np.float64), pred, nb_start,
-        np.concatenate(nb_index).astype(np.int64), np.ascontiguousarray(batch.radii),
-        np.ascontiguousarray(wall_c), np.ascontiguousarray(wall_r), wall_start,
-        np.concatenate(wall_index).astype(np.int64), todo, np.ascontiguousarray(pos[m]),
+        np.ascontiguousarray(times, dtype=np.float64), pred, nb_start, nb_index,
+        np.ascontiguousarray(nb_radius), wall_c, wall_r, wall_start,
+        wall_index, todo, np.ascontiguousarray(pos[m]),
         np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
         np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]),
         np.array([agents[i].margin for i in members]), excursions[0], excursions[1], res,
@@ -585,6 +642,80 @@ def _keep_current(
                                                    (0 if res[j] == 0 else 2))
             for j in range(len(m))]
 
+
+
+def _decide(
+    members: list[int], status: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
+    pred: NDArray[np.float64], excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    lists: tuple[NDArray[Any], ...], pos: NDArray[np.float64], vel: NDArray[np.float64],
+    rad: NDArray[np.float64], a_max: NDArray[np.float64], v_max: NDArray[np.float64],
+    current: NDArray[np.float64], desired: NDArray[np.float64],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
+    """The repairs and selections of the members with status 0, in one compiled call
+    (:func:`~nao_arena.geometry.decide.decide_batch`): (kind, accel m/s^2, tested) per
+    member, or None when there are none."""
+    todo = np.array([j for j, st in enumerate(status) if st == 0], dtype=np.int64)
+    if len(todo) == 0:
+        return None
+    m = np.asarray(members, dtype=np.int64)
+    n = len(m)
+    ag0 = agents[members[0]]
+    nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
+    am = np.ascontiguousarray(a_max[m])
+    kind = np.full(n, UNDECIDED, dtype=np.int64)
+    accel = np.zeros((n, 2))
+    tested = np.zeros(n, dtype=np.int64)
+    decide_batch(
+        np.ascontiguousarray(ag0.times, dtype=np.float64), pred, excursions[0], excursions[1],
+        nb_start, nb_index, np.ascontiguousarray(batch.radii), wall_c, wall_r, wall_start,
+        wall_index, todo, np.ascontiguousarray(pos[m]), np.ascontiguousarray(vel[m]),
+        np.array([float(rad[i]) + agents[i].margin for i in members]), am,
+        np.ascontiguousarray(v_max[m]),
+        np.array([agents[i]._holds_adjustment() for i in members], dtype=bool),
+        np.ascontiguousarray(current[m]), np.ascontiguousarray(desired[m]),
+        np.array([_ring_radii(float(a)) for a in am]).reshape(n, -1), _UNIT_RINGS,
+        _REPAIR_STEPS, _REPAIR_UNIT, _MAX_DISKS, _DISKS_PER_PIECE, _DISKS_PER_SECOND,
+        _SLIVER_DEPTH, kind, accel, tested)
+    return kind, accel, tested
+
+
+def _take_decision(
+    ag: NAOAgent, decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]],
+    j: int, velocity: NDArray[np.float64], a_max: float, batch: SensingBatch, k: int,
+) -> NDArray[np.float64] | None:
+    """Apply member j's outcome of :func:`_decide` to its agent, as :meth:`NAOAgent._repair`
+    and :meth:`NAOAgent._select` would: the acceleration (m/s^2), or None when it is left
+    to the per-robot path (undecided, or no admissible acceleration and no braking)."""
+    kind, accel, tested = decided
+    kd = int(kind[j])
+    if kd == REPAIRED:
+        ag.current = accel[j].copy()
+        return ag.current
+    if kd == DESIRED or kd == ADJUSTED:
+        return ag._commit(Selection(accel[j].copy(), "desired" if kd == DESIRED else "adjusted",
+                                    None, math.inf, int(tested[j])))
+    if kd == INFEASIBLE:
+        traffic = bool(np.any(batch.kinds[batch.neighbour_ids(k)] == "traffic"))
+        fallback = ag._fallback(velocity, a_max, batch.dt, traffic)
+        if fallback is not None:
+            return ag._commit(Selection(_limits(a_max).project(fallback), "infeasible", None,
+                                        math.inf, int(tested[j])))
+    return None
+
+
+_RADII: dict[float, NDArray[np.float64]] = {}
+
+
+def _ring_radii(a_max: float) -> NDArray[np.float64]:
+    """The fallback ring radii (m/s^2) :func:`select_acceleration` uses for a_max (its
+    defaults: 8 rings), memoised."""
+    radii = _RADII.get(a_max)
+    if radii is None:
+        if len(_RADII) > 256:
+            _RADII.clear()
+        span = 2.0 * max(a_max, 1e-12)
+        radii = _RADII[a_max] = span * 0.5 ** np.arange(_RINGS - 1, -1, -1)
+    return radii
 
 class AOAgent(NAOAgent):
     """The same selection with constant-acceleration predictions (the AO); it takes

@@ -21,6 +21,14 @@ from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry.clearance import sampled_path
+from nao_arena.geometry.decide import (
+    ADJUSTED,
+    DESIRED,
+    INFEASIBLE,
+    REPAIRED,
+    UNDECIDED,
+    decide_batch,
+)
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     _drop_contained,
@@ -589,8 +597,10 @@ class _PerRobotAO(AOAgent):
 
 
 def _trajectory(map_name: str, episode: int, steps: int, per_robot: bool,
-                agent: str | None = None, **params):
-    arena = Arena(load_map(map_name, **params), ArenaOptions(agent=agent) if agent else None)
+                agent: str | None = None, agent_options: dict | None = None, **params):
+    arena = Arena(load_map(map_name, **params),
+                  ArenaOptions(agent=agent, agent_options=agent_options or {})
+                  if agent else None)
     arena.reset(episode)
     if per_robot:
         for ag in arena.agents:
@@ -612,6 +622,9 @@ def _trajectory(map_name: str, episode: int, steps: int, per_robot: bool,
         ("roundabout", None, {"seed": 2}),
         ("roundabout", None, {"seed": 4, "predictor": "known_path"}),
         ("crossing", "ao", {"seed": 1}),
+        # nothing admissible and no braking: the per-robot path decides
+        ("circle_swap", "nao", {"n": 12, "radius": 6.0, "lo": -10.0, "hi": 10.0,
+                                "agent_options": {"infeasible": "latest_contact"}}),
     ],
 )
 def test_act_batch_reproduces_per_robot_act(map_name, agent, params):
@@ -908,3 +921,30 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
             ok, tested = _ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, p.t, p.c, p.w,
                                   p.b, p.radius, t.sweep, 0.0, buf, res, hint)
             assert ok == want and tested == 1
+
+
+def test_decide_batch_leaves_non_finite_robots_to_the_caller():
+    (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
+     margin) = _batch_scene(2)
+    n = len(nb_all)
+    vel = nb_all.velocities.copy()
+    vel[0, 1] = np.nan
+    pred = pred.copy()
+    bad_body = index[start[1]] if start[2] > start[1] else None
+    if bad_body is not None:
+        pred[bad_body, 3, 0] = np.inf
+    kind = np.full(n, 99, dtype=np.int64)
+    a_max = np.full(n, 2.0)
+    decide_batch(times, pred, *path_excursions(pred), start, index, nb_all.radii, wall_c,
+                 wall_r, wall_start, wall_index, np.arange(n), nb_all.positions, vel,
+                 nb_all.radii + margin, a_max, v_max, np.ones(n, dtype=bool), acc,
+                 np.zeros((n, 2)), np.tile(4.0 * 0.5 ** np.arange(7, -1, -1), (n, 1)),
+                 selection._unit_rings(8, 16), selection._REPAIR_STEPS,
+                 selection._REPAIR_UNIT, 96, 2, 16.0, 0.01, kind, np.zeros((n, 2)),
+                 np.zeros(n, dtype=np.int64))
+    assert kind[0] == UNDECIDED
+    if bad_body is not None:
+        assert kind[1] == UNDECIDED
+    others = [k for k in range(n) if not np.any(np.isin(index[start[k]:start[k + 1]],
+                                                        [bad_body]))]
+    assert all(kind[k] in (REPAIRED, DESIRED, ADJUSTED, INFEASIBLE) for k in others if k)

@@ -1,0 +1,112 @@
+"""Many robots' re-selections in one compiled call.
+
+:func:`decide_batch` is what the ``nao`` agent does, robot by robot, for the
+robots whose current acceleration it cannot keep: build the obstacle paths it
+needs (:func:`~nao_arena.geometry.kernel.relevant_sampled_paths`), repair a
+young adjustment locally (:func:`~nao_arena.geometry.selection.repair_acceleration`)
+and otherwise select in full
+(:func:`~nao_arena.geometry.selection.select_acceleration`, limit disc,
+no clearance), with the same floating-point operations, so the results are the
+same; what it cannot decide (non-finite input, nothing admissible) it leaves
+to the caller, which has the fallbacks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from nao_arena.geometry.kernel import relevant_sampled_paths, repair_disc, select_disc
+
+# outcome codes of decide_batch
+UNDECIDED = -1  # non-finite input or paths: the caller decides (and reports)
+REPAIRED = 1  # a nearby admissible acceleration (the adjustment keeps its age)
+DESIRED = 2  # the desired acceleration is admissible
+ADJUSTED = 3  # the admissible acceleration nearest the desired one
+INFEASIBLE = 4  # nothing admissible found: the caller's fallback
+
+
+@njit(cache=True)
+def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_radius, wall_c,
+                 wall_r, wall_start, wall_index, rows, pos, vel, grow, a_max, v_max, repair,
+                 current, desired, ring_radii, unit_rings, repair_steps, repair_unit,
+                 max_disks, n_sub, per_second, sliver_depth, kind, accel, tested):
+    """Re-select for the robots ``rows`` (indices into the per-robot arrays).
+
+    Robot k sees the bodies nb_index[nb_start[k]:nb_start[k + 1]] (world-frame
+    centres pred[body] (T, 2) m at ``times`` s, radii nb_radius[body] + grow[k] m)
+    and the static discs wall_index[wall_start[k]:wall_start[k + 1]] of wall_c (m,
+    world frame, radii wall_r m, already grown); position pos[k] (m), velocity
+    vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s). excursion,
+    finite_path: :func:`~nao_arena.geometry.kernel.path_excursions` of ``pred``.
+    When repair[k], the current acceleration current[k] is first repaired towards
+    desired[k] (m/s^2). Selection parameters: ring_radii[k] (m/s^2), unit_rings,
+    max_disks, n_sub, per_second, sliver_depth (fraction of a_max), as
+    :func:`~nao_arena.geometry.selection.select_acceleration` passes them.
+
+    Writes kind[k] (the codes above), accel[k] (m/s^2, for REPAIRED, DESIRED,
+    ADJUSTED) and tested[k] (candidates tested by the selection).
+    """
+    for k in rows:
+        vx = vel[k, 0]
+        vy = vel[k, 1]
+        if not (math.isfinite(vx) and math.isfinite(vy)):
+            kind[k] = UNDECIDED
+            continue
+        px = pos[k, 0]
+        py = pos[k, 1]
+        n_w = wall_start[k + 1] - wall_start[k]
+        wall_rel = np.empty((n_w, 2))
+        wall_rr = np.empty(n_w)
+        for i in range(n_w):
+            d = wall_index[wall_start[k] + i]
+            wall_rel[i, 0] = wall_c[d, 0] - px
+            wall_rel[i, 1] = wall_c[d, 1] - py
+            wall_rr[i] = wall_r[d]
+        c, w, b, rad, finite = relevant_sampled_paths(
+            times, pred, nb_index[nb_start[k]:nb_start[k + 1]], pos[k], nb_radius, grow[k],
+            wall_rel, wall_rr, vel[k], a_max[k] * (1.0 + 1e-9), v_max[k], excursion,
+            finite_path)
+        if not finite:
+            kind[k] = UNDECIDED
+            continue
+        if repair[k]:
+            prev = current[k]
+            want = desired[k]
+            if (math.isfinite(prev[0]) and math.isfinite(prev[1]) and math.isfinite(want[0])
+                    and math.isfinite(want[1])):
+                found, x, y, _ = repair_disc(prev, want, a_max[k], repair_steps, repair_unit,
+                                             vel[k], v_max[k], times, c, w, b, rad)
+                if found:
+                    kind[k] = REPAIRED
+                    accel[k, 0] = x
+                    accel[k, 1] = y
+                    continue
+        # select_acceleration: the desired acceleration projected onto the limit disc
+        dx = desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0
+        dy = desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0
+        norm = math.hypot(dx, dy)
+        if norm > a_max[k]:
+            scale = a_max[k] / max(norm, 1e-300)
+            dx = dx * scale
+            dy = dy * scale
+        a_d = np.empty(2)
+        a_d[0] = dx
+        a_d[1] = dy
+        tol = max(1e-3, 1e-9 * max(a_max[k], 1.0))
+        status, x, y, count = select_disc(
+            a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, 0.0, tol, ring_radii[k],
+            unit_rings, max_disks, n_sub, per_second, sliver_depth * a_max[k])
+        tested[k] = count
+        if status == 0:
+            kind[k] = DESIRED
+            accel[k, 0] = dx
+            accel[k, 1] = dy
+        elif status == 1:
+            kind[k] = ADJUSTED
+            accel[k, 0] = x
+            accel[k, 1] = y
+        else:
+            kind[k] = INFEASIBLE
