@@ -1651,16 +1651,10 @@ def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
     """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
     whether the disks cover the whole ball). ``covered``: see
     :func:`nearest_outside_disks`."""
-    cands = nearest_outside_disks(a_d, disks, a_max, 1, reach, covered)
+    cands = nearest_outside_disks(a_d, disks, a_max, 8, reach, covered)
     found, x, y, count, beyond = try_candidates_disc(
         cands, 0, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
         margin, disks)
-    if not found and not beyond and cands.shape[0] == 1:
-        cands = nearest_outside_disks(a_d, disks, a_max, 8, reach, covered)
-        found, x, y, c, beyond = try_candidates_disc(
-            cands, 1, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-            sweep, margin, disks)
-        count += c
     return found, x, y, count, cands.shape[0] == 0
 
 
