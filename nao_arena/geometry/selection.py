@@ -616,29 +616,17 @@ def _try_ball(
     (or pushed out of a sliver and bisected back onto the boundary), or None."""
     p = tester.path
     a_max = tester.limits.a_max
-    # the nearest candidate alone first (usually confirmed: a much cheaper search, the
-    # same first row), then the others in order if it fails
+    # the nearest 8 candidates, tried in order
+    cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)
     if tester.limits.box_lo is None:
         # the loop below, compiled
-        cands = nearest_outside_disks(a_d, disks, a_max, 1, reach)
-        found, x, y, count, beyond = try_candidates_disc(
+        found, x, y, count, _ = try_candidates_disc(
             cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
             p.radius, tester.sweep, tester.margin, disks)
         tester.count += count
-        if not found and not beyond and len(cands) == 1:
-            cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)
-            found, x, y, count, beyond = try_candidates_disc(
-                cands, 1, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w,
-                p.b, p.radius, tester.sweep, tester.margin, disks)
-            tester.count += count
         return np.array([x, y]) if found else None
-    cands = nearest_outside_disks(a_d, disks, a_max, 1, reach)
-    full = False
     i = 0
     while True:
-        if i == 1 and not full:
-            cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)  # row 0: the one tried
-            full = True
         if i >= len(cands):
             break
         x, y, dist = cands[i]
