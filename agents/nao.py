@@ -572,37 +572,45 @@ def _obstacle_lists(
     """The obstacles each member sees, as CSR lists (members' order): neighbours
     (nb_start, nb_index: body indices), then the wall discs in its range (wall_c m,
     wall_r m grown by the member's radius and margin, wall_start, wall_index)."""
-    nb_start = np.zeros(len(members) + 1, dtype=np.int64)
-    nb_index = []
-    wall_start = np.zeros(len(members) + 1, dtype=np.int64)
-    wall_index = []
+    m = np.asarray(members, dtype=np.int64)
+    k_rows = rows[m]
+    lo = batch.nb_start[k_rows]
+    counts = batch.nb_start[k_rows + 1] - lo
+    nb_start = np.zeros(len(m) + 1, dtype=np.int64)
+    np.cumsum(counts, out=nb_start[1:])
+    # the members' slices of the arena's lists, concatenated
+    take = np.repeat(lo - nb_start[:-1], counts) + np.arange(nb_start[-1])
+    nb_index = batch.nb_index[take].astype(np.int64)
+    wall_start = np.zeros(len(m) + 1, dtype=np.int64)
+    if not len(batch.walls):
+        return (nb_start, nb_index, np.zeros((0, 2)), np.zeros(0), wall_start,
+                np.zeros(0, dtype=np.int64))
+    # the wall discs in range, per grown radius (radius + margin) the members have
+    grow = rad[m] + np.array([agents[i].margin for i in members])
+    reach = np.array([agents[i].sensing_range for i in members])
     wall_c_parts: list[NDArray[np.float64]] = []
     wall_r_parts: list[NDArray[np.float64]] = []
+    who: list[NDArray[np.int64]] = []
+    which: list[NDArray[np.int64]] = []
     offset = 0
-    seen: dict[float, int] = {}
-    for j, i in enumerate(members):
-        idx = batch.neighbour_ids(int(rows[i]))
-        nb_index.append(idx)
-        nb_start[j + 1] = nb_start[j] + len(idx)
-        near_idx = np.zeros(0, dtype=np.int64)
-        if len(batch.walls):
-            ag = agents[i]
-            grow = float(rad[i]) + ag.margin
-            wc, wr = _wall_discs(batch.walls, batch.wall_radius, grow)
-            if grow not in seen:
-                seen[grow] = offset
-                wall_c_parts.append(wc)
-                wall_r_parts.append(wr)
-                offset += len(wc)
-            near = np.hypot(*(wc - pos[i]).T) <= ag.sensing_range + wr
-            near_idx = seen[grow] + np.flatnonzero(near)
-        wall_index.append(near_idx)
-        wall_start[j + 1] = wall_start[j] + len(near_idx)
-    wall_c = np.concatenate(wall_c_parts) if wall_c_parts else np.zeros((0, 2))
-    wall_r = np.concatenate(wall_r_parts) if wall_r_parts else np.zeros(0)
-    return (nb_start, np.concatenate(nb_index).astype(np.int64), np.ascontiguousarray(wall_c),
-            np.ascontiguousarray(wall_r), wall_start,
-            np.concatenate(wall_index).astype(np.int64))
+    for g in dict.fromkeys(grow.tolist()):
+        wc, wr = _wall_discs(batch.walls, batch.wall_radius, g)
+        sel = np.flatnonzero(grow == g)
+        p = pos[m[sel]]
+        near = np.hypot(wc[None, :, 0] - p[:, 0, None], wc[None, :, 1] - p[:, 1, None]) <= (
+            reach[sel, None] + wr[None, :])
+        r_i, w_i = np.nonzero(near)
+        who.append(sel[r_i])
+        which.append(offset + w_i)
+        wall_c_parts.append(wc)
+        wall_r_parts.append(wr)
+        offset += len(wc)
+    member = np.concatenate(who)
+    order = np.argsort(member, kind="stable")
+    np.cumsum(np.bincount(member, minlength=len(m)), out=wall_start[1:])
+    return (nb_start, nb_index, np.ascontiguousarray(np.concatenate(wall_c_parts)),
+            np.ascontiguousarray(np.concatenate(wall_r_parts)), wall_start,
+            np.concatenate(which)[order].astype(np.int64))
 
 
 def _keep_current(
