@@ -11,9 +11,11 @@ directly; :meth:`SensingBatch.observation` gives one robot's
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 __all__ = ["Neighbours", "Observation", "SensingBatch", "neighbour_lists", "neighbours_in_range"]
@@ -105,23 +107,44 @@ def neighbour_lists(
     Returns CSR arrays (start (B + 1,), index (E,)): the neighbours of
     bodies[k] are index[start[k]:start[k + 1]], nearest first, ties by index.
     """
-    bodies = np.asarray(bodies, dtype=np.int64)
+    bodies = np.ascontiguousarray(bodies, dtype=np.int64)
     b = len(bodies)
     if b == 0 or len(positions) == 0:
         return np.zeros(b + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    d = np.hypot(
-        positions[None, :, 0] - positions[bodies, 0][:, None],
-        positions[None, :, 1] - positions[bodies, 1][:, None],
-    )
-    d[np.arange(b), bodies] = np.inf
-    order = np.argsort(d, axis=1, kind="stable")  # by distance, ties by index
-    counts = np.count_nonzero(d <= sensing_range, axis=1)
-    if max_neighbours is not None:
-        counts = np.minimum(counts, max_neighbours)
+    return _neighbour_lists(bodies, np.ascontiguousarray(positions, dtype=np.float64),
+                            float(sensing_range),
+                            -1 if max_neighbours is None else int(max_neighbours))
+
+
+@njit(cache=True)
+def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
+    """:func:`neighbour_lists` compiled: per body the others within range (the body
+    itself counts at distance inf), by distance (a stable sort: ties by index), the
+    first max_neighbours (-1: all)."""
+    b = bodies.shape[0]
+    n = positions.shape[0]
     start = np.zeros(b + 1, dtype=np.int64)
-    np.cumsum(counts, out=start[1:])
-    take = np.arange(d.shape[1])[None, :] < counts[:, None]
-    return start, order[take].astype(np.int64)
+    index = np.empty(b * n, dtype=np.int64)
+    d = np.empty(n)
+    cand = np.empty(n, dtype=np.int64)
+    for k in range(b):
+        me = bodies[k]
+        mx = positions[me, 0]
+        my = positions[me, 1]
+        m = 0
+        for j in range(n):
+            dj = math.inf if j == me else math.hypot(positions[j, 0] - mx, positions[j, 1] - my)
+            if dj <= sensing_range:
+                d[m] = dj
+                cand[m] = j
+                m += 1
+        order = np.argsort(d[:m], kind="mergesort")
+        if 0 <= max_neighbours < m:
+            m = max_neighbours
+        for i in range(m):
+            index[start[k] + i] = cand[order[i]]
+        start[k + 1] = start[k] + m
+    return start, index[:start[b]].copy()
 
 
 @dataclass
