@@ -66,14 +66,7 @@ from nao_arena.geometry import (
     sampled_path,
     select_acceleration,
 )
-from nao_arena.geometry.decide import (
-    ADJUSTED,
-    DESIRED,
-    INFEASIBLE,
-    REPAIRED,
-    UNDECIDED,
-    decide_batch,
-)
+from nao_arena.geometry.decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     admissible_kernel,
@@ -82,16 +75,7 @@ from nao_arena.geometry.kernel import (
     relevant_sampled_paths,
     sampled_admissible_batch,
 )
-from nao_arena.geometry.selection import (
-    _DISKS_PER_PIECE,
-    _DISKS_PER_SECOND,
-    _MAX_DISKS,
-    _REPAIR_STEPS,
-    _REPAIR_UNIT,
-    _SLIVER_DEPTH,
-    Selection,
-    _unit_rings,
-)
+from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
@@ -404,13 +388,13 @@ class NAOAgent:
                     out[i] = ag.current
                     continue
                 k = int(rows_a[i])
-                if decided is not None and st == 0:
-                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch,
-                                          k)
-                    if done is not None:
-                        out[i] = done
-                        continue
                 try:
+                    if decided is not None and st == 0:
+                        done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch,
+                                              k)
+                        if done is not None:
+                            out[i] = done
+                            continue
                     idx = batch.neighbour_ids(k)
                     path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
                                               float(rad[i]),
@@ -477,8 +461,6 @@ def _within_reach(
     return np.minimum(radii, dist * RADIUS_CUT)
 
 
-_RINGS, _RING_POINTS = 8, 16  # select_acceleration's defaults
-_UNIT_RINGS = _unit_rings(_RINGS, _RING_POINTS)
 _LIMITS: dict[float, AccelLimits] = {}
 
 
@@ -660,31 +642,17 @@ def _decide(
     current: NDArray[np.float64], desired: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
     """The repairs and selections of the members with status 0, in one compiled call
-    (:func:`~nao_arena.geometry.decide.decide_batch`): (kind, accel m/s^2, tested) per
+    (:func:`~nao_arena.geometry.decide.decide`): (kind, accel m/s^2, tested) per
     member, or None when there are none."""
     todo = np.array([j for j, st in enumerate(status) if st == 0], dtype=np.int64)
     if len(todo) == 0:
         return None
     m = np.asarray(members, dtype=np.int64)
-    n = len(m)
-    ag0 = agents[members[0]]
-    nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
-    am = np.ascontiguousarray(a_max[m])
-    kind = np.full(n, UNDECIDED, dtype=np.int64)
-    accel = np.zeros((n, 2))
-    tested = np.zeros(n, dtype=np.int64)
-    decide_batch(
-        np.ascontiguousarray(ag0.times, dtype=np.float64), pred, excursions[0], excursions[1],
-        nb_start, nb_index, np.ascontiguousarray(batch.radii), wall_c, wall_r, wall_start,
-        wall_index, todo, np.ascontiguousarray(pos[m]), np.ascontiguousarray(vel[m]),
-        np.array([float(rad[i]) + agents[i].margin for i in members]), am,
-        np.ascontiguousarray(v_max[m]),
-        np.array([agents[i]._holds_adjustment() for i in members], dtype=bool),
-        np.ascontiguousarray(current[m]), np.ascontiguousarray(desired[m]),
-        np.array([_ring_radii(float(a)) for a in am]).reshape(n, -1), _UNIT_RINGS,
-        _REPAIR_STEPS, _REPAIR_UNIT, _MAX_DISKS, _DISKS_PER_PIECE, _DISKS_PER_SECOND,
-        _SLIVER_DEPTH, kind, accel, tested)
-    return kind, accel, tested
+    return decide(
+        agents[members[0]].times, pred, excursions, lists, batch.radii, todo, pos[m], vel[m],
+        np.array([float(rad[i]) + agents[i].margin for i in members]), a_max[m], v_max[m],
+        np.array([agents[i]._holds_adjustment() for i in members], dtype=bool), current[m],
+        desired[m])
 
 
 def _take_decision(
@@ -710,20 +678,6 @@ def _take_decision(
                                         math.inf, int(tested[j])))
     return None
 
-
-_RADII: dict[float, NDArray[np.float64]] = {}
-
-
-def _ring_radii(a_max: float) -> NDArray[np.float64]:
-    """The fallback ring radii (m/s^2) :func:`select_acceleration` uses for a_max (its
-    defaults: 8 rings), memoised."""
-    radii = _RADII.get(a_max)
-    if radii is None:
-        if len(_RADII) > 256:
-            _RADII.clear()
-        span = 2.0 * max(a_max, 1e-12)
-        radii = _RADII[a_max] = span * 0.5 ** np.arange(_RINGS - 1, -1, -1)
-    return radii
 
 class AOAgent(NAOAgent):
     """The same selection with constant-acceleration predictions (the AO); it takes

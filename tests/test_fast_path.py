@@ -27,7 +27,7 @@ from nao_arena.geometry.decide import (
     INFEASIBLE,
     REPAIRED,
     UNDECIDED,
-    decide_batch,
+    decide,
 )
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
@@ -923,7 +923,7 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
             assert ok == want and tested == 1
 
 
-def test_decide_batch_leaves_non_finite_robots_to_the_caller():
+def test_decide_leaves_non_finite_robots_to_the_caller():
     (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
      margin) = _batch_scene(2)
     n = len(nb_all)
@@ -933,15 +933,10 @@ def test_decide_batch_leaves_non_finite_robots_to_the_caller():
     bad_body = index[start[1]] if start[2] > start[1] else None
     if bad_body is not None:
         pred[bad_body, 3, 0] = np.inf
-    kind = np.full(n, 99, dtype=np.int64)
-    a_max = np.full(n, 2.0)
-    decide_batch(times, pred, *path_excursions(pred), start, index, nb_all.radii, wall_c,
-                 wall_r, wall_start, wall_index, np.arange(n), nb_all.positions, vel,
-                 nb_all.radii + margin, a_max, v_max, np.ones(n, dtype=bool), acc,
-                 np.zeros((n, 2)), np.tile(4.0 * 0.5 ** np.arange(7, -1, -1), (n, 1)),
-                 selection._unit_rings(8, 16), selection._REPAIR_STEPS,
-                 selection._REPAIR_UNIT, 96, 2, 16.0, 0.01, kind, np.zeros((n, 2)),
-                 np.zeros(n, dtype=np.int64))
+    kind, _, _ = decide(times, pred, path_excursions(pred),
+                        (start, index, wall_c, wall_r, wall_start, wall_index), nb_all.radii,
+                        np.arange(n), nb_all.positions, vel, nb_all.radii + margin,
+                        np.full(n, 2.0), v_max, np.ones(n, dtype=bool), acc, np.zeros((n, 2)))
     assert kind[0] == UNDECIDED
     if bad_body is not None:
         assert kind[1] == UNDECIDED

@@ -17,8 +17,24 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
-from nao_arena.geometry.kernel import relevant_sampled_paths, repair_disc, select_disc
+from nao_arena.geometry.kernel import _onto_disc, relevant_sampled_paths, repair_disc, select_disc
+from nao_arena.geometry.selection import (
+    _DISKS_PER_PIECE,
+    _DISKS_PER_SECOND,
+    _MAX_DISKS,
+    _REPAIR_STEPS,
+    _REPAIR_UNIT,
+    _RING_POINTS,
+    _RINGS,
+    _SLIVER_DEPTH,
+    _ring_radii,
+    _unit_rings,
+)
+
+__all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "decide",
+           "decide_batch"]
 
 # outcome codes of decide_batch
 UNDECIDED = -1  # non-finite input or paths: the caller decides (and reports)
@@ -85,13 +101,8 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
                     accel[k, 1] = y
                     continue
         # select_acceleration: the desired acceleration projected onto the limit disc
-        dx = desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0
-        dy = desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0
-        norm = math.hypot(dx, dy)
-        if norm > a_max[k]:
-            scale = a_max[k] / max(norm, 1e-300)
-            dx = dx * scale
-            dy = dy * scale
+        dx, dy = _onto_disc(desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
+                            desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0, a_max[k])
         a_d = np.empty(2)
         a_d[0] = dx
         a_d[1] = dy
@@ -110,3 +121,33 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             accel[k, 1] = y
         else:
             kind[k] = INFEASIBLE
+
+
+def decide(
+    times: NDArray[np.float64], pred: NDArray[np.float64],
+    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    lists: tuple[NDArray, ...], nb_radius: NDArray[np.float64], rows: NDArray[np.int64],
+    pos: NDArray[np.float64], vel: NDArray[np.float64], grow: NDArray[np.float64],
+    a_max: NDArray[np.float64], v_max: NDArray[np.float64], repair: NDArray[np.bool_],
+    current: NDArray[np.float64], desired: NDArray[np.float64],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
+    """:func:`decide_batch` with the settings :func:`~nao_arena.geometry.select_acceleration`
+    and :func:`~nao_arena.geometry.repair_acceleration` use by default. lists: the CSR
+    obstacle lists (nb_start, nb_index, wall_c, wall_r, wall_start, wall_index); per-robot
+    arrays as in :func:`decide_batch`. Returns (kind, accel m/s^2, tested) per robot
+    (kind UNDECIDED for the robots not in ``rows``)."""
+    nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
+    n = len(a_max)
+    kind = np.full(n, UNDECIDED, dtype=np.int64)
+    accel = np.zeros((n, 2))
+    tested = np.zeros(n, dtype=np.int64)
+    radii = np.array([_ring_radii(float(a), _RINGS) for a in a_max]).reshape(n, _RINGS)
+    decide_batch(
+        np.ascontiguousarray(times, dtype=np.float64), pred, excursions[0], excursions[1],
+        nb_start, nb_index, np.ascontiguousarray(nb_radius), wall_c, wall_r, wall_start,
+        wall_index, rows, np.ascontiguousarray(pos), np.ascontiguousarray(vel),
+        np.ascontiguousarray(grow), np.ascontiguousarray(a_max), np.ascontiguousarray(v_max),
+        repair, np.ascontiguousarray(current), np.ascontiguousarray(desired), radii,
+        _unit_rings(_RINGS, _RING_POINTS), _REPAIR_STEPS, _REPAIR_UNIT, _MAX_DISKS,
+        _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH, kind, accel, tested)
+    return kind, accel, tested

@@ -414,12 +414,9 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
 
 
 @njit(cache=True, inline="always")
-def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r, nb=-1):
+def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     """Whether obstacle n (combined radius r, m) is within reach: see
-    :func:`relevant_obstacles` (v already clamped to v_max). nb: its row of seg_b (-1:
-    n)."""
-    if nb < 0:
-        nb = n
+    :func:`relevant_obstacles` (v already clamped to v_max)."""
     S = seg_c.shape[1]
     for j in range(S):
         t0 = seg_t[j]
@@ -430,7 +427,7 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r, nb=-1):
         dx = seg_c[n, j, 0] - vx * t0
         dy = seg_c[n, j, 1] - vy * t0
         rel = math.sqrt((seg_w[n, j, 0] - vx) ** 2 + (seg_w[n, j, 1] - vy) ** 2)
-        bb = math.sqrt(seg_b[nb, j, 0] ** 2 + seg_b[nb, j, 1] ** 2)
+        bb = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
         reach = r + 0.5 * a_max * t1 * t1 + rel * h + 0.5 * bb * h * h
         if dx * dx + dy * dy > reach * reach:
             continue
@@ -530,11 +527,11 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
     total = n_nb + n_w
     c = np.empty((total, S, 2))
     w = np.empty((total, S, 2))
-    b = np.zeros((1, S, 2))  # every piece has zero acceleration
+    b = np.zeros((total, S, 2))
     rad = np.empty(total)
     for i in range(n_nb):
         if not finite_path[idx[i]]:
-            return c[:0], w[:0], np.zeros((0, S, 2)), rad[:0], False
+            return c[:0], w[:0], b[:0], rad[:0], False
     vx, vy = _clamped(v, v_max)
     px = position[0]
     py = position[1]
@@ -566,9 +563,9 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
                 continue
             _static_pieces(x0, y0, times, c, w, n)
         rad[n] = r
-        if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r, 0):
+        if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
             n += 1
-    return c[:n], w[:n], np.zeros((n, S, 2)), rad[:n], True
+    return c[:n], w[:n], b[:n], rad[:n], True
 
 
 @njit(cache=True, inline="always")

@@ -264,6 +264,22 @@ def _ring(center: NDArray[np.float64], radius: float, n: int, phase: float) -> N
     return center + radius * unit
 
 
+_RINGS, _RING_POINTS = 8, 16  # the fallback rings of select_acceleration by default
+_RING_RADII: dict[tuple[float, int], NDArray[np.float64]] = {}
+
+
+def _ring_radii(a_max: float, rings: int) -> NDArray[np.float64]:
+    """Radii (m/s^2) of the fallback rings, innermost first: 2 a_max / 2^i, i = rings - 1
+    .. 0; memoised (robots share a few limits; not to be modified)."""
+    radii = _RING_RADII.get((a_max, rings))
+    if radii is None:
+        span = 2.0 * max(a_max, 1e-12)
+        radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
+        if len(_RING_RADII) < 256:
+            _RING_RADII[(a_max, rings)] = radii
+    return radii
+
+
 _RING_SETS: dict[tuple[int, int], NDArray[np.float64]] = {}
 
 
@@ -317,8 +333,8 @@ def select_acceleration(
     margin: float = 0.0,
     v_max: float = np.inf,
     tol: float = 1e-3,
-    rings: int = 8,
-    ring_points: int = 16,
+    rings: int = _RINGS,
+    ring_points: int = _RING_POINTS,
     with_clearance: bool = True,
     fallback: ArrayLike | None = None,
 ) -> Selection:
@@ -343,8 +359,7 @@ def select_acceleration(
         d_arr = np.zeros(2)
     a_d = limits.project(d_arr)
     tol = max(float(tol), 1e-9 * max(limits.a_max, 1.0))
-    span = 2.0 * max(limits.a_max, 1e-12)
-    radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
+    radii = _ring_radii(limits.a_max, rings)
     if limits.box_lo is None:
         # steps 1-3 below, compiled for the limit disc
         status, x, y, count = select_disc(
@@ -357,9 +372,8 @@ def select_acceleration(
         if status < 2 and not with_clearance:
             return Selection(found, _STATUS[status], None, math.inf, count)
         if status == 2 and fallback is not None and not with_clearance:
-            fb = np.asarray(fallback, dtype=np.float64).reshape(-1)[:2]
-            return Selection(limits.project(fb if fb.shape == (2,) else np.zeros(2)),
-                             "infeasible", None, math.inf, count)
+            return Selection(_projected_fallback(fallback, limits), "infeasible", None,
+                             math.inf, count)
     tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
 
     def done(a: NDArray[np.float64], status: str) -> Selection:
@@ -385,14 +399,19 @@ def select_acceleration(
     # 4. nothing admissible: the caller's fallback, or postpone contact as long as
     #    possible, then least penetration
     if fallback is not None:
-        fb = np.asarray(fallback, dtype=np.float64).reshape(-1)[:2]
-        return done(limits.project(fb if fb.shape == (2,) else np.zeros(2)), "infeasible")
+        return done(_projected_fallback(fallback, limits), "infeasible")
     cand = np.ascontiguousarray(np.concatenate(
         [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]))
     return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
 
 
 _STATUS = ("desired", "adjusted")
+
+
+def _projected_fallback(fallback: ArrayLike, limits: AccelLimits) -> NDArray[np.float64]:
+    """The caller's fallback acceleration (m/s^2; not a 2-vector: zero) on the limit set."""
+    fb = np.asarray(fallback, dtype=np.float64).reshape(-1)[:2]
+    return limits.project(fb if fb.shape == (2,) else np.zeros(2))
 
 
 def _search_boxed(
@@ -625,12 +644,7 @@ def _try_ball(
             p.radius, tester.sweep, tester.margin, disks)
         tester.count += count
         return np.array([x, y]) if found else None
-    i = 0
-    while True:
-        if i >= len(cands):
-            break
-        x, y, dist = cands[i]
-        i += 1
+    for x, y, dist in cands:
         if dist > reach:
             break
         point = np.array([x, y])
