@@ -19,7 +19,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.geometry.kernel import _onto_disc, relevant_sampled_paths, repair_disc, select_disc
+from nao_arena.geometry.kernel import (
+    _onto_disc,
+    piece_sweep,
+    relevant_sampled_paths,
+    repair_relevant,
+    select_relevant,
+)
 from nao_arena.geometry.selection import (
     _DISKS_PER_PIECE,
     _DISKS_PER_SECOND,
@@ -83,18 +89,22 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             wall_rr[i] = wall_r[d]
         c, w, b, rad, finite = relevant_sampled_paths(
             times, pred, nb_index[nb_start[k]:nb_start[k + 1]], pos[k], nb_radius, grow[k],
-            wall_rel, wall_rr, vel[k], a_max[k] * (1.0 + 1e-9), v_max[k], excursion,
+            wall_rel, wall_rr, vel[k], a_max[k], v_max[k], excursion,
             finite_path)
         if not finite:
             kind[k] = UNDECIDED
             continue
+        # the obstacles kept are those the selection and the repair keep (relevant for
+        # a_max, margin 0): they are used as they are
+        sweep = piece_sweep(times, w, b)
         if repair[k]:
             prev = current[k]
             want = desired[k]
             if (math.isfinite(prev[0]) and math.isfinite(prev[1]) and math.isfinite(want[0])
                     and math.isfinite(want[1])):
-                found, x, y, _ = repair_disc(prev, want, a_max[k], repair_steps, repair_unit,
-                                             vel[k], v_max[k], times, c, w, b, rad)
+                found, x, y, _ = repair_relevant(prev, want, a_max[k], repair_steps,
+                                                 repair_unit, vel[k], v_max[k], times, c, w, b,
+                                                 rad, sweep)
                 if found:
                     kind[k] = REPAIRED
                     accel[k, 0] = x
@@ -107,8 +117,8 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
         a_d[0] = dx
         a_d[1] = dy
         tol = max(1e-3, 1e-9 * max(a_max[k], 1.0))
-        status, x, y, count = select_disc(
-            a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, 0.0, tol, ring_radii[k],
+        status, x, y, count = select_relevant(
+            a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, sweep, 0.0, tol, ring_radii[k],
             unit_rings, max_disks, n_sub, per_second, sliver_depth * a_max[k])
         tested[k] = count
         if status == 0:

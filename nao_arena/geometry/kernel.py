@@ -1486,6 +1486,15 @@ def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, s
     returns (found, x, y, candidates tested)."""
     seg_c, seg_w, seg_b, radius, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w,
                                                          seg_b, radius, 0.0)
+    return repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w,
+                           seg_b, radius, sweep)
+
+
+@njit(cache=True)
+def repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                    radius, sweep):
+    """:func:`repair_disc` for obstacles that are all relevant (as :func:`relevant_subset`
+    keeps them, margin 0), with their :func:`piece_sweep`."""
     K = steps.shape[0] * unit.shape[0]
     cand = np.empty((K, 2))
     dist = np.empty(K)
@@ -1668,6 +1677,15 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
     desired, 1 adjusted, 2 nothing admissible found (the caller falls back)."""
     c, w, b, r, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius,
                                         margin)
+    return select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
+                           ring_radii, unit_rings, max_disks, n_sub, per_second, thin)
+
+
+@njit(cache=True)
+def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol, ring_radii,
+                    unit_rings, max_disks, n_sub, per_second, thin):
+    """:func:`select_disc` for obstacles that are all relevant (as :func:`relevant_subset`
+    keeps them for this margin), with their :func:`piece_sweep` ``sweep``."""
     buf = np.empty(3)
     res = np.empty(3)
     hint = np.full(2, -1, dtype=np.int64)
