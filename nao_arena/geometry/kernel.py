@@ -860,9 +860,25 @@ def _pseudo_angle(x, y):
     return 3.0 + x / s
 
 
+_WORDS = _BINS // 64
+_FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
+
+
+@njit(cache=True, inline="always")
+def _set_bins(lo, hi, cover):
+    """Set the bits of bins lo .. hi - 1 (0 <= lo < hi <= _BINS) in ``cover``."""
+    for word in range(lo // 64, (hi - 1) // 64 + 1):
+        a = max(lo - 64 * word, 0)
+        b = min(hi - 64 * word, 64)
+        if b - a == 64:
+            cover[word] = _FULL
+        else:
+            cover[word] |= ((np.uint64(1) << np.uint64(b - a)) - np.uint64(1)) << np.uint64(a)
+
+
 @njit(cache=True, inline="always")
 def _cover_bins(p0, p1, shrink, cover):
-    """Mark in the difference array ``cover`` the bins inside the ccw arc [p0, p1]
+    """Mark in the bit set ``cover`` the bins inside the ccw arc [p0, p1]
     (pseudo-angles) shrunk by ``shrink`` at both ends."""
     if p1 < p0:
         p1 += 4.0
@@ -873,22 +889,17 @@ def _cover_bins(p0, p1, shrink, cover):
     first = int(math.ceil(lo * (_BINS / 4.0)))
     last = int(math.floor(hi * (_BINS / 4.0)))  # bins first .. last - 1 lie inside
     if last - first >= _BINS:
-        cover[0] += 1
-        cover[_BINS] -= 1
+        _set_bins(0, _BINS, cover)
         return
     if last <= first:
         return
     if last <= _BINS:
-        cover[first] += 1
-        cover[last] -= 1
+        _set_bins(first, last, cover)
     elif first >= _BINS:
-        cover[first - _BINS] += 1
-        cover[last - _BINS] -= 1
+        _set_bins(first - _BINS, last - _BINS, cover)
     else:
-        cover[first] += 1
-        cover[_BINS] -= 1
-        cover[0] += 1
-        cover[last - _BINS] -= 1
+        _set_bins(first, _BINS, cover)
+        _set_bins(0, last - _BINS, cover)
 
 
 @njit(cache=True)
@@ -904,7 +915,7 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
     (leaving out can only fail to prove).
     """
     M = circ.shape[0]
-    for i in range(_BINS + 1):
+    for i in range(_WORDS):
         cover[i] = 0
     # visiting order: the limit disc, the rows next to ``skip`` (the same obstacle at
     # nearby times, which cover most), then the rest; stop as soon as all is proven
@@ -922,7 +933,7 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
             j = step - 1 - width
             if j >= lo_w:
                 j += width
-        if step == width + 1 or marked >= checked + 32:
+        if step == width + 1 or marked > checked:
             checked = marked
             if _all_binned(cover):
                 return True
@@ -979,11 +990,9 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
 
 @njit(cache=True, inline="always")
 def _all_binned(cover):
-    """Whether the difference array ``cover`` marks every bin."""
-    run = 0
-    for i in range(_BINS):
-        run += cover[i]
-        if run <= 0:
+    """Whether the bit set ``cover`` marks every bin."""
+    for i in range(_WORDS):
+        if cover[i] != _FULL:
             return False
     return True
 
@@ -995,7 +1004,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
     circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
     and, when ``in_limit``, inside the limit disc |a| <= a_max.
     Returns the new row count, or -1 when the whole circle is covered.
-    starts/ends: scratch of at least 2 len(circ) + 4 rows; cover: of _BINS + 1.
+    starts/ends: scratch of at least 2 len(circ) + 4 rows; cover: _WORDS uint64.
 
     Most circles of a crowded picture are covered entirely: a cheap proof
     (:func:`_surely_covered`) skips the exact angles for them.
@@ -1083,7 +1092,7 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
     cand = np.empty((2 * M + 8, 2))
     starts = np.empty(2 * M + 4)
     ends = np.empty(2 * M + 4)
-    cover = np.empty(_BINS + 1, dtype=np.int64)
+    cover = np.empty(_WORDS, dtype=np.uint64)
     for i in order:
         if lower[i] >= res[max_out - 1, 2]:
             break
