@@ -706,21 +706,40 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_
 def nao_disks_within(samples, reach):
     """:func:`nao_disks` for ``reach`` (m/s^2) from the samples of
     :func:`nao_disk_samples` taken with a reach at least as large."""
-    M = samples.shape[0]
-    keep = np.empty(M, dtype=np.bool_)
-    for i in range(M):
-        keep[i] = not (samples[i, 3] > samples[i, 2] + reach)
-    return _drop_contained(np.ascontiguousarray(samples[keep][:, :3]))
+    return _disks_within(samples, _radius_order(samples), reach)
+
+
+@njit(cache=True)
+def _radius_order(rows):
+    """Rows (disks or samples) largest radius first, equal radii in row order (a stable
+    sort): the visiting order of :func:`_uncontained_in`, for any subset of the rows."""
+    return np.argsort(-rows[:, 2], kind="mergesort")
+
+
+@njit(cache=True)
+def _disks_within(samples, order, reach):
+    """:func:`nao_disks_within` with the samples' :func:`_radius_order` given."""
+    keep, _ = _uncontained_in(samples, order, reach, samples.shape[0])
+    return np.ascontiguousarray(samples[keep][:, :3])
 
 
 @njit(cache=True)
 def largest_capped_reach(samples, reach, limit, max_disks):
     """Double ``reach`` (m/s^2) while below ``limit``: the last doubled reach whose
     :func:`nao_disks_within` holds at most ``max_disks`` disks, stopping at the first
-    that holds more; -1.0 when there is none. Containment is only worked out for a
-    ball whose samples alone exceed the cap."""
+    that holds more; -1.0 when there is none."""
+    return _capped_disks(samples, _radius_order(samples), reach, limit, max_disks)[0]
+
+
+@njit(cache=True)
+def _capped_disks(samples, order, reach, limit, max_disks):
+    """:func:`largest_capped_reach` and its :func:`nao_disks_within` (empty when there
+    is none), from the samples' :func:`_radius_order`. Containment is only worked out
+    for a ball whose samples alone exceed the cap (and for the chosen one)."""
     M = samples.shape[0]
     chosen = -1.0
+    chosen_keep = np.zeros(M, dtype=np.bool_)
+    known = False  # chosen_keep holds the chosen ball's disks
     while reach < limit:
         reach *= 2.0
         raw = 0
@@ -728,13 +747,19 @@ def largest_capped_reach(samples, reach, limit, max_disks):
             if not (samples[i, 3] > samples[i, 2] + reach):
                 raw += 1
         if raw > max_disks:
-            keep = np.empty(M, dtype=np.bool_)
-            for i in range(M):
-                keep[i] = not (samples[i, 3] > samples[i, 2] + reach)
-            if _uncontained(np.ascontiguousarray(samples[keep][:, :3]), max_disks)[1] > max_disks:
+            keep, n_kept = _uncontained_in(samples, order, reach, max_disks)
+            if n_kept > max_disks:
                 break
+            chosen_keep = keep  # the visit ran to the end: the whole mask
+            known = True
+        else:
+            known = False
         chosen = reach
-    return chosen
+    if chosen < 0.0:
+        return chosen, np.empty((0, 3))
+    if not known:
+        chosen_keep, _ = _uncontained_in(samples, order, chosen, M)
+    return chosen, np.ascontiguousarray(samples[chosen_keep][:, :3])
 
 
 @njit(cache=True)
@@ -745,36 +770,39 @@ def _drop_contained(disks):
     transitive, so the disks are visited largest first and each is tested
     against the disks kept so far only (few, typically), not against all M.
     """
-    keep, _ = _uncontained(disks, disks.shape[0])
+    keep, _ = _uncontained_in(disks, _radius_order(disks), math.inf, disks.shape[0])
     return disks[keep]
 
 
 @njit(cache=True)
-def _uncontained(disks, stop_after):
-    """:func:`_drop_contained`'s mask and count of kept disks; the visit stops as soon as
+def _uncontained_in(rows, order, reach, stop_after):
+    """:func:`_drop_contained`'s mask (over ``rows``) and count of kept disks, among the
+    rows: disks (M, 3), or samples (M, 4) of which only those within ``reach`` (m/s^2)
+    take part; visited in ``order`` (:func:`_radius_order`). The visit stops as soon as
     more than ``stop_after`` are kept (the mask is then partial)."""
-    M = disks.shape[0]
+    M = rows.shape[0]
+    sampled = rows.shape[1] > 3
     keep = np.zeros(M, dtype=np.bool_)
-    # largest radius first; equal radii in index order (a stable sort)
-    order = np.argsort(-disks[:, 2], kind="mergesort")
     kept = np.empty(M, dtype=np.int64)
     n_kept = 0
     for oi in range(M):
         i = order[oi]
-        xi = disks[i, 0]
-        yi = disks[i, 1]
-        ri = disks[i, 2]
+        if sampled and rows[i, 3] > rows[i, 2] + reach:
+            continue
+        xi = rows[i, 0]
+        yi = rows[i, 1]
+        ri = rows[i, 2]
         inside = False
         for kk in range(n_kept):
             j = kept[kk]
-            rj = disks[j, 2]
-            dx = disks[j, 0] - xi
-            dy = disks[j, 1] - yi
+            rj = rows[j, 2]
+            dx = rows[j, 0] - xi
+            dy = rows[j, 1] - yi
             lim = rj - ri + 1e-9 * rj
             # cheap reject: clearly further apart than rj - ri (the exact test would fail)
             if rj < ri or dx * dx + dy * dy > lim * lim:
                 continue
-            d = math.hypot(xi - disks[j, 0], yi - disks[j, 1])
+            d = math.hypot(xi - rows[j, 0], yi - rows[j, 1])
             if d + ri <= rj and (d + ri < rj or j < i):
                 inside = True
                 break
@@ -1709,8 +1737,9 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
         last *= 2.0
     samples = nao_disk_samples(v, seg_t, c, w, b, r, margin, n_sub, a_d, last, a_max,
                                per_second, thin)
+    order = _radius_order(samples)
     # 1. the disk search in a small ball, then in the largest within the cap
-    disks = nao_disks_within(samples, reach)
+    disks = _disks_within(samples, order, reach)
     covered = 0.0  # the disks are known to cover the ball of this radius around a_d
     if disks.shape[0] <= max_disks:
         found, x, y, k, empty = _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t,
@@ -1721,11 +1750,11 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
         if empty:
             covered = reach
         if reach < limit:
-            chosen = largest_capped_reach(samples, reach, limit, max_disks)
+            chosen, big = _capped_disks(samples, order, reach, limit, max_disks)
             if chosen >= 0.0:
                 found, x, y, k, empty = _try_ball_disc(
-                    a_d, nao_disks_within(samples, chosen), chosen, tol, a_max, v, v_max,
-                    seg_t, c, w, b, r, sweep, margin, covered)
+                    a_d, big, chosen, tol, a_max, v, v_max, seg_t, c, w, b, r, sweep, margin,
+                    covered)
                 count += k
                 if found:
                     return 1, x, y, count
@@ -1738,7 +1767,7 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
     if found:
         return 1, x, y, count
     # 3. the disk search without a cap, in the largest ball
-    found, x, y, k, _ = _try_ball_disc(a_d, nao_disks_within(samples, last), last, tol, a_max,
+    found, x, y, k, _ = _try_ball_disc(a_d, _disks_within(samples, order, last), last, tol, a_max,
                                        v, v_max, seg_t, c, w, b, r, sweep, margin, covered)
     count += k
     if found:
