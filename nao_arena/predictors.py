@@ -107,20 +107,35 @@ def _turn_rate(times: NDArray[np.float64], nb: Neighbours, compiled: bool) -> ND
 def _arcs(positions, speed, omega, a_t, heading, mid, fine, n_times):
     """Midpoint-rule arcs: positions (n, 2) m, speed (m/s), omega (rad/s), a_t (m/s^2),
     heading (rad) per row; fine-grid midpoints ``mid`` and steps ``fine`` (s), 8 per
-    sample. Returns the centres at every 8th fine step, (n, n_times, 2) m."""
+    sample (equal within a sample). Returns the centres at every 8th fine step,
+    (n, n_times, 2) m. The heading's cosine and sine are evaluated at the first
+    midpoint of each sample and turned by omega * fine step (a rotation) for the
+    other seven."""
     n = positions.shape[0]
     out = np.empty((n, n_times, 2))
     for i in range(n):
         sx = 0.0
         sy = 0.0
         j = 0
+        c = 1.0
+        s = 0.0
+        rc = 1.0
+        rs = 0.0
         for m in range(mid.shape[0]):
-            th = heading[i] + omega[i] * mid[m]
+            if m % 8 == 0:
+                th = heading[i] + omega[i] * mid[m]
+                c = math.cos(th)
+                s = math.sin(th)
+                turn = omega[i] * fine[m]
+                rc = math.cos(turn)
+                rs = math.sin(turn)
+            else:
+                c, s = c * rc - s * rs, s * rc + c * rs
             sp = speed[i] + a_t[i] * mid[m]
             if sp < 0.0:
                 sp = 0.0
-            sx = sx + sp * math.cos(th) * fine[m]
-            sy = sy + sp * math.sin(th) * fine[m]
+            sx = sx + sp * c * fine[m]
+            sy = sy + sp * s * fine[m]
             if m % 8 == 7:
                 if j < n_times:
                     out[i, j, 0] = positions[i, 0] + sx
