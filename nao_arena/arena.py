@@ -129,6 +129,7 @@ class Arena:
         self.state: WorldState | None = None
         self.commanded = np.zeros((self.world.n, 2))
         self._kinds: NDArray[np.str_] | None = None
+        self._plan: tuple[list[type], dict[type, list[int]], list[int]] | None = None
 
     # ------------------------------------------------------------------ episode
 
@@ -217,25 +218,24 @@ class Arena:
         actions = actions or {}
         batch = self.sensing()
         found: dict[int, AgentFault] = {}
-        batched: dict[type, list[int]] = {}
-        for k in range(len(self.robot_ids)):
-            body = self.robot_ids[k]
-            if k in actions:
-                commanded[body] = actions[k]
-                continue
-            if callable(getattr(type(self.agents[k]), "act_batch", None)):
-                # agents of one class that act on the bulk arrays all at once
-                batched.setdefault(type(self.agents[k]), []).append(k)
-                continue
+        batched, single = self._dispatch()
+        for k, acc in actions.items():
+            commanded[self.robot_ids[k]] = acc
+        if actions:
+            single = [k for k in single if k not in actions]
+            batched = {cls: [k for k in rows if k not in actions]
+                       for cls, rows in batched.items()}
+        for k in single:
             acc, fault = safe_act(self.agents[k], batch.observation(k), self.agent_names[k])
-            commanded[body] = acc
+            commanded[self.robot_ids[k]] = acc
             if fault is not None:
                 found[k] = fault
         for cls, rows in batched.items():
-            for k, (acc, fault) in zip(rows, self._act_batch(cls, batch, rows), strict=True):
-                commanded[self.robot_ids[k]] = acc
-                if fault is not None:
-                    found[k] = fault
+            if not rows:
+                continue
+            accs, faults_of = self._act_batch(cls, batch, rows)
+            commanded[self.robot_ids[rows]] = accs
+            found.update(faults_of)
         for k in sorted(found):
             fault = found[k]
             faults.append(fault)
@@ -254,12 +254,30 @@ class Arena:
         )
         return StepResult(new_state.time, new_state, commanded, contacts, faults)
 
+    def _dispatch(self) -> tuple[dict[type, list[int]], list[int]]:
+        """Robots whose agents act together (per class with an ``act_batch``, robot
+        order) and the others; worked out again only when the agents change."""
+        key = [type(a) for a in self.agents]
+        if self._plan is None or self._plan[0] != key:
+            batched: dict[type, list[int]] = {}
+            single: list[int] = []
+            for k, cls in enumerate(key):
+                if callable(getattr(cls, "act_batch", None)):
+                    # agents of one class that act on the bulk arrays all at once
+                    batched.setdefault(cls, []).append(k)
+                else:
+                    single.append(k)
+            self._plan = (key, batched, single)
+        return self._plan[1], self._plan[2]
+
     def _act_batch(
         self, cls: type, batch: SensingBatch, rows: list[int]
-    ) -> list[tuple[NDArray[np.float64], AgentFault | None]]:
+    ) -> tuple[NDArray[np.float64], dict[int, AgentFault]]:
         """``cls.act_batch(agents, batch, rows)`` checked like :func:`safe_act`: each
         result must be a finite (2,) acceleration (an exception instance is that
-        agent's failure); a failing call fails every agent of the group."""
+        agent's failure; it gets zero acceleration); a failing call fails every agent
+        of the group. Returns the accelerations (len(rows), 2) m/s^2 and the faults
+        by robot."""
         agents = [self.agents[k] for k in rows]
         try:
             results = list(cls.act_batch(agents, batch, rows))
@@ -269,29 +287,34 @@ class Arena:
                 )
         except Exception as exc:  # noqa: BLE001 - any agent failure is contained
             results = [exc] * len(rows)
-        out = []
-        for k, res in zip(rows, results, strict=True):
+        if all(type(r) is np.ndarray and r.shape == (2,) and r.dtype == np.float64
+               for r in results):
+            # the common case, checked at once
+            accs = np.array(results)
+            if np.all(np.isfinite(accs)):
+                return accs, {}
+        accs = np.zeros((len(rows), 2))
+        faults: dict[int, AgentFault] = {}
+        for i, (k, res) in enumerate(zip(rows, results, strict=True)):
             name = self.agent_names[k]
             if isinstance(res, BaseException):
-                out.append((np.zeros(2), AgentFault(batch.time, k, name,
-                                                    f"{type(res).__name__}: {res}")))
+                faults[k] = AgentFault(batch.time, k, name, f"{type(res).__name__}: {res}")
                 continue
             try:
                 acc = np.asarray(res, dtype=np.float64)
             except Exception as exc:  # noqa: BLE001
-                out.append((np.zeros(2), AgentFault(batch.time, k, name,
-                                                    f"{type(exc).__name__}: {exc}")))
+                faults[k] = AgentFault(batch.time, k, name, f"{type(exc).__name__}: {exc}")
                 continue
             if acc.shape != (2,):
-                out.append((np.zeros(2), AgentFault(
+                faults[k] = AgentFault(
                     batch.time, k, name,
-                    f"expected an acceleration of shape (2,), got {acc.shape}")))
+                    f"expected an acceleration of shape (2,), got {acc.shape}")
             elif not (math.isfinite(acc[0]) and math.isfinite(acc[1])):
-                out.append((np.zeros(2), AgentFault(batch.time, k, name,
-                                                    f"non-finite acceleration {acc.tolist()}")))
+                faults[k] = AgentFault(batch.time, k, name,
+                                       f"non-finite acceleration {acc.tolist()}")
             else:
-                out.append((acc, None))
-        return out
+                accs[i] = acc
+        return accs, faults
 
     def run(self, seed: int | None = None, max_steps: int | None = None) -> EpisodeSummary:
         """Reset, step until done (or max_steps), return the episode's summary."""
