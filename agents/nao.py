@@ -80,16 +80,23 @@ from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 
+_SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
+
 
 class NAOAgent:
-    """NAO avoidance. Options: horizon (s), samples (per horizon), predictor name,
-    margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m), detour_after (s),
-    replan, reselect_after (s), infeasible ("auto", "brake" or "latest_contact")."""
+    """NAO avoidance. Options: horizon (s), samples (per horizon; None: one every 0.1 s),
+    predictor name, margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m),
+    detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
+    "latest_contact").
+
+    The default horizon, 2.5 s, is about three stopping times of a robot with
+    v_max / a_max = 0.75 s (the shipped robot maps); the traffic maps set their own
+    (roundabout 3 s: a car stops from 6 m/s in 2 s; two-lane road 6 s: an overtake)."""
 
     def __init__(
         self,
-        horizon: float = 3.0,
-        samples: int = 31,
+        horizon: float = 2.5,
+        samples: int | None = None,
         predictor: str | None = None,
         margin: float = 0.15,
         keep_band: float = 0.3,
@@ -107,7 +114,11 @@ class NAOAgent:
         self.replan = bool(replan)
         self.reselect_after = float(reselect_after)
         self.horizon = float(horizon)
+        if not (math.isfinite(self.horizon) and self.horizon > 0.0):
+            raise ValueError(f"horizon: expected a positive number of seconds, got {horizon!r}")
         self.detour_after = float(detour_after)
+        if samples is None:
+            samples = max(2, round(self.horizon / _SAMPLE_STEP) + 1)
         self.times = np.linspace(0.0, self.horizon, int(samples))
         self.predictor_name = predictor or "turn_rate"
         self.predict = get_predictor(self.predictor_name)
@@ -178,6 +189,14 @@ class NAOAgent:
                 and np.all(np.isfinite(times)))
             self._grid_checked = times
         return self._grid_regular
+
+    def _grid_key(self) -> tuple[str, bytes]:
+        """(predictor name, time grid bytes): agents with the same key share predictions;
+        worked out once per grid."""
+        if getattr(self, "_key_times", None) is not self.times:
+            self._key = (self.predictor_name, self.times.tobytes())
+            self._key_times = self.times
+        return self._key
 
     def _near_walls(
         self, walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float,
@@ -355,15 +374,17 @@ class NAOAgent:
         # liveness bookkeeping, as _update_detour
         speed = np.hypot(vel[:, 0], vel[:, 1])
         far = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1]) > 4 * rad
+        far_l = far.tolist()
+        crawling = (speed < 0.25 * v_max).tolist()
         for i in live:
-            agents[i]._detour_step(bool(far[i]), bool(speed[i] < 0.25 * v_max[i]), batch.dt)
+            agents[i]._detour_step(far_l[i], crawling[i], batch.dt)
             agents[i].age += batch.dt
         desired = _goal_seeking_batch(agents, batch, rows_a, pos, vel, a_max, v_max, goals)
         # predictions: once per (predictor, time grid) for every body
         groups: dict[tuple[str, bytes], list[int]] = {}
         for i in live:
-            ag = agents[i]
-            groups.setdefault((ag.predictor_name, ag.times.tobytes()), []).append(i)
+            groups.setdefault(agents[i]._grid_key(), []).append(i)
+        traffic_near = _traffic_near(batch, rows_a)
         current = np.array([ag.current for ag in agents]).reshape(n, 2)
         for members in groups.values():
             ag0 = agents[members[0]]
@@ -377,10 +398,12 @@ class NAOAgent:
             excursions = path_excursions(pred)
             lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
                      if ag0._regular_grid() else None)
+            holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
+            margin = np.array([agents[i].margin for i in members])
             status = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
-                                   vel, rad, v_max, current, desired, a_max)
-            decided = (_decide(members, status, agents, batch, pred, excursions, lists, pos,
-                               vel, rad, a_max, v_max, current, desired)
+                                   vel, rad, v_max, current, desired, a_max, holds, margin)
+            decided = (_decide(members, status, agents, pred, excursions, lists, batch.radii,
+                               pos, vel, rad, a_max, v_max, current, desired, holds, margin)
                        if lists is not None else None)
             for j, (i, st) in enumerate(zip(members, status, strict=True)):
                 ag = agents[i]
@@ -390,8 +413,8 @@ class NAOAgent:
                 k = int(rows_a[i])
                 try:
                     if decided is not None and st == 0:
-                        done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch,
-                                              k)
+                        done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
+                                              batch.dt, bool(traffic_near[i]))
                         if done is not None:
                             out[i] = done
                             continue
@@ -601,17 +624,18 @@ def _keep_current(
     lists: tuple[NDArray[Any], ...] | None, nb_radius: NDArray[np.float64],
     pos: NDArray[np.float64], vel: NDArray[np.float64], rad: NDArray[np.float64],
     v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
-    a_max: NDArray[np.float64],
+    a_max: NDArray[np.float64], holds: NDArray[np.bool_], margin: NDArray[np.float64],
 ) -> list[int]:
     """Per member: 1 keep the current acceleration (within keep_band of the desired one and
     admissible), 0 select anew, 2 undecided here (decide from the full path).
-    lists: :func:`_obstacle_lists` (None: an irregular time grid, nothing decided here)."""
+    lists: :func:`_obstacle_lists` (None: an irregular time grid, nothing decided here);
+    holds: per member, whether it holds a young adjustment; margin (m) per member."""
     ag0 = agents[members[0]]
     times = ag0.times
     m = np.asarray(members, dtype=np.int64)
     band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
         [agents[i].keep_band for i in members])
-    band |= np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
+    band |= holds
     inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
     status = np.where(band & inside, 2, 0)
     if lists is None or not np.any(status == 2):
@@ -624,8 +648,8 @@ def _keep_current(
         np.ascontiguousarray(nb_radius), wall_c, wall_r, wall_start,
         wall_index, todo, np.ascontiguousarray(pos[m]),
         np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
-        np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]),
-        np.array([agents[i].margin for i in members]), excursions[0], excursions[1], res,
+        np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]), margin,
+        excursions[0], excursions[1], res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
     return [int(status[j]) if status[j] != 2 else (1 if res[j] == 1 else
@@ -635,33 +659,33 @@ def _keep_current(
 
 
 def _decide(
-    members: list[int], status: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
+    members: list[int], status: list[int], agents: Sequence[NAOAgent],
     pred: NDArray[np.float64], excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray[Any], ...], pos: NDArray[np.float64], vel: NDArray[np.float64],
-    rad: NDArray[np.float64], a_max: NDArray[np.float64], v_max: NDArray[np.float64],
-    current: NDArray[np.float64], desired: NDArray[np.float64],
+    lists: tuple[NDArray[Any], ...], nb_radius: NDArray[np.float64], pos: NDArray[np.float64],
+    vel: NDArray[np.float64], rad: NDArray[np.float64], a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
+    holds: NDArray[np.bool_], margin: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
-    """The repairs and selections of the members with status 0, in one compiled call
-    (:func:`~nao_arena.geometry.decide.decide`): (kind, accel m/s^2, tested) per
-    member, or None when there are none."""
+    """The repairs (of the young adjustments, ``holds``) and selections of the members
+    with status 0, in one compiled call (:func:`~nao_arena.geometry.decide.decide`):
+    (kind, accel m/s^2, tested) per member, or None when there are none."""
     todo = np.array([j for j, st in enumerate(status) if st == 0], dtype=np.int64)
     if len(todo) == 0:
         return None
     m = np.asarray(members, dtype=np.int64)
     return decide(
-        agents[members[0]].times, pred, excursions, lists, batch.radii, todo, pos[m], vel[m],
-        np.array([float(rad[i]) + agents[i].margin for i in members]), a_max[m], v_max[m],
-        np.array([agents[i]._holds_adjustment() for i in members], dtype=bool), current[m],
-        desired[m])
+        agents[members[0]].times, pred, excursions, lists, nb_radius, todo, pos[m], vel[m],
+        rad[m] + margin, a_max[m], v_max[m], holds, current[m], desired[m])
 
 
 def _take_decision(
     ag: NAOAgent, decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]],
-    j: int, velocity: NDArray[np.float64], a_max: float, batch: SensingBatch, k: int,
+    j: int, velocity: NDArray[np.float64], a_max: float, dt: float, traffic: bool,
 ) -> NDArray[np.float64] | None:
     """Apply member j's outcome of :func:`_decide` to its agent, as :meth:`NAOAgent._repair`
     and :meth:`NAOAgent._select` would: the acceleration (m/s^2), or None when it is left
-    to the per-robot path (undecided, or no admissible acceleration and no braking)."""
+    to the per-robot path (undecided, or no admissible acceleration and no braking).
+    traffic: whether traffic is among the robot's neighbours."""
     kind, accel, tested = decided
     kd = int(kind[j])
     if kd == REPAIRED:
@@ -671,12 +695,20 @@ def _take_decision(
         return ag._commit(Selection(accel[j].copy(), "desired" if kd == DESIRED else "adjusted",
                                     None, math.inf, int(tested[j])))
     if kd == INFEASIBLE:
-        traffic = bool(np.any(batch.kinds[batch.neighbour_ids(k)] == "traffic"))
-        fallback = ag._fallback(velocity, a_max, batch.dt, traffic)
+        fallback = ag._fallback(velocity, a_max, dt, traffic)
         if fallback is not None:
             return ag._commit(Selection(_limits(a_max).project(fallback), "infeasible", None,
                                         math.inf, int(tested[j])))
     return None
+
+
+def _traffic_near(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per row: whether traffic is among the robot's neighbours."""
+    is_traffic = batch.kinds == "traffic"
+    if not np.any(is_traffic):
+        return np.zeros(len(rows), dtype=bool)
+    seen = np.concatenate([[0], np.cumsum(is_traffic[batch.nb_index])])
+    return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
 
 
 class AOAgent(NAOAgent):
@@ -685,8 +717,8 @@ class AOAgent(NAOAgent):
 
     def __init__(
         self,
-        horizon: float = 3.0,
-        samples: int = 31,
+        horizon: float = 2.5,
+        samples: int | None = None,
         margin: float = 0.15,
         keep_band: float = 0.3,
         v_pref: float | None = None,
