@@ -87,7 +87,8 @@ def neighbours_in_range(
 
     Ties are broken by index so the order is deterministic.
     """
-    d = np.hypot(*(positions - positions[me]).T)
+    rel = positions - positions[me]
+    d = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
     d[me] = np.inf
     idx = np.flatnonzero(d <= sensing_range)
     idx = idx[np.lexsort((idx, d[idx]))]
@@ -127,24 +128,67 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
     index = np.empty(b * n, dtype=np.int64)
     d = np.empty(n)
     cand = np.empty(n, dtype=np.int64)
+    order = np.empty(n, dtype=np.int64)
+    scratch = np.empty(n, dtype=np.int64)
     for k in range(b):
         me = bodies[k]
         mx = positions[me, 0]
         my = positions[me, 1]
         m = 0
         for j in range(n):
-            dj = math.inf if j == me else math.hypot(positions[j, 0] - mx, positions[j, 1] - my)
+            dx = positions[j, 0] - mx
+            dy = positions[j, 1] - my
+            dj = math.inf if j == me else math.sqrt(dx * dx + dy * dy)
             if dj <= sensing_range:
                 d[m] = dj
                 cand[m] = j
                 m += 1
-        order = np.argsort(d[:m], kind="mergesort")
+        _stable_order(d, m, order, scratch)
         if 0 <= max_neighbours < m:
             m = max_neighbours
         for i in range(m):
             index[start[k] + i] = cand[order[i]]
         start[k + 1] = start[k] + m
     return start, index[:start[b]].copy()
+
+
+@njit(cache=True)
+def _stable_order(key, m, order, scratch):
+    """order[:m] = the indices 0 .. m - 1 sorted by key (a stable sort: equal keys in
+    index order), without allocating: insertion-sorted runs of 16, then merged."""
+    run = 16
+    for lo in range(0, m, run):
+        hi = min(lo + run, m)
+        for i in range(lo, hi):
+            x = key[i]
+            j = i
+            while j > lo and key[order[j - 1]] > x:
+                order[j] = order[j - 1]
+                j -= 1
+            order[j] = i
+    width = run
+    src = order
+    dst = scratch
+    in_scratch = False
+    while width < m:
+        for lo in range(0, m, 2 * width):
+            mid = min(lo + width, m)
+            hi = min(lo + 2 * width, m)
+            i = lo
+            j = mid
+            for k in range(lo, hi):
+                # take from the left run unless the right one is strictly smaller
+                if i < mid and (j >= hi or key[src[i]] <= key[src[j]]):
+                    dst[k] = src[i]
+                    i += 1
+                else:
+                    dst[k] = src[j]
+                    j += 1
+        src, dst = dst, src
+        in_scratch = not in_scratch
+        width *= 2
+    if in_scratch:
+        order[:m] = scratch[:m]
 
 
 @dataclass

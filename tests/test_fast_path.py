@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numba import njit
 
 from nao_arena.agents.nao import AOAgent, NAOAgent
@@ -53,7 +55,7 @@ from nao_arena.geometry.kernel import (
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
 from nao_arena.predictors import _turn_rate_numpy, turn_rate
-from nao_arena.sensing import Neighbours, neighbour_lists, neighbours_in_range
+from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighbours_in_range
 
 _TWO_PI = 2.0 * math.pi
 
@@ -302,6 +304,18 @@ def test_neighbour_lists_match_neighbours_in_range(seed):
         for k, b in enumerate(bodies):
             expect = neighbours_in_range(int(b), pos, rng_m, cap)
             np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 12), min_size=0, max_size=140), st.integers(0, 3))
+def test_stable_order_is_numpys_stable_argsort(keys, spare):
+    """The allocation-free sort of the neighbour lists: every length (runs of 16 merged
+    up to several times), many equal keys (ties in index order), scratch larger than m."""
+    key = np.array(keys + [99] * spare, dtype=np.float64) * 0.25
+    m = len(keys)
+    order = np.full(len(key), -1, dtype=np.int64)
+    _stable_order(key, m, order, np.empty(len(key), dtype=np.int64))
+    np.testing.assert_array_equal(order[:m], np.argsort(key[:m], kind="stable"))
 
 
 def test_arena_observations_match_per_robot_sensing():
