@@ -34,6 +34,7 @@ from nao_arena.geometry.decide import (
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
     _drop_contained,
+    _norm,
     _ok_disc,
     _outward_normal,
     admissible_kernel,
@@ -73,7 +74,7 @@ def drop_contained_ref(disks):
         for j in range(M):
             if i == j or not keep[j]:
                 continue
-            d = math.hypot(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
+            d = _norm(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
             if d + disks[i, 2] <= disks[j, 2] and (d + disks[i, 2] < disks[j, 2] or j < i):
                 keep[i] = False
                 break
@@ -94,7 +95,7 @@ def _free_arc_points_ref(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
         if j == M:
             if not in_limit:
                 continue
-            d = math.hypot(cx, cy)
+            d = _norm(cx, cy)
             if d + rho <= a_max:
                 continue
             if d >= rho + a_max or d + a_max <= rho:
@@ -110,7 +111,7 @@ def _free_arc_points_ref(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
             dx = circ[j, 0] - cx
             dy = circ[j, 1] - cy
             rj = circ[j, 2]
-            d = math.hypot(dx, dy)
+            d = _norm(dx, dy)
             if d + rho <= rj * (1.0 - 1e-12):
                 return -1
             if d >= rho + rj or d + rj <= rho or d <= 0.0:
@@ -196,8 +197,8 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
         res[0, 2] = 0.0
     lower = np.empty(M + 1)
     for i in range(M):
-        lower[i] = abs(math.hypot(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
-    lower[M] = abs(math.hypot(q[0], q[1]) - a_max)
+        lower[i] = abs(_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
+    lower[M] = abs(_norm(q[0], q[1]) - a_max)
     order = np.argsort(lower)
     cand = np.empty((2 * M + 8, 2))
     for i in order:
@@ -209,7 +210,7 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
         else:
             k = _free_arc_points_ref(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
         for c in range(max(k, 0)):
-            d = math.hypot(cand[c, 0] - q[0], cand[c, 1] - q[1])
+            d = _norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:
                 # insert keeping res sorted by distance
                 pos = max_out - 1

@@ -569,6 +569,13 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
 
 
 @njit(cache=True, inline="always")
+def _norm(x, y):
+    """sqrt(x^2 + y^2), without math.hypot's care for overflow (several times faster;
+    the values here are accelerations and distances of ordinary size)."""
+    return math.sqrt(x * x + y * y)
+
+
+@njit(cache=True, inline="always")
 def _farther(x, y, lim):
     """math.hypot(x, y) > lim, without the hypot unless the answer is close."""
     d2 = x * x + y * y
@@ -665,7 +672,7 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                         pend = False
                     last = -1
                     continue
-                dq = math.hypot(mx - q[0], my - q[1])
+                dq = _norm(mx - q[0], my - q[1])
                 if thin > 0.0 and last >= 0:
                     ex = mx - out[last, 0]
                     ey = my - out[last, 1]
@@ -802,7 +809,7 @@ def _uncontained_in(rows, order, reach, stop_after):
             # cheap reject: clearly further apart than rj - ri (the exact test would fail)
             if rj < ri or dx * dx + dy * dy > lim * lim:
                 continue
-            d = math.hypot(xi - rows[j, 0], yi - rows[j, 1])
+            d = _norm(xi - rows[j, 0], yi - rows[j, 1])
             if d + ri <= rj and (d + ri < rj or j < i):
                 inside = True
                 break
@@ -828,7 +835,7 @@ def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     if j == M:
         if not in_limit:
             return n
-        d = math.hypot(cx, cy)
+        d = _norm(cx, cy)
         if d + rho <= a_max:
             return n
         if d >= rho + a_max or d + a_max <= rho:
@@ -848,7 +855,7 @@ def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
         if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
             # clearly apart (the exact test below would skip it too)
             return n
-        d = math.hypot(dx, dy)
+        d = _norm(dx, dy)
         if d + rho <= rj * (1.0 - 1e-12):
             return -1
         if d >= rho + rj or d + rj <= rho or d <= 0.0:
@@ -1114,8 +1121,8 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
         res[0, 2] = 0.0
     lower = np.empty(M + 1)
     for i in range(M):
-        lower[i] = abs(math.hypot(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
-    lower[M] = abs(math.hypot(q[0], q[1]) - a_max)
+        lower[i] = abs(_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
+    lower[M] = abs(_norm(q[0], q[1]) - a_max)
     order = np.argsort(lower)
     cand = np.empty((2 * M + 8, 2))
     starts = np.empty(2 * M + 4)
@@ -1126,9 +1133,9 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
             break
         if covered > 0.0:
             if i < M:
-                far = math.hypot(q[0] - disks[i, 0], q[1] - disks[i, 1]) + disks[i, 2]
+                far = _norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) + disks[i, 2]
             else:
-                far = math.hypot(q[0], q[1]) + a_max
+                far = _norm(q[0], q[1]) + a_max
             if far < covered:
                 continue
         if i < M:
@@ -1138,7 +1145,7 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
             k = _free_arc_points(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0,
                                  starts, ends, cover)
         for c in range(max(k, 0)):
-            d = math.hypot(cand[c, 0] - q[0], cand[c, 1] - q[1])
+            d = _norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:
                 # insert keeping res sorted by distance
                 pos = max_out - 1
