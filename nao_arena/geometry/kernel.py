@@ -1716,8 +1716,8 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
                 ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
     """The search of :func:`selection.select_acceleration` for the limit disc, compiled:
     a_d (the desired acceleration, inside the disc) if admissible, else the disk search
-    in a small ball and in the largest ball within ``max_disks`` disks, the rings, and
-    the disk search without a cap. Returns (status, x, y, candidates tested): status 0
+    in the largest ball (radius a_max / 16 doubled) within ``max_disks`` disks, the
+    rings, and the disk search without a cap. Returns (status, x, y, candidates tested): status 0
     desired, 1 adjusted, 2 nothing admissible found (the caller falls back)."""
     c, w, b, r, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius,
                                         margin)
@@ -1745,28 +1745,17 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
     samples = nao_disk_samples(v, seg_t, c, w, b, r, margin, n_sub, a_d, last, a_max,
                                per_second, thin)
     order = _radius_order(samples)
-    # 1. the disk search in a small ball, then in the largest within the cap
-    disks = _disks_within(samples, order, reach)
+    # 1. the disk search in the largest ball, doubled from ``reach``, within the cap
     covered = 0.0  # the disks are known to cover the ball of this radius around a_d
-    if disks.shape[0] <= max_disks:
-        found, x, y, k, empty = _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t,
-                                               c, w, b, r, sweep, margin, 0.0)
+    chosen, disks = _capped_disks(samples, order, 0.5 * reach, max(limit, reach), max_disks)
+    if chosen >= 0.0:
+        found, x, y, k, empty = _try_ball_disc(a_d, disks, chosen, tol, a_max, v, v_max,
+                                               seg_t, c, w, b, r, sweep, margin, 0.0)
         count += k
         if found:
             return 1, x, y, count
         if empty:
-            covered = reach
-        if reach < limit:
-            chosen, big = _capped_disks(samples, order, reach, limit, max_disks)
-            if chosen >= 0.0:
-                found, x, y, k, empty = _try_ball_disc(
-                    a_d, big, chosen, tol, a_max, v, v_max, seg_t, c, w, b, r, sweep, margin,
-                    covered)
-                count += k
-                if found:
-                    return 1, x, y, count
-                if empty:
-                    covered = chosen
+            covered = chosen
     # 2. rings of candidates
     found, x, y, k = ring_search_disc(a_d, ring_radii, unit_rings, tol, a_max, v, v_max,
                                       seg_t, c, w, b, r, sweep, margin)

@@ -611,17 +611,12 @@ def _nearest_by_disks(
         tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
         a_d, last, a_max, _DISKS_PER_SECOND, _SLIVER_DEPTH * a_max,
     )
-    disks = nao_disks_within(samples, reach)
-    if max_disks is not None and len(disks) > max_disks:
-        return None
-    hit = _try_ball(tester, a_d, disks, reach, tol)
-    if hit is not None or reach >= limit:
-        return hit
-    # The doubling would go on ball by ball; every ball's candidates within a smaller
-    # ball are that ball's (nearest first, the same points) and fail again, so the
-    # largest ball within the disk cap alone decides as the doubling would.
-    assert max_disks is not None  # without a cap the first ball is the largest
-    chosen = largest_capped_reach(samples, reach, limit, max_disks)
+    if max_disks is None:
+        return _try_ball(tester, a_d, nao_disks_within(samples, reach), reach, tol)
+    # Ball by ball, every ball's candidates within a smaller ball are that ball's
+    # (nearest first, the same points) and fail again, so the largest ball within
+    # the disk cap alone decides as a doubling from the smallest would.
+    chosen = largest_capped_reach(samples, 0.5 * reach, max(limit, reach), max_disks)
     if chosen < 0.0:
         return None
     return _try_ball(tester, a_d, nao_disks_within(samples, chosen), chosen, tol)
