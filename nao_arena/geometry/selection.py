@@ -7,9 +7,9 @@ it lies outside the union of the (grown) NAOs.
 
 Method: if the desired acceleration (projected onto the limit set) is
 admissible it is returned as is. Otherwise the NAO union is pictured as the
-disks |a - m(t)| <= rho(t) sampled in t (see DESIGN.md); in a small ball
-around the desired acceleration, then in the largest ball whose disks stay
-within a cap (what a doubling of the ball would find), the nearest point
+disks |a - m(t)| <= rho(t) sampled in t (see DESIGN.md); in the largest
+ball around the desired acceleration whose disks stay within a cap (what a
+doubling of the ball from a_max / 16 would find), the nearest point
 outside the disks is found exactly (free arcs of the circles) and confirmed by the
 exact clearance (a point in a sliver between samples is pushed outwards and
 bisected back onto the boundary). Fallbacks, for box limits and very
