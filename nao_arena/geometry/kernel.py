@@ -825,7 +825,7 @@ def _uncontained_in(rows, order, reach, stop_after):
 _TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     """Add the angular interval of the circle (cx, cy, rho) that disk j of ``circ``
     covers (j == len(circ): the outside of the limit disc, when ``in_limit``) to
