@@ -453,6 +453,55 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
                                       nao_disks(*args, reach, 2.0))
 
 
+def _disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
+    """nao_disk_samples without thinning, written out plainly: every sample time of
+    every piece, kept when its disk meets the ball B(q, reach) and the limit disc."""
+    rows = []
+    t_all, S = path.t, path.c.shape[1]
+    for n in range(path.c.shape[0]):
+        rr = path.radius[n] + margin
+        for j in range(S):
+            t0, t1 = t_all[j], t_all[j + 1]
+            k = max(n_sub, min(256, math.ceil(per_second * (t1 - t0))))
+            times = [t0 + (t1 - t0) * i / k for i in range(k)]
+            if j == 0:
+                times = [t1 * 2.0 ** (i - 9) * 2.0 / k for i in range(8)] + times
+            if j == S - 1:
+                times.append(t1)
+            for t in times:
+                if t <= 0.0:
+                    continue
+                dt = t - t0
+                c = path.c[n, j] + path.w[n, j] * dt + 0.5 * path.b[n, j] * dt * dt
+                m = (c - v * t) * 2.0 / (t * t)
+                rho = rr * 2.0 / (t * t)
+                dq = math.hypot(*(m - q))
+                if dq <= rho + reach and math.hypot(*m) <= rho + a_max:
+                    rows.append((m[0], m[1], rho, dq))
+    return np.array(rows).reshape(-1, 4)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
+    """Far obstacles and pieces out of reach included (whole pieces are skipped when no
+    acceleration within a_max reaches them): the same disks as sampling every time."""
+    rng = np.random.default_rng(900 + seed)
+    n = int(rng.integers(1, 8))
+    times = np.linspace(0.0, 2.5, 26)
+    pos = rng.normal(size=(n, 2)) * rng.choice([1.0, 4.0, 8.0])
+    vel = rng.normal(size=(n, 2)) * 1.5
+    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(0.3, 1.0, size=n))
+    v = rng.normal(size=2)
+    q = rng.normal(size=2)
+    for reach in (0.5, 4.0):
+        got = nao_disk_samples(v, path.t, path.c, path.w, path.b, path.radius, 0.1, 2, q,
+                               reach, 2.0, 16.0, 0.0)
+        ref = _disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
+        assert got.shape == ref.shape
+        np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
+
+
 @pytest.mark.parametrize("seed", range(20))
 def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     """nao_disk_samples(thin > 0) keeps a subsequence of the full samples of one obstacle;

@@ -644,6 +644,22 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
         for j in range(S):
             t0 = seg_t[j]
             t1 = seg_t[j + 1]
+            if math.isfinite(t1):
+                # a piece that no acceleration within a_max reaches: every sample of it
+                # lies outside the limit disc (|c(t) - v t| > rr + a_max t^2 / 2), which
+                # ends a run of disks (as the test below does for each sample)
+                h = t1 - t0
+                dx0 = seg_c[n, j, 0] - v[0] * t0
+                dy0 = seg_c[n, j, 1] - v[1] * t0
+                far = (rr + 0.5 * a_max * t1 * t1
+                       + _norm(seg_w[n, j, 0] - v[0], seg_w[n, j, 1] - v[1]) * h
+                       + 0.5 * _norm(seg_b[n, j, 0], seg_b[n, j, 1]) * h * h) * (1.0 + 1e-6)
+                if dx0 * dx0 + dy0 * dy0 > far * far:
+                    if pend:
+                        cnt = _put(out, cnt, px, py, prho, pdq)
+                        pend = False
+                    last = -1
+                    continue
             k = _samples_in_piece(t0, t1, n_sub, per_second)
             head = 8 if (j == 0 and math.isfinite(t1)) else 0
             tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
