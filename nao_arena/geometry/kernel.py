@@ -1310,9 +1310,12 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         vx, vy, tau, bound = _candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
         px = pos[k, 0]
         py = pos[k, 1]
-        # skip the obstacles that stay far: |x(t)| <= bound t for the robot, and a
-        # sampled path stays within its largest sample excursion from its start
+        # skip the obstacles that stay far: |x(t)| <= bound t for the robot (and it stays
+        # within bound * horizon / 2 of where it is halfway), and a sampled path stays
+        # within its largest sample excursion from its start
         travel = bound * horizon
+        _, _, _, _, mx, my = _robot_state(vx, vy, ax, ay, tau, 0.5 * horizon)
+        half = 0.5 * travel
         keep = np.empty(n_nb + n_w, dtype=np.int64)
         keep_r = np.empty(n_nb + n_w)
         n = 0
@@ -1334,7 +1337,8 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
                 y0 = wall_c[d, 1] - py
                 r = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
                 ex = 0.0
-            gap = math.sqrt(x0 * x0 + y0 * y0) - travel - ex
+            gap = max(math.sqrt(x0 * x0 + y0 * y0) - travel,
+                      math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half) - ex
             if gap > (r + 1e-9) * (1.0 + 1e-9):
                 continue
             keep[n] = i
