@@ -489,3 +489,18 @@ def test_fallback_when_nothing_is_admissible() -> None:
     assert full.status == "infeasible" and full.clearance < 0.0
     assert full.time_of_first_contact < 2.0
     np.testing.assert_array_equal(full.accel, quick.accel)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(allow_nan=True, allow_infinity=True, width=64),
+       st.floats(allow_nan=True, allow_infinity=True, width=64),
+       st.floats(0.0, 10.0))
+def test_projecting_one_acceleration_is_projecting_a_row_of_them(x, y, a_max):
+    """project((2,)) takes a scalar shortcut on the disc: bit for bit the batch result
+    (non-finite components become 0, the result lies in the disc)."""
+    limits = AccelLimits(a_max)
+    one = limits.project(np.array([x, y]))
+    row = limits.project(np.array([[x, y]]))[0]
+    assert one.shape == (2,)
+    assert np.array_equal(one, row) and np.array_equal(np.signbit(one), np.signbit(row))
+    assert np.all(np.isfinite(one)) and math.hypot(*one) <= a_max * (1 + 1e-12)

@@ -92,6 +92,13 @@ class AccelLimits:
     def project(self, a: ArrayLike) -> NDArray[np.float64]:
         """Nearest point of the limit set to each acceleration ((2,) or (K, 2))."""
         arr = np.asarray(a, dtype=np.float64)
+        if self.box_lo is None and arr.shape == (2,):
+            # one acceleration on the disc (the common call): the operations below, on scalars
+            x = arr[0] if np.isfinite(arr[0]) else np.float64(0.0)
+            y = arr[1] if np.isfinite(arr[1]) else np.float64(0.0)
+            norm = np.hypot(x, y)
+            scale = self.a_max / max(norm, 1e-300) if norm > self.a_max else 1.0
+            return np.array([x * scale, y * scale])
         flat = np.atleast_2d(arr)
         if self.box_lo is None:
             out = np.where(np.isfinite(flat), flat, 0.0)
