@@ -544,8 +544,8 @@ def _goal_seeking_batch(
     """:func:`goal_seeking_accel` (default time constant and braking) per row, (n, 2) m/s^2,
     with the same floating-point operations; rows it does not cover (no finite goal)
     go through the function itself."""
-    cap = np.array([float(v) if ag.v_pref is None else min(ag.v_pref, float(v))
-                    for ag, v in zip(agents, v_max, strict=True)])
+    cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
+                    for ag, v in zip(agents, v_max.tolist(), strict=True)])
     to_goal = goals - pos
     dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -553,8 +553,8 @@ def _goal_seeking_batch(
         v_target = to_goal / dist[:, None] * speed[:, None]
     still = dist < 1e-9
     v_target[still] = 0.0
-    for i, ag in enumerate(agents):
-        if ag.detour and not still[i]:
+    for i, (ag, at_goal) in enumerate(zip(agents, still.tolist(), strict=True)):
+        if ag.detour and not at_goal:
             c, s_ = np.cos(ag.detour), np.sin(ag.detour)
             vt = v_target[i].copy()
             v_target[i] = (c * vt[0] - s_ * vt[1], s_ * vt[0] + c * vt[1])
