@@ -62,9 +62,9 @@ def sim_rate(n: int, agent: str, steps: int, skip: int = 0,
 
 
 def whole_episode(n: int, agent: str, horizon: float | None = None,
-                  seed: int = 0) -> tuple[float, float, float, int, int]:
-    """(simulated s, wall s, episode duration s, contacts, robots arrived) over one
-    whole episode, the first step untimed."""
+                  seed: int = 0) -> tuple[float, float, float, int, int, int]:
+    """(simulated s, wall s, episode duration s, contacts, robots arrived, timed steps)
+    over one whole episode, the first step untimed."""
     arena = swap_arena(n, agent, time_limit=150.0, horizon=horizon)
     arena.reset(seed)
     arena.step()  # warm-up: compilation and caches outside the timing
@@ -76,7 +76,7 @@ def whole_episode(n: int, agent: str, horizon: float | None = None,
     wall = time.perf_counter() - start
     summary = arena.summary()
     arrived = sum(r.reached_goal for r in summary.robots)
-    return steps * arena.world.dt, wall, arena.time, len(summary.contacts), arrived
+    return steps * arena.world.dt, wall, arena.time, len(summary.contacts), arrived, steps
 
 
 def whole_episodes(n: int, agent: str, seeds: list[int], horizon: float | None = None
@@ -86,7 +86,7 @@ def whole_episodes(n: int, agent: str, seeds: list[int], horizon: float | None =
     runs = [whole_episode(n, agent, horizon, seed) for seed in seeds]
     sim = sum(r[0] for r in runs)
     wall = sum(r[1] for r in runs)
-    steps = sim / swap_arena(n, agent).world.dt
+    steps = sum(r[5] for r in runs)
     lo, hi = min(r[2] for r in runs), max(r[2] for r in runs)
     durations = f"{lo:.1f}" if lo == hi else f"{lo:.1f}-{hi:.1f}"
     return (sim / wall, 1e6 * wall / max(steps * n, 1), durations, sum(r[3] for r in runs),

@@ -209,8 +209,9 @@ class Arena:
     # ------------------------------------------------------------------ step
 
     def step(self, actions: Mapping[int, NDArray[np.float64]] | None = None) -> StepResult:
-        """One control period. ``actions`` maps robot index (robot order) to an
-        acceleration (2,) m/s^2 that replaces that robot's agent this step."""
+        """One control period. ``actions`` maps robot index (robot order, 0 <= k < number
+        of robots; else ValueError) to an acceleration (2,) m/s^2 that replaces that
+        robot's agent this step."""
         assert self.state is not None and self.stats is not None, "call reset() first"
         state = self.state
         commanded = np.zeros((self.world.n, 2))
@@ -220,6 +221,9 @@ class Arena:
         found: dict[int, AgentFault] = {}
         batched, single = self._dispatch()
         for k, acc in actions.items():
+            if not 0 <= k < len(self.robot_ids):
+                raise ValueError(f"actions: robot index {k} is not one of the "
+                                 f"{len(self.robot_ids)} robots (0 .. {len(self.robot_ids) - 1})")
             commanded[self.robot_ids[k]] = acc
         if actions:
             single = [k for k in single if k not in actions]
@@ -233,7 +237,7 @@ class Arena:
         for cls, rows in batched.items():
             if not rows:
                 continue
-            accs, faults_of = self._act_batch(cls, batch, rows)
+            accs, faults_of = self._act_batch(cls, batch, list(rows))
             commanded[self.robot_ids[rows]] = accs
             found.update(faults_of)
         for k in sorted(found):

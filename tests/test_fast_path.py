@@ -33,10 +33,11 @@ from nao_arena.geometry.decide import (
 )
 from nao_arena.geometry.kernel import (
     RADIUS_CUT,
+    _capped_disks,
     _drop_contained,
-    _norm,
     _ok_disc,
     _outward_normal,
+    _radius_order,
     admissible_kernel,
     bisect_disc,
     largest_capped_reach,
@@ -66,6 +67,12 @@ _TWO_PI = 2.0 * math.pi
 
 
 @njit
+def _length(x: float, y: float) -> float:
+    """sqrt(x^2 + y^2), the kernels' vector length (not math.hypot), for the references."""
+    return math.sqrt(x * x + y * y)
+
+
+@njit
 def drop_contained_ref(disks):
     """The disks (M, 3) that no other disk contains (of identical ones, the first)."""
     M = disks.shape[0]
@@ -74,7 +81,7 @@ def drop_contained_ref(disks):
         for j in range(M):
             if i == j or not keep[j]:
                 continue
-            d = _norm(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
+            d = _length(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
             if d + disks[i, 2] <= disks[j, 2] and (d + disks[i, 2] < disks[j, 2] or j < i):
                 keep[i] = False
                 break
@@ -95,7 +102,7 @@ def _free_arc_points_ref(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
         if j == M:
             if not in_limit:
                 continue
-            d = _norm(cx, cy)
+            d = _length(cx, cy)
             if d + rho <= a_max:
                 continue
             if d >= rho + a_max or d + a_max <= rho:
@@ -111,7 +118,7 @@ def _free_arc_points_ref(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
             dx = circ[j, 0] - cx
             dy = circ[j, 1] - cy
             rj = circ[j, 2]
-            d = _norm(dx, dy)
+            d = _length(dx, dy)
             if d + rho <= rj * (1.0 - 1e-12):
                 return -1
             if d >= rho + rj or d + rj <= rho or d <= 0.0:
@@ -197,8 +204,8 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
         res[0, 2] = 0.0
     lower = np.empty(M + 1)
     for i in range(M):
-        lower[i] = abs(_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
-    lower[M] = abs(_norm(q[0], q[1]) - a_max)
+        lower[i] = abs(_length(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
+    lower[M] = abs(_length(q[0], q[1]) - a_max)
     order = np.argsort(lower)
     cand = np.empty((2 * M + 8, 2))
     for i in order:
@@ -210,7 +217,7 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
         else:
             k = _free_arc_points_ref(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
         for c in range(max(k, 0)):
-            d = _norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
+            d = _length(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:
                 # insert keeping res sorted by distance
                 pos = max_out - 1
@@ -412,6 +419,29 @@ def test_nearest_outside_disks_matches_reference(seed):
 
 
 @pytest.mark.parametrize("seed", range(20))
+def test_capped_disks_are_the_chosen_balls_disks(seed):
+    """_capped_disks hands back the disks of the ball it chose, whether it worked out their
+    containment while choosing (a ball over the cap in raw samples) or afterwards."""
+    rng = np.random.default_rng(800 + seed)
+    n = int(rng.integers(1, 12))
+    times = np.linspace(0.0, 2.5, 26)
+    pos = rng.normal(size=(n, 2)) * 2.0
+    vel = rng.normal(size=(n, 2))
+    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(0.5, 1.0, size=n))
+    samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
+                               path.radius, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02)
+    for cap in (2, 8, 24, 64, 1000):
+        chosen, disks = _capped_disks(samples, _radius_order(samples), 0.0625, 8.0, cap)
+        assert chosen == largest_capped_reach(samples, 0.0625, 8.0, cap)
+        if chosen < 0.0:
+            assert disks.shape == (0, 3)
+        else:
+            np.testing.assert_array_equal(disks, nao_disks_within(samples, chosen))
+            assert len(disks) <= cap
+
+
+@pytest.mark.parametrize("seed", range(20))
 def test_largest_capped_reach_matches_the_doubling(seed):
     """The last doubled reach whose disks (after containment) stay within the cap, as
     the ball-by-ball doubling finds it."""
@@ -481,7 +511,7 @@ def _disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
     return np.array(rows).reshape(-1, 4)
 
 
-@pytest.mark.parametrize("seed", range(20))
+@pytest.mark.parametrize("seed", range(60))
 def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     """Far obstacles and pieces out of reach included (whole pieces are skipped when no
     acceleration within a_max reaches them): the same disks as sampling every time."""
@@ -723,6 +753,15 @@ class _Broken(_Batchy):
     @classmethod
     def act_batch(cls, agents, batch, rows):
         raise RuntimeError("all down")
+
+
+def test_arena_rejects_actions_for_robots_it_does_not_have():
+    arena = Arena(load_map("crossing"))
+    arena.reset(0)
+    for k in (len(arena.robots), -1):
+        with pytest.raises(ValueError, match=f"robot index {k} is not one of"):
+            arena.step({k: np.zeros(2)})
+    arena.step({0: np.zeros(2)})  # a valid one replaces that robot's agent
 
 
 def test_arena_contains_act_batch_failures():

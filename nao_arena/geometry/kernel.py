@@ -935,7 +935,7 @@ def _cover_bins(p0, p1, shrink, cover):
         p1 += 4.0
     lo = p0 + shrink
     hi = p1 - shrink
-    if hi <= lo:
+    if not hi > lo:  # also NaN: mark nothing (leaving out can only fail to prove)
         return
     first = int(math.ceil(lo * (_BINS / 4.0)))
     last = int(math.floor(hi * (_BINS / 4.0)))  # bins first .. last - 1 lie inside
@@ -1736,9 +1736,10 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
                 ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
     """The search of :func:`selection.select_acceleration` for the limit disc, compiled:
     a_d (the desired acceleration, inside the disc) if admissible, else the disk search
-    in the largest ball (radius a_max / 16 doubled) within ``max_disks`` disks, the
-    rings, and the disk search without a cap. Returns (status, x, y, candidates tested): status 0
-    desired, 1 adjusted, 2 nothing admissible found (the caller falls back)."""
+    in the largest ball (radius max(a_max / 16, 4 tol) doubled) within ``max_disks``
+    disks, the rings, and the disk search without a cap. Returns (status, x, y,
+    candidates tested): status 0 desired, 1 adjusted, 2 nothing admissible found (the
+    caller falls back)."""
     c, w, b, r, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius,
                                         margin)
     return select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,

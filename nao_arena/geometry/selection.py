@@ -9,7 +9,7 @@ Method: if the desired acceleration (projected onto the limit set) is
 admissible it is returned as is. Otherwise the NAO union is pictured as the
 disks |a - m(t)| <= rho(t) sampled in t (see DESIGN.md); in the largest
 ball around the desired acceleration whose disks stay within a cap (what a
-doubling of the ball from a_max / 16 would find), the nearest point
+doubling of the ball from max(a_max / 16, 4 tol) would find), the nearest point
 outside the disks is found exactly (free arcs of the circles) and confirmed by the
 exact clearance (a point in a sliver between samples is pushed outwards and
 bisected back onto the boundary). Fallbacks, for box limits and very
@@ -36,10 +36,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.kernel import (
+    _capped_disks,
     _outward_normal,
+    _radius_order,
     admissible_kernel,
     bisect_disc,
-    largest_capped_reach,
     latest_contact_kernel,
     nao_disk_samples,
     nao_disks_within,
@@ -623,10 +624,11 @@ def _nearest_by_disks(
     # Ball by ball, every ball's candidates within a smaller ball are that ball's
     # (nearest first, the same points) and fail again, so the largest ball within
     # the disk cap alone decides as a doubling from the smallest would.
-    chosen = largest_capped_reach(samples, 0.5 * reach, max(limit, reach), max_disks)
+    chosen, disks = _capped_disks(samples, _radius_order(samples), 0.5 * reach,
+                                  max(limit, reach), max_disks)
     if chosen < 0.0:
         return None
-    return _try_ball(tester, a_d, nao_disks_within(samples, chosen), chosen, tol)
+    return _try_ball(tester, a_d, disks, chosen, tol)
 
 
 def _try_ball(
