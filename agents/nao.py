@@ -89,13 +89,13 @@ class NAOAgent:
     detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
     "latest_contact").
 
-    The default horizon, 2.5 s, is about three stopping times of a robot with
-    v_max / a_max = 0.75 s (the shipped robot maps); the traffic maps set their own
-    (roundabout 3 s: a car stops from 6 m/s in 2 s; two-lane road 6 s: an overtake)."""
+    The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
+    = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
+    6 s (an overtake). A shorter one runs faster in crowds, see the README benchmarks."""
 
     def __init__(
         self,
-        horizon: float = 2.5,
+        horizon: float = 3.0,
         samples: int | None = None,
         predictor: str | None = None,
         margin: float = 0.15,
@@ -717,7 +717,7 @@ class AOAgent(NAOAgent):
 
     def __init__(
         self,
-        horizon: float = 2.5,
+        horizon: float = 3.0,
         samples: int | None = None,
         margin: float = 0.15,
         keep_band: float = 0.3,

@@ -4,7 +4,7 @@ Each scenario runs 20 seeds: the seed drives the map's randomness (start
 perturbations, traffic phases) and the agents' generators. The baselines run
 on the same seeds and must collide, so the scenarios are able to fail.
 Measured when last changed (one core): circle_swap_perturbed all 10 NAO robots
-arrive within 21 s in every seed, crossing all 12 within 29 s.
+arrive within 22 s in every seed, crossing all 12 within 22 s.
 """
 
 from __future__ import annotations

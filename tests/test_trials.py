@@ -31,7 +31,7 @@ STABLE_KEYS = {
 
 def small(out: Path, workers: int = 1, **kw) -> TrialConfig:
     settings = dict(maps=("circle_swap_perturbed",), agents=("goal", "nao"), episodes=2,
-                    seed=7, workers=workers, out=out, overrides=SMALL, time_limit=20.0)
+                    seed=7, workers=workers, out=out, overrides=SMALL, time_limit=15.0)
     settings.update(kw)
     return TrialConfig(**settings)
 
