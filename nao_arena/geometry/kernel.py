@@ -1407,10 +1407,18 @@ def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, swe
 
 @njit(cache=True)
 def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b,
-                 radius, sweep, margin, buf, res, hint):
+                 radius, sweep, margin, buf, res, hint, give_up=math.inf):
+    """Shrink [b, g] (g admissible) onto the boundary within tol: (gx, gy, tests). When
+    b starts at the origin of the caller's distances (the slide's a_d), ``give_up``
+    stops the search as soon as b is that far from its start: every point left on the
+    segment is farther (the caller then discards the result)."""
     gap = math.hypot(gx - bx, gy - by)
+    ox = bx
+    oy = by
     count = 0
     while gap > tol:
+        if (bx - ox) ** 2 + (by - oy) ** 2 >= give_up * give_up and give_up >= 0.0:
+            return gx, gy, count
         mx = 0.5 * (bx + gx)
         my = 0.5 * (by + gy)
         ok, c = _ok_disc(mx, my, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
@@ -1672,7 +1680,7 @@ def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radi
                 continue
             px, py, c = _bisect_disc(ax, ay, fx, fy, tol, a_max, v[0], v[1], v_max, seg_t,
                                      seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
-                                     hint)
+                                     hint, dist - tol)
             count += c
             d = math.hypot(px - ax, py - ay)
             if d < dist - tol:
