@@ -235,10 +235,14 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
     return res[:found].copy()
 
 
-def _bisect_ref(t: _Tester, bad, good, tol):
-    """selection._bisect as a Python loop over ``_Tester.ok1``."""
+def _bisect_ref(t: _Tester, bad, good, tol, give_up=math.inf):
+    """selection._bisect as a Python loop over ``_Tester.ok1``; it stops once bad is
+    ``give_up`` from where it started."""
     gap = float(np.hypot(*(good - bad)))
+    start = bad
     while gap > tol:
+        if (bad[0] - start[0]) ** 2 + (bad[1] - start[1]) ** 2 >= give_up * give_up:
+            return good
         mid = 0.5 * (bad + good)
         if t.ok1(mid):
             good = mid
@@ -260,7 +264,7 @@ def _slide_ref(t: _Tester, a_d, best, limits: AccelLimits, tol):
             far = limits.project(a_d + 1.5 * dist * u)
             if not t.ok1(far):
                 continue
-            p = _bisect_ref(t, a_d, far, tol)
+            p = _bisect_ref(t, a_d, far, tol, dist - tol)
             d = float(np.hypot(*(p - a_d)))
             if d < dist - tol:
                 best, dist, moved = p, d, True

@@ -311,8 +311,11 @@ def _ring_candidates(
         [_ring(a_d, rad, points, 0.5 * i) for i, rad in enumerate(radii)]))
 
 
-def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float):
-    """Shrink [bad, good] to a boundary point within tol; returns the admissible end."""
+def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float,
+            give_up: float = math.inf):
+    """Shrink [bad, good] to a boundary point within tol; returns the admissible end.
+    ``give_up``: stop once bad is that far from where it started (see the kernel's
+    ``_bisect_disc``; for box limits)."""
     if t.limits.box_lo is None:
         p = t.path
         gx, gy, count = bisect_disc(
@@ -322,7 +325,10 @@ def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol
         t.count += count
         return np.array([gx, gy])
     gap = float(np.hypot(*(good - bad)))
+    origin = bad
     while gap > tol:
+        if float(np.sum((bad - origin) ** 2)) >= give_up * give_up and give_up >= 0.0:
+            return good
         mid = 0.5 * (bad + good)
         if t.ok1(mid):
             good = mid
@@ -533,7 +539,7 @@ def _slide_towards(
             far = limits.project(a_d + 1.5 * dist * u)
             if not tester.ok1(far):
                 continue
-            p = _bisect(tester, a_d, far, tol)
+            p = _bisect(tester, a_d, far, tol, dist - tol)
             d = float(np.hypot(*(p - a_d)))
             if d < dist - tol:
                 best, dist, moved = p, d, True
