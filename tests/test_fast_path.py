@@ -429,10 +429,7 @@ def test_capped_disks_are_the_chosen_balls_disks(seed):
     rng = np.random.default_rng(800 + seed)
     n = int(rng.integers(1, 12))
     times = np.linspace(0.0, 2.5, 26)
-    pos = rng.normal(size=(n, 2)) * 2.0
-    vel = rng.normal(size=(n, 2))
-    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(0.5, 1.0, size=n))
+    path = _straight_paths(rng, n, times, spread=2.0)
     samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
                                path.radius, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02)
     for cap in (2, 8, 24, 64, 1000):
@@ -452,10 +449,7 @@ def test_largest_capped_reach_matches_the_doubling(seed):
     rng = np.random.default_rng(700 + seed)
     n = int(rng.integers(1, 12))
     times = np.linspace(0.0, 3.0, 31)
-    pos = rng.normal(size=(n, 2)) * 2.0
-    vel = rng.normal(size=(n, 2))
-    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(0.5, 1.0, size=n))
+    path = _straight_paths(rng, n, times, spread=2.0)
     q = rng.normal(size=2)
     samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
                                path.radius, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
@@ -474,10 +468,7 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     rng = np.random.default_rng(300 + seed)
     n = int(rng.integers(1, 8))
     times = np.linspace(0.0, 3.0, 31)
-    pos = rng.normal(size=(n, 2)) * 3.0
-    vel = rng.normal(size=(n, 2))
-    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(0.5, 1.0, size=n))
+    path = _straight_paths(rng, n, times, spread=3.0)
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     args = (v, path.t, path.c, path.w, path.b, path.radius, 0.1, 4, q)
@@ -485,6 +476,17 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     for reach in (0.125, 0.5, 2.0, 8.0):
         np.testing.assert_array_equal(nao_disks_within(samples, reach),
                                       nao_disks(*args, reach, 2.0))
+
+
+def _straight_paths(rng: np.random.Generator, n: int, times: np.ndarray, spread: float,
+                    speed: float = 1.0, radii: tuple[float, float] = (0.5, 1.0)):
+    """n obstacles on straight lines sampled at ``times``: start positions N(0, spread^2)
+    (m), velocities N(0, speed^2) (m/s), radii uniform in ``radii`` (m), drawn in that
+    order."""
+    pos = rng.normal(size=(n, 2)) * spread
+    vel = rng.normal(size=(n, 2)) * speed
+    return sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+                        rng.uniform(*radii, size=n))
 
 
 def _disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
@@ -543,10 +545,7 @@ def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     least as large; the last disk is kept; thinning leaves out disks."""
     rng = np.random.default_rng(500 + seed)
     times = np.linspace(0.0, 3.0, 31)
-    pos = rng.normal(size=(1, 2)) * 3.0
-    vel = rng.normal(size=(1, 2))
-    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(0.5, 1.0, size=1))
+    path = _straight_paths(rng, 1, times, spread=3.0)
     args = (rng.normal(size=2), path.t, path.c, path.w, path.b, path.radius, 0.1, 2,
             np.zeros(2), 8.0, 2.0, 16.0)
     full = nao_disk_samples(*args)
@@ -645,10 +644,7 @@ def _tester(seed: int):
     rng = np.random.default_rng(seed)
     times = np.linspace(0.0, 3.0, 31)
     n = int(rng.integers(1, 6))
-    pos = rng.normal(size=(n, 2)) * 2.5
-    vel = rng.normal(size=(n, 2))
-    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(0.6, 1.2, size=n))
+    path = _straight_paths(rng, n, times, spread=2.5, radii=(0.6, 1.2))
     limits = AccelLimits(2.0)
     return _Tester(rng.normal(size=2), path, limits, 0.0, float(rng.choice([1.5, np.inf]))), rng
 
