@@ -24,22 +24,24 @@ import math
 import numpy as np
 from numba import njit
 
+from nao_arena.geometry.borrow import borrowed
+
 _NEWTON_ITERS = 200
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _cubic(s, c3, c2, c1, c0):
     return ((c3 * s + c2) * s + c1) * s + c0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _dist2(s, ax, ay, bx, by, cx, cy):
     dx = (ax * s + bx) * s + cx
     dy = (ay * s + by) * s + cy
     return dx * dx + dy * dy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _root_increasing(lo, hi, c3, c2, c1, c0):
     """Root of the cubic on [lo, hi] where it rises from < 0 to > 0."""
     s = 0.5 * (lo + hi)
@@ -63,7 +65,7 @@ def _root_increasing(lo, hi, c3, c2, c1, c0):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _crossing(lo, hi, r2, ax, ay, bx, by, cx, cy):
     """First s in [lo, hi] with |d(s)|^2 <= r2, |d|^2 decreasing on the interval."""
     for _ in range(_NEWTON_ITERS):
@@ -77,7 +79,7 @@ def _crossing(lo, hi, r2, ax, ay, bx, by, cx, cy):
     return hi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _piece(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     """Minimum of |A s^2 + B s + C|^2 over s in [0, h] (h may be inf).
 
@@ -181,7 +183,7 @@ def _piece(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     out[2] = first
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _saturation_time(vx, vy, ax, ay, v_max):
     """Time at which |v + a t| reaches v_max (inf if never); |v| <= v_max."""
     if not math.isfinite(v_max):
@@ -205,7 +207,7 @@ def _saturation_time(vx, vy, ax, ay, v_max):
     return (sq - va) / a2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _robot_state(vx, vy, ax, ay, tau, ta):
     """Robot (acceleration, velocity, position) at time ta under the saturation model."""
     if ta < tau:
@@ -222,7 +224,7 @@ def _robot_state(vx, vy, ax, ay, tau, ta):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
           thresh, want_first, buf, out):
     """Scan obstacle n over all pieces for one robot candidate.
@@ -241,7 +243,6 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
     decide = math.isfinite(thresh)
     reach = r + thresh if decide else 0.0
     reach2 = reach * reach
-    amag = math.sqrt(ax * ax + ay * ay)
     for j in range(S):
         t0 = seg_t[j]
         t1 = seg_t[j + 1]
@@ -251,7 +252,7 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
             rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, t0)
             cx = rpx - seg_c[n, j, 0]
             cy = rpy - seg_c[n, j, 1]
-            bound = reach + sweep[n, j] + speed_bound * h + 0.5 * amag * h * h
+            bound = (reach + sweep[n, j] + speed_bound * h) * (1.0 + 1e-9)
             if cx * cx + cy * cy > bound * bound:
                 continue
         ta = t0
@@ -271,6 +272,13 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
                     lb2 = lb * lb
                     if lb2 >= best and (lb2 > r2 or first < math.inf):
                         skip = True
+            end = _end_dist2(Ax, Ay, Bx, By, Cx, Cy, hp) if decide else math.inf
+            if end < reach2:
+                # an end of the sub-piece is already that close: no minimum needed
+                out[0] = end
+                out[1] = ta
+                out[2] = first
+                return j
             if not skip:
                 _piece(Ax, Ay, Bx, By, Cx, Cy, hp, r2, want_first and first == math.inf, buf)
                 if buf[0] < best:
@@ -295,7 +303,7 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
     return -1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
     """Robot minus obstacle n from time ta within piece j (which starts at t0), as
     A s^2 + B s + C (s = time since ta): (Ax, Ay, Bx, By, Cx, Cy)."""
@@ -309,7 +317,17 @@ def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
             rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
+def _end_dist2(ax, ay, bx, by, cx, cy, h):
+    """The smaller of |A s^2 + B s + C|^2 at s = 0 and s = h (when finite): the minimum
+    :func:`_piece` finds is at most this (it starts from these same two values)."""
+    d0 = cx * cx + cy * cy
+    if not math.isfinite(h):
+        return d0
+    return min(d0, _dist2(h, ax, ay, bx, by, cx, cy))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
     """Whether the candidate (as in :func:`_scan`) comes closer than sqrt(reach2) (m) to
     obstacle n during piece j: the test :func:`_scan` makes there, without its prune."""
@@ -320,6 +338,8 @@ def _piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2,
         tb = min(t1, tau) if ta < tau else t1
         Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b,
                                            n, j)
+        if _end_dist2(Ax, Ay, Bx, By, Cx, Cy, tb - ta) < reach2:
+            return True
         _piece(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, False, buf)
         if buf[0] < reach2:
             return True
@@ -327,7 +347,7 @@ def _piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2,
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _candidate_setup(vx, vy, ax, ay, v_max, horizon):
     """Speed-clamped initial velocity, saturation time and a bound on the speed (m/s)."""
     spd = math.sqrt(vx * vx + vy * vy)
@@ -337,26 +357,31 @@ def _candidate_setup(vx, vy, ax, ay, v_max, horizon):
         spd = v_max
     tau = _saturation_time(vx, vy, ax, ay, v_max)
     amag = math.sqrt(ax * ax + ay * ay)
-    bound = spd + amag * min(tau, horizon)
+    # |v + a t| is convex in t, so up to tau it stays below max(|v|, v_max) = v_max
+    bound = min(spd + amag * min(tau, horizon), v_max * (1.0 + 1e-9))
     return vx, vy, tau, bound
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def piece_sweep(seg_t, seg_w, seg_b):
     """(N, S) bound on how far each obstacle moves within each piece (m)."""
-    N = seg_w.shape[0]
-    S = seg_w.shape[1]
-    out = np.empty((N, S))
-    for n in range(N):
-        for j in range(S):
+    out = np.empty((seg_w.shape[0], seg_w.shape[1]))
+    _fill_sweep(seg_t, seg_w, seg_b, seg_w.shape[0], out)
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _fill_sweep(seg_t, seg_w, seg_b, rows, out):
+    """:func:`piece_sweep` of the first ``rows`` obstacles, into out[:rows]."""
+    for n in range(rows):
+        for j in range(seg_w.shape[1]):
             h = seg_t[j + 1] - seg_t[j]
             w = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
             b = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
             out[n, j] = w * h + 0.5 * b * h * h
-    return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def clearance_kernel(
     cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, out_clear, out_tmin, out_tfirst,
 ):
@@ -387,7 +412,7 @@ def clearance_kernel(
             out_tfirst[k, n] = out[2]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
                       out_ok):
     """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle.
@@ -413,7 +438,7 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
         out_ok[k] = ok
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     """Whether obstacle n (combined radius r, m) is within reach: see
     :func:`relevant_obstacles` (v already clamped to v_max)."""
@@ -442,7 +467,7 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     return False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _clamped(v, v_max):
     vx = v[0]
     vy = v[1]
@@ -453,7 +478,7 @@ def _clamped(v, v_max):
     return vx, vy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
     """(N,) mask of obstacles that some acceleration with |a| <= a_max could come within
     radius + margin (m) of over the horizon.
@@ -466,13 +491,15 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     N = seg_c.shape[0]
     vx, vy = _clamped(v, v_max)
     out = np.zeros(N, dtype=np.bool_)
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius = borrowed(radius)
     for n in range(N):
         out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n,
                            radius[n] + margin)
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _moving_pieces(pred, body, px, py, times, c, w, row):
     """Write into c, w [row] the pieces of body's sampled centres pred[body] (T, 2) m,
     relative to (px, py): start centres (m) and velocities (m/s), as
@@ -491,7 +518,7 @@ def _moving_pieces(pred, body, px, py, times, c, w, row):
         y0 = y1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _static_pieces(x0, y0, times, c, w, row):
     """Write into c, w [row] the pieces of a disc at rest at (x0, y0) m (robot-relative),
     as :func:`~nao_arena.geometry.clearance.sampled_path` builds them."""
@@ -503,7 +530,7 @@ def _static_pieces(x0, y0, times, c, w, row):
         w[row, j, 1] = (y0 - y0) / dt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
                            a_max, v_max, excursion, finite_path):
     """The pieces :func:`~nao_arena.geometry.clearance.sampled_path` builds, of the
@@ -520,18 +547,35 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
     input order; finite is
     False (and nothing is kept) when a neighbour's centres are not all finite.
     """
-    T = times.shape[0]
-    S = T - 1
-    n_nb = idx.shape[0]
-    n_w = wall_rel.shape[0]
-    total = n_nb + n_w
+    S = times.shape[0] - 1
+    total = idx.shape[0] + wall_rel.shape[0]
     c = np.empty((total, S, 2))
     w = np.empty((total, S, 2))
     b = np.zeros((total, S, 2))
     rad = np.empty(total)
+    n = _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
+                             a_max, v_max, excursion, finite_path, c, w, b, rad)
+    if n < 0:
+        return c[:0], w[:0], b[:0], rad[:0], False
+    return c[:n], w[:n], b[:n], rad[:n], True
+
+
+@njit(cache=True, error_model="numpy")
+def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v, a_max,
+                         v_max, excursion, finite_path, c, w, b, rad):
+    """:func:`relevant_sampled_paths` into c, w, b, rad (rows for every obstacle given):
+    returns how many rows it kept, -1 when a neighbour's centres are not all finite.
+    Arrays borrowed here."""
+    times, pred, idx, position = borrowed(times), borrowed(pred), borrowed(idx), borrowed(position)
+    nb_radius, wall_rel = borrowed(nb_radius), borrowed(wall_rel)
+    wall_r, v = borrowed(wall_r), borrowed(v)
+    excursion, finite_path = borrowed(excursion), borrowed(finite_path)
+    c, w, b, rad = borrowed(c), borrowed(w), borrowed(b), borrowed(rad)
+    n_nb = idx.shape[0]
+    total = n_nb + wall_rel.shape[0]
     for i in range(n_nb):
         if not finite_path[idx[i]]:
-            return c[:0], w[:0], b[:0], rad[:0], False
+            return -1
     vx, vy = _clamped(v, v_max)
     px = position[0]
     py = position[1]
@@ -565,17 +609,17 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
         rad[n] = r
         if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
             n += 1
-    return c[:n], w[:n], b[:n], rad[:n], True
+    return n
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _norm(x, y):
     """sqrt(x^2 + y^2), without math.hypot's care for overflow (several times faster;
     the values here are accelerations and distances of ordinary size)."""
     return math.sqrt(x * x + y * y)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _farther(x, y, lim):
     """math.hypot(x, y) > lim, without the hypot unless the answer is close."""
     d2 = x * x + y * y
@@ -587,14 +631,14 @@ def _farther(x, y, lim):
     return math.hypot(x, y) > lim
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _samples_in_piece(t0, t1, n_sub, per_second):
     if not math.isfinite(t1):
         return 12
     return max(n_sub, min(256, int(math.ceil(per_second * (t1 - t0)))))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _put(out, row, x, y, rho, dq):
     """Write the disk (x, y, rho, dq) into out[row]; returns the next row."""
     out[row, 0] = x
@@ -604,7 +648,7 @@ def _put(out, row, x, y, rho, dq):
     return row + 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
               per_second=16.0, thin=0.0):
     """The sampled disks of :func:`nao_disks` before containment is filtered:
@@ -632,6 +676,19 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
     for j in range(S):
         total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
     out = np.empty((N * total, 4))
+    return out[:_fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q,
+                                   reach, a_max, per_second, thin, out)]
+
+
+@njit(cache=True, error_model="numpy")
+def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+                       per_second, thin, out):
+    """:func:`nao_disk_samples` into the rows of ``out``; returns how many it wrote.
+    Arrays borrowed here."""
+    v, seg_t, seg_c, seg_w = borrowed(v), borrowed(seg_t), borrowed(seg_c), borrowed(seg_w)
+    seg_b, radius, q, out = borrowed(seg_b), borrowed(radius), borrowed(q), borrowed(out)
+    N = seg_c.shape[0]
+    S = seg_c.shape[1]
     cnt = 0
     for n in range(N):
         rr = radius[n] + margin
@@ -704,10 +761,10 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
                 cnt = _put(out, cnt, mx, my, rho, dq)
         if pend:
             cnt = _put(out, cnt, px, py, prho, pdq)
-    return out[:cnt]
+    return cnt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
               per_second=16.0):
     """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
@@ -725,28 +782,28 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_
     )[:, :3]))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def nao_disks_within(samples, reach):
     """:func:`nao_disks` for ``reach`` (m/s^2) from the samples of
     :func:`nao_disk_samples` taken with a reach at least as large."""
     return _disks_within(samples, _radius_order(samples), reach)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _radius_order(rows):
     """Rows (disks or samples) largest radius first, equal radii in row order (a stable
     sort): the visiting order of :func:`_uncontained_in`, for any subset of the rows."""
     return np.argsort(-rows[:, 2], kind="mergesort")
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _disks_within(samples, order, reach):
     """:func:`nao_disks_within` with the samples' :func:`_radius_order` given."""
     keep, _ = _uncontained_in(samples, order, reach, samples.shape[0])
     return np.ascontiguousarray(samples[keep][:, :3])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def largest_capped_reach(samples, reach, limit, max_disks):
     """Double ``reach`` (m/s^2) while below ``limit``: the last doubled reach whose
     :func:`nao_disks_within` holds at most ``max_disks`` disks, stopping at the first
@@ -754,7 +811,7 @@ def largest_capped_reach(samples, reach, limit, max_disks):
     return _capped_disks(samples, _radius_order(samples), reach, limit, max_disks)[0]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _capped_disks(samples, order, reach, limit, max_disks):
     """:func:`largest_capped_reach` and its :func:`nao_disks_within` (empty when there
     is none), from the samples' :func:`_radius_order`. Containment is only worked out
@@ -785,7 +842,7 @@ def _capped_disks(samples, order, reach, limit, max_disks):
     return chosen, np.ascontiguousarray(samples[chosen_keep][:, :3])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _drop_contained(disks):
     """The disks (M, 3) that no other disk contains (of identical ones, the first).
 
@@ -797,7 +854,7 @@ def _drop_contained(disks):
     return disks[keep]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _uncontained_in(rows, order, reach, stop_after):
     """:func:`_drop_contained`'s mask (over ``rows``) and count of kept disks, among the
     rows: disks (M, 3), or samples (M, 4) of which only those within ``reach`` (m/s^2)
@@ -841,7 +898,7 @@ def _uncontained_in(rows, order, reach, stop_after):
 _TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     """Add the angular interval of the circle (cx, cy, rho) that disk j of ``circ``
     covers (j == len(circ): the outside of the limit disc, when ``in_limit``) to
@@ -899,7 +956,7 @@ def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
 _BINS = 256
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _pseudo_angle(x, y):
     """A monotone stand-in for atan2(y, x) mod 2 pi, in [0, 4): no trigonometry.
     Its derivative with respect to the angle is at most 1."""
@@ -915,7 +972,7 @@ _WORDS = _BINS // 64
 _FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _set_bins(lo, hi, cover):
     """Set the bits of bins lo .. hi - 1 (0 <= lo < hi <= _BINS) in ``cover``."""
     for word in range(lo // 64, (hi - 1) // 64 + 1):
@@ -927,7 +984,7 @@ def _set_bins(lo, hi, cover):
             cover[word] |= ((np.uint64(1) << np.uint64(b - a)) - np.uint64(1)) << np.uint64(a)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _cover_bins(p0, p1, shrink, cover):
     """Mark in the bit set ``cover`` the bins inside the ccw arc [p0, p1]
     (pseudo-angles) shrunk by ``shrink`` at both ends."""
@@ -953,7 +1010,7 @@ def _cover_bins(p0, p1, shrink, cover):
         _set_bins(0, last - _BINS, cover)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
@@ -1039,7 +1096,7 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
     return _all_binned(cover)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _all_binned(cover):
     """Whether the bit set ``cover`` marks every bin."""
     for i in range(_WORDS):
@@ -1048,7 +1105,7 @@ def _all_binned(cover):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends,
                      cover):
     """Append to ``out`` (from row k) the point nearest q of every free arc of the
@@ -1105,7 +1162,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0):
     """Points nearest q that lie outside every disk and inside |a| <= a_max.
 
@@ -1123,6 +1180,20 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
     """
     M = disks.shape[0]
     res = np.full((max_out, 3), math.inf)
+    found = _nearest_outside(q, disks, a_max, within, covered, res, np.empty((2 * M + 8, 2)),
+                             np.empty(2 * M + 4), np.empty(2 * M + 4),
+                             np.empty(_WORDS, dtype=np.uint64))
+    return res[:found].copy()
+
+
+@njit(cache=True, error_model="numpy")
+def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, cover):
+    """:func:`nearest_outside_disks` into ``res`` (max_out, 3), filled with inf; returns how
+    many rows hold candidates. Scratch arrays given (borrowed here)."""
+    q, disks, res, cand = borrowed(q), borrowed(disks), borrowed(res), borrowed(cand)
+    starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
+    M = disks.shape[0]
+    max_out = res.shape[0]
     # candidates farther than ``within`` are never kept: start the bound just above it
     res[:, 2] = np.nextafter(within, math.inf)
     # q itself, when no disk contains it
@@ -1140,10 +1211,6 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
         lower[i] = abs(_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
     lower[M] = abs(_norm(q[0], q[1]) - a_max)
     order = np.argsort(lower)
-    cand = np.empty((2 * M + 8, 2))
-    starts = np.empty(2 * M + 4)
-    ends = np.empty(2 * M + 4)
-    cover = np.empty(_WORDS, dtype=np.uint64)
     for i in order:
         if lower[i] >= res[max_out - 1, 2]:
             break
@@ -1176,10 +1243,10 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
     found = 0
     while found < max_out and res[found, 2] <= within and res[found, 2] < math.inf:
         found += 1
-    return res[:found].copy()
+    return found
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
                    t_stop, buf):
     """First time (s) the robot comes within r of obstacle n, if before t_stop; else inf."""
@@ -1219,7 +1286,7 @@ def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b,
     return math.inf
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
                           out_first):
     """Earliest first contact (s) over all obstacles per candidate, for picking the latest.
@@ -1254,7 +1321,7 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
 RADIUS_CUT = 1.0 - 1e-9
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def path_excursions(pred):
     """Per body of ``pred`` (n, T, 2) m: the largest distance (m) of a sampled centre from
     the first one, and whether all its centres are finite."""
@@ -1278,7 +1345,7 @@ def path_excursions(pred):
     return excursion, finite
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
                              wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
                              excursion, finite_path, out):
@@ -1297,10 +1364,33 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
     ``pred``. out[k] = 1 admissible, 0 not, -1 non-finite centres (left to the
     caller).
     """
-    T = times.shape[0]
-    S = T - 1
-    buf = np.empty(3)
-    res = np.empty(3)
+    S = times.shape[0] - 1
+    most = 0  # the most obstacles a robot has: the scratch rows
+    for k in rows:
+        most = max(most, nb_start[k + 1] - nb_start[k] + wall_start[k + 1] - wall_start[k])
+    _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r, wall_start,
+                     wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
+                     finite_path, out, np.empty(most, dtype=np.int64), np.empty(most),
+                     np.empty((most, S, 2)), np.empty((most, S, 2)), np.zeros((most, S, 2)),
+                     np.empty((most, S)), np.empty(3), np.empty(3))
+
+
+@njit(cache=True, error_model="numpy")
+def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r, wall_start,
+                     wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
+                     finite_path, out, keep, keep_r, c, w, b, sweep, buf, res):
+    """:func:`sampled_admissible_batch` with its scratch arrays given (rows enough for
+    every robot's obstacles; b zero). Arrays borrowed here."""
+    times, pred = borrowed(times), borrowed(pred)
+    nb_start, nb_index = borrowed(nb_start), borrowed(nb_index)
+    nb_radius, wall_c, wall_r = borrowed(nb_radius), borrowed(wall_c), borrowed(wall_r)
+    wall_start, wall_index, rows = borrowed(wall_start), borrowed(wall_index), borrowed(rows)
+    pos, vel, acc, v_max = borrowed(pos), borrowed(vel), borrowed(acc), borrowed(v_max)
+    radius, margin, excursion = borrowed(radius), borrowed(margin), borrowed(excursion)
+    finite_path, out = borrowed(finite_path), borrowed(out)
+    keep, keep_r = borrowed(keep), borrowed(keep_r)
+    c, w, b, sweep = borrowed(c), borrowed(w), borrowed(b), borrowed(sweep)
+    buf, res = borrowed(buf), borrowed(res)
     horizon = times[-1]
     for k in rows:
         n_nb = nb_start[k + 1] - nb_start[k]
@@ -1316,8 +1406,6 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         travel = bound * horizon
         _, _, _, _, mx, my = _robot_state(vx, vy, ax, ay, tau, 0.5 * horizon)
         half = 0.5 * travel
-        keep = np.empty(n_nb + n_w, dtype=np.int64)
-        keep_r = np.empty(n_nb + n_w)
         n = 0
         finite = True
         for i in range(n_nb + n_w):
@@ -1350,10 +1438,6 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
         if n == 0:
             out[k] = 1
             continue
-        c = np.empty((n, S, 2))
-        w = np.empty((n, S, 2))
-        b = np.zeros((n, S, 2))
-        rad = keep_r[:n]
         for q in range(n):
             i = keep[q]
             if i < n_nb:
@@ -1361,18 +1445,18 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
             else:
                 d = wall_index[wall_start[k] + i - n_nb]
                 _static_pieces(wall_c[d, 0] - px, wall_c[d, 1] - py, times, c, w, q)
-        sweep = piece_sweep(times, w, b)
+        _fill_sweep(times, w, b, n, sweep)
         ok = 1
         for q in range(n):
-            _scan(vx, vy, ax, ay, tau, bound, times, c, w, b, sweep, q, rad[q], 0.0, False,
+            _scan(vx, vy, ax, ay, tau, bound, times, c, w, b, sweep, q, keep_r[q], 0.0, False,
                   buf, res)
-            if res[0] < (rad[q] + 0.0) ** 2:
+            if res[0] < (keep_r[q] + 0.0) ** 2:
                 ok = 0
                 break
         out[k] = ok
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
              buf, res, hint):
     """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
@@ -1405,13 +1489,16 @@ def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, swe
     return True, 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b,
                  radius, sweep, margin, buf, res, hint, give_up=math.inf):
     """Shrink [b, g] (g admissible) onto the boundary within tol: (gx, gy, tests). When
     b starts at the origin of the caller's distances (the slide's a_d), ``give_up``
     stops the search as soon as b is that far from its start: every point left on the
     segment is farther (the caller then discards the result)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     gap = math.hypot(gx - bx, gy - by)
     ox = bx
     oy = by
@@ -1434,7 +1521,7 @@ def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
     return gx, gy, count
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
                 margin):
     """Shrink the segment [bad, good] (m/s^2; good admissible) onto the NAO boundary
@@ -1447,12 +1534,15 @@ def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, rad
                         seg_t, seg_c, seg_w, seg_b, radius, sweep, margin, buf, res, hint)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
                  sweep, margin, buf, res, hint):
     """Push the inadmissible point (x, y) along the unit direction (ux, uy) by tol, 2 tol,
     4 tol, ... below a_max / 4; the first admissible push is bisected back onto the
     boundary within tol. Returns (found, x, y, candidates tested)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     count = 0
     step = tol
     while step < 0.25 * a_max:
@@ -1472,7 +1562,7 @@ def _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, s
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _outward_normal(x, y, disks):
     """Unit direction away from the disks whose circles pass through (x, y) (m/s^2): the
     mean of their outward normals; (0, 0) when none or they cancel."""
@@ -1491,7 +1581,7 @@ def _outward_normal(x, y, disks):
     return nx / norm, ny / norm
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
                         seg_b, radius, sweep, margin, disks):
     """Confirm disk-picture candidates exactly, nearest first (limit disc |a| <= a_max).
@@ -1506,9 +1596,19 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
     Returns (found, x, y, candidates tested, stopped at a row beyond reach) —
     :func:`selection._nearest_by_disks`'s candidate loop compiled.
     """
-    buf = np.empty(3)
-    res = np.empty(3)
-    hint = np.full(2, -1, dtype=np.int64)
+    return _try_candidates(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
+                           seg_b, radius, sweep, margin, disks, np.empty(3), np.empty(3),
+                           np.full(2, -1, dtype=np.int64))
+
+
+@njit(cache=True, error_model="numpy")
+def _try_candidates(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                    radius, sweep, margin, disks, buf, res, hint):
+    """:func:`try_candidates_disc` with its scratch arrays given (borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    cands, a_d, v, disks = borrowed(cands), borrowed(a_d), borrowed(v), borrowed(disks)
     vx = v[0]
     vy = v[1]
     count = 0
@@ -1541,7 +1641,7 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
     return False, 0.0, 0.0, count, False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _onto_disc(x, y, a_max):
     """(x, y) m/s^2 projected onto |a| <= a_max, as AccelLimits.project does it."""
     norm = math.hypot(x, y)
@@ -1549,7 +1649,7 @@ def _onto_disc(x, y, a_max):
     return x * scale, y * scale
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
                 radius):
     """:func:`selection.repair_acceleration` compiled for the limit disc: the candidates
@@ -1562,7 +1662,7 @@ def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, s
                            seg_b, radius, sweep)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
                     radius, sweep):
     """:func:`repair_disc` for obstacles that are all relevant (as :func:`relevant_subset`
@@ -1579,21 +1679,31 @@ def repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_
             dist[k] = math.hypot(cand[k, 0] - want[0], cand[k, 1] - want[1])
             k += 1
     order = np.argsort(dist, kind="mergesort")
-    buf = np.empty(3)
-    res = np.empty(3)
-    hint = np.full(2, -1, dtype=np.int64)
+    return _first_admissible(cand, order, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                             sweep, 0.0, np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64))
+
+
+@njit(cache=True, error_model="numpy")
+def _first_admissible(cand, order, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                      margin, buf, res, hint):
+    """The first admissible row of ``cand`` (K, 2) m/s^2 in ``order``: (found, x, y,
+    candidates tested); scratch arrays given (borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    cand, order, v = borrowed(cand), borrowed(order), borrowed(v)
     count = 0
-    for o in range(K):
+    for o in range(order.shape[0]):
         k = order[o]
         ok, c = _ok_disc(cand[k, 0], cand[k, 1], a_max, v[0], v[1], v_max, seg_t, seg_c,
-                         seg_w, seg_b, radius, sweep, 0.0, buf, res, hint)
+                         seg_w, seg_b, radius, sweep, margin, buf, res, hint)
         count += c
         if ok:
             return True, cand[k, 0], cand[k, 1], count
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
                      radius, sweep, margin):
     """The ring fallback of :func:`selection.select_acceleration` compiled for the limit
@@ -1601,11 +1711,21 @@ def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w
     first; the admissible candidate of the first ring that has one, nearest a_d, is
     bisected back towards a_d onto the boundary within tol and slid along it
     (:func:`bisect_disc`, :func:`slide_disc`). Returns (found, x, y, candidates tested)."""
+    return _ring_search(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                        radius, sweep, margin, np.empty(3), np.empty(3),
+                        np.full(2, -1, dtype=np.int64), np.empty((unit.shape[1], 2)))
+
+
+@njit(cache=True, error_model="numpy")
+def _ring_search(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                 sweep, margin, buf, res, hint, cand):
+    """:func:`ring_search_disc` with its scratch arrays given (borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    a_d, radii, unit = borrowed(a_d), borrowed(radii), borrowed(unit)
+    v, cand = borrowed(v), borrowed(cand)
     P = unit.shape[1]
-    buf = np.empty(3)
-    res = np.empty(3)
-    hint = np.full(2, -1, dtype=np.int64)
-    cand = np.empty((P, 2))
     count = 0
     for i in range(radii.shape[0]):
         best = -1
@@ -1637,16 +1757,24 @@ def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
                margin):
     """Rotate the admissible boundary point ``best`` about a_d (m/s^2) by shrinking angles,
     pulling each admissible probe back onto the boundary, while it gets nearer a_d by
     more than tol (m/s^2). Returns (x, y, candidates tested) —
     :func:`selection._slide_towards` compiled for the limit disc."""
-    buf = np.empty(3)
-    res = np.empty(3)
-    hint = np.full(2, -1, dtype=np.int64)
+    return _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                  margin, np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64))
+
+
+@njit(cache=True, error_model="numpy")
+def _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
+           buf, res, hint):
+    """:func:`slide_disc` with its scratch arrays given (borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     ax = a_d[0]
     ay = a_d[1]
     bx = best[0]
@@ -1694,7 +1822,7 @@ def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radi
     return bx, by, count
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
     """The obstacles :func:`relevant_obstacles` keeps, as contiguous arrays (the inputs
     themselves when all are kept), and their :func:`piece_sweep`:
@@ -1726,7 +1854,7 @@ def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
     return c, w, b, r, piece_sweep(seg_t, w, b)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
                    radius, sweep, margin, covered):
     """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
@@ -1739,7 +1867,7 @@ def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
     return found, x, y, count, cands.shape[0] == 0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin, tol,
                 ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
     """The search of :func:`selection.select_acceleration` for the limit disc, compiled:
@@ -1754,7 +1882,7 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
                            ring_radii, unit_rings, max_disks, n_sub, per_second, thin)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol, ring_radii,
                     unit_rings, max_disks, n_sub, per_second, thin):
     """:func:`select_disc` for obstacles that are all relevant (as :func:`relevant_subset`
