@@ -519,6 +519,36 @@ def _moving_pieces(pred, body, px, py, times, c, w, row):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max, r):
+    """:func:`_moving_pieces` into row ``row``, and :func:`_relevant` of those pieces (zero
+    accelerations, radius r m): the same pieces and the same answer, in one pass with no
+    early exit (the compiler vectorises it; most obstacles tested are not relevant)."""
+    hit = False
+    for j in range(times.shape[0] - 1):
+        x0 = pred[body, j, 0] - px
+        y0 = pred[body, j, 1] - py
+        x1 = pred[body, j + 1, 0] - px
+        y1 = pred[body, j + 1, 1] - py
+        t0 = times[j]
+        t1 = times[j + 1]
+        h = t1 - t0
+        wx = (x1 - x0) / h
+        wy = (y1 - y0) / h
+        c[row, j, 0] = x0
+        c[row, j, 1] = y0
+        w[row, j, 0] = wx
+        w[row, j, 1] = wy
+        dx = x0 - vx * t0
+        dy = y0 - vy * t0
+        reach = r + 0.5 * a_max * t1 * t1 + math.sqrt((wx - vx) ** 2 + (wy - vy) ** 2) * h
+        own = r + v_max * t1 + math.sqrt(wx ** 2 + wy ** 2) * h
+        near = not (dx * dx + dy * dy > reach * reach)
+        close = x0 * x0 + y0 * y0 <= own * own
+        hit = hit | (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
+    return hit
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _static_pieces(x0, y0, times, c, w, row):
     """Write into c, w [row] the pieces of a disc at rest at (x0, y0) m (robot-relative),
     as :func:`~nao_arena.geometry.clearance.sampled_path` builds them."""
@@ -596,7 +626,9 @@ def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, 
                 # every piece starts within ex of the first centre and moves at most 2 ex
                 if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
                     continue
-            _moving_pieces(pred, body, px, py, times, c, w, n)
+            rad[n] = r
+            if _moving_relevant(pred, body, px, py, times, c, w, n, vx, vy, a_max, v_max, r):
+                n += 1
         else:
             d = i - n_nb
             x0 = wall_rel[d, 0]
@@ -606,9 +638,9 @@ def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, 
             if dist > (r + travel) * (1.0 + 1e-9) + 1e-12:
                 continue
             _static_pieces(x0, y0, times, c, w, n)
-        rad[n] = r
-        if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
-            n += 1
+            rad[n] = r
+            if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
+                n += 1
     return n
 
 
