@@ -523,6 +523,19 @@ def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max,
     """:func:`_moving_pieces` into row ``row``, and :func:`_relevant` of those pieces (zero
     accelerations, radius r m): the same pieces and the same answer, in one pass with no
     early exit (the compiler vectorises it; most obstacles tested are not relevant)."""
+    if math.isfinite(v_max) and math.isfinite(times[0]) and math.isfinite(times[-1]):
+        # first a cheap proof that no piece passes the v_max test: |w| h <= |dx| + |dy|
+        # (no division, no square root); the factor covers the rounding of the exact test
+        maybe = False
+        for j in range(times.shape[0] - 1):
+            x0 = pred[body, j, 0] - px
+            y0 = pred[body, j, 1] - py
+            dx = pred[body, j + 1, 0] - px - x0
+            dy = pred[body, j + 1, 1] - py - y0
+            own = (r + v_max * times[j + 1] + abs(dx) + abs(dy)) * (1.0 + 1e-9) + 1e-12
+            maybe = maybe | (x0 * x0 + y0 * y0 <= own * own)
+        if not maybe:
+            return False
     hit = False
     for j in range(times.shape[0] - 1):
         x0 = pred[body, j, 0] - px
