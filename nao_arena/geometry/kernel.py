@@ -1501,7 +1501,7 @@ def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
         out[k] = ok
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
              buf, res, hint):
     """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
