@@ -32,7 +32,7 @@ def test_borrowed_view_is_the_same_array() -> None:
         assert sys.getrefcount(arr) == before
 
 
-def test_kernels_do_not_leak() -> None:
+def test_kernels_do_not_leak(tmp_path) -> None:
     """Sixty steps of a 12-robot NAO arena (keep tests, repairs, selections) in a fresh
     process with the runtime's allocation counters on: as many arrays are freed as
     were allocated during the loop."""
@@ -61,7 +61,8 @@ def test_kernels_do_not_leak() -> None:
         print("ok", new)
     """)
     env = dict(os.environ, NUMBA_NRT_STATS="1")
+    # run outside the checkout, so that the installed package is imported
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=env, timeout=600)
+                          env=env, timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.startswith("ok")
