@@ -488,11 +488,11 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     first clamped to v_max. Obstacles outside the mask can be dropped from
     any selection with those limits.
     """
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius = borrowed(radius)
     N = seg_c.shape[0]
     vx, vy = _clamped(v, v_max)
     out = np.zeros(N, dtype=np.bool_)
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius = borrowed(radius)
     for n in range(N):
         out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n,
                            radius[n] + margin)
