@@ -14,7 +14,9 @@ speed |v + a t| reaches v_max (time tau), then constant velocity. A robot
 already above v_max starts from its velocity scaled down to v_max.
 
 Everything here is numba-compiled; the public wrappers live in
-:mod:`nao_arena.geometry.clearance`.
+:mod:`nao_arena.geometry.clearance`. The loops that run per candidate borrow
+their array arguments (:mod:`nao_arena.geometry.borrow`: no reference counting
+per call) and get their scratch arrays from thin wrappers.
 """
 
 from __future__ import annotations
