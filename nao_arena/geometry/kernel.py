@@ -444,29 +444,31 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
 def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     """Whether obstacle n (combined radius r, m) is within reach: see
     :func:`relevant_obstacles` (v already clamped to v_max)."""
-    S = seg_c.shape[1]
-    for j in range(S):
-        t0 = seg_t[j]
-        t1 = seg_t[j + 1]
-        h = t1 - t0
-        if not math.isfinite(h):
-            return True
-        dx = seg_c[n, j, 0] - vx * t0
-        dy = seg_c[n, j, 1] - vy * t0
-        rel = math.sqrt((seg_w[n, j, 0] - vx) ** 2 + (seg_w[n, j, 1] - vy) ** 2)
-        bb = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
-        reach = r + 0.5 * a_max * t1 * t1 + rel * h + 0.5 * bb * h * h
-        if dx * dx + dy * dy > reach * reach:
-            continue
-        if not math.isfinite(v_max):
-            return True
-        own = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
-        reach = r + v_max * t1 + own * h + 0.5 * bb * h * h
-        cx = seg_c[n, j, 0]
-        cy = seg_c[n, j, 1]
-        if cx * cx + cy * cy <= reach * reach:
+    for j in range(seg_c.shape[1]):
+        if _piece_relevant(seg_c[n, j, 0], seg_c[n, j, 1], seg_w[n, j, 0], seg_w[n, j, 1],
+                           seg_b[n, j, 0], seg_b[n, j, 1], seg_t[j], seg_t[j + 1], vx, vy, a_max,
+                           v_max, r):
             return True
     return False
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
+    """Whether the robot (velocity v m/s, limits a_max, v_max) could come within r (m) of
+    an obstacle during the piece [t0, t1] s that starts at (cx, cy) m with velocity
+    (wx, wy) m/s and acceleration (bx, by) m/s^2: |x(t) - v t| <= a_max t^2 / 2 and
+    |x(t)| <= v_max t must both allow it (see :func:`relevant_obstacles`). A piece of
+    infinite length always may. Branch-free, so loops over pieces vectorise."""
+    h = t1 - t0
+    dx = cx - vx * t0
+    dy = cy - vy * t0
+    bb = math.sqrt(bx ** 2 + by ** 2)
+    reach = r + 0.5 * a_max * t1 * t1 + math.sqrt((wx - vx) ** 2 + (wy - vy) ** 2) * h \
+        + 0.5 * bb * h * h
+    own = r + v_max * t1 + math.sqrt(wx ** 2 + wy ** 2) * h + 0.5 * bb * h * h
+    near = not (dx * dx + dy * dy > reach * reach)
+    close = cx * cx + cy * cy <= own * own
+    return (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -506,25 +508,31 @@ def _moving_pieces(pred, body, px, py, times, c, w, row):
     """Write into c, w [row] the pieces of body's sampled centres pred[body] (T, 2) m,
     relative to (px, py): start centres (m) and velocities (m/s), as
     :func:`~nao_arena.geometry.clearance.sampled_path` builds them."""
-    x0 = pred[body, 0, 0] - px
-    y0 = pred[body, 0, 1] - py
     for j in range(times.shape[0] - 1):
-        x1 = pred[body, j + 1, 0] - px
-        y1 = pred[body, j + 1, 1] - py
-        dt = times[j + 1] - times[j]
-        c[row, j, 0] = x0
-        c[row, j, 1] = y0
-        w[row, j, 0] = (x1 - x0) / dt
-        w[row, j, 1] = (y1 - y0) / dt
-        x0 = x1
-        y0 = y1
+        _moving_piece(pred, body, px, py, times, c, w, row, j)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _moving_piece(pred, body, px, py, times, c, w, row, j):
+    """Piece j of :func:`_moving_pieces` into c, w [row, j]; returns it: (start centre m,
+    velocity m/s)."""
+    x0 = pred[body, j, 0] - px
+    y0 = pred[body, j, 1] - py
+    h = times[j + 1] - times[j]
+    wx = (pred[body, j + 1, 0] - px - x0) / h
+    wy = (pred[body, j + 1, 1] - py - y0) / h
+    c[row, j, 0] = x0
+    c[row, j, 1] = y0
+    w[row, j, 0] = wx
+    w[row, j, 1] = wy
+    return x0, y0, wx, wy
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max, r):
-    """:func:`_moving_pieces` into row ``row``, and :func:`_relevant` of those pieces (zero
-    accelerations, radius r m): the same pieces and the same answer, in one pass with no
-    early exit (the compiler vectorises it; most obstacles tested are not relevant)."""
+    """:func:`_moving_pieces` into row ``row``, and whether one of those pieces is relevant
+    (:func:`_piece_relevant`, radius r m: what :func:`_relevant` answers), in one pass with
+    no early exit (the compiler vectorises it; most obstacles tested are not relevant)."""
     if math.isfinite(v_max) and math.isfinite(times[0]) and math.isfinite(times[-1]):
         # first a cheap proof that no piece passes the v_max test: |w| h <= |dx| + |dy|
         # (no division, no square root); the factor covers the rounding of the exact test
@@ -540,26 +548,9 @@ def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max,
             return False
     hit = False
     for j in range(times.shape[0] - 1):
-        x0 = pred[body, j, 0] - px
-        y0 = pred[body, j, 1] - py
-        x1 = pred[body, j + 1, 0] - px
-        y1 = pred[body, j + 1, 1] - py
-        t0 = times[j]
-        t1 = times[j + 1]
-        h = t1 - t0
-        wx = (x1 - x0) / h
-        wy = (y1 - y0) / h
-        c[row, j, 0] = x0
-        c[row, j, 1] = y0
-        w[row, j, 0] = wx
-        w[row, j, 1] = wy
-        dx = x0 - vx * t0
-        dy = y0 - vy * t0
-        reach = r + 0.5 * a_max * t1 * t1 + math.sqrt((wx - vx) ** 2 + (wy - vy) ** 2) * h
-        own = r + v_max * t1 + math.sqrt(wx ** 2 + wy ** 2) * h
-        near = not (dx * dx + dy * dy > reach * reach)
-        close = x0 * x0 + y0 * y0 <= own * own
-        hit = hit | (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
+        x0, y0, wx, wy = _moving_piece(pred, body, px, py, times, c, w, row, j)
+        hit = hit | _piece_relevant(x0, y0, wx, wy, 0.0, 0.0, times[j], times[j + 1], vx, vy,
+                                    a_max, v_max, r)
     return hit
 
 
