@@ -40,6 +40,7 @@ from nao_arena.geometry.kernel import (
     _radius_order,
     admissible_kernel,
     bisect_disc,
+    clearance_kernel,
     largest_capped_reach,
     nao_disk_samples,
     nao_disks,
@@ -621,6 +622,41 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
                           0.0, ok)
         assert out[k] == int(ok[0]), k
 
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_pruned_admissibility_matches_the_exact_clearance(seed):
+    """admissible_kernel (piece prune with the speed bound, the end-point exit, early
+    stop) against clearance_kernel's exact minimum distance (no prune): for margins
+    just below and just above each candidate's exact clearance the verdicts are
+    admissible and not admissible. Robots start at up to twice v_max (clamped), brake
+    through zero or saturate; obstacles accelerate."""
+    rng = np.random.default_rng(seed)
+    n, s, k = 6, 12, 60
+    seg_t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 0.4, size=s))])
+    seg_c = rng.normal(size=(n, s, 2)) * 6.0
+    seg_w = rng.normal(size=(n, s, 2))
+    seg_b = rng.normal(size=(n, s, 2)) * 0.5
+    radius = rng.uniform(0.2, 1.0, size=n)
+    v_max = 1.5
+    cand_v = rng.normal(size=(k, 2)) * v_max
+    cand_a = rng.normal(size=(k, 2)) * 1.5
+    clear = np.empty((k, n))
+    clearance_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, clear,
+                     np.empty((k, n)), np.empty((k, n)))
+    sweep = piece_sweep(seg_t, seg_w, seg_b)
+    ok = np.empty(1, dtype=bool)
+    checked = 0
+    for i in range(k):
+        least = float(np.min(clear[i]))
+        if least <= 1e-3:
+            continue
+        for margin, expect in ((least * (1.0 - 1e-6), True), (least * (1.0 + 1e-6), False)):
+            admissible_kernel(cand_v[i][None].copy(), cand_a[i][None].copy(), v_max, seg_t,
+                              seg_c, seg_w, seg_b, radius, sweep, margin, ok)
+            assert bool(ok[0]) is expect, (i, margin, least)
+        checked += 1
+    assert checked >= 5
 
 def test_batched_admissibility_flags_non_finite_paths():
     (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
