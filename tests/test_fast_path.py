@@ -976,6 +976,22 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
                                           *path_excursions(bad))[4]
 
 
+@pytest.mark.parametrize("delta", [1e-6, 1e-3, 0.1])
+def test_relevant_paths_keep_an_obstacle_at_the_full_speed_reach(delta):
+    """The cheap proof before the exact relevance test drops nothing the exact test
+    keeps: a robot already at v_max towards a static obstacle whose grown disc it
+    reaches delta (m) before the horizon keeps it; delta beyond the reach drops it."""
+    times = np.linspace(0.0, 3.0, 31)
+    v_max, radius, grow = 1.5, 0.3, 0.2
+    reach = radius + grow + v_max * times[-1]
+    for d, kept in ((reach - delta, 1), (reach + delta, 0)):
+        pred = np.repeat(np.array([[[d, 0.0]]]), len(times), axis=1)
+        c, w, b, rad, finite = relevant_sampled_paths(
+            times, pred, np.array([0]), np.zeros(2), np.array([radius]), grow,
+            np.zeros((0, 2)), np.zeros(0), np.array([v_max, 0.0]), 2.0, v_max,
+            *path_excursions(pred))
+        assert finite and len(rad) == kept, (d, kept)
+
 @pytest.mark.parametrize("seed", range(40))
 def test_compiled_selection_matches_the_python_steps(seed):
     """select_disc (steps 1-3 of select_acceleration compiled for the limit disc) against
