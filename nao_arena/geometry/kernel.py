@@ -248,15 +248,9 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
     for j in range(S):
         t0 = seg_t[j]
         t1 = seg_t[j + 1]
-        h = t1 - t0
-        if decide and math.isfinite(h):
-            # cheap prune: positions at t0 further apart than anything can close in h
-            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, t0)
-            cx = rpx - seg_c[n, j, 0]
-            cy = rpy - seg_c[n, j, 1]
-            bound = (reach + sweep[n, j] + speed_bound * h) * (1.0 + 1e-9)
-            if cx * cx + cy * cy > bound * bound:
-                continue
+        if decide and _piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c,
+                                          sweep, n, j, reach):
+            continue
         ta = t0
         while ta < t1:
             tb = min(t1, tau) if ta < tau else t1
@@ -303,6 +297,21 @@ def _scan(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n
     out[1] = best_t
     out[2] = first
     return -1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, reach):
+    """Cheap prune: whether robot and obstacle n are so far apart at the start of piece j
+    (finite) that they cannot come within ``reach`` (m) during it: the robot moves at most
+    speed_bound (m/s) times the piece's length, the obstacle at most sweep[n, j] (m)."""
+    h = seg_t[j + 1] - seg_t[j]
+    if not math.isfinite(h):
+        return False
+    rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, seg_t[j])
+    cx = rpx - seg_c[n, j, 0]
+    cy = rpy - seg_c[n, j, 1]
+    bound = (reach + sweep[n, j] + speed_bound * h) * (1.0 + 1e-9)
+    return cx * cx + cy * cy > bound * bound
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -1290,20 +1299,13 @@ def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b,
     """First time (s) the robot comes within r of obstacle n, if before t_stop; else inf."""
     S = seg_c.shape[1]
     r2 = r * r
-    amag = math.sqrt(ax * ax + ay * ay)
     for j in range(S):
         t0 = seg_t[j]
         if t0 >= t_stop:
             break
         t1 = seg_t[j + 1]
-        h = t1 - t0
-        if math.isfinite(h):
-            rax, ray, rvx, rvy, rpx, rpy = _robot_state(vx, vy, ax, ay, tau, t0)
-            cx = rpx - seg_c[n, j, 0]
-            cy = rpy - seg_c[n, j, 1]
-            bound = r + sweep[n, j] + speed_bound * h + 0.5 * amag * h * h
-            if cx * cx + cy * cy > bound * bound:
-                continue
+        if _piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, r):
+            continue
         ta = t0
         while ta < t1:
             tb = min(t1, tau) if ta < tau else t1
