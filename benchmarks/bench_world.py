@@ -7,7 +7,8 @@ times, in the same run:
   discs, positions and velocities (no forces, no I/O);
 - world: :meth:`nao_arena.world.World.step` (command clipping, speed limit,
   batched force writes per substep, batched state read);
-- world+stats: the same plus :meth:`nao_arena.stats.EpisodeStats.update`.
+- world+stats: the same plus :meth:`nao_arena.stats.EpisodeStats.update` (the
+  contact check over every physics substep, as the arena runs it).
 
 Robots are driven by proportional goal seeking (plus a little noise); the
 time spent computing those commands is excluded, so no agent cost is
@@ -109,7 +110,8 @@ def run(spec: MapSpec, steps: int, with_stats: bool, seed: int) -> tuple[float, 
         t0 = time.perf_counter()
         new = world.step(a)
         if stats is not None:
-            stats.update(state.time, state.positions, new.positions, new.velocities, a, no_goal)
+            stats.update(state.time, state.positions, new.positions, new.velocities, a, no_goal,
+                         substeps=world.substep_positions)
         spent += time.perf_counter() - t0
         state = new
     return bare / steps, spent / steps

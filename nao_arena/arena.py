@@ -19,7 +19,7 @@ the scripted lane followers of the map's traffic and the episode's
    row, checked like :func:`~nao_arena.agent.safe_act`); the result must be
    what ``act`` would give robot by robot;
 4. steps the world (limits enforced there);
-5. updates the statistics (swept contact check, metrics).
+5. updates the statistics (swept contact check over every physics substep, metrics).
 
 The PettingZoo env and the trial runner both drive this loop; neither has a
 loop of its own.
@@ -254,7 +254,8 @@ class Arena:
         reached = np.zeros(self.world.n, dtype=bool)
         reached[self.robot_ids] = self.reached
         contacts = self.stats.update(
-            state.time, before, new_state.positions, new_state.velocities, commanded, reached
+            state.time, before, new_state.positions, new_state.velocities, commanded, reached,
+            substeps=self.world.substep_positions,
         )
         return StepResult(new_state.time, new_state, commanded, contacts, faults)
 

@@ -8,7 +8,8 @@ The caller (the control loop) makes one call per control step::
         before = world.state()
         after = world.step(accels)
         stats.update(before.time, before.positions, after.positions,
-                     after.velocities, accels, goal_reached)
+                     after.velocities, accels, goal_reached,
+                     substeps=world.substep_positions)
     summary = stats.summary()          # EpisodeSummary: to_dict(), write_json(), write_csv()
 
 ``t`` is the time at the start of the step (s); the step spans
@@ -17,16 +18,20 @@ accelerations (N, 2) m/s^2 (what the agents asked for, before clipping),
 ``goal_reached`` (N,) bool at the end of the step (ignored for non-robots).
 
 Contacts are detected by our own exact check, independent of the physics
-engine: between two control steps every centre is taken to move linearly
-from its start to its end position, and the minimum distance of each pair
-over the step is computed in closed form (a quadratic in t for two discs;
-segment-to-segment distance for a disc against a wall), so that two fast
-discs that pass through each other within one step are still counted. A
+engine: given the centres after every physics substep (``substeps`` of
+:meth:`EpisodeStats.update`; the engine moves each body in a straight line
+between two substeps), the minimum distance of each pair over every substep
+is computed in closed form (a quadratic in t for two discs;
+segment-to-segment distance for a disc against a wall), so that contacts
+that start and end inside one control step, and fast discs that pass
+through each other, are still counted (without ``substeps``, one straight
+line per control step). A
 contact episode starts when the separation (surface distance, m) drops
 below 0 and ends when the separation at a step's end exceeds the
 hysteresis; it is recorded once, with its start time, the bodies, the
-relative normal speed at impact (m/s, from the velocities at the step's
-start) and the maximum penetration depth over the episode (m). Pairs are
+relative normal speed at impact (m/s, from the displacement in the substep
+of first contact; without substeps, from the velocities at the step's start)
+and the maximum penetration depth over the episode (m). Pairs are
 found by a sort-and-sweep broad phase on the swept bounding boxes; the
 per-pair work of a step is one numba-compiled kernel (same float operations
 as the numpy functions here, so bit-identical results), and only the rare
@@ -366,6 +371,13 @@ def _first_wall_touch(
     return t, np.array([nx, ny]) if side >= 0 else np.array([-nx, -ny])
 
 
+def _first_touching_substep(distances: FloatArray, reach: float) -> int:
+    """The first substep whose minimum distance (m) is below reach (m); if none (rounding),
+    the closest one."""
+    below = np.flatnonzero(distances < reach)
+    return int(below[0]) if len(below) else int(np.argmin(distances))
+
+
 def _first_disc_touch(d0: np.ndarray, d1: np.ndarray, reach: float) -> tuple[float, np.ndarray]:
     """First t in [0, 1] with |d0 + (d1 - d0) t| <= reach, and the unit normal there (a to b)."""
     px, py = float(d0[0]), float(d0[1])
@@ -494,9 +506,26 @@ def _segment_distance_1(p0x: float, p0y: float, p1x: float, p1y: float, ax: floa
     )
 
 
+@njit(cache=True, inline="always")
+def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
+    """Minimum distance (m) between the centres of bodies i and j over the substep path
+    (S + 1, N, 2), each moving in a straight line between rows (the operations of
+    swept_disc_distances, per substep)."""
+    best = math.inf
+    for s in range(path.shape[0] - 1):
+        d0x, d0y = path[s, j, 0] - path[s, i, 0], path[s, j, 1] - path[s, i, 1]
+        d1x, d1y = path[s + 1, j, 0] - path[s + 1, i, 0], path[s + 1, j, 1] - path[s + 1, i, 1]
+        wx, wy = d1x - d0x, d1y - d0y
+        ww = wx * wx + wy * wy
+        dw = d0x * wx + d0y * wy
+        tt = _clip01(-dw / (ww if ww > 0.0 else 1.0))
+        best = min(best, math.hypot(d0x + wx * tt, d0y + wy * tt))
+    return best
+
+
 @njit(cache=True, error_model="numpy")
 def _step_kernel(
-    t: float, dt: float, p0: FloatArray, p1: FloatArray, v1: FloatArray, acc: FloatArray,
+    t: float, dt: float, path: FloatArray, v1: FloatArray, acc: FloatArray,
     a_prev: FloatArray, has_prev: bool, goal: NDArray[np.bool_],
     radii: FloatArray, is_robot: NDArray[np.bool_],
     wall_lo: FloatArray, wall_hi: FloatArray, wall_segs: FloatArray, wall_radii: FloatArray,
@@ -519,6 +548,9 @@ def _step_kernel(
     sep_range, ttc_h, near_d, hyst, adj = cfg[0], cfg[1], cfg[2], cfg[3], cfg[4]
     n = radii.shape[0]
     nw = wall_radii.shape[0]
+    last = path.shape[0] - 1  # substeps: the bodies move in straight lines between rows
+    p0 = path[0]
+    p1 = path[last]
     # per robot: path length and adjustments until the goal, time to goal
     for k in range(n):
         active = is_robot[k] and not reached[k]
@@ -550,14 +582,30 @@ def _step_kernel(
     # are surely beyond the separation range (tol >> rounding of the exact distance)
     scale = pad
     for k in range(n):
-        scale = max(scale, abs(p0[k, 0]), abs(p0[k, 1]), abs(p1[k, 0]), abs(p1[k, 1]),
-                    radii[k])
+        scale = max(scale, radii[k])
+        for s in range(last + 1):
+            scale = max(scale, abs(path[s, k, 0]), abs(path[s, k, 1]))
     tol = 1e-9 * (1.0 + 4.0 * scale)
+    # dev[k]: how far (m) body k's substep path strays from the chord p0 -> p1 (at equal
+    # times), plus tol; a pair's distance on the substep paths differs from its distance
+    # on the chords by at most dev[i] + dev[j] at every instant
+    dev = np.zeros(n)
     step_box = np.empty((n, 4))
     for k in range(n):
         grow = radii[k] + pad
         x0, x1 = min(p0[k, 0], p1[k, 0]), max(p0[k, 0], p1[k, 0])
         y0, y1 = min(p0[k, 1], p1[k, 1]), max(p0[k, 1], p1[k, 1])
+        if last > 1:
+            ex, ey = p1[k, 0] - p0[k, 0], p1[k, 1] - p0[k, 1]
+            worst = 0.0
+            for s in range(1, last):
+                px, py = path[s, k, 0], path[s, k, 1]
+                x0, x1 = min(x0, px), max(x1, px)
+                y0, y1 = min(y0, py), max(y1, py)
+                f = s / last
+                ox, oy = px - (p0[k, 0] + ex * f), py - (p0[k, 1] + ey * f)
+                worst = max(worst, ox * ox + oy * oy)
+            dev[k] = math.sqrt(worst) * _MARGIN + tol
         ax = p1[k, 0] + v1[k, 0] * ttc_h
         ay = p1[k, 1] + v1[k, 1] * ttc_h
         lo_x[k], hi_x[k] = min(x0, ax) - grow, max(x1, ax) + grow
@@ -653,16 +701,19 @@ def _step_kernel(
         dw = d0x * wx + d0y * wy
         tt = _clip01(-dw / (ww if ww > 0.0 else 1.0))
         mx, my = d0x + wx * tt, d0y + wy * tt
-        msq = mx * mx + my * my
-        far = (reach + sep_range) * (reach + sep_range)
+        msq = mx * mx + my * my  # on the chords
+        slack = dev[i] + dev[j]
+        far = (reach + sep_range + slack) * (reach + sep_range + slack)
         if msq > far * _MARGIN:
             continue  # surely beyond the range
         low = max(max(min_sep[i], min_sep[j]), max(near_d, 0.0))
-        near = (reach + low) * (reach + low)
-        if low < sep_range and msq < far / _MARGIN and msq > near * _MARGIN:
+        near = (reach + low + slack) * (reach + low + slack)
+        inner = max(reach + sep_range - slack, 0.0)
+        if low < sep_range and msq < inner * inner / _MARGIN and msq > near * _MARGIN:
             sep = math.inf  # surely within the range, and surely >= low
         else:
-            sep = math.hypot(mx, my) - reach
+            exact = math.hypot(mx, my) if last == 1 else _swept_path_distance(path, i, j)
+            sep = exact - reach
             if not sep < sep_range:
                 continue
             min_sep[i] = min(min_sep[i], sep)
@@ -687,10 +738,14 @@ def _step_kernel(
         side0 = (p0[i, 0] - ax) * nx + (p0[i, 1] - ay) * ny
         side1 = (p1[i, 0] - ax) * nx + (p1[i, 1] - ay) * ny
         bound = 0.0 if side0 * side1 <= 0.0 else min(abs(side0), abs(side1))
-        if bound < reach or touch_bw[i, w]:
+        if bound - dev[i] < reach or touch_bw[i, w]:
             wi[nwc], wj[nwc] = i, w
-            wsep[nwc] = _segment_distance_1(p0[i, 0], p0[i, 1], p1[i, 0], p1[i, 1],
-                                            ax, ay, bx, by) - reach
+            dist = math.inf
+            for s in range(last):
+                dist = min(dist, _segment_distance_1(
+                    path[s, i, 0], path[s, i, 1], path[s + 1, i, 0], path[s + 1, i, 1],
+                    ax, ay, bx, by))
+            wsep[nwc] = dist - reach
             wend[nwc] = _point_segment_1(p1[i, 0], p1[i, 1], ax, ay, bx, by) - reach
             nwc += 1
 
@@ -855,15 +910,26 @@ class EpisodeStats:
         velocities_after: ArrayLike,
         commanded_accels: ArrayLike,
         goal_reached: ArrayLike,
+        substeps: ArrayLike | None = None,
     ) -> list[ContactEvent]:
         """Account for one control step [t, t + dt]; returns the contacts that started in it.
 
         positions_before/after (N, 2) m; velocities_after (N, 2) m/s;
-        commanded_accels (N, 2) m/s^2; goal_reached (N,) bool at the step's end.
+        commanded_accels (N, 2) m/s^2; goal_reached (N,) bool at the step's end;
+        substeps: the centres (S + 1, N, 2) m after each physics substep, rows 0 and S
+        being positions_before and positions_after (see
+        :attr:`nao_arena.world.World.substep_positions`); contacts and separations are
+        then exact for straight motion between rows. None: one straight line per step.
         """
         n = self.n
-        p0 = _c_array(positions_before, np.float64, (n, 2))
-        p1 = _c_array(positions_after, np.float64, (n, 2))
+        if substeps is None:
+            path = np.stack([_c_array(positions_before, np.float64, (n, 2)),
+                             _c_array(positions_after, np.float64, (n, 2))])
+        else:
+            path = np.ascontiguousarray(substeps, dtype=np.float64)
+            if path.ndim != 3 or path.shape[0] < 2 or path.shape[1:] != (n, 2):
+                raise ValueError(f"substeps: expected shape (S + 1, {n}, 2) with S >= 1, "
+                                 f"got {path.shape}")
         v1 = _c_array(velocities_after, np.float64, (n, 2))
         acc = _c_array(commanded_accels, np.float64, (n, 2))
         goal = _c_array(goal_reached, np.bool_, (n,))
@@ -872,7 +938,7 @@ class EpisodeStats:
         if not has_prev:
             self._a_prev = np.empty((n, 2))
         codes, vals, self._n_prox = _step_kernel(
-            t, self.dt, p0, p1, v1, acc, self._a_prev, has_prev, goal,
+            t, self.dt, path, v1, acc, self._a_prev, has_prev, goal,
             self.radii, self.is_robot, self._wall_lo, self._wall_hi, self.wall_segments,
             self.wall_radii, self._wall_normals, self._cfg, self._order, self._n_prox,
             self._touch_bb, self._touch_bw, self._prox, self._prox_contact, self._depth,
@@ -881,7 +947,7 @@ class EpisodeStats:
         )
         started: list[ContactEvent] = []
         if len(codes):
-            self._apply_events(t, codes.tolist(), vals.tolist(), p0, p1, v1, started)
+            self._apply_events(t, codes.tolist(), vals.tolist(), path, started)
         self._v_prev = v1.copy()
         self.steps += 1
         self.time = t + self.dt
@@ -895,11 +961,11 @@ class EpisodeStats:
         return ev
 
     def _apply_events(
-        self, t: float, codes: list[list[int]], vals: list[float], p0: FloatArray,
-        p1: FloatArray, v1: FloatArray, started: list[ContactEvent],
+        self, t: float, codes: list[list[int]], vals: list[float], path: FloatArray,
+        started: list[ContactEvent],
     ) -> None:
-        """Contact episodes that deepened, started or ended in this step (the kernel's rows)."""
-        v0 = self._v_prev if self._v_prev is not None else (p1 - p0) / self.dt
+        """Contact episodes that deepened, started or ended in this step (the kernel's rows);
+        path: the step's substep centres (S + 1, N, 2) m."""
         for (code, a, b), val in zip(codes, vals, strict=True):
             wall = code >= 3
             kind = code - 3 if wall else code
@@ -908,11 +974,10 @@ class EpisodeStats:
                 ev.max_penetration = max(ev.max_penetration, val)
             elif kind == _EV_START:
                 if wall:
-                    ev = self._wall_event(t, a, b, p0, p1, v0, val)
+                    ev = self._wall_event(t, a, b, path, val)
                     self.wall_collisions[a] += 1
                 else:
-                    ev = self._disc_event(t, a, b, p0[b] - p0[a], p1[b] - p1[a],
-                                          float(self.radii[a] + self.radii[b]), v0, val)
+                    ev = self._disc_event(t, a, b, path, val)
                     self.collisions[b] += 1
                 self.collisions[a] += 1
                 self._open_events[(a, b, wall)] = ev
@@ -921,29 +986,45 @@ class EpisodeStats:
             else:
                 self._open_events.pop((a, b, wall)).end_time = t + self.dt
 
-    def _disc_event(
-        self, t: float, a: int, b: int, d0: FloatArray, d1: FloatArray, reach: float,
-        v0: FloatArray, sep: float,
-    ) -> ContactEvent:
-        tc, nrm = _first_disc_touch(d0, d1, reach)
-        vrel = v0[b] - v0[a]
+    def _approach_velocity(self, path: FloatArray, s: int, body: int) -> FloatArray:
+        """Velocity (2,) m/s of ``body`` while it first touched, in substep s of path: the
+        substep's displacement over its duration (S > 1), else the velocity at the step's
+        start (the step's mean velocity for the first step without start velocities)."""
+        substeps = len(path) - 1
+        if substeps > 1:
+            return (path[s + 1, body] - path[s, body]) / (self.dt / substeps)
+        if self._v_prev is not None:
+            return self._v_prev[body]
+        return (path[1, body] - path[0, body]) / self.dt
+
+    def _disc_event(self, t: float, a: int, b: int, path: FloatArray, sep: float) -> ContactEvent:
+        reach = float(self.radii[a] + self.radii[b])
+        rel = path[:, b] - path[:, a]
+        s = _first_touching_substep(swept_disc_distances(rel[:-1], rel[1:])[0], reach)
+        tc, nrm = _first_disc_touch(rel[s], rel[s + 1], reach)
+        vrel = self._approach_velocity(path, s, b) - self._approach_velocity(path, s, a)
         return ContactEvent(
-            time=t + tc * self.dt, a=a, b=b, kind_a=self.kinds[a], kind_b=self.kinds[b],
-            name_a=self.names[a], name_b=self.names[b],
-            impact_speed=max(0.0, -float(vrel @ nrm)), max_penetration=-sep,
+            time=t + (s + tc) / (len(path) - 1) * self.dt, a=a, b=b,
+            kind_a=self.kinds[a], kind_b=self.kinds[b], name_a=self.names[a],
+            name_b=self.names[b], impact_speed=max(0.0, -float(vrel @ nrm)),
+            max_penetration=-sep,
         )
 
-    def _wall_event(
-        self, t: float, body: int, wall: int, p0: FloatArray, p1: FloatArray, v0: FloatArray,
-        sep: float,
-    ) -> ContactEvent:
+    def _wall_event(self, t: float, body: int, wall: int, path: FloatArray,
+                    sep: float) -> ContactEvent:
         reach = float(self.radii[body] + self.wall_radii[wall])
         seg = self.wall_segments[wall]
-        tc, nrm = _first_wall_touch(p0[body], p1[body], seg[0], seg[1], reach)
+        own = path[:, body]
+        ends = np.broadcast_to(seg, (len(own) - 1, 2, 2))
+        s = _first_touching_substep(
+            segment_distances(own[:-1], own[1:], ends[:, 0], ends[:, 1]), reach)
+        tc, nrm = _first_wall_touch(own[s], own[s + 1], seg[0], seg[1], reach)
+        v = self._approach_velocity(path, s, body)
         return ContactEvent(
-            time=t + tc * self.dt, a=body, b=wall, kind_a=self.kinds[body], kind_b="wall",
-            name_a=self.names[body], name_b=f"wall{wall}",
-            impact_speed=max(0.0, -float(v0[body] @ nrm)), max_penetration=-sep,
+            time=t + (s + tc) / (len(path) - 1) * self.dt, a=body, b=wall,
+            kind_a=self.kinds[body], kind_b="wall", name_a=self.names[body],
+            name_b=f"wall{wall}", impact_speed=max(0.0, -float(v @ nrm)),
+            max_penetration=-sep,
         )
 
     # ------------------------------------------------------------------ results

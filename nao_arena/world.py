@@ -21,10 +21,14 @@ scaling its velocity (never by moving it), and then gains no speed. Speeds
 above v_max left by contacts at the end of a period are scaled back too, so
 observed speeds never exceed v_max.
 
-Bulk state I/O goes through ``pymunk.batch``: one call reads all
-positions and velocities, one call per substep writes all forces. A fresh
-``pymunk.Space`` is built on every :meth:`World.reset`. Same map and same
-commands give bit-identical trajectories.
+Bulk state I/O goes through ``pymunk.batch``: one call per substep writes
+all forces and one reads all positions (:attr:`World.substep_positions`, the
+engine's exact path within the period: between two substeps every body
+moves in a straight line), one more reads the velocities at the period's
+end. The batch buffers' C arrays are owned here and freed with the world
+(``pymunk.batch.Buffer`` never frees its own). A fresh ``pymunk.Space`` is
+built on every :meth:`World.reset`. Same map and same commands give
+bit-identical trajectories.
 """
 
 from __future__ import annotations
@@ -211,6 +215,42 @@ def _finish_period(
     return any_over
 
 
+class _ReadBuffer:
+    """A ``pymunk.batch`` buffer that pymunk fills (and grows); its C arrays are freed
+    when it is collected."""
+
+    def __init__(self) -> None:
+        self._float_arr = pb.ffi.gc(pb.lib.pmFloatArrayNew(0), pb.lib.pmFloatArrayFree)
+        self._int_arr = pb.ffi.gc(pb.lib.pmIntArrayNew(0), pb.lib.pmIntArrayFree)
+
+    def clear(self) -> None:
+        self._float_arr.num = 0
+        self._int_arr.num = 0
+
+    def floats(self, rows: int, cols: int) -> FloatArray:
+        """The float data as a (rows, cols) array (a view, valid until the next fill)."""
+        data = pb.ffi.buffer(self._float_arr.arr, 8 * self._float_arr.num)
+        return np.frombuffer(data, dtype=np.float64).reshape(rows, cols)
+
+    def ints(self) -> NDArray[np.uintp]:
+        """The integer data (a copy)."""
+        data = pb.ffi.buffer(self._int_arr.arr, pb.ffi.sizeof("uintptr_t") * self._int_arr.num)
+        return np.frombuffer(data, dtype=np.uintp).copy()
+
+
+class _WriteBuffer:
+    """A ``pymunk.batch`` buffer over a float64 numpy array that pymunk reads (the array
+    is kept alive here; nothing is allocated in C)."""
+
+    def __init__(self, array: FloatArray) -> None:
+        self._array = array
+        self._view = pb.ffi.from_buffer("double[]", array)
+        self._float_arr = pb.ffi.new("pmFloatArray *")
+        self._float_arr.arr = self._view
+        self._float_arr.num = self._float_arr.max = array.size
+        self._int_arr = pb.ffi.new("pmIntArray *")
+
+
 class World:
     """The pymunk world of one map.
 
@@ -287,25 +327,24 @@ class World:
         return self.state()
 
     def _setup_batch(self) -> None:
-        """Map the space's body iteration order to map order; allocate the I/O buffers."""
-        ids = pb.Buffer()
+        """Map the space's body iteration order to map order; allocate the I/O buffers
+        (once per world: a reset keeps them when the row count is the same)."""
+        ids = _ReadBuffer()
         pb.get_space_bodies(self._space, pb.BodyFields.BODY_ID, ids)
-        order = np.frombuffer(ids.int_buf(), dtype=np.uintp).copy()
+        order = ids.ints()
         row_of = {int(pid): r for r, pid in enumerate(order)}
         self._rows = np.array([row_of[b.id] for b in self._pm_bodies], dtype=np.intp)
-        self._n_rows = len(order)
         self._identity = bool(np.array_equal(self._rows, np.arange(self.n)))
+        if getattr(self, "_n_rows", None) == len(order):
+            return
+        self._n_rows = len(order)
         # one persistent force array and buffer per substep (rows in iteration order)
         self._forces = np.zeros((self.substeps, self._n_rows, 2))
-        self._force_bufs = []
-        for j in range(self.substeps):
-            buf = pb.Buffer()
-            buf.set_float_buf(self._forces[j].reshape(-1))
-            self._force_bufs.append(buf)
+        self._force_bufs = [_WriteBuffer(self._forces[j].reshape(-1))
+                            for j in range(self.substeps)]
         self._vel_rows = np.zeros((self._n_rows, 2))
-        self._vel_buf = pb.Buffer()
-        self._vel_buf.set_float_buf(self._vel_rows.reshape(-1))
-        self._get_buf = pb.Buffer()
+        self._vel_buf = _WriteBuffer(self._vel_rows.reshape(-1))
+        self._get_buf = _ReadBuffer()
 
     # ------------------------------------------------------------------ I/O
 
@@ -315,10 +354,12 @@ class World:
         pb.get_space_bodies(
             self._space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY, buf
         )
-        data = np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(self._n_rows, 4)
+        data = buf.floats(self._n_rows, 4)
         data = data[: self.n] if self._identity else data[self._rows]
         self._pos = data[:, 0:2].copy()
         self._vel = data[:, 2:4].copy()
+        self._path = self._pos[None].copy()
+        self._path.setflags(write=False)
 
     def _write_velocities(self, v: FloatArray) -> None:
         if self._identity:
@@ -344,6 +385,13 @@ class World:
     def previous_positions(self) -> FloatArray:
         """Centres (N, 2) m at the start of the last control period (a copy)."""
         return self._prev_positions.copy()
+
+    @property
+    def substep_positions(self) -> FloatArray:
+        """Centres (S + 1, N, 2) m after each physics substep of the last control period,
+        its start (row 0) and end (row S) included: the engine moves every body in a
+        straight line between two rows. Read-only; (1, N, 2) after a reset."""
+        return self._path
 
     def wall_segments(self) -> tuple[FloatArray, FloatArray]:
         """All walls as segments (W, 2, 2) m and half-thicknesses (W,) m (polygon edges: 0)."""
@@ -379,20 +427,30 @@ class World:
             self._write_velocities(v)
         h = self.dt / self.substeps
         space = self._space
-        for buf in self._force_bufs:
-            pb.set_space_bodies(space, pb.BodyFields.FORCE, buf)
-            space.step(h)
-        self._prev_positions = self._pos
         buf = self._get_buf
+        path = np.empty((self.substeps + 1, self.n, 2))
+        path[0] = self._pos
+        for j, force_buf in enumerate(self._force_bufs):
+            pb.set_space_bodies(space, pb.BodyFields.FORCE, force_buf)
+            space.step(h)
+            if j + 1 < self.substeps:
+                buf.clear()
+                pb.get_space_bodies(space, pb.BodyFields.POSITION, buf)
+                data = buf.floats(self._n_rows, 2)
+                path[j + 1] = data[: self.n] if self._identity else data[self._rows]
+        self._prev_positions = self._pos
         buf.clear()
         pb.get_space_bodies(space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY, buf)
-        data = np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(self._n_rows, 4)
+        data = buf.floats(self._n_rows, 4)
         self._pos = np.empty((self.n, 2))
         vel = np.empty((self.n, 2))
         self._acc = np.empty((self.n, 2))
         if _finish_period(data, self._rows, self.v_max, v_start, self.dt, self._pos, vel,
                           self._acc):
             self._write_velocities(vel)
+        path[self.substeps] = self._pos
+        path.setflags(write=False)
+        self._path = path
         self._vel = vel
         self._steps += 1
         self.time = self._steps * self.dt

@@ -355,7 +355,7 @@ class ReferenceStats:
     def __init__(self, radii, kinds, names, walls, dt, config, velocities):
         self.s = EpisodeStats(radii, kinds, names, walls, dt, config, velocities)
 
-    def update(self, t, p0, p1, v1, acc, goal):  # noqa: C901, PLR0915
+    def update(self, t, p0, p1, v1, acc, goal, substeps=None):  # noqa: C901, PLR0915
         from nao_arena.stats import (
             ContactEvent,
             _first_disc_touch,
@@ -365,7 +365,18 @@ class ReferenceStats:
 
         s, cfg = self.s, self.s.config
         n, nw, dt = s.n, s.n_walls, s.dt
+        path = np.stack([p0, p1]) if substeps is None else np.asarray(substeps, float)
+        m = len(path) - 1  # substeps; straight lines between rows
         v0 = s._v_prev if s._v_prev is not None else (p1 - p0) / dt
+
+        def first_touch(dist, reach):  # the first substep within reach, else the closest
+            below = np.flatnonzero(dist < reach)
+            return int(below[0]) if len(below) else int(np.argmin(dist))
+
+        def approach(k, body):  # velocity while touching first, in substep k
+            if m > 1:
+                return (path[k + 1, body] - path[k, body]) / (dt / m)
+            return v0[body]
         # robot metrics
         active = s.is_robot & ~s.reached
         step = p1 - p0
@@ -380,7 +391,7 @@ class ReferenceStats:
         # the broad phase's visiting order
         pad = 0.5 * cfg.separation_range
         ahead = p1 + v1 * cfg.ttc_horizon
-        lo_x = np.concatenate([np.minimum(np.minimum(p0[:, 0], p1[:, 0]), ahead[:, 0])
+        lo_x = np.concatenate([np.minimum(path[:, :, 0].min(axis=0), ahead[:, 0])
                                - (s.radii + pad), s._wall_lo[:, 0]])
         rank = np.empty(n + nw, dtype=np.int64)
         rank[np.argsort(lo_x, kind="stable")] = np.arange(n + nw)
@@ -420,7 +431,7 @@ class ReferenceStats:
         # body pairs
         i, j = visiting(*np.triu_indices(n, 1))
         reach = s.radii[i] + s.radii[j]
-        d0, d1, w = p0[j] - p0[i], p1[j] - p1[i], v1[j] - v1[i]
+        d1, w = p1[j] - p1[i], v1[j] - v1[i]
         aa = w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1]
         bb = d1[:, 0] * w[:, 0] + d1[:, 1] * w[:, 1]
         cc = d1[:, 0] * d1[:, 0] + d1[:, 1] * d1[:, 1] - reach * reach
@@ -432,21 +443,25 @@ class ReferenceStats:
         soon = hit & (ttc <= cfg.ttc_horizon)
         np.minimum.at(s.min_ttc, i[soon], ttc[soon])
         np.minimum.at(s.min_ttc, j[soon], ttc[soon])
-        sep = swept_disc_distances(d0, d1)[0] - reach
+        rel = path[:, j] - path[:, i]  # (m + 1, pairs, 2)
+        per_substep = np.array([swept_disc_distances(rel[k], rel[k + 1])[0] for k in range(m)])
+        sep = per_substep.min(axis=0) - reach
         near = np.flatnonzero(sep < cfg.separation_range)
         if len(near):
-            i, j, sep, reach, d0, d1 = i[near], j[near], sep[near], reach[near], d0[near], d1[near]
+            i, j, sep, reach, d1 = i[near], j[near], sep[near], reach[near], d1[near]
+            rel, per_substep = rel[:, near], per_substep[:, near]
             np.minimum.at(s.min_separation, i, sep)
             np.minimum.at(s.min_separation, j, sep)
             sep_end = np.hypot(d1[:, 0], d1[:, 1]) - reach
 
             def make_disc(k):
                 a, b = int(i[k]), int(j[k])
-                tc, nrm = _first_disc_touch(d0[k], d1[k], float(reach[k]))
+                q = first_touch(per_substep[:, k], float(reach[k]))
+                tc, nrm = _first_disc_touch(rel[q, k], rel[q + 1, k], float(reach[k]))
                 return ContactEvent(
-                    time=t + tc * dt, a=a, b=b, kind_a=s.kinds[a], kind_b=s.kinds[b],
-                    name_a=s.names[a], name_b=s.names[b],
-                    impact_speed=max(0.0, -float((v0[b] - v0[a]) @ nrm)),
+                    time=t + (q + tc) / m * dt, a=a, b=b, kind_a=s.kinds[a],
+                    kind_b=s.kinds[b], name_a=s.names[a], name_b=s.names[b],
+                    impact_speed=max(0.0, -float((approach(q, b) - approach(q, a)) @ nrm)),
                     max_penetration=float(-sep[k]),
                 )
 
@@ -463,30 +478,28 @@ class ReferenceStats:
                 s._prox[i, j] = keep
                 s._prox_contact[i, j] = had & keep
                 s._n_prox = int(np.count_nonzero(keep))
-        # body-wall pairs: those that can touch (by the wall's line) or are in contact
+        # body-wall pairs: every pair, exact distance over every substep
         if nw:
             bi, bw = np.meshgrid(np.arange(n), np.arange(nw), indexing="ij")
             first, second = visiting(bi.ravel(), bw.ravel() + n)
             i, w = first, second - n
-            segs, nrm = s.wall_segments, s._wall_normals
+            segs = s.wall_segments
             reach = s.radii[i] + s.wall_radii[w]
-            side0 = np.sum((p0[i] - segs[w, 0]) * nrm[w], axis=1)
-            side1 = np.sum((p1[i] - segs[w, 0]) * nrm[w], axis=1)
-            bound = np.where(side0 * side1 <= 0.0, 0.0,
-                             np.minimum(np.abs(side0), np.abs(side1)))
-            c = np.flatnonzero((bound < reach) | s._touch_bw[i, w])
-            i, w, reach = i[c], w[c], reach[c]
             a, b = segs[w, 0], segs[w, 1]
-            sep = segment_distances(p0[i], p1[i], a, b) - reach
+            per_substep = np.array([segment_distances(path[k, i], path[k + 1, i], a, b)
+                                    for k in range(m)])
+            sep = per_substep.min(axis=0) - reach
             sep_end = _point_segment(p1[i], a, b) - reach
 
             def make_wall(k):
                 body, wall = int(i[k]), int(w[k])
-                tc, nrm_k = _first_wall_touch(p0[body], p1[body], a[k], b[k], float(reach[k]))
+                q = first_touch(per_substep[:, k], float(reach[k]))
+                tc, nrm_k = _first_wall_touch(path[q, body], path[q + 1, body], a[k], b[k],
+                                              float(reach[k]))
                 return ContactEvent(
-                    time=t + tc * dt, a=body, b=wall, kind_a=s.kinds[body], kind_b="wall",
-                    name_a=s.names[body], name_b=f"wall{wall}",
-                    impact_speed=max(0.0, -float(v0[body] @ nrm_k)),
+                    time=t + (q + tc) / m * dt, a=body, b=wall, kind_a=s.kinds[body],
+                    kind_b="wall", name_a=s.names[body], name_b=f"wall{wall}",
+                    impact_speed=max(0.0, -float(approach(q, body) @ nrm_k)),
                     max_penetration=float(-sep[k]),
                 )
 
@@ -522,10 +535,27 @@ def random_scene(seed: int, n: int, steps: int):
     return radii, kinds, walls, np.array(frames), np.array(accels), np.array(goals)
 
 
+def substep_paths(frames: np.ndarray, substeps: int, seed: int) -> np.ndarray:
+    """(steps, substeps + 1, n, 2) paths between the frames: the straight line plus a bend
+    (as constant acceleration would make) and now and then a sharp kink (a bounce), ends
+    pinned to the frames."""
+    rng = np.random.default_rng(seed + 100)
+    steps, n = len(frames) - 1, frames.shape[1]
+    f = np.linspace(0.0, 1.0, substeps + 1)[None, :, None, None]
+    p0, p1 = frames[:-1, None], frames[1:, None]
+    bend = rng.normal(size=(steps, 1, n, 2)) * 0.05 * (f * (1 - f))
+    kink = (rng.uniform(size=(steps, 1, n, 1)) < 0.1) * rng.normal(size=(steps, 1, n, 2)) * 0.3
+    peak = rng.uniform(0.2, 0.8, size=(steps, 1, n, 1))
+    tent = np.minimum(f / peak, (1 - f) / (1 - peak))
+    return p0 + (p1 - p0) * f + bend + kink * tent
+
+
+@pytest.mark.parametrize("substeps", [None, 10])
 @pytest.mark.parametrize("seed", range(6))
-def test_compiled_update_equals_numpy_reference(seed: int) -> None:
+def test_compiled_update_equals_numpy_reference(seed: int, substeps: int | None) -> None:
     n = (8, 25, 60)[seed % 3]
     radii, kinds, walls, frames, accels, goals = random_scene(seed, n, 80)
+    paths = None if substeps is None else substep_paths(frames, substeps, seed)
     config = StatsConfig(near_miss_distance=0.3, separation_range=1.0)
     v_start = (frames[1] - frames[0]) / 0.1
     names = [f"b{k}" for k in range(n)]
@@ -534,9 +564,10 @@ def test_compiled_update_equals_numpy_reference(seed: int) -> None:
     for k in range(len(accels)):
         vel = (frames[k + 1] - frames[k]) / 0.1
         args = (k * 0.1, frames[k], frames[k + 1], vel, accels[k], goals[k])
-        want = [e.to_dict() for e in ref.update(*args)]
+        path = None if paths is None else paths[k]
+        want = [e.to_dict() for e in ref.update(*args, substeps=path)]
         for stats in runs:
-            assert [e.to_dict() for e in stats.update(*args)] == want, k
+            assert [e.to_dict() for e in stats.update(*args, substeps=path)] == want, k
     want = ref.s.summary().to_dict()
     assert len(want["contacts"]) > 5 and any(c["kind_b"] == "wall" for c in want["contacts"])
     assert sum(r["near_misses"] for r in want["robots"]) > 0
@@ -545,6 +576,25 @@ def test_compiled_update_equals_numpy_reference(seed: int) -> None:
         for name in ("min_separation", "min_ttc", "path_length", "near_misses",
                      "adjustments", "_prox", "_prox_contact", "_touch_bb", "_touch_bw"):
             assert np.array_equal(getattr(stats, name), getattr(ref.s, name)), name
+
+
+def test_substeps_find_contacts_the_step_ends_hide() -> None:
+    """A pair that bounces off each other inside one step (apart at both ends, overlapping
+    at a middle substep) is a contact; without the substeps it is not seen."""
+    p0 = np.array([[-0.33, 0.0], [0.33, 0.0]])
+    mid = np.array([[-0.29, 0.0], [0.29, 0.0]])  # 2 cm overlap of two 0.3 m discs
+    path = np.stack([p0, mid, p0])
+    v = np.zeros((2, 2))
+    blind = two(0.3)
+    blind.update(0.0, p0, p0, v, v, np.zeros(2, bool))
+    assert blind.contacts == []
+    seen = two(0.3)
+    started = seen.update(0.0, p0, p0, v, v, np.zeros(2, bool), substeps=path)
+    assert len(started) == 1 and started[0].max_penetration == pytest.approx(0.02)
+    assert 0.0 < started[0].time < 0.05  # during the first of the two substeps
+    assert started[0].impact_speed == pytest.approx(0.04 / 0.05 * 2)
+    with pytest.raises(ValueError, match="substeps"):
+        seen.update(0.1, p0, p0, v, v, np.zeros(2, bool), substeps=path[:, :1])
 
 
 def test_wall_contact_ends_when_the_robot_backs_away() -> None:

@@ -376,3 +376,33 @@ def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
     np.testing.assert_array_equal(forces[:, rows], w[:, :, None] * (masses[:, None] * a_ref)[None])
     a[int(rng.integers(n))] = np.nan
     assert _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)[0] is False
+
+
+def _resident_mib() -> float:
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc (Linux)")
+def test_resets_do_not_leak_memory() -> None:
+    """3000 resets and steps of one world, and 1000 worlds built, grow the resident memory
+    by less than 2 MiB (pymunk.batch buffers never free their C arrays: 3.7 MiB per 1000
+    resets and 2.4 MiB per 1000 worlds when each made new ones, 13 MiB here)."""
+    import gc
+
+    spec = load_map("crossing")
+    world = World(spec)
+    still = np.zeros((world.n, 2))
+
+    def churn(times: int) -> None:
+        for _ in range(times):
+            world.reset()
+            world.step(still)
+        for _ in range(times // 3):
+            World(spec)
+        gc.collect()
+
+    churn(1500)  # allocator pools and caches settle first
+    before = _resident_mib()
+    churn(3000)
+    assert _resident_mib() - before < 2.0
