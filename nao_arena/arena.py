@@ -146,9 +146,16 @@ class Arena:
             self.world.radii, self.world.kinds, self.world.names,
             walls=(self.walls, self.wall_radius), dt=self.world.dt,
             config=self.options.stats, velocities=self.state.velocities,
+            goals=self._body_goals(),
         )
         self.commanded = np.zeros((self.world.n, 2))
         return self.state
+
+    def _body_goals(self) -> NDArray[np.float64]:
+        """(N, 2) goals (m) by body: the robots' goals, NaN for traffic."""
+        goals = np.full((self.world.n, 2), np.nan)
+        goals[self.robot_ids] = self.goals
+        return goals
 
     @property
     def time(self) -> float:

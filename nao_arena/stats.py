@@ -48,6 +48,16 @@ path length until the goal (m), success (goal reached without any
 collision), acceleration adjustments (steps where the commanded
 acceleration changed by more than ``adjustment_threshold`` m/s^2, until the
 goal) and their rate (1/s).
+
+Liveness, per robot (given the robots' goals): stuck time (s: control steps
+during which the robot was away from its goal and had come less than
+``stuck_progress`` m closer to it over the last ``stuck_window`` s; the
+first window of the episode never counts), time away from the goal after
+first arriving (s: steps that ended outside the goal tolerance after the
+first arrival), the distance to the goal at the episode's end (m) and
+whether it never arrived (``timed_out``: the episode ended first). Per
+episode: the deadlock time (s, NaN if none), the first step end at which
+every robot away from its goal was stuck, and the total time spent so (s).
 """
 
 from __future__ import annotations
@@ -94,7 +104,9 @@ class StatsConfig:
     threshold by this much; adjustment_threshold (m/s^2): a change of the
     commanded acceleration larger than this is an adjustment;
     separation_range (m): minimum separations are tracked exactly below it;
-    ttc_horizon (s): longer times to collision count as none.
+    ttc_horizon (s): longer times to collision count as none; stuck_window (s) and
+    stuck_progress (m): a robot away from its goal is stuck while it came less than
+    stuck_progress closer to its goal over the last stuck_window.
     """
 
     near_miss_distance: float = 0.2
@@ -102,10 +114,16 @@ class StatsConfig:
     adjustment_threshold: float = 0.1
     separation_range: float = 1.0
     ttc_horizon: float = 5.0
+    stuck_window: float = 5.0
+    stuck_progress: float = 0.1
 
     def __post_init__(self) -> None:
         if self.separation_range < self.near_miss_distance + self.hysteresis:
             raise ValueError("separation_range must be >= near_miss_distance + hysteresis")
+        if not (self.stuck_window > 0 and math.isfinite(self.stuck_window)):
+            raise ValueError(f"stuck_window: expected a finite time > 0 s, got {self.stuck_window}")
+        if not self.stuck_progress >= 0:
+            raise ValueError(f"stuck_progress: expected >= 0 m, got {self.stuck_progress}")
 
 
 def _clean(value: Any) -> Any:
@@ -174,6 +192,10 @@ class RobotSummary:
     min_ttc: float
     adjustments: int
     adjustment_rate: float
+    stuck_time: float = 0.0
+    time_away_after_arrival: float = 0.0
+    final_goal_distance: float = math.nan
+    timed_out: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (non-finite numbers as None)."""
@@ -215,19 +237,24 @@ def _csv_text(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:
 
 @dataclass
 class EpisodeSummary:
-    """An episode's results: duration (s), steps, per-robot rows, contact events, faults."""
+    """An episode's results: duration (s), steps, per-robot rows, contact events, faults,
+    and the first time (s, NaN if never) and total time (s) of deadlock."""
 
     duration: float
     steps: int
     robots: list[RobotSummary] = field(default_factory=list)
     contacts: list[ContactEvent] = field(default_factory=list)
     faults: list[FaultEvent] = field(default_factory=list)
+    deadlock_time: float = math.nan
+    deadlock_duration: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (JSON-ready)."""
         return {
             "duration": self.duration,
             "steps": self.steps,
+            "deadlock_time": _clean(self.deadlock_time),
+            "deadlock_duration": self.deadlock_duration,
             "robots": [r.to_dict() for r in self.robots],
             "contacts": [c.to_dict() for c in self.contacts],
             "faults": [f.to_dict() for f in self.faults],
@@ -831,7 +858,8 @@ class EpisodeStats:
     "body<i>"); walls: (segments (W, 2, 2) m, half-thicknesses (W,) m) or
     None; dt: control period (s); velocities: (N, 2) m/s at t = 0 (used for
     the impact speed of contacts in the first step; else the step's mean
-    velocity is used).
+    velocity is used); goals: (N, 2) m, the robots' goals (rows of other
+    bodies ignored), for the liveness metrics (None: not tracked).
 
     Episode flags are kept per pair in dense boolean (N, N) and (N, W) arrays
     (N^2 bytes each: 9 MB for 3000 bodies), the depth of open contacts in a small
@@ -850,6 +878,7 @@ class EpisodeStats:
         dt: float = 0.1,
         config: StatsConfig | None = None,
         velocities: ArrayLike | None = None,
+        goals: ArrayLike | None = None,
     ) -> None:
         self.config = config or StatsConfig()
         self.radii = np.ascontiguousarray(radii, dtype=float).reshape(-1)
@@ -899,6 +928,15 @@ class EpisodeStats:
         self._order = np.arange(n + self.n_walls)  # broad phase order, kept between steps
         self.time = 0.0
         self.steps = 0
+        # liveness: distances to the goals over the last stuck window (a ring of steps)
+        self._goals = None if goals is None else _c_array(goals, np.float64, (n, 2))
+        self._window = max(1, int(round(self.config.stuck_window / self.dt)))
+        self._goal_dist = np.full((self._window, n), np.nan)
+        self.stuck_time = np.zeros(n)
+        self.time_away = np.zeros(n)
+        self.at_goal = np.zeros(n, dtype=bool)
+        self.deadlock_time = math.nan
+        self.deadlock_duration = 0.0
 
     # ------------------------------------------------------------------ update
 
@@ -949,10 +987,31 @@ class EpisodeStats:
         if len(codes):
             self._apply_events(t, codes.tolist(), vals.tolist(), path, started)
         self._v_prev = v1.copy()
+        self._liveness(t, path[-1], goal)
         self.steps += 1
         self.time = t + self.dt
         started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
         return started
+
+    def _liveness(self, t: float, p1: FloatArray, goal: NDArray[np.bool_]) -> None:
+        """Stuck, away-after-arrival and deadlock time of the step that ends at t + dt
+        (after the kernel marked new arrivals)."""
+        robots = self.is_robot
+        self.at_goal = goal & robots
+        self.time_away += self.dt * (self.reached & ~goal & robots)
+        if self._goals is None:
+            return
+        dist = np.hypot(p1[:, 0] - self._goals[:, 0], p1[:, 1] - self._goals[:, 1])
+        slot = self.steps % self._window
+        before = self._goal_dist[slot]  # the distance one window ago (NaN: too early)
+        away = robots & ~goal
+        stuck = away & (before - dist < self.config.stuck_progress)
+        self._goal_dist[slot] = dist
+        self.stuck_time += self.dt * stuck
+        if np.any(away) and np.array_equal(stuck, away):
+            self.deadlock_duration += self.dt
+            if math.isnan(self.deadlock_time):
+                self.deadlock_time = t + self.dt
 
     def record_fault(self, t: float, robot: int, message: str) -> FaultEvent:
         """Record an agent's fault at time t (s) for robot index ``robot``."""
@@ -1039,6 +1098,11 @@ class EpisodeStats:
         ii, jj = np.nonzero(self._prox & ~self._prox_contact)
         np.add.at(pending, ii, 1)
         np.add.at(pending, jj, 1)
+        if self._goals is None or self.steps == 0:
+            final = [math.nan] * self.n
+        else:
+            last = self._goal_dist[(self.steps - 1) % self._window]
+            final = [float(d) for d in last]
         rows = []
         for k in np.flatnonzero(self.is_robot).tolist():
             active_time = self.time_to_goal[k] if self.reached[k] else self.time
@@ -1059,9 +1123,14 @@ class EpisodeStats:
                     adjustment_rate=(
                         float(self.adjustments[k] / active_time) if active_time > 0 else 0.0
                     ),
+                    stuck_time=float(self.stuck_time[k]),
+                    time_away_after_arrival=float(self.time_away[k]),
+                    final_goal_distance=final[k],
+                    timed_out=not bool(self.reached[k]),
                 )
             )
         return EpisodeSummary(
             duration=self.time, steps=self.steps, robots=rows,
             contacts=list(self.contacts), faults=list(self.faults),
+            deadlock_time=self.deadlock_time, deadlock_duration=self.deadlock_duration,
         )

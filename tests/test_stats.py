@@ -505,6 +505,7 @@ class ReferenceStats:
 
             contacts(i, w, sep, sep_end, True, make_wall)
         s._v_prev = v1.copy()
+        s._liveness(t, p1, goal)  # not the kernel's: tested on its own
         s.steps += 1
         s.time = t + dt
         started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
@@ -608,3 +609,64 @@ def test_wall_contact_ends_when_the_robot_backs_away() -> None:
     assert len(stats.contacts) == 2
     assert stats.contacts[0].end_time == pytest.approx(0.4)
     assert 0.5 < stats.contacts[1].time <= 0.6
+
+
+# ---------------------------------------------------------------- liveness
+
+
+def _liveness_run(tracks: np.ndarray, goals: np.ndarray, tol: float = 0.3, **cfg):
+    """Feed tracks (T, N, 2) every 0.1 s with goal flags from a tolerance; the summary."""
+    n = tracks.shape[1]
+    stats = EpisodeStats(np.full(n, 0.2), ["robot"] * n, dt=0.1, goals=goals,
+                         config=StatsConfig(**cfg))
+    at_goal = np.hypot(*(tracks - goals[None]).transpose(2, 0, 1)) <= tol
+    feed(stats, tracks, goal=at_goal[1:])
+    return stats.summary()
+
+
+def test_stuck_time_counts_steps_without_progress_after_the_first_window() -> None:
+    steps = 100  # 10 s
+    still = np.zeros((steps + 1, 1, 2))  # stands 5 m from its goal
+    s = _liveness_run(still, np.array([[5.0, 0.0]]), stuck_window=2.0)
+    row = s.robots[0]
+    assert row.stuck_time == pytest.approx(10.0 - 2.0)
+    assert row.timed_out and not row.reached_goal
+    assert row.final_goal_distance == pytest.approx(5.0)
+    # alone and stuck: every robot away from its goal is stuck -> deadlock
+    assert s.deadlock_time == pytest.approx(2.1)
+    assert s.deadlock_duration == pytest.approx(8.0)
+    # creeping 0.04 m/s (0.08 m per 2 s window) is below the 0.1 m progress: still stuck
+    t = np.arange(steps + 1) * 0.1
+    creep = np.stack([0.04 * t, 0 * t], axis=1)[:, None]
+    assert _liveness_run(creep, np.array([[5.0, 0.0]]), stuck_window=2.0).robots[0] \
+        .stuck_time == pytest.approx(8.0)
+    walk = np.stack([0.3 * t, 0 * t], axis=1)[:, None]
+    s = _liveness_run(walk, np.array([[5.0, 0.0]]), stuck_window=2.0)
+    assert s.robots[0].stuck_time == 0.0 and np.isnan(s.deadlock_time)
+
+
+def test_time_away_after_arrival_and_final_distance() -> None:
+    # arrives at 1 s, is pushed 1 m off at 2 s and stays there until 5 s
+    t = np.arange(51) * 0.1
+    x = np.clip(5.0 * t, 0.0, 5.0) - np.where(t >= 2.0, 1.0, 0.0)
+    track = np.stack([x, 0 * t], axis=1)[:, None]
+    s = _liveness_run(track, np.array([[5.0, 0.0]]), stuck_window=1.0)
+    row = s.robots[0]
+    assert row.reached_goal and not row.timed_out
+    assert row.time_to_goal == pytest.approx(1.0)
+    assert row.time_away_after_arrival == pytest.approx(3.0 + 0.1)  # steps ending 2.0 .. 5.0
+    assert row.final_goal_distance == pytest.approx(1.0)
+    assert row.stuck_time == pytest.approx(3.0 + 0.1)  # pushed away, then still: no progress
+
+
+def test_liveness_in_the_arena_summary() -> None:
+    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.maps import load_map
+
+    arena = Arena(load_map("crossing"), ArenaOptions(agent="goal"))
+    summary = arena.run(0).to_dict()
+    assert "deadlock_time" in summary and "deadlock_duration" in summary
+    for r in summary["robots"]:
+        assert r["final_goal_distance"] is not None and r["final_goal_distance"] >= 0
+        assert r["stuck_time"] >= 0 and r["time_away_after_arrival"] >= 0
+        assert r["timed_out"] == (not r["reached_goal"])
