@@ -12,15 +12,20 @@ Sub-commands::
     nao-arena agents
     nao-arena figures [--out DIR] [--only NAMES]
 
-Errors (unknown map, agent, parameter) are printed on stderr with the
-choices, exit status 2.
+Errors (unknown map, agent, parameter; a number out of its range, e.g.
+``--time-limit`` must be finite and > 0 s and ``--seed`` >= 0; an output
+file or folder that cannot be written) are printed on stderr as one line
+``nao-arena: error: ...`` naming what was expected, exit status 2.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import signal
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +45,60 @@ def _overrides(items: list[str] | None) -> dict[str, Any]:
     from nao_arena.maps import parse_overrides
 
     return parse_overrides(items or [])
+
+
+_RANGES = {  # option -> (expectation, test) of the numbers of `run` and `trial`
+    "seed": ("an integer >= 0", lambda v: v >= 0),
+    "time_limit": ("a finite number of seconds > 0", lambda v: 0 < v < math.inf),
+    "max_steps": ("an integer >= 1", lambda v: v >= 1),
+    "fps": ("a finite number > 0", lambda v: 0 < v < math.inf),
+    "episodes": ("an integer >= 1", lambda v: v >= 1),
+    "workers": ("an integer >= 1", lambda v: v >= 1),
+}
+
+
+def _bad_number(args: argparse.Namespace) -> str | None:
+    """The first numeric option given out of its range, as an error message (else None)."""
+    for name, (expected, ok) in _RANGES.items():
+        value = getattr(args, name, None)
+        if value is not None and not ok(value):
+            return f"--{name.replace('_', '-')}: expected {expected}, got {value}"
+    return None
+
+
+def _unwritable(path: str, folder: bool = False) -> str | None:
+    """Why the output file (or folder) ``path`` cannot be written, as an error message.
+
+    Missing parent folders are created when writing, so the nearest existing
+    one must be a folder this process may write into.
+    """
+    target = Path(path)
+    if target.exists() and target.is_dir() != folder:
+        want, got = ("a folder", "file") if folder else ("a file", "folder")
+        return f"{path}: expected {want}, got an existing {got}"
+    place = target if folder and target.exists() else target.parent
+    while not place.exists() and place != place.parent:
+        place = place.parent
+    if not place.is_dir():
+        return f"{path}: cannot be written: {place} is not a folder"
+    if not os.access(place, os.W_OK | os.X_OK):
+        return f"{path}: cannot be written: no permission to write in {place}"
+    return None
+
+
+def _load_agents(refs: Iterable[str]) -> None:
+    """Load each agent reference now: a failure is a one-line ValueError before any episode."""
+    from nao_arena.agent import load_agent
+
+    for ref in dict.fromkeys(refs):
+        try:
+            load_agent(ref)
+        except ValueError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - plug-in code may raise anything on import
+            first = (str(exc).splitlines() or [""])[0]
+            raise ValueError(f"agent {ref}: cannot be loaded ({type(exc).__name__}: {first})"
+                             ) from exc
 
 
 # --------------------------------------------------------------------------- figures
@@ -91,6 +150,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.trials import make_map
 
     record = None
+    if problem := _bad_number(args):
+        return _err(problem)
     if args.render:
         if args.render in RENDER_SUFFIX and not args.out:
             return _err(f"--render {args.render} needs --out FILE{RENDER_SUFFIX[args.render]}")
@@ -105,15 +166,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
                         f"installation (cannot import nao_arena.render: {exc})")
     elif args.out:
         return _err("--out is the recording's file: use it with --render gif|mp4")
+    for path in (args.json, args.out if args.render in RENDER_SUFFIX else None):
+        if path and (problem := _unwritable(path)):
+            return _err(problem)
     try:
         overrides = _overrides(args.set)
         if "seed" in overrides:
             return _err("set the seed with --seed (it seeds the map and the agents)")
         spec = make_map(args.map, args.seed, overrides, args.time_limit)
-        if args.agent:
-            from nao_arena.agent import load_agent
-
-            load_agent(args.agent)
+        _load_agents([args.agent] if args.agent else [r.agent for r in spec.robots])
         arena = Arena(spec, ArenaOptions(agent=args.agent))
     except (MapError, ValueError) as exc:
         return _err(str(exc))
@@ -135,7 +196,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for f in summary.faults[:5]:
         print(f"  fault t={f.time:.1f} s {f.name}: {f.message}")
     if args.json:
-        summary.write_json(args.json)
+        try:
+            summary.write_json(args.json)
+        except OSError as exc:
+            return _err(f"{args.json}: cannot be written ({exc.strerror or exc})")
         print(f"wrote {args.json}")
     if args.render and args.render != "human":
         print(f"wrote {args.out}")
@@ -157,6 +221,8 @@ def _cmd_trial(args: argparse.Namespace) -> int:
 
     if args.address is not None and args.backend != "ray":
         return _err("--address is for the ray backend: add --backend ray")
+    if problem := _bad_number(args) or _unwritable(args.out, folder=True):
+        return _err(problem)
     try:
         config = TrialConfig(
             maps=_split(args.map), agents=_split(args.agent), episodes=args.episodes,
@@ -164,6 +230,7 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
             retry_failed=args.retry_failed, backend=args.backend, address=args.address,
         )
+        _load_agents(config.agents)
         previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
         try:
             result = run_trial(config, progress=None if args.quiet else sys.stderr)

@@ -5,6 +5,17 @@ A map is one YAML file (shipped maps live in the package
 seconds, m/s, m/s^2, kg, radians; all coordinates in the world frame.
 Unknown keys are errors everywhere.
 
+Numbers are finite (``.inf`` and ``.nan`` are errors); an integer is
+accepted where a number is expected, but ``true``/``false`` never are.
+Counts are integers >= 1. These checks apply after parameters are
+substituted, so an override cannot get round them. Bounds that keep a
+map from hanging or exhausting memory: at most :data:`MAX_BODIES` (10000)
+bodies (robots and traffic vehicles) in a map, hence in one layout
+(``n``) or lane (``count``); ``physics.substeps`` and
+``physics.iterations`` at most :data:`MAX_SUBSTEPS` and
+:data:`MAX_ITERATIONS` (1000 each); the ``crowd`` builder's ``max_tries``
+at most :data:`MAX_TRIES` (1000000).
+
 Top level
 ---------
 ``name`` (str, optional): the map's name (default: the file stem).
@@ -30,9 +41,12 @@ Top level
     waypoints [x, y] m; the goal defaults to the last one), ``velocity``
     (initial, m/s, default [0, 0]), ``radius`` (m, default 0.3), ``mass``
     (kg, default 1), ``a_max`` (m/s^2, default 2), ``v_max`` (m/s, default
-    1.5), ``agent`` (agent name, default "nao"), ``predictor`` (predictor
-    name, default "turn_rate"), ``agent_options`` (keyword options of the
-    agent's constructor, e.g. ``{horizon: 5.0}``), ``name`` (default "robot<i>").
+    1.5), ``agent`` (default "nao": a built-in or plug-in agent name, checked
+    when the map loads, or ``path/to/file.py:Class`` / ``module:Class``,
+    checked when the agent is loaded), ``predictor`` (default "turn_rate",
+    one of :data:`nao_arena.predictors.PREDICTORS`), ``agent_options``
+    (keyword options of the agent's constructor, e.g. ``{horizon: 5.0}``),
+    ``name`` (default "robot<i>").
 ``layouts`` (list, optional): generated robots, each
     ``{builder: <name>, args: {...}, robot: {...}, name: prefix}``, where
     ``builder`` names a registered layout builder (:data:`LAYOUTS`),
@@ -48,7 +62,9 @@ Top level
       uniformly in the square ``region_min``..``region_max`` (default: the
       bounds inset by the robot radius + ``min_gap``), at least ``min_gap``
       (m, default 0.2) apart surface to surface, start and goal at least
-      ``min_travel`` (m, default 0) apart.
+      ``min_travel`` (m, default 0) apart; it gives up after ``max_tries``
+      random draws for the starts, or for the goals (default 100000, at
+      most 1000000).
     - ``stream``: ``n`` robots in a block ``width`` abreast (default 1),
       ``spacing`` (m) between centres, the block's front centre at
       ``origin``, heading along ``direction`` ([dx, dy], normalized); each
@@ -69,12 +85,12 @@ Top level
     3), ``v_max`` (m/s, default 1.5 speed, must exceed speed), car
     following: ``time_headway`` (s, default 1), ``min_gap`` (m, default 2),
     ``name``.
-``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (default
-    10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0, default 0),
-    ``collision_slop`` (m of tolerated overlap, default 0.005),
-    ``iterations`` (solver iterations, default 10).
-``episode``: ``time_limit`` (s, default 60), ``goal_tolerance`` (m from the
-    goal at which a robot has arrived, default 0.3).
+``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (1..1000,
+    default 10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0,
+    default 0), ``collision_slop`` (m of tolerated overlap, default 0.005),
+    ``iterations`` (solver iterations per physics step, 1..1000, default 10).
+``episode``: ``time_limit`` (s, > 0, default 60), ``goal_tolerance`` (m from
+    the goal at which a robot has arrived, default 0.3).
 ``sensing``: ``range`` (m, default 30): robots sense the bodies within it;
     ``max_neighbours`` (default: no limit), the nearest first.
 
@@ -103,19 +119,24 @@ import yaml
 from numpy.typing import NDArray
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
-    PositiveInt,
     ValidationError,
     ValidationInfo,
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticKnownError
 
 from nao_arena.traffic import CircleLane, FollowerParams, PolylineLane
 
 __all__ = [
     "LAYOUTS",
+    "MAX_BODIES",
+    "MAX_ITERATIONS",
+    "MAX_SUBSTEPS",
+    "MAX_TRIES",
     "BodySpec",
     "Bounds",
     "CircleLaneSpec",
@@ -143,10 +164,35 @@ class MapError(ValueError):
     """A map file that cannot be loaded: the message names file, field path and expectation."""
 
 
-Num = Annotated[float, Field(allow_inf_nan=False)]
-Pos = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+MAX_BODIES = 10_000
+"""Most bodies (robots and traffic vehicles) in one map, and in one layout or lane."""
+MAX_SUBSTEPS = 1000
+"""Most physics substeps per control period (``physics.substeps``)."""
+MAX_ITERATIONS = 1000
+"""Most solver iterations per physics step (``physics.iterations``)."""
+MAX_TRIES = 1_000_000
+"""Most random draws of the ``crowd`` builder (``max_tries``)."""
+
+
+def _no_bool_number(value: Any) -> Any:
+    """A YAML ``true`` is not the number 1."""
+    if isinstance(value, bool):
+        raise PydanticKnownError("float_type")
+    return value
+
+
+def _no_bool_integer(value: Any) -> Any:
+    if isinstance(value, bool):
+        raise PydanticKnownError("int_type")
+    return value
+
+
+Num = Annotated[float, BeforeValidator(_no_bool_number), Field(allow_inf_nan=False)]
+Pos = Annotated[Num, Field(gt=0)]
+NonNeg = Annotated[Num, Field(ge=0)]
 Vec2 = tuple[Num, Num]
+PosInt = Annotated[int, BeforeValidator(_no_bool_integer), Field(gt=0)]
+BodyCount = Annotated[PosInt, Field(le=MAX_BODIES)]
 Scalar = bool | int | float | str
 
 
@@ -293,7 +339,7 @@ class TrafficGroup(_Model):
     name: str | None = None
     lane: LaneSpec
     speed: Pos
-    count: PositiveInt = 1
+    count: BodyCount = 1
     spacing: Pos | None = Field(default=None, validate_default=True)
     offset: Num = 0.0
     phase_jitter: NonNeg = 0.0
@@ -349,11 +395,11 @@ class Physics(_Model):
     """Control period dt (s), physics substeps per period, contact material, solver."""
 
     dt: Pos = 0.1
-    substeps: PositiveInt = 10
-    elasticity: Annotated[float, Field(ge=0, le=1)] = 0.2
+    substeps: Annotated[PosInt, Field(le=MAX_SUBSTEPS)] = 10
+    elasticity: Annotated[Num, Field(ge=0, le=1)] = 0.2
     friction: NonNeg = 0.0
     collision_slop: NonNeg = 0.005
-    iterations: PositiveInt = 10
+    iterations: Annotated[PosInt, Field(le=MAX_ITERATIONS)] = 10
 
 
 class Episode(_Model):
@@ -367,7 +413,7 @@ class Sensing(_Model):
     """What robots sense: neighbours within ``range`` (m), at most ``max_neighbours``."""
 
     range: Pos = 30.0
-    max_neighbours: PositiveInt | None = None
+    max_neighbours: PosInt | None = None
 
 
 class LayoutSpec(_Model):
@@ -535,7 +581,7 @@ def _pt(p: NDArray[np.float64]) -> tuple[float, float]:
 class CircleSwapArgs(_Model):
     """Arguments of the ``circle_swap`` builder."""
 
-    n: PositiveInt = 10
+    n: BodyCount = 10
     radius: Pos = 8.0
     center: Vec2 = (0.0, 0.0)
     angle: Num = 0.0
@@ -560,12 +606,12 @@ def circle_swap(args: CircleSwapArgs, ctx: LayoutContext) -> Placement:
 class CrowdArgs(_Model):
     """Arguments of the ``crowd`` builder."""
 
-    n: PositiveInt = 20
+    n: BodyCount = 20
     region_min: Vec2 | None = None
     region_max: Vec2 | None = None
     min_gap: NonNeg = 0.2
     min_travel: NonNeg = 0.0
-    max_tries: PositiveInt = 100_000
+    max_tries: Annotated[PosInt, Field(le=MAX_TRIES)] = 100_000
 
 
 def _scatter(
@@ -614,12 +660,12 @@ def crowd(args: CrowdArgs, ctx: LayoutContext) -> Placement:
 class StreamArgs(_Model):
     """Arguments of the ``stream`` builder."""
 
-    n: PositiveInt
+    n: BodyCount
     origin: Vec2
     direction: Vec2
     distance: Pos
     spacing: Pos
-    width: PositiveInt = 1
+    width: PosInt = 1
     perturb: NonNeg = 0.0
 
     @field_validator("direction")
@@ -1068,15 +1114,22 @@ def map_from_dict(
         mf = _MapFile.model_validate(body)
     except ValidationError as exc:
         raise _wrap(file, exc, body, _MapFile) from None
+    _check_names(file, mf)
     if rng is None:
         seed = params.get("seed", 0)
         rng = np.random.default_rng(seed if isinstance(seed, int) and seed >= 0 else 0)
     robots = list(mf.robots)
     origins = [f"robots[{i}]" for i in range(len(robots))]
+    _check_total(file, "robots", len(robots), "the robots placed by hand")
     for li, lay in enumerate(mf.layouts):
         robots_l, origins_l = _expand_layout(file, li, lay, mf.bounds, rng, body)
         robots.extend(robots_l)
         origins.extend(origins_l)
+        _check_total(file, f"layouts[{li}]", len(robots), "this layout's robots")
+    total = len(robots)
+    for g, grp in enumerate(mf.traffic):
+        total += grp.count
+        _check_total(file, f"traffic[{g}].count", total, "this group's vehicles")
     named = [
         r if r.name else r.model_copy(update={"name": f"robot{i}"}) for i, r in enumerate(robots)
     ]
@@ -1092,6 +1145,44 @@ def map_from_dict(
     )
     _check_geometry(file, spec, origins)
     return spec
+
+
+def _check_names(file: str, mf: _MapFile) -> None:
+    """Every robot's and layout template's agent and predictor names a known one.
+
+    Agents given as ``FILE.py:Class`` or ``module:Class`` are checked when loaded.
+    """
+    from nao_arena.agent import BUILTIN_AGENTS, available_agents
+    from nao_arena.predictors import PREDICTORS
+
+    templates: list[tuple[str, RobotTemplate]] = [
+        (f"robots[{i}]", r) for i, r in enumerate(mf.robots)
+    ] + [(f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(mf.layouts)]
+    agents: dict[str, str] | None = None
+    for where, t in templates:
+        if t.agent not in BUILTIN_AGENTS and ":" not in t.agent:
+            agents = available_agents() if agents is None else agents
+            if t.agent not in agents:
+                raise _fail(
+                    file, f"{where}.agent",
+                    f"expected one of {', '.join(agents)}, a path/to/file.py:ClassName or a "
+                    f"package.module:ClassName, got {t.agent!r}",
+                )
+        if t.predictor not in PREDICTORS:
+            raise _fail(
+                file, f"{where}.predictor",
+                f"expected one of {', '.join(PREDICTORS)}, got {t.predictor!r}",
+            )
+
+
+def _check_total(file: str, path: str, total: int, these: str) -> None:
+    """At most :data:`MAX_BODIES` bodies up to and including ``these`` (at path)."""
+    if total > MAX_BODIES:
+        raise _fail(
+            file, path,
+            f"expected at most {MAX_BODIES} bodies (robots and traffic vehicles) in a map, "
+            f"got {total} with {these}",
+        )
 
 
 def _expand_layout(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 import pytest
@@ -155,3 +156,137 @@ def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
     alive = [pid for pid in children if os.path.exists(f"/proc/{pid}")
              and "zombie" not in open(f"/proc/{pid}/status").read().lower()]
     assert not alive
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+def _one_line_error(capsys) -> str:
+    """The command's stderr, checked to be one `nao-arena: error:` line; returns it."""
+    err = capsys.readouterr().err
+    assert err.startswith("nao-arena: error: ") and err.count("\n") == 1, err
+    return err
+
+
+TINY = ["--set", "n=2"]
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "expected"),
+    [
+        ("--time-limit", "nan", "a finite number of seconds > 0, got nan"),
+        ("--time-limit", "inf", "a finite number of seconds > 0, got inf"),
+        ("--time-limit", "-1", "a finite number of seconds > 0, got -1.0"),
+        ("--time-limit", "0", "a finite number of seconds > 0, got 0.0"),
+        ("--seed", "-1", "an integer >= 0, got -1"),
+        ("--max-steps", "0", "an integer >= 1, got 0"),
+        ("--fps", "0", "a finite number > 0, got 0.0"),
+        ("--fps", "nan", "a finite number > 0, got nan"),
+    ],
+)
+def test_run_rejects_numbers_out_of_range(capsys, tmp_path, option, value, expected):
+    record = ["--render", "gif", "--out", str(tmp_path / "x.gif")] if option == "--fps" else []
+    assert main(["run", "circle_swap", *TINY, *record, option, value]) == 2
+    assert f"error: {option}: expected {expected}" in _one_line_error(capsys)
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "expected"),
+    [
+        ("--time-limit", "nan", "a finite number of seconds > 0, got nan"),
+        ("--time-limit", "inf", "a finite number of seconds > 0, got inf"),
+        ("--time-limit", "-1", "a finite number of seconds > 0, got -1.0"),
+        ("--time-limit", "0", "a finite number of seconds > 0, got 0.0"),
+        ("--seed", "-1", "an integer >= 0, got -1"),
+        ("--episodes", "0", "an integer >= 1, got 0"),
+        ("--workers", "0", "an integer >= 1, got 0"),
+    ],
+)
+def test_trial_rejects_numbers_out_of_range(capsys, tmp_path, option, value, expected):
+    out = tmp_path / "res"
+    assert main(["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1",
+                 "--out", str(out), "--quiet", *TINY, option, value]) == 2
+    assert f"error: {option}: expected {expected}" in _one_line_error(capsys)
+    assert not out.exists()
+
+
+def test_outputs_below_a_file_are_one_line_errors(capsys, tmp_path):
+    """A parent that is a regular file cannot hold the output, whoever runs the command."""
+    afile = tmp_path / "afile"
+    afile.write_text("not a folder")
+    cases = [
+        (["run", "circle_swap", *TINY, "--json", str(afile / "x.json")], f"{afile} is not a"),
+        (["run", "circle_swap", *TINY, "--render", "gif", "--out", str(afile / "d" / "x.gif")],
+         f"{afile} is not a folder"),
+        (["run", "circle_swap", *TINY, "--json", str(tmp_path)], "expected a file, got an "
+         "existing folder"),
+        (["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
+          "--out", str(afile / "res"), *TINY], f"{afile} is not a folder"),
+        (["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
+          "--out", str(afile), *TINY], "expected a folder, got an existing file"),
+    ]
+    for argv, expected in cases:
+        assert main(argv) == 2, argv
+        assert expected in _one_line_error(capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,
+                    reason="root may write into a read-only folder")
+def test_read_only_output_folder_is_a_one_line_error(capsys, tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        for argv in (["run", "circle_swap", *TINY, "--json", str(ro / "x.json")],
+                     ["run", "circle_swap", *TINY, "--render", "gif", "--out",
+                      str(ro / "x.gif")],
+                     ["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1",
+                      "--quiet", "--out", str(ro / "res"), *TINY]):
+            assert main(argv) == 2, argv
+            assert f"no permission to write in {ro}" in _one_line_error(capsys)
+    finally:
+        ro.chmod(0o700)
+
+
+def _map_with_robot(tmp_path, **robot) -> str:
+    path = tmp_path / "m.yaml"
+    fields = ", ".join(f"{k}: {v}" for k, v in robot.items())
+    path.write_text("bounds: {min: [-5.0, -5.0], max: [5.0, 5.0]}\n"
+                    f"robots:\n  - {{start: [0.0, 0.0], goal: [2.0, 0.0], {fields}}}\n")
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    ("robot", "field"),
+    [({"agent": "superbot"}, "robots[0].agent: expected one of nao"),
+     ({"predictor": "crystal_ball"}, "robots[0].predictor: expected one of constant_velocity")],
+)
+def test_unknown_names_in_a_map_are_one_line_errors(capsys, tmp_path, robot, field):
+    path = _map_with_robot(tmp_path, **robot)
+    assert main(["run", path]) == 2
+    assert f"{path}: {field}" in _one_line_error(capsys)
+    # the map is wrong even when --agent replaces its agents
+    assert main(["trial", "--map", path, "--agent", "nao", "--episodes", "1", "--quiet",
+                 "--out", str(tmp_path / "res")]) == 2
+    assert f"{path}: {field}" in _one_line_error(capsys)
+
+
+def test_agent_references_that_fail_to_load_are_one_line_errors(capsys, tmp_path):
+    broken = tmp_path / "broken.py"
+    broken.write_text("class Broken:\n    def act(self, obs)\n        return obs\n")
+    raising = tmp_path / "raising.py"
+    raising.write_text("raise RuntimeError('no licence server\\nsecond line')\n")
+    missing = tmp_path / "missing.py"
+    for ref, expected in [
+        (f"{broken}:Broken", "cannot be loaded (SyntaxError: "),
+        (f"{raising}:Agent", "cannot be loaded (RuntimeError: no licence server)"),
+        (f"{missing}:Agent", "no such file"),
+    ]:
+        path = _map_with_robot(tmp_path, agent=f"'{ref}'")
+        assert main(["run", path]) == 2, ref
+        assert f"agent {ref}: " in (err := _one_line_error(capsys)) and expected in err
+        assert main(["trial", "--map", "circle_swap", "--agent", ref, "--quiet",
+                     "--out", str(tmp_path / "res"), *TINY]) == 2, ref
+        assert f"agent {ref}: " in (err := _one_line_error(capsys)) and expected in err

@@ -205,6 +205,34 @@ BAD_CASES = {
     "invalid_yaml.yaml": ("line 3, column 1", "expected valid YAML"),
     "wall_without_type.yaml": ("walls[0]", "expected a 'type' key"),
     "robots_not_a_list.yaml": ("robots", "expected a list, got 'abc'"),
+    # bounds that keep a map from hanging or exhausting memory
+    "huge_iterations.yaml": ("physics.iterations", "expected a number <= 1000, got 2000000000"),
+    "huge_substeps.yaml": ("physics.substeps", "expected a number <= 1000, got 100000000"),
+    "huge_traffic_count.yaml": ("traffic[0].count", "expected a number <= 10000, got 1000000000"),
+    "too_many_bodies.yaml": (
+        "traffic[1].count", "expected at most 10000 bodies (robots and traffic vehicles) in a "
+        "map, got 10001 with this group's vehicles",
+    ),
+    "huge_layout_n.yaml": ("layouts[0].args.n", "expected a number <= 10000, got 1000000000"),
+    "huge_max_tries.yaml": ("layouts[0].args.max_tries", "expected a number <= 1000000"),
+    # booleans are not numbers
+    "bool_dt.yaml": ("physics.dt", "expected a number, got true"),
+    "bool_radius.yaml": ("robots[0].radius", "expected a number, got true"),
+    "bool_a_max.yaml": ("robots[0].a_max", "expected a number, got true"),
+    "bool_coordinate.yaml": ("robots[0].start[0]", "expected a number, got true"),
+    "bool_count.yaml": ("traffic[0].count", "expected an integer, got true"),
+    "bool_time_limit.yaml": ("episode.time_limit", "expected a number, got true"),
+    "infinite_time_limit.yaml": ("episode.time_limit", "expected a finite number, got inf"),
+    "nan_time_limit.yaml": ("episode.time_limit", "expected a finite number, got nan"),
+    # names checked when the map loads
+    "unknown_agent.yaml": (
+        "robots[0].agent", "expected one of nao, ao, vo, orca, goal, lane, a "
+        "path/to/file.py:ClassName or a package.module:ClassName, got 'superbot'",
+    ),
+    "unknown_predictor.yaml": (
+        "layouts[0].robot.predictor", "expected one of constant_velocity, "
+        "constant_acceleration, turn_rate, known_path, shared_plan, got 'crystal_ball'",
+    ),
 }
 
 
@@ -227,3 +255,128 @@ def test_bad_map_message(file: str) -> None:
 
 def test_map_error_is_a_value_error() -> None:
     assert issubclass(MapError, ValueError)
+
+
+# A valid map that sets every numeric field (robots, walls, layouts, traffic, sections).
+EVERY_NUMBER: dict = {
+    "parameters": {"t": 30.0},
+    "bounds": {"min": [-50, -50], "max": [50, 50], "wall_thickness": 0.2},
+    "walls": [
+        {"type": "segment", "a": [-5, 20], "b": [5, 20], "thickness": 0.2},
+        {"type": "polygon", "points": [[30, -40], [32, -40], [32, -38]]},
+    ],
+    "robots": [{"start": [0, 0], "goal": [1, 1], "route": [[1, 1]], "velocity": [0.5, 0],
+                "radius": 0.3, "mass": 1, "a_max": 2, "v_max": 1.5}],
+    "layouts": [
+        {"builder": "stream", "args": {"n": 2, "origin": [-10, -10], "direction": [1, 0],
+                                       "distance": 5, "spacing": 1, "width": 1, "perturb": 0},
+         "robot": {"radius": 0.3, "mass": 1, "a_max": 2, "v_max": 1.5}},
+        {"builder": "circle_swap", "args": {"n": 3, "radius": 3, "center": [20, 30],
+                                            "angle": 0.5, "perturb": 0.1}},
+        {"builder": "crowd", "args": {"n": 2, "region_min": [-45, -45], "region_max": [-30, -30],
+                                      "min_gap": 0.2, "min_travel": 0, "max_tries": 1000}},
+    ],
+    "traffic": [
+        {"lane": {"type": "circle", "center": [0, 0], "radius": 30, "start_angle": 0},
+         "speed": 2, "count": 2, "spacing": 90, "offset": 0, "phase_jitter": 0, "radius": 1,
+         "mass": 1000, "a_max": 3, "v_max": 3, "time_headway": 1, "min_gap": 2},
+        {"lane": {"type": "polyline", "points": [[-40, 45], [40, 45]]}, "speed": 1},
+    ],
+    "physics": {"dt": 0.1, "substeps": 10, "elasticity": 0.2, "friction": 0,
+                "collision_slop": 0.005, "iterations": 10},
+    "episode": {"time_limit": "$t", "goal_tolerance": 0.3},
+    "sensing": {"range": 30, "max_neighbours": 5},
+}
+
+
+def _number_paths(node: object, path: str = "") -> list[str]:
+    """Paths (as in map errors) of the numbers in node, outside ``parameters``."""
+    if isinstance(node, dict):
+        return [q for k, v in node.items() if k != "parameters"
+                for q in _number_paths(v, f"{path}.{k}".lstrip("."))]
+    if isinstance(node, list):
+        return [q for i, v in enumerate(node) for q in _number_paths(v, f"{path}[{i}]")]
+    return [path] if isinstance(node, int | float) and not isinstance(node, bool) else []
+
+
+def _replaced(node: object, path: str, value: object, here: str = "") -> object:
+    if isinstance(node, dict):
+        return {k: _replaced(v, path, value, f"{here}.{k}".lstrip(".")) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_replaced(v, path, value, f"{here}[{i}]") for i, v in enumerate(node)]
+    return value if here == path else node
+
+
+def test_the_every_number_map_loads() -> None:
+    spec = map_from_dict(EVERY_NUMBER)
+    assert spec.n_robots == 1 + 2 + 3 + 2 and len(spec.bodies()) == 8 + 3
+    assert spec.episode.time_limit == 30.0 and spec.traffic[0].count == 2
+    assert len(_number_paths(EVERY_NUMBER)) > 60
+
+
+@pytest.mark.parametrize("path", _number_paths(EVERY_NUMBER))
+@pytest.mark.parametrize("flag", [True, False])
+def test_booleans_are_not_numbers(path: str, flag: bool) -> None:
+    """true/false is an error wherever a number is expected (it used to read as 1 or 0)."""
+    with pytest.raises(MapError) as info:
+        map_from_dict(_replaced(EVERY_NUMBER, path, flag), "bools.yaml")
+    msg = str(info.value)
+    assert msg.startswith(f"bools.yaml: {path}: expected ")
+    assert f"got {str(flag).lower()}" in msg, msg
+
+
+def test_integers_stay_numbers_and_whole_floats_stay_counts() -> None:
+    data = _replaced(EVERY_NUMBER, "physics.dt", 1)
+    data = _replaced(data, "traffic[0].count", 2.0)
+    spec = map_from_dict(data)
+    assert spec.physics.dt == 1.0 and isinstance(spec.physics.dt, float)
+    assert spec.traffic[0].count == 2 and isinstance(spec.traffic[0].count, int)
+
+
+@pytest.mark.parametrize("value", [float("inf"), float("nan"), 0.0, -1.0, True])
+def test_time_limit_from_a_parameter_is_finite_and_positive(value: float) -> None:
+    with pytest.raises(MapError) as info:
+        map_from_dict(EVERY_NUMBER, "t.yaml", t=value)
+    msg = str(info.value)
+    path = "parameters.t" if isinstance(value, bool) else "episode.time_limit"
+    assert msg.startswith(f"t.yaml: {path}: expected a "), msg
+
+
+def test_bounds_at_their_caps_load() -> None:
+    data = _replaced(EVERY_NUMBER, "physics.substeps", 1000)
+    data = _replaced(data, "physics.iterations", 1000)
+    data = _replaced(data, "layouts[2].args.max_tries", 1_000_000)
+    spec = map_from_dict(data)
+    assert (spec.physics.substeps, spec.physics.iterations) == (1000, 1000)
+    # 10000 bodies in all: one robot and 9999 vehicles on a long lane
+    lane = {"type": "polyline", "points": [[-40, -40], [40, -40]]}
+    crowded = {"bounds": {"min": [-50, -50], "max": [50, 50]},
+               "robots": [{"start": [0, 0], "goal": [1, 1]}],
+               "traffic": [{"lane": lane, "speed": 1, "count": 9999, "spacing": 0.008,
+                            "radius": 0.003}]}
+    assert len(map_from_dict(crowded).bodies()) == 10_000
+
+
+def test_agent_references_and_plugins_pass_the_map_check(monkeypatch) -> None:
+    from types import SimpleNamespace
+
+    import nao_arena.agent as agent_module
+
+    robot = {"start": [0, 0], "goal": [1, 1]}
+    refs = ["path/to/mine.py:Mine", "some.module:Agent", "lane"]
+    data = {"bounds": {"min": [-9, -9], "max": [9, 9]},
+            "robots": [{**robot, "start": [2 * i, 0], "agent": a} for i, a in enumerate(refs)]}
+    assert [r.agent for r in map_from_dict(data).robots] == refs
+    data["robots"].append({**robot, "start": [-4, 0], "agent": "myplug"})
+    with pytest.raises(MapError, match=r"robots\[3\]\.agent: expected one of"):
+        map_from_dict(data)
+    monkeypatch.setattr(agent_module, "_plugins",
+                        lambda: {"myplug": SimpleNamespace(value="pkg.mod:Cls")})
+    assert map_from_dict(data).robots[3].agent == "myplug"
+
+
+def test_unknown_agent_from_a_parameter_names_the_field() -> None:
+    with pytest.raises(MapError) as info:
+        load_map("circle_swap", agent="superbot")
+    msg = str(info.value)
+    assert msg.startswith("maps/circle_swap.yaml: layouts[0].robot.agent: expected one of nao")
