@@ -210,13 +210,15 @@ def _csv_text(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:
 
 @dataclass
 class EpisodeSummary:
-    """An episode's results: duration (s), steps, per-robot rows, contact events, faults."""
+    """An episode's results: duration (s), steps, per-robot rows, contact events, faults,
+    and the SHA-256 (hex) of its trajectory (see :mod:`nao_arena.arena`; "" if unknown)."""
 
     duration: float
     steps: int
     robots: list[RobotSummary] = field(default_factory=list)
     contacts: list[ContactEvent] = field(default_factory=list)
     faults: list[FaultEvent] = field(default_factory=list)
+    trajectory_hash: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (JSON-ready)."""
@@ -226,6 +228,7 @@ class EpisodeSummary:
             "robots": [r.to_dict() for r in self.robots],
             "contacts": [c.to_dict() for c in self.contacts],
             "faults": [f.to_dict() for f in self.faults],
+            "trajectory_hash": self.trajectory_hash,
         }
 
     def to_json(self, indent: int | None = 2) -> str:

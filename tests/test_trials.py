@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.maps import MapError
 from nao_arena.stats import ContactEvent, RobotSummary
 from nao_arena.trials import (
@@ -18,6 +21,7 @@ from nao_arena.trials import (
     episode_path,
     episode_seed,
     format_table,
+    make_map,
     run_trial,
     wilson_interval,
 )
@@ -176,3 +180,32 @@ def test_clear_errors(tmp_path):
     with pytest.raises(ValueError, match="workers"):
         small(tmp_path, workers=0)
     assert not os.path.exists(tmp_path / "summary.json")
+
+
+# --------------------------------------------------------------------------- trajectory hash
+
+
+def test_trajectory_hash_is_the_sha256_of_positions_and_velocities():
+    arena = Arena(make_map("circle_swap_perturbed", 3, SMALL), ArenaOptions(agent="goal"))
+    digest = hashlib.sha256()
+
+    def add(state) -> None:
+        digest.update(np.asarray(state.positions, dtype=np.float64).tobytes())
+        digest.update(np.asarray(state.velocities, dtype=np.float64).tobytes())
+
+    add(arena.reset(3))
+    for _ in range(30):
+        add(arena.step().state)
+    summary = arena.summary()
+    assert summary.trajectory_hash == digest.hexdigest()
+    assert summary.to_dict()["trajectory_hash"] == digest.hexdigest()
+    # the hash changes no number of the summary
+    plain = arena.stats.summary().to_dict()
+    assert plain.pop("trajectory_hash") == ""
+    result = summary.to_dict()
+    result.pop("trajectory_hash")
+    assert json.dumps(result) == json.dumps(plain)
+    again = Arena(make_map("circle_swap_perturbed", 3, SMALL), ArenaOptions(agent="goal"))
+    assert again.run(3, max_steps=30).trajectory_hash == summary.trajectory_hash
+    other = Arena(make_map("circle_swap_perturbed", 4, SMALL), ArenaOptions(agent="goal"))
+    assert other.run(4, max_steps=30).trajectory_hash != summary.trajectory_hash
