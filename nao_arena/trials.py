@@ -96,10 +96,25 @@ The printed table (:func:`format_table`) shows each share as
 ``count/total (percent)``, with enough digits that a non-zero count never
 reads as zero, a note for every cell with repeated episodes, and a legend
 of its columns.
+
+The output folder
+-----------------
+While a trial runs it holds an exclusive lock on ``DIR/.lock``
+(``fcntl.flock``, the holder's pid inside, released when the trial ends,
+however it ends): a second trial on the same folder fails at once with
+:class:`ResultsFolderError`. A trial in a folder whose ``trial.json``
+records different settings is refused the same way, before anything is
+written; only the settings that do not change results may differ
+(:data:`FREE_SETTINGS`: ``workers``, ``backend``, ``address``, ``csv``,
+``retry_failed``), the order of maps and agents does not matter, and
+``episodes`` may grow (the earlier episodes are kept and the new ones run;
+``trial.json`` then records the larger number) but not shrink.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import math
 import os
@@ -107,8 +122,8 @@ import re
 import sys
 import time
 import zlib
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -126,15 +141,19 @@ from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text, tempo
 __all__ = [
     "COLLISION_SCHEMA",
     "EPISODE_SCHEMA",
+    "FREE_SETTINGS",
     "SUMMARY_KEYS",
     "TABLE_LEGEND",
     "EpisodeTask",
+    "ResultsFolderError",
     "TrialConfig",
     "TrialResult",
     "atomic_write_with",
     "build_results",
+    "check_folder",
     "compute_episode",
     "episode_seed",
+    "folder_lock",
     "format_table",
     "load_summary",
     "make_map",
@@ -156,6 +175,10 @@ SUMMARY_KEYS: tuple[str, ...] = (
     "distinct_episodes", "distinct_robots", "robots_collided", "robots_succeeded",
     "robots_arrived", "adjustments", "driven_s",
 )
+
+FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed"})
+"""Settings that do not change results: they may differ from the ``trial.json`` of the
+output folder (``episodes`` may also grow)."""
 
 _KEY_COLUMNS = [
     pa.field("map", pa.string()),
@@ -501,6 +524,84 @@ def _validate(config: TrialConfig) -> dict[str, dict[str, Any]]:
     return per_map
 
 
+class ResultsFolderError(ValueError):
+    """The output folder is in use by another trial, or holds a trial with other settings."""
+
+
+@contextlib.contextmanager
+def folder_lock(out: Path) -> Iterator[None]:
+    """Hold the exclusive lock ``out/.lock`` (the holder's pid inside) while the block runs.
+
+    Raises :class:`ResultsFolderError` at once, naming the folder and the holder's pid,
+    if another trial holds it.
+    """
+    with open(Path(out) / ".lock", "a+", encoding="utf-8") as fh:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "?"
+            raise ResultsFolderError(
+                f"results folder {out} is in use by another trial (pid {holder}); wait for "
+                "it to end or choose another --out") from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"{os.getpid()}\n")
+        fh.flush()
+        yield  # closing the file releases the lock
+
+
+def _settings(config: TrialConfig) -> dict[str, Any]:
+    """The trial's settings as ``trial.json`` holds them (JSON types)."""
+    settings = {k: v for k, v in asdict(config).items() if k != "out"}
+    settings.update(maps=list(config.maps), agents=list(config.agents),
+                    overrides=dict(config.overrides))
+    return json.loads(json.dumps(settings))
+
+
+def _setting_default(name: str) -> Any:
+    f = TrialConfig.__dataclass_fields__.get(name)
+    if f is None:
+        return None
+    if f.default_factory is not MISSING:
+        return f.default_factory()
+    return None if f.default is MISSING else f.default
+
+
+def check_folder(out: Path, settings: Mapping[str, Any]) -> None:
+    """Refuse (:class:`ResultsFolderError`) a trial whose settings differ from the
+    ``trial.json`` already in ``out``, except :data:`FREE_SETTINGS`, the order of maps
+    and agents, and more episodes; a setting the file lacks counts as its default."""
+    path = Path(out) / "trial.json"
+    if not path.exists():
+        return
+    try:
+        before = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(before, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as exc:
+        raise ResultsFolderError(f"{path}: cannot read it ({exc}); expected the settings of "
+                                 f"the trial in {out}: repair it or choose another --out") from None
+    diffs = []
+    for key, now in settings.items():
+        if key in FREE_SETTINGS:
+            continue
+        was = before.get(key, _setting_default(key))
+        if key == "episodes":
+            if isinstance(was, int) and now < was:
+                diffs.append(f"episodes {now} < {was} (episodes may only grow)")
+        elif key in ("maps", "agents"):
+            if sorted(map(str, was or [])) != sorted(now):
+                diffs.append(f"{key} {was} there, {now} now")
+        elif was != now:
+            diffs.append(f"{key} {was!r} there, {now!r} now")
+    if diffs:
+        raise ResultsFolderError(
+            f"results folder {out} holds another trial ({'; '.join(diffs)}): choose another "
+            "--out, or repeat its settings (only workers, backend, address, csv and "
+            "retry_failed may change, and episodes may grow)")
+
+
 def run_trial(
     config: TrialConfig,
     progress: TextIO | None = sys.stderr,
@@ -513,17 +614,27 @@ def run_trial(
     ``config.backend``; their records come back to this process, which
     writes each episode's file as soon as it arrives. Raises ValueError /
     :class:`~nao_arena.maps.MapError` for unknown maps or agents and bad
-    overrides, and :class:`~nao_arena.backends.BackendError` if the backend
-    is not installed, before any episode runs.
+    overrides, :class:`~nao_arena.backends.BackendError` if the backend is
+    not installed, and :class:`ResultsFolderError` if the output folder is in
+    use or holds a trial with other settings, before any episode runs.
     """
     per_map = _validate(config)
     backend = make_backend(config.backend, config.workers, config.address)
     out = Path(config.out)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
-    settings = {k: v for k, v in asdict(config).items() if k != "out"}
-    settings.update(maps=list(config.maps), agents=list(config.agents),
-                    overrides=dict(config.overrides))
-    atomic_write_text(out / "trial.json", json.dumps(settings, indent=2) + "\n")
+    settings = _settings(config)
+    with folder_lock(out):
+        check_folder(out, settings)
+        atomic_write_text(out / "trial.json", json.dumps(settings, indent=2) + "\n")
+        return _run_locked(config, per_map, backend, progress, on_episode)
+
+
+def _run_locked(
+    config: TrialConfig, per_map: dict[str, dict[str, Any]], backend: Any,
+    progress: TextIO | None, on_episode: Callable[[dict[str, Any]], None] | None,
+) -> TrialResult:
+    """:func:`run_trial` once the output folder is locked and checked."""
+    out = Path(config.out)
     tasks = _tasks(config, per_map)
     bar = Progress(len(tasks), 0, progress)
     todo = []

@@ -1,5 +1,5 @@
 """Trials: seeds, determinism across worker counts, resume, failed episodes, summary.json,
-counts beside rates, repeated episodes."""
+counts beside rates, repeated episodes, the output folder's lock and settings."""
 
 from __future__ import annotations
 
@@ -17,11 +17,13 @@ from hypothesis import strategies as st
 
 from nao_arena import trials
 from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.cli import main
 from nao_arena.maps import MapError
 from nao_arena.stats import ContactEvent, RobotSummary
 from nao_arena.trials import (
     SUMMARY_KEYS,
     TABLE_LEGEND,
+    ResultsFolderError,
     TrialConfig,
     episode_path,
     episode_seed,
@@ -147,9 +149,9 @@ def test_resume_recomputes_only_missing_episodes(tmp_path):
         if f != victim:
             assert f.stat().st_mtime_ns == stamps[f]
     assert second.summary == first.summary
-    # a different root seed is a different trial: nothing is reused
-    third = run_trial(small(tmp_path, seed=8, agents=("goal",), episodes=1), progress=None)
-    assert third.ran == 1 and third.skipped == 0
+    # a different root seed is a different trial: refused in the same folder
+    with pytest.raises(ResultsFolderError, match="seed 7 there, 8 now"):
+        run_trial(small(tmp_path, seed=8), progress=None)
 
 
 def test_crashed_episode_is_recorded(tmp_path):
@@ -326,6 +328,82 @@ def test_distinct_episodes_of_a_seeded_map(one_worker):
         assert row["distinct_episodes"] == 2 and row["distinct_robots"] == row["robots"] == 8
         assert row["collision_rate_ci95"] == list(
             wilson_interval(row["robots_collided"], row["robots"]))
+
+
+# --------------------------------------------------------------------------- the output folder
+
+
+def quick(out: Path, **kw) -> TrialConfig:
+    settings = dict(maps=("circle_swap_perturbed",), agents=("goal",), episodes=1, seed=7,
+                    out=out, overrides=SMALL, time_limit=3.0)
+    settings.update(kw)
+    return TrialConfig(**settings)
+
+
+def test_a_second_trial_on_a_folder_in_use_fails_at_once(tmp_path, capsys):
+    refused: list[str] = []
+
+    def meanwhile(record: dict) -> None:
+        if refused:
+            return
+        with pytest.raises(ResultsFolderError) as info:
+            run_trial(quick(tmp_path, seed=8), progress=None)
+        refused.append(str(info.value))
+        args = ["trial", "--map", "circle_swap_perturbed", "--agent", "goal", "--episodes", "1",
+                "--seed", "7", "--out", str(tmp_path), "--set", "n=4", "--time-limit", "3"]
+        assert main(args) == 2
+        refused.append(capsys.readouterr().err)
+
+    first = run_trial(quick(tmp_path, episodes=2), progress=None, on_episode=meanwhile)
+    assert first.ran == 2
+    message, cli_error = refused
+    assert str(tmp_path) in message and f"pid {os.getpid()}" in message
+    assert cli_error.count("\n") == 1 and "in use by another trial" in cli_error
+    # the lock ends with the trial
+    assert run_trial(quick(tmp_path, episodes=2), progress=None).skipped == 2
+
+
+def test_other_settings_in_the_same_folder_are_refused(tmp_path, capsys):
+    run_trial(quick(tmp_path), progress=None)
+    before = {name: (tmp_path / name).read_bytes() for name in ("trial.json", "summary.json")}
+    with pytest.raises(ResultsFolderError, match=r"seed 7 there, 8 now.*another --out"):
+        run_trial(quick(tmp_path, seed=8), progress=None)
+    with pytest.raises(ResultsFolderError, match="time_limit 3.0 there, 4.0 now"):
+        run_trial(quick(tmp_path, time_limit=4.0), progress=None)
+    with pytest.raises(ResultsFolderError, match="overrides"):
+        run_trial(quick(tmp_path, overrides={"n": 5}), progress=None)
+    with pytest.raises(ResultsFolderError, match="agents"):
+        run_trial(quick(tmp_path, agents=("goal", "nao")), progress=None)
+    assert main(["trial", "--map", "circle_swap_perturbed", "--agent", "goal",
+                 "--episodes", "1", "--seed", "8", "--out", str(tmp_path), "--set", "n=4",
+                 "--time-limit", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(tmp_path) in err and "seed 7 there, 8 now" in err
+    assert {name: (tmp_path / name).read_bytes() for name in before} == before
+    # settings that do not change results may differ
+    again = run_trial(quick(tmp_path, csv=True, retry_failed=True), progress=None)
+    assert again.ran == 0 and again.skipped == 1
+
+
+def test_more_episodes_extend_the_folder_and_keep_the_earlier_rows(tmp_path):
+    first = run_trial(quick(tmp_path), progress=None)
+    more = run_trial(quick(tmp_path, episodes=3), progress=None)
+    assert more.ran == 2 and more.skipped == 1
+    (row,) = more.summary
+    assert row["episodes"] == 3 and row["robots"] == 12
+    rows = pq.read_table(tmp_path / "episodes.parquet").to_pylist()
+    assert sorted({r["episode"] for r in rows}) == [0, 1, 2]
+    earlier = [r for r in rows if r["episode"] == 0]
+    assert sum(r["collisions"] > 0 for r in earlier) == first.summary[0]["robots_collided"]
+    assert json.loads((tmp_path / "trial.json").read_text())["episodes"] == 3
+    with pytest.raises(ResultsFolderError, match="episodes 2 < 3 \\(episodes may only grow\\)"):
+        run_trial(quick(tmp_path, episodes=2), progress=None)
+
+
+def test_an_unreadable_trial_json_is_refused(tmp_path):
+    (tmp_path / "trial.json").write_text("{not json")
+    with pytest.raises(ResultsFolderError, match="trial.json: cannot read it"):
+        run_trial(quick(tmp_path), progress=None)
 
 
 def test_report_table_shows_counts_and_the_legend(one_worker, tmp_path):
