@@ -19,7 +19,13 @@ the scripted lane followers of the map's traffic and the episode's
    row, checked like :func:`~nao_arena.agent.safe_act`); the result must be
    what ``act`` would give robot by robot;
 4. steps the world (limits enforced there);
-5. updates the statistics (swept contact check over every physics substep, metrics).
+5. updates the statistics (swept contact check over every physics substep,
+   metrics) and the episode's trajectory hash.
+
+The trajectory hash (``EpisodeSummary.trajectory_hash``) is a SHA-256 over
+the positions (m) then the velocities (m/s) of every body, in body order, as
+float64 bytes, of the state after :meth:`Arena.reset` and after each step:
+two episodes with the same hash followed the same trajectory.
 
 The PettingZoo env and the trial runner both drive this loop; neither has a
 loop of its own.
@@ -27,6 +33,8 @@ loop of its own.
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import inspect
 import math
 from collections.abc import Mapping
@@ -130,6 +138,7 @@ class Arena:
         self.commanded = np.zeros((self.world.n, 2))
         self._kinds: NDArray[np.str_] | None = None
         self._plan: tuple[list[type], dict[type, list[int]], list[int]] | None = None
+        self._trajectory = hashlib.sha256()
 
     # ------------------------------------------------------------------ episode
 
@@ -149,6 +158,8 @@ class Arena:
             goals=self._body_goals(),
         )
         self.commanded = np.zeros((self.world.n, 2))
+        self._trajectory = hashlib.sha256()
+        self._hash_state(self.state)
         return self.state
 
     def _body_goals(self) -> NDArray[np.float64]:
@@ -156,6 +167,11 @@ class Arena:
         goals = np.full((self.world.n, 2), np.nan)
         goals[self.robot_ids] = self.goals
         return goals
+    def _hash_state(self, state: WorldState) -> None:
+        """Add a state's positions (m) and velocities (m/s), body order, float64 bytes
+        to the trajectory hash."""
+        self._trajectory.update(np.ascontiguousarray(state.positions, dtype=np.float64))
+        self._trajectory.update(np.ascontiguousarray(state.velocities, dtype=np.float64))
 
     @property
     def time(self) -> float:
@@ -258,6 +274,7 @@ class Arena:
         new_state = self.world.step(commanded)
         self.commanded = commanded
         self.state = new_state
+        self._hash_state(new_state)
         reached = np.zeros(self.world.n, dtype=bool)
         reached[self.robot_ids] = self.reached
         contacts = self.stats.update(
@@ -338,5 +355,7 @@ class Arena:
         return self.summary()
 
     def summary(self) -> EpisodeSummary:
+        """The episode so far (see :meth:`EpisodeStats.summary`), with its trajectory hash."""
         assert self.stats is not None
-        return self.stats.summary()
+        return dataclasses.replace(self.stats.summary(),
+                                   trajectory_hash=self._trajectory.hexdigest())

@@ -336,7 +336,11 @@ def build_parser() -> argparse.ArgumentParser:
     trial.add_argument("--workers", type=int, default=1,
                        help="local worker processes (with --backend ray and no --address: "
                             "the CPUs of the local Ray instance)")
-    trial.add_argument("--out", required=True, help="results folder (resumed if it exists)")
+    trial.add_argument("--out", required=True,
+                       help="results folder (resumed if it exists; locked while the trial "
+                            "runs; refused if it holds a trial with other settings, except "
+                            "--workers, --backend, --address, --csv, --retry-failed and "
+                            "more --episodes)")
     trial.add_argument("--csv", action="store_true", help="also write CSV files")
     _add_map_options(trial)
     trial.add_argument("--retry-failed", action="store_true",

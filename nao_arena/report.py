@@ -4,8 +4,9 @@
 writes PNG figures (matplotlib, Agg canvas, no display needed):
 
 - ``rates.png``: per map, the collision rate per agent (share of
-  robot-episodes with a collision, with its 95 % Wilson interval) and the
-  acceleration adjustments per second per agent;
+  robot-episodes with a collision, with its 95 % Wilson interval; each bar
+  labelled with its count, robot-episodes with a collision / robot-episodes)
+  and the acceleration adjustments per second per agent;
 - ``time_to_goal.png``: per map, the distribution of the time to goal (s)
   of the robot-episodes that arrived, one box per agent (with the share
   that arrived);
@@ -29,14 +30,25 @@ from matplotlib.figure import Figure
 
 from nao_arena.trials import atomic_write_with, format_table, load_summary
 
-__all__ = ["REPORT_FILES", "report_text", "write_report"]
+__all__ = ["REPORT_FILES", "rate_label", "report_text", "write_report"]
 
 REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
 
 
 def report_text(folder: str | Path) -> str:
-    """The summary table of a results folder."""
+    """The summary table of a results folder, with its notes and the columns' legend
+    (see :func:`~nao_arena.trials.format_table`)."""
     return format_table(load_summary(folder))
+
+
+def rate_label(row: Mapping[str, Any] | None) -> str:
+    """A collision-rate bar's label: ``collided/robots`` (robot-episodes), "-" if none."""
+    if row is None or row.get("collision_rate") is None:
+        return "-"
+    collided = row.get("robots_collided")
+    if collided is None:  # a summary written before the counts were recorded
+        collided = round(row["collision_rate"] * row["robots"])
+    return f"{collided}/{row['robots']}"
 
 
 def _ordered(values: Sequence[str]) -> list[str]:
@@ -79,8 +91,8 @@ def _rates(summary: Sequence[Mapping[str, Any]], maps: list[str], agents: list[s
         err = np.vstack([np.nan_to_num(rate - lo), np.nan_to_num(hi - rate)])
         bars = ax_c.bar(pos, np.nan_to_num(rate), width, yerr=err, capsize=3,
                         color=colors[k], label=m, error_kw={"elinewidth": 1, "alpha": 0.7})
-        ax_c.bar_label(bars, labels=["-" if v != v else f"{v:.2f}" for v in rate],
-                       fontsize="x-small", padding=2)
+        ax_c.bar_label(bars, labels=[rate_label(r) for r in rows], fontsize="x-small",
+                       padding=2)
         adj = np.array([np.nan if r is None or r["adjustments_per_s"] is None
                         else r["adjustments_per_s"] for r in rows])
         bars = ax_a.bar(pos, np.nan_to_num(adj), width, color=colors[k], label=m)

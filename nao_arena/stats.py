@@ -238,7 +238,8 @@ def _csv_text(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:
 @dataclass
 class EpisodeSummary:
     """An episode's results: duration (s), steps, per-robot rows, contact events, faults,
-    and the first time (s, NaN if never) and total time (s) of deadlock."""
+    the first time (s, NaN if never) and total time (s) of deadlock, and the SHA-256
+    (hex) of its trajectory (see :mod:`nao_arena.arena`; "" if unknown)."""
 
     duration: float
     steps: int
@@ -247,6 +248,7 @@ class EpisodeSummary:
     faults: list[FaultEvent] = field(default_factory=list)
     deadlock_time: float = math.nan
     deadlock_duration: float = 0.0
+    trajectory_hash: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (JSON-ready)."""
@@ -258,6 +260,7 @@ class EpisodeSummary:
             "robots": [r.to_dict() for r in self.robots],
             "contacts": [c.to_dict() for c in self.contacts],
             "faults": [f.to_dict() for f in self.faults],
+            "trajectory_hash": self.trajectory_hash,
         }
 
     def to_json(self, indent: int | None = 2) -> str:

@@ -51,36 +51,70 @@ as the map's ``seed`` parameter (when the map declares one) and to
 summary.json
 ------------
 A JSON list, one object per map x agent (grid order), with the keys
-(stable; others may be added):
+(stable; others may be added). Every rate comes with the counts it was
+computed from:
 
 ``map``, ``agent``: as given on the command line.
 ``episodes``: episodes of the grid cell that have a result file;
 ``failed_episodes``: those that raised (excluded from every metric below).
-``robots``: robot-episodes driven by the agent (robots x completed episodes).
+``distinct_episodes``: distinct trajectories among the completed episodes
+    (by ``trajectory_hash``, see :mod:`nao_arena.arena`); fewer than the
+    completed episodes when some repeat another exactly (a map whose seed
+    changes nothing, with agents that draw no random numbers).
+``robots``: robot-episodes driven by the agent (robots x completed episodes);
+    ``distinct_robots``: those of the distinct episodes (the first episode
+    of each trajectory hash).
 ``collisions``: contact events involving at least one of those robots
     (robot-robot, robot-traffic and robot-wall; a robot-robot contact counts once).
-``collision_rate``: share of robot-episodes with at least one collision;
-    ``collision_rate_ci95``: [low, high], Wilson score interval (95 %),
-    treating robot-episodes as independent (robots of one episode are not,
-    so the interval is optimistic for maps with many robots).
-``success_rate``: share of robot-episodes that reached the goal without any
-    collision; ``success_rate_ci95``: its Wilson interval.
+``robots_collided``: robot-episodes with at least one collision;
+    ``collision_rate`` = robots_collided / robots;
+    ``collision_rate_ci95``: [low, high], Wilson score interval (95 %) of
+    that rate with ``distinct_robots`` as the sample size (an exact repeat
+    of an episode adds no information; with no repeats this is the plain
+    interval over ``robots``). It treats robot-episodes as independent
+    (robots of one episode are not, so the interval is optimistic for maps
+    with many robots).
+``robots_succeeded``: robot-episodes that reached the goal without any
+    collision; ``success_rate`` = robots_succeeded / robots;
+    ``success_rate_ci95``: its Wilson interval, as above.
 ``robot_hours``: sum over robot-episodes of the episode's duration (h);
     ``collisions_per_robot_hour``: collisions / robot_hours.
-``median_time_to_goal_s``: median over robot-episodes that arrived (s).
+``robots_arrived``: robot-episodes that reached the goal (with or without
+    a collision); ``median_time_to_goal_s``: the median of their time to goal (s).
 ``min_separation_m``: the smallest minimum separation (surface to surface,
     negative = overlap) of any robot-episode (m);
     ``median_min_separation_m``: the median over robot-episodes (m).
     Both only over robot-episodes that came within ``separation_range``.
 ``near_misses``: proximity episodes without contact, summed over robots.
-``adjustments_per_s``: acceleration adjustments / time driven (until the
-    goal, or the episode's end), pooled over robot-episodes (1/s).
+``adjustments``: acceleration adjustments, summed over robot-episodes;
+    ``driven_s``: time driven (until the goal, or the episode's end), summed
+    over robot-episodes (s); ``adjustments_per_s`` = adjustments / driven_s (1/s).
 ``faults``: agent faults (exceptions or invalid actions, contained by the loop).
 Unavailable values (no robot-episode to compute them from) are null.
+
+The printed table (:func:`format_table`) shows each share as
+``count/total (percent)``, with enough digits that a non-zero count never
+reads as zero, a note for every cell with repeated episodes, and a legend
+of its columns.
+
+The output folder
+-----------------
+While a trial runs it holds an exclusive lock on ``DIR/.lock``
+(``fcntl.flock``, the holder's pid inside, released when the trial ends,
+however it ends): a second trial on the same folder fails at once with
+:class:`ResultsFolderError`. A trial in a folder whose ``trial.json``
+records different settings is refused the same way, before anything is
+written; only the settings that do not change results may differ
+(:data:`FREE_SETTINGS`: ``workers``, ``backend``, ``address``, ``csv``,
+``retry_failed``), the order of maps and agents does not matter, and
+``episodes`` may grow (the earlier episodes are kept and the new ones run;
+``trial.json`` then records the larger number) but not shrink.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import math
 import os
@@ -88,8 +122,8 @@ import re
 import sys
 import time
 import zlib
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -107,14 +141,19 @@ from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text, tempo
 __all__ = [
     "COLLISION_SCHEMA",
     "EPISODE_SCHEMA",
+    "FREE_SETTINGS",
     "SUMMARY_KEYS",
+    "TABLE_LEGEND",
     "EpisodeTask",
+    "ResultsFolderError",
     "TrialConfig",
     "TrialResult",
     "atomic_write_with",
     "build_results",
+    "check_folder",
     "compute_episode",
     "episode_seed",
+    "folder_lock",
     "format_table",
     "load_summary",
     "make_map",
@@ -133,7 +172,13 @@ SUMMARY_KEYS: tuple[str, ...] = (
     "robot_hours", "collisions_per_robot_hour", "median_time_to_goal_s",
     "min_separation_m", "median_min_separation_m", "near_misses", "adjustments_per_s",
     "faults",
+    "distinct_episodes", "distinct_robots", "robots_collided", "robots_succeeded",
+    "robots_arrived", "adjustments", "driven_s",
 )
+
+FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed"})
+"""Settings that do not change results: they may differ from the ``trial.json`` of the
+output folder (``episodes`` may also grow)."""
 
 _KEY_COLUMNS = [
     pa.field("map", pa.string()),
@@ -479,6 +524,84 @@ def _validate(config: TrialConfig) -> dict[str, dict[str, Any]]:
     return per_map
 
 
+class ResultsFolderError(ValueError):
+    """The output folder is in use by another trial, or holds a trial with other settings."""
+
+
+@contextlib.contextmanager
+def folder_lock(out: Path) -> Iterator[None]:
+    """Hold the exclusive lock ``out/.lock`` (the holder's pid inside) while the block runs.
+
+    Raises :class:`ResultsFolderError` at once, naming the folder and the holder's pid,
+    if another trial holds it.
+    """
+    with open(Path(out) / ".lock", "a+", encoding="utf-8") as fh:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "?"
+            raise ResultsFolderError(
+                f"results folder {out} is in use by another trial (pid {holder}); wait for "
+                "it to end or choose another --out") from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"{os.getpid()}\n")
+        fh.flush()
+        yield  # closing the file releases the lock
+
+
+def _settings(config: TrialConfig) -> dict[str, Any]:
+    """The trial's settings as ``trial.json`` holds them (JSON types)."""
+    settings = {k: v for k, v in asdict(config).items() if k != "out"}
+    settings.update(maps=list(config.maps), agents=list(config.agents),
+                    overrides=dict(config.overrides))
+    return json.loads(json.dumps(settings))
+
+
+def _setting_default(name: str) -> Any:
+    f = TrialConfig.__dataclass_fields__.get(name)
+    if f is None:
+        return None
+    if f.default_factory is not MISSING:
+        return f.default_factory()
+    return None if f.default is MISSING else f.default
+
+
+def check_folder(out: Path, settings: Mapping[str, Any]) -> None:
+    """Refuse (:class:`ResultsFolderError`) a trial whose settings differ from the
+    ``trial.json`` already in ``out``, except :data:`FREE_SETTINGS`, the order of maps
+    and agents, and more episodes; a setting the file lacks counts as its default."""
+    path = Path(out) / "trial.json"
+    if not path.exists():
+        return
+    try:
+        before = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(before, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as exc:
+        raise ResultsFolderError(f"{path}: cannot read it ({exc}); expected the settings of "
+                                 f"the trial in {out}: repair it or choose another --out") from None
+    diffs = []
+    for key, now in settings.items():
+        if key in FREE_SETTINGS:
+            continue
+        was = before.get(key, _setting_default(key))
+        if key == "episodes":
+            if isinstance(was, int) and now < was:
+                diffs.append(f"episodes {now} < {was} (episodes may only grow)")
+        elif key in ("maps", "agents"):
+            if sorted(map(str, was or [])) != sorted(now):
+                diffs.append(f"{key} {was} there, {now} now")
+        elif was != now:
+            diffs.append(f"{key} {was!r} there, {now!r} now")
+    if diffs:
+        raise ResultsFolderError(
+            f"results folder {out} holds another trial ({'; '.join(diffs)}): choose another "
+            "--out, or repeat its settings (only workers, backend, address, csv and "
+            "retry_failed may change, and episodes may grow)")
+
+
 def run_trial(
     config: TrialConfig,
     progress: TextIO | None = sys.stderr,
@@ -491,17 +614,27 @@ def run_trial(
     ``config.backend``; their records come back to this process, which
     writes each episode's file as soon as it arrives. Raises ValueError /
     :class:`~nao_arena.maps.MapError` for unknown maps or agents and bad
-    overrides, and :class:`~nao_arena.backends.BackendError` if the backend
-    is not installed, before any episode runs.
+    overrides, :class:`~nao_arena.backends.BackendError` if the backend is
+    not installed, and :class:`ResultsFolderError` if the output folder is in
+    use or holds a trial with other settings, before any episode runs.
     """
     per_map = _validate(config)
     backend = make_backend(config.backend, config.workers, config.address)
     out = Path(config.out)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
-    settings = {k: v for k, v in asdict(config).items() if k != "out"}
-    settings.update(maps=list(config.maps), agents=list(config.agents),
-                    overrides=dict(config.overrides))
-    atomic_write_text(out / "trial.json", json.dumps(settings, indent=2) + "\n")
+    settings = _settings(config)
+    with folder_lock(out):
+        check_folder(out, settings)
+        atomic_write_text(out / "trial.json", json.dumps(settings, indent=2) + "\n")
+        return _run_locked(config, per_map, backend, progress, on_episode)
+
+
+def _run_locked(
+    config: TrialConfig, per_map: dict[str, dict[str, Any]], backend: Any,
+    progress: TextIO | None, on_episode: Callable[[dict[str, Any]], None] | None,
+) -> TrialResult:
+    """:func:`run_trial` once the output folder is locked and checked."""
+    out = Path(config.out)
     tasks = _tasks(config, per_map)
     bar = Progress(len(tasks), 0, progress)
     todo = []
@@ -614,10 +747,35 @@ def summarize(records: Sequence[Mapping[str, Any]], maps: Sequence[str] | None =
     return out
 
 
+def _distinct(results: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    """The results whose trajectory hash no earlier one has (those without a hash count
+    as distinct)."""
+    seen: set[str] = set()
+    out = []
+    for res in results:
+        digest = res.get("trajectory_hash") or ""
+        if digest and digest in seen:
+            continue
+        seen.add(digest)
+        out.append(res)
+    return out
+
+
+def _interval(count: int, n: int, n_distinct: int) -> list[float] | None:
+    """Wilson interval of the rate count/n with n_distinct as the sample size."""
+    if not n:
+        return None
+    if n_distinct == n:
+        return list(wilson_interval(count, n))
+    return list(wilson_interval(count * n_distinct / n, n_distinct))
+
+
 def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]) -> dict:
     ok = [r["result"] for r in recs if r.get("error") is None and r.get("result") is not None]
+    distinct = _distinct(ok)
     robots = [rob for res in ok for rob in res["robots"]]
     n = len(robots)
+    n_distinct = sum(len(res["robots"]) for res in distinct)
     collided = sum(1 for r in robots if r["collisions"] > 0)
     succeeded = sum(1 for r in robots if r["success"])
     collisions = sum(_robot_contacts(res) for res in ok)
@@ -630,6 +788,7 @@ def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]
     times = [r["time_to_goal"] for r in robots if r["reached_goal"] and
              r["time_to_goal"] is not None]
     seps = [r["min_separation"] for r in robots if r["min_separation"] is not None]
+    adjustments = sum(r["adjustments"] for r in robots)
     hours = robot_seconds / 3600.0
     return {
         "map": map_name,
@@ -639,18 +798,24 @@ def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]
         "robots": n,
         "collisions": collisions,
         "collision_rate": collided / n if n else None,
-        "collision_rate_ci95": list(wilson_interval(collided, n)) if n else None,
+        "collision_rate_ci95": _interval(collided, n, n_distinct),
         "success_rate": succeeded / n if n else None,
-        "success_rate_ci95": list(wilson_interval(succeeded, n)) if n else None,
+        "success_rate_ci95": _interval(succeeded, n, n_distinct),
         "robot_hours": hours,
         "collisions_per_robot_hour": collisions / hours if hours > 0 else None,
         "median_time_to_goal_s": _median(times),
         "min_separation_m": float(min(seps)) if seps else None,
         "median_min_separation_m": _median(seps),
         "near_misses": sum(r["near_misses"] for r in robots),
-        "adjustments_per_s": (sum(r["adjustments"] for r in robots) / driven
-                              if driven > 0 else None),
+        "adjustments_per_s": adjustments / driven if driven > 0 else None,
         "faults": sum(len(res["faults"]) for res in ok),
+        "distinct_episodes": len(distinct),
+        "distinct_robots": n_distinct,
+        "robots_collided": collided,
+        "robots_succeeded": succeeded,
+        "robots_arrived": len(times),
+        "adjustments": adjustments,
+        "driven_s": driven,
     }
 
 
@@ -708,30 +873,98 @@ def load_summary(folder: str | Path) -> list[dict[str, Any]]:
 # --------------------------------------------------------------------------- the table
 
 
-def _fmt(value: float | None, spec: str) -> str:
-    return "-" if value is None else format(value, spec)
+TABLE_LEGEND = """\
+episodes: episodes with a result ("failed": raised, left out of every other column);
+  distinct: distinct trajectories among the completed episodes (exact repeats counted once)
+success: robot-episodes that reached the goal without any contact / robot-episodes (%)
+collision rate: robot-episodes with at least one contact / robot-episodes (%),
+  [95 % Wilson interval; sample size: the robot-episodes of distinct episodes]
+contacts: contact events involving a robot (robot-robot counted once)
+contacts/robot-h: contacts per hour of robot time (episode duration x robots)
+median TTG s: median time to goal of the robot-episodes that arrived (s)
+min sep m: smallest surface-to-surface gap of any robot-episode (m; < 0: discs overlapped)
+adj/s: acceleration adjustments per second driven (until the goal or the episode's end)"""
+"""The definitions of the columns of :func:`format_table`."""
 
 
-def format_table(summary: Sequence[Mapping[str, Any]]) -> str:
-    """The summary rows as an aligned text table."""
-    head = ["map", "agent", "episodes", "success", "collision rate [95% CI]",
-            "coll/robot-h", "median TTG s", "min sep m", "adj/s"]
+def _num(value: float | None, decimals: int) -> str:
+    """value with ``decimals`` decimals, or 2 significant digits where those would
+    round a non-zero value to zero; "-" for None."""
+    if value is None:
+        return "-"
+    text = f"{value:.{decimals}f}"
+    if value != 0 and float(text) == 0:
+        text = f"{value:.2g}"
+    return text
+
+
+def _percent(share: float) -> str:
+    """A share in [0, 1] as a percentage with at least 2 significant digits of both it
+    and its complement: only 0 reads 0 and only 1 reads 100."""
+    v = 100.0 * share
+    if v <= 0.0 or v >= 100.0:
+        return f"{v:.0f}"
+    decimals = max(1, 1 - math.floor(math.log10(min(v, 100.0 - v))))
+    return f"{v:.{decimals}f}"
+
+
+def _count(row: Mapping[str, Any], key: str, rate_key: str) -> int | None:
+    """A count of the summary row (summaries without it: from its rate x robots)."""
+    if row.get(key) is not None:
+        return int(row[key])
+    rate = row.get(rate_key)
+    return None if rate is None else round(rate * row["robots"])
+
+
+def _share(row: Mapping[str, Any], key: str, rate_key: str, ci: bool = False) -> str:
+    """``count/robots (percent %)``, with ``[low, high] %`` (95 % interval) if ci."""
+    count, n = _count(row, key, rate_key), row.get("robots") or 0
+    if count is None or not n:
+        return "-"
+    text = f"{count}/{n} ({_percent(count / n)} %)"
+    interval = row.get(f"{rate_key}_ci95")
+    if ci and interval is not None:
+        text += f" [{_percent(interval[0])}, {_percent(interval[1])}] %"
+    return text
+
+
+def _repeat_notes(summary: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One line per cell whose completed episodes include exact repeats."""
+    notes = []
+    for row in summary:
+        done = row["episodes"] - (row.get("failed_episodes") or 0)
+        distinct = row.get("distinct_episodes")
+        if distinct is not None and distinct < done:
+            noun = "trajectory" if distinct == 1 else "trajectories"
+            notes.append(
+                f"note: {row['map']} x {row['agent']}: {done} episodes but only {distinct} "
+                f"distinct {noun} (the others repeat one exactly); the intervals take the "
+                f"{row.get('distinct_robots')} robot-episodes of distinct episodes as the "
+                "sample size")
+    return notes
+
+
+def format_table(summary: Sequence[Mapping[str, Any]], legend: bool = True) -> str:
+    """The summary rows as an aligned text table, then a note for each cell with
+    repeated episodes and (if legend) :data:`TABLE_LEGEND`."""
+    head = ["map", "agent", "episodes", "distinct", "success", "collision rate [95% CI]",
+            "contacts", "contacts/robot-h", "median TTG s", "min sep m", "adj/s"]
     body = []
     for row in summary:
-        ci = row.get("collision_rate_ci95")
-        rate = _fmt(row.get("collision_rate"), ".3f")
-        if ci is not None:
-            rate += f" [{ci[0]:.3f}, {ci[1]:.3f}]"
         episodes = str(row["episodes"])
         if row.get("failed_episodes"):
             episodes += f" ({row['failed_episodes']} failed)"
+        distinct = row.get("distinct_episodes")
         body.append([
             str(row["map"]), str(row["agent"]), episodes,
-            _fmt(row.get("success_rate"), ".3f"), rate,
-            _fmt(row.get("collisions_per_robot_hour"), ".1f"),
-            _fmt(row.get("median_time_to_goal_s"), ".1f"),
-            _fmt(row.get("min_separation_m"), ".3f"),
-            _fmt(row.get("adjustments_per_s"), ".2f"),
+            "-" if distinct is None else str(distinct),
+            _share(row, "robots_succeeded", "success_rate"),
+            _share(row, "robots_collided", "collision_rate", ci=True),
+            str(row["collisions"]),
+            _num(row.get("collisions_per_robot_hour"), 1),
+            _num(row.get("median_time_to_goal_s"), 1),
+            _num(row.get("min_separation_m"), 3),
+            _num(row.get("adjustments_per_s"), 2),
         ])
     widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head))]
     left = {0, 1}
@@ -741,4 +974,7 @@ def format_table(summary: Sequence[Mapping[str, Any]]) -> str:
                          for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
 
     rule = "  ".join("-" * w for w in widths)
-    return "\n".join([line(head), rule, *(line(r) for r in body)])
+    lines = [line(head), rule, *(line(r) for r in body), *_repeat_notes(summary)]
+    if legend:
+        lines += ["", TABLE_LEGEND]
+    return "\n".join(lines)

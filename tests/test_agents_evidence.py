@@ -14,13 +14,13 @@ import pytest
 
 from nao_arena.agents.nao import NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
-from nao_arena.maps import load_map
+from nao_arena.trials import make_map
 
 SEEDS = range(20)
 
 
 def run(map_name: str, seed: int, options: ArenaOptions | None = None, **params):
-    arena = Arena(load_map(map_name, seed=seed, **params), options)
+    arena = Arena(make_map(map_name, seed, params), options)  # seeds the map if it has a seed
     summary = arena.run(seed=seed).to_dict()
     robots = summary["robots"]
     return {

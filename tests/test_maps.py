@@ -140,7 +140,7 @@ def test_override_strings_are_converted() -> None:
         ({"n": "abc"}, "parameters.n", "expected an integer, got 'abc'"),
         ({"n": 2.5}, "parameters.n", "expected an integer"),
         ({"radius": "wide"}, "parameters.radius", "expected a number"),
-        ({"m": 3}, "parameters.m", "unknown parameter (declared: n, radius, seed"),
+        ({"m": 3}, "parameters.m", "unknown parameter (declared: n, radius, lo"),
     ],
 )
 def test_bad_overrides(overrides: dict, path: str, expectation: str) -> None:
@@ -380,3 +380,22 @@ def test_unknown_agent_from_a_parameter_names_the_field() -> None:
         load_map("circle_swap", agent="superbot")
     msg = str(info.value)
     assert msg.startswith("maps/circle_swap.yaml: layouts[0].robot.agent: expected one of nao")
+def _scene(spec: MapSpec) -> list[np.ndarray]:
+    """A map's start state (every body's position and velocity, traffic phases included)
+    and its robots' goals."""
+    from nao_arena.world import World
+
+    state = World(spec).reset()
+    return [state.positions, state.velocities, np.array([r.goal for r in spec.robots])]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_a_declared_seed_changes_the_scene(name: str) -> None:
+    """A map that declares ``seed`` must vary with it: otherwise a trial's episodes
+    would repeat one scene while the seed suggests otherwise."""
+    spec = load_map(name)
+    if "seed" not in spec.parameters:
+        return  # a map without randomness declares no seed (circle_swap, corridor)
+    a, b = _scene(load_map(name, seed=0)), _scene(load_map(name, seed=1))
+    assert any(x.shape != y.shape or not np.array_equal(x, y)
+               for x, y in zip(a, b, strict=True)), f"{name}: seeds 0 and 1 give one scene"

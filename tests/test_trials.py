@@ -1,24 +1,36 @@
-"""Trials: seeds, determinism across worker counts, resume, failed episodes, summary.json."""
+"""Trials: seeds, determinism across worker counts, resume, failed episodes, summary.json,
+counts beside rates, repeated episodes, the output folder's lock and settings."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
+from nao_arena import trials
+from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.cli import main
 from nao_arena.maps import MapError
 from nao_arena.stats import ContactEvent, RobotSummary
 from nao_arena.trials import (
     SUMMARY_KEYS,
+    TABLE_LEGEND,
+    ResultsFolderError,
     TrialConfig,
     episode_path,
     episode_seed,
     format_table,
+    make_map,
     run_trial,
+    summarize,
     wilson_interval,
 )
 
@@ -137,9 +149,9 @@ def test_resume_recomputes_only_missing_episodes(tmp_path):
         if f != victim:
             assert f.stat().st_mtime_ns == stamps[f]
     assert second.summary == first.summary
-    # a different root seed is a different trial: nothing is reused
-    third = run_trial(small(tmp_path, seed=8, agents=("goal",), episodes=1), progress=None)
-    assert third.ran == 1 and third.skipped == 0
+    # a different root seed is a different trial: refused in the same folder
+    with pytest.raises(ResultsFolderError, match="seed 7 there, 8 now"):
+        run_trial(small(tmp_path, seed=8), progress=None)
 
 
 def test_crashed_episode_is_recorded(tmp_path):
@@ -176,3 +188,239 @@ def test_clear_errors(tmp_path):
     with pytest.raises(ValueError, match="workers"):
         small(tmp_path, workers=0)
     assert not os.path.exists(tmp_path / "summary.json")
+
+
+# --------------------------------------------------------------------------- trajectory hash
+
+
+def test_trajectory_hash_is_the_sha256_of_positions_and_velocities():
+    arena = Arena(make_map("circle_swap_perturbed", 3, SMALL), ArenaOptions(agent="goal"))
+    digest = hashlib.sha256()
+
+    def add(state) -> None:
+        digest.update(np.asarray(state.positions, dtype=np.float64).tobytes())
+        digest.update(np.asarray(state.velocities, dtype=np.float64).tobytes())
+
+    add(arena.reset(3))
+    for _ in range(30):
+        add(arena.step().state)
+    summary = arena.summary()
+    assert summary.trajectory_hash == digest.hexdigest()
+    assert summary.to_dict()["trajectory_hash"] == digest.hexdigest()
+    # the hash changes no number of the summary
+    plain = arena.stats.summary().to_dict()
+    assert plain.pop("trajectory_hash") == ""
+    result = summary.to_dict()
+    result.pop("trajectory_hash")
+    assert json.dumps(result) == json.dumps(plain)
+    again = Arena(make_map("circle_swap_perturbed", 3, SMALL), ArenaOptions(agent="goal"))
+    assert again.run(3, max_steps=30).trajectory_hash == summary.trajectory_hash
+    other = Arena(make_map("circle_swap_perturbed", 4, SMALL), ArenaOptions(agent="goal"))
+    assert other.run(4, max_steps=30).trajectory_hash != summary.trajectory_hash
+
+
+# --------------------------------------------------------------------------- counts
+
+
+def _robot(collided: bool, arrived: bool = True) -> dict:
+    return {"index": 0, "name": "r", "reached_goal": arrived, "success": arrived and not collided,
+            "time_to_goal": 10.0 if arrived else None, "path_length": 10.0,
+            "collisions": int(collided), "wall_collisions": 0, "near_misses": 0,
+            "min_separation": 0.5, "min_ttc": None, "adjustments": 2, "adjustment_rate": 0.2}
+
+
+def _record(episode: int, collided: int, robots: int = 10, digest: str | None = None,
+            duration: float = 3600.0) -> dict:
+    """A synthetic episode record: ``collided`` of ``robots`` robots touched a wall once."""
+    contact = {"kind_a": "robot", "kind_b": "wall"}
+    return {
+        "key": {"map": "m", "agent": "a", "episode": episode},
+        "error": None,
+        "result": {
+            "duration": duration, "steps": 100,
+            "robots": [_robot(k < collided) for k in range(robots)],
+            "contacts": [contact] * collided, "faults": [],
+            "trajectory_hash": f"{episode:064x}" if digest is None else digest,
+        },
+    }
+
+
+def test_summary_counts_beside_every_rate_and_small_rates_never_read_zero():
+    records = [_record(e, 1 if e < 5 else 0) for e in range(440)]  # 5 of 4400 collided
+    (row,) = summarize(records)
+    assert set(SUMMARY_KEYS) <= set(row)
+    assert row["robots"] == 4400 and row["robots_collided"] == 5 and row["collisions"] == 5
+    assert row["collision_rate"] == 5 / 4400
+    assert row["robots_succeeded"] == 4395 and row["success_rate"] == 4395 / 4400
+    assert row["robots_arrived"] == 4400 and row["distinct_episodes"] == 440
+    assert row["distinct_robots"] == 4400
+    assert row["adjustments"] == 8800 and row["driven_s"] == 44000.0
+    assert row["adjustments_per_s"] == row["adjustments"] / row["driven_s"]
+    assert row["collision_rate_ci95"] == list(wilson_interval(5, 4400))
+    table = format_table([row])
+    line = table.splitlines()[2]
+    assert "5/4400 (0.11 %)" in line and "4395/4400 (99.89 %)" in line
+    low, high = wilson_interval(5, 4400)
+    assert f"[{100 * low:.3f}, {100 * high:.2f}] %" in line
+    # 5 contacts in 4400 robot-hours: not "0.0"
+    assert " 0.0011 " in line and " 0.0 " not in line and "0.000" not in line
+
+
+def test_summary_keys_are_documented_and_the_legend_defines_every_column():
+    for key in SUMMARY_KEYS:
+        assert f"``{key}``" in trials.__doc__, key
+    head = format_table([]).splitlines()[0]
+    for column in ("episodes", "distinct", "success", "collision rate", "contacts",
+                   "contacts/robot-h", "median TTG s", "min sep m", "adj/s"):
+        assert column in head
+        assert any(line.strip().startswith(f"{column}:") for line in TABLE_LEGEND.splitlines())
+    assert TABLE_LEGEND in format_table([])
+    assert TABLE_LEGEND not in format_table([], legend=False)
+
+
+@given(st.integers(1, 10**7), st.integers(0, 10**7))
+def test_percent_of_a_count_is_zero_or_hundred_only_when_it_is(count, extra):
+    text = trials._percent(count / (count + extra))
+    assert float(text) > 0.0
+    assert (float(text) < 100.0) == (extra > 0)
+    assert (float(trials._percent(extra / (count + extra))) == 0.0) == (extra == 0)
+
+
+def test_non_zero_numbers_in_the_table_never_read_zero():
+    assert trials._num(0.004, 1) == "0.004" and trials._num(-1e-4, 3) == "-0.0001"
+    assert trials._num(0.0, 3) == "0.000" and trials._num(None, 1) == "-"
+    assert trials._num(2.345, 2) == "2.35"
+
+
+# --------------------------------------------------------------------------- repeats
+
+
+def test_repeated_episodes_are_detected_and_counted_once_in_the_intervals():
+    same = "ab" * 32
+    records = [_record(e, 2, robots=4, digest=same) for e in range(5)]  # 5 exact repeats
+    (row,) = summarize(records)
+    assert row["distinct_episodes"] == 1 and row["distinct_robots"] == 4
+    assert row["robots"] == 20 and row["robots_collided"] == 10 and row["collision_rate"] == 0.5
+    assert row["collision_rate_ci95"] == list(wilson_interval(2, 4))
+    assert row["success_rate_ci95"] == list(wilson_interval(2, 4))
+    text = format_table([row])
+    assert "note: m x a: 5 episodes but only 1 distinct trajectory " in text
+    assert "take the 4 robot-episodes of distinct episodes as the sample size" in text
+    # records from before the hash existed count as distinct
+    for rec in records:
+        rec["result"].pop("trajectory_hash")
+    (row,) = summarize(records)
+    assert row["distinct_episodes"] == 5 and "note:" not in format_table([row])
+
+
+def test_a_trial_of_a_map_without_randomness_reports_its_repeats(tmp_path):
+    config = TrialConfig(maps=("circle_swap",), agents=("goal",), episodes=3, seed=0,
+                         out=tmp_path, overrides={"n": 4}, time_limit=2.0)
+    (row,) = run_trial(config, progress=None).summary
+    assert row["episodes"] == 3 and row["distinct_episodes"] == 1
+    assert row["robots"] == 12 and row["distinct_robots"] == 4
+    assert "only 1 distinct trajectory " in format_table([row])
+
+
+def test_distinct_episodes_of_a_seeded_map(one_worker):
+    _, summary = one_worker
+    for row in summary:
+        assert row["distinct_episodes"] == 2 and row["distinct_robots"] == row["robots"] == 8
+        assert row["collision_rate_ci95"] == list(
+            wilson_interval(row["robots_collided"], row["robots"]))
+
+
+# --------------------------------------------------------------------------- the output folder
+
+
+def quick(out: Path, **kw) -> TrialConfig:
+    settings = dict(maps=("circle_swap_perturbed",), agents=("goal",), episodes=1, seed=7,
+                    out=out, overrides=SMALL, time_limit=3.0)
+    settings.update(kw)
+    return TrialConfig(**settings)
+
+
+def test_a_second_trial_on_a_folder_in_use_fails_at_once(tmp_path, capsys):
+    refused: list[str] = []
+
+    def meanwhile(record: dict) -> None:
+        if refused:
+            return
+        with pytest.raises(ResultsFolderError) as info:
+            run_trial(quick(tmp_path, seed=8), progress=None)
+        refused.append(str(info.value))
+        args = ["trial", "--map", "circle_swap_perturbed", "--agent", "goal", "--episodes", "1",
+                "--seed", "7", "--out", str(tmp_path), "--set", "n=4", "--time-limit", "3"]
+        assert main(args) == 2
+        refused.append(capsys.readouterr().err)
+
+    first = run_trial(quick(tmp_path, episodes=2), progress=None, on_episode=meanwhile)
+    assert first.ran == 2
+    message, cli_error = refused
+    assert str(tmp_path) in message and f"pid {os.getpid()}" in message
+    assert cli_error.count("\n") == 1 and "in use by another trial" in cli_error
+    # the lock ends with the trial
+    assert run_trial(quick(tmp_path, episodes=2), progress=None).skipped == 2
+
+
+def test_other_settings_in_the_same_folder_are_refused(tmp_path, capsys):
+    run_trial(quick(tmp_path), progress=None)
+    before = {name: (tmp_path / name).read_bytes() for name in ("trial.json", "summary.json")}
+    with pytest.raises(ResultsFolderError, match=r"seed 7 there, 8 now.*another --out"):
+        run_trial(quick(tmp_path, seed=8), progress=None)
+    with pytest.raises(ResultsFolderError, match="time_limit 3.0 there, 4.0 now"):
+        run_trial(quick(tmp_path, time_limit=4.0), progress=None)
+    with pytest.raises(ResultsFolderError, match="overrides"):
+        run_trial(quick(tmp_path, overrides={"n": 5}), progress=None)
+    with pytest.raises(ResultsFolderError, match="agents"):
+        run_trial(quick(tmp_path, agents=("goal", "nao")), progress=None)
+    assert main(["trial", "--map", "circle_swap_perturbed", "--agent", "goal",
+                 "--episodes", "1", "--seed", "8", "--out", str(tmp_path), "--set", "n=4",
+                 "--time-limit", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(tmp_path) in err and "seed 7 there, 8 now" in err
+    assert {name: (tmp_path / name).read_bytes() for name in before} == before
+    # settings that do not change results may differ
+    again = run_trial(quick(tmp_path, csv=True, retry_failed=True), progress=None)
+    assert again.ran == 0 and again.skipped == 1
+
+
+def test_more_episodes_extend_the_folder_and_keep_the_earlier_rows(tmp_path):
+    first = run_trial(quick(tmp_path), progress=None)
+    more = run_trial(quick(tmp_path, episodes=3), progress=None)
+    assert more.ran == 2 and more.skipped == 1
+    (row,) = more.summary
+    assert row["episodes"] == 3 and row["robots"] == 12
+    rows = pq.read_table(tmp_path / "episodes.parquet").to_pylist()
+    assert sorted({r["episode"] for r in rows}) == [0, 1, 2]
+    earlier = [r for r in rows if r["episode"] == 0]
+    assert sum(r["collisions"] > 0 for r in earlier) == first.summary[0]["robots_collided"]
+    assert json.loads((tmp_path / "trial.json").read_text())["episodes"] == 3
+    with pytest.raises(ResultsFolderError, match="episodes 2 < 3 \\(episodes may only grow\\)"):
+        run_trial(quick(tmp_path, episodes=2), progress=None)
+
+
+def test_an_unreadable_trial_json_is_refused(tmp_path):
+    (tmp_path / "trial.json").write_text("{not json")
+    with pytest.raises(ResultsFolderError, match="trial.json: cannot read it"):
+        run_trial(quick(tmp_path), progress=None)
+
+
+def test_report_table_shows_counts_and_the_legend(one_worker, tmp_path):
+    from nao_arena.report import rate_label, report_text
+
+    out, summary = one_worker
+    text = report_text(out)
+    by_agent = {line.split()[1]: line for line in text.splitlines()
+                if line.startswith("circle_swap_perturbed")}
+    assert "8/8 (100 %) [" in by_agent["goal"] and "0/8 (0 %)" in by_agent["goal"]
+    assert TABLE_LEGEND in text
+    assert [rate_label(r) for r in summary] == ["8/8", "0/8"]
+    # a summary.json from before the counts: counts from rate x robots
+    old = [{k: v for k, v in row.items() if k in STABLE_KEYS | {"failed_episodes",
+                                                                 "success_rate_ci95"}}
+           for row in summary]
+    (tmp_path / "summary.json").write_text(json.dumps(old))
+    goal_line = report_text(tmp_path).splitlines()[2]
+    assert goal_line.split()[1] == "goal" and "8/8 (100 %) [" in goal_line
+    assert [rate_label(r) for r in old] == ["8/8", "0/8"]
