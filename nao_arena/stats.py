@@ -54,9 +54,9 @@ during which the robot was away from its goal and had come less than
 ``stuck_progress`` m closer to it over the last ``stuck_window`` s; the
 first window of the episode never counts), time away from the goal after
 first arriving (s: steps that ended outside the goal tolerance after the
-first arrival), the distance to the goal at the episode's end (m) and
-whether it never arrived (``timed_out``: the episode ended first). Per
-episode: the deadlock time (s, NaN if none), the first step end at which
+first arrival), the distance to the goal at the episode's end (m), whether
+it was within the goal tolerance then, and whether it never arrived
+(``timed_out``: the episode ended first). Per episode: the deadlock time (s, NaN if none), the first step end at which
 every robot away from its goal was stuck, and the total time spent so (s).
 """
 
@@ -195,6 +195,7 @@ class RobotSummary:
     stuck_time: float = 0.0
     time_away_after_arrival: float = 0.0
     final_goal_distance: float = math.nan
+    at_goal_at_end: bool = False
     timed_out: bool = False
 
     def to_dict(self) -> dict[str, Any]:
@@ -1129,6 +1130,7 @@ class EpisodeStats:
                     stuck_time=float(self.stuck_time[k]),
                     time_away_after_arrival=float(self.time_away[k]),
                     final_goal_distance=final[k],
+                    at_goal_at_end=bool(self.at_goal[k]),
                     timed_out=not bool(self.reached[k]),
                 )
             )

@@ -90,6 +90,14 @@ computed from:
     ``driven_s``: time driven (until the goal, or the episode's end), summed
     over robot-episodes (s); ``adjustments_per_s`` = adjustments / driven_s (1/s).
 ``faults``: agent faults (exceptions or invalid actions, contained by the loop).
+Liveness (see :mod:`nao_arena.stats`): ``robots_timed_out``: robot-episodes
+    that never reached the goal; ``robots_stuck``: robot-episodes stuck at
+    some time (away from the goal and less than 0.1 m closer to it over the
+    last 5 s), ``stuck_s``: their stuck time summed (s);
+    ``robots_left_goal``: robot-episodes that arrived and were later away from
+    the goal; ``robots_away_at_end``: of those that arrived, the ones away from
+    the goal at the episode's end; ``episodes_deadlocked``: completed episodes
+    with a deadlock (a time at which every robot away from its goal was stuck).
 Unavailable values (no robot-episode to compute them from) are null.
 
 The printed table (:func:`format_table`) shows each share as
@@ -174,6 +182,8 @@ SUMMARY_KEYS: tuple[str, ...] = (
     "faults",
     "distinct_episodes", "distinct_robots", "robots_collided", "robots_succeeded",
     "robots_arrived", "adjustments", "driven_s",
+    "robots_timed_out", "robots_stuck", "stuck_s", "robots_left_goal", "robots_away_at_end",
+    "episodes_deadlocked",
 )
 
 FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed"})
@@ -816,6 +826,14 @@ def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]
         "robots_arrived": len(times),
         "adjustments": adjustments,
         "driven_s": driven,
+        "robots_timed_out": sum(1 for r in robots if not r["reached_goal"]),
+        "robots_stuck": sum(1 for r in robots if (r.get("stuck_time") or 0.0) > 0.0),
+        "stuck_s": sum(r.get("stuck_time") or 0.0 for r in robots),
+        "robots_left_goal": sum(1 for r in robots
+                                if (r.get("time_away_after_arrival") or 0.0) > 0.0),
+        "robots_away_at_end": sum(1 for r in robots
+                                  if r["reached_goal"] and not r.get("at_goal_at_end", True)),
+        "episodes_deadlocked": sum(1 for res in ok if res.get("deadlock_time") is not None),
     }
 
 
@@ -883,7 +901,12 @@ contacts: contact events involving a robot (robot-robot counted once)
 contacts/robot-h: contacts per hour of robot time (episode duration x robots)
 median TTG s: median time to goal of the robot-episodes that arrived (s)
 min sep m: smallest surface-to-surface gap of any robot-episode (m; < 0: discs overlapped)
-adj/s: acceleration adjustments per second driven (until the goal or the episode's end)"""
+adj/s: acceleration adjustments per second driven (until the goal or the episode's end)
+timed out: robot-episodes that never reached the goal / robot-episodes (%)
+stuck: robot-episodes that were stuck at some time (away from the goal and less than
+  0.1 m closer to it over the last 5 s)
+left goal: robot-episodes that arrived and were later away from the goal again
+deadlocks: episodes with a time at which every robot away from its goal was stuck"""
 """The definitions of the columns of :func:`format_table`."""
 
 
@@ -928,6 +951,10 @@ def _share(row: Mapping[str, Any], key: str, rate_key: str, ci: bool = False) ->
     return text
 
 
+def _plain(value: int | None) -> str:
+    return "-" if value is None else str(value)
+
+
 def _repeat_notes(summary: Sequence[Mapping[str, Any]]) -> list[str]:
     """One line per cell whose completed episodes include exact repeats."""
     notes = []
@@ -948,7 +975,8 @@ def format_table(summary: Sequence[Mapping[str, Any]], legend: bool = True) -> s
     """The summary rows as an aligned text table, then a note for each cell with
     repeated episodes and (if legend) :data:`TABLE_LEGEND`."""
     head = ["map", "agent", "episodes", "distinct", "success", "collision rate [95% CI]",
-            "contacts", "contacts/robot-h", "median TTG s", "min sep m", "adj/s"]
+            "contacts", "contacts/robot-h", "median TTG s", "min sep m", "adj/s",
+            "timed out", "stuck", "left goal", "deadlocks"]
     body = []
     for row in summary:
         episodes = str(row["episodes"])
@@ -965,6 +993,10 @@ def format_table(summary: Sequence[Mapping[str, Any]], legend: bool = True) -> s
             _num(row.get("median_time_to_goal_s"), 1),
             _num(row.get("min_separation_m"), 3),
             _num(row.get("adjustments_per_s"), 2),
+            _share(row, "robots_timed_out", ""),
+            _plain(row.get("robots_stuck")),
+            _plain(row.get("robots_left_goal")),
+            _plain(row.get("episodes_deadlocked")),
         ])
     widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head))]
     left = {0, 1}

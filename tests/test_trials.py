@@ -424,3 +424,29 @@ def test_report_table_shows_counts_and_the_legend(one_worker, tmp_path):
     goal_line = report_text(tmp_path).splitlines()[2]
     assert goal_line.split()[1] == "goal" and "8/8 (100 %) [" in goal_line
     assert [rate_label(r) for r in old] == ["8/8", "0/8"]
+
+
+def test_liveness_counts_in_the_summary_and_the_table():
+    """Timed-out, stuck, left-the-goal and deadlocked robot-episodes are counted from the
+    episode records (records without the liveness fields count as none)."""
+    def robot(arrived: bool, stuck: float, away: float, at_end: bool) -> dict:
+        return {**_robot(False, arrived), "stuck_time": stuck,
+                "time_away_after_arrival": away, "at_goal_at_end": at_end,
+                "final_goal_distance": 0.1 if at_end else 2.0, "timed_out": not arrived}
+
+    records = [_record(e, 0, robots=0) for e in range(3)]
+    records[0]["result"]["robots"] = [robot(True, 0.0, 0.0, True), robot(False, 12.0, 0.0, False)]
+    records[0]["result"]["deadlock_time"] = 31.5
+    records[1]["result"]["robots"] = [robot(True, 3.0, 4.0, False), robot(True, 0.0, 1.0, True)]
+    records[1]["result"]["deadlock_time"] = None
+    records[2]["result"]["robots"] = [_robot(False), _robot(False)]  # an older record
+    (row,) = summarize(records)
+    assert row["robots"] == 6 and row["robots_timed_out"] == 1
+    assert row["robots_stuck"] == 2 and row["stuck_s"] == 15.0
+    assert row["robots_left_goal"] == 2 and row["robots_away_at_end"] == 1
+    assert row["episodes_deadlocked"] == 1
+    table = format_table([row])
+    head, _, cells = table.splitlines()[:3]
+    assert "timed out" in head and "deadlocks" in head
+    assert "1/6 (16.7 %)" in cells and cells.split()[-3:] == ["2", "2", "1"]
+    assert "deadlocks: episodes with a time at which" in table
