@@ -56,8 +56,9 @@ first window of the episode never counts), time away from the goal after
 first arriving (s: steps that ended outside the goal tolerance after the
 first arrival), the distance to the goal at the episode's end (m), whether
 it was within the goal tolerance then, and whether it never arrived
-(``timed_out``: the episode ended first). Per episode: the deadlock time (s, NaN if none), the first step end at which
-every robot away from its goal was stuck, and the total time spent so (s).
+(``timed_out``: the episode ended first). Per episode: the deadlock time
+(s, NaN if none), the first step end at which every robot away from its
+goal was stuck, and the total time spent so (s).
 """
 
 from __future__ import annotations
