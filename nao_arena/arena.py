@@ -46,7 +46,13 @@ from nao_arena.agent import (
     safe_act,
 )
 from nao_arena.maps import MapSpec, RobotSpec
-from nao_arena.sensing import Observation, SensingBatch, neighbour_lists, read_only
+from nao_arena.sensing import (
+    Observation,
+    ReadOnlyRoutes,
+    SensingBatch,
+    neighbour_lists,
+    read_only,
+)
 from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState, clip_accelerations
@@ -122,8 +128,8 @@ class Arena:
         # what agents sense is read-only (see SensingBatch): goals, routes, walls, times
         self.goals = read_only(
             np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
-        self.routes = tuple(None if r.route is None else read_only(np.array(r.route, float))
-                            for r in self.robots)
+        self.routes = ReadOnlyRoutes.of([None if r.route is None else np.array(r.route, float)
+                                         for r in self.robots])
         walls, wall_radius = self.world.wall_segments()
         self.walls, self.wall_radius = read_only(walls), read_only(wall_radius)
         self.path_times = read_only(np.linspace(

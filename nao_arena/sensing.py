@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 __all__ = [
     "Neighbours",
     "Observation",
+    "ReadOnlyRoutes",
     "SensingBatch",
     "neighbour_lists",
     "neighbours_in_range",
@@ -204,8 +205,21 @@ def read_only(array: NDArray) -> NDArray:
     if not array.flags.writeable:
         return array
     view = array.view()
-    view.flags.writeable = False
+    view.setflags(write=False)
     return view
+
+
+class ReadOnlyRoutes(tuple):
+    """Routes (M, 2) m (or None) of the robots, each read-only (made by :meth:`of`)."""
+
+    __slots__ = ()
+
+    @classmethod
+    def of(cls, routes: Sequence[NDArray[np.float64] | None]) -> ReadOnlyRoutes:
+        """``routes`` as read-only views (no copy)."""
+        if type(routes) is cls:
+            return routes
+        return cls(None if r is None else read_only(np.asarray(r)) for r in routes)
 
 
 _BATCH_ARRAYS = ("positions", "velocities", "accelerations", "radii", "a_max", "v_max", "kinds",
@@ -230,7 +244,7 @@ class SensingBatch:
     constructor is replaced by a read-only view of it, no copy), and so is
     every view of it handed out (an observation's position, goal, walls ...):
     an agent that writes into what it senses gets ValueError (a fault) and
-    cannot change the arena's state. ``routes`` is a tuple.
+    cannot change the arena's state. ``routes`` is a :class:`ReadOnlyRoutes` tuple.
     """
 
     time: float
@@ -259,10 +273,7 @@ class SensingBatch:
             value = getattr(self, name)
             if value is not None and value.flags.writeable:
                 setattr(self, name, read_only(value))
-        if not isinstance(self.routes, tuple) or any(
-                r is not None and r.flags.writeable for r in self.routes):
-            self.routes = tuple(None if r is None else read_only(np.asarray(r))
-                                for r in self.routes)
+        self.routes = ReadOnlyRoutes.of(self.routes)
 
     def neighbour_ids(self, k: int) -> NDArray[np.int64]:
         """Body indices robot k senses, nearest first."""

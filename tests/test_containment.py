@@ -4,6 +4,7 @@ episode's wall-clock budget), and the budget itself (:mod:`nao_arena.watchdog`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import textwrap
@@ -47,6 +48,12 @@ def test_observations_and_batch_are_read_only():
                  "nb_start", "nb_index"):
         assert not getattr(batch, name).flags.writeable, name
     assert isinstance(batch.routes, tuple)
+    # a batch made from writable arrays and a list of routes holds read-only views of them
+    route, goals = np.zeros((3, 2)), np.zeros((4, 2))
+    other = dataclasses.replace(batch, goals=goals, routes=[route, None, None, None])
+    assert not other.goals.flags.writeable and np.shares_memory(other.goals, goals)
+    assert isinstance(other.routes, tuple) and not other.routes[0].flags.writeable
+    assert goals.flags.writeable and route.flags.writeable
     obs = batch.observation(0)
     for arr in (obs.position, obs.velocity, obs.acceleration, obs.goal, obs.walls,
                 obs.wall_radius, obs.neighbours.ids, obs.neighbours.path_times):
