@@ -15,27 +15,53 @@ Agents are named by a built-in name (``nao``, ``ao``, ``vo``, ``orca``,
 ``nao_arena.agents``. Agent classes take keyword options in their
 constructor (e.g. ``horizon=4.0``).
 
-Containment: an agent that raises or returns something that is not a
-finite (2,) acceleration gets zero acceleration for that step, and the
-fault is recorded (see :func:`safe_act`).
+Containment: an agent that raises (any exception, SystemExit included;
+not KeyboardInterrupt nor :class:`~nao_arena.watchdog.EpisodeTimeout`) or
+returns something that is not a finite (2,) acceleration gets zero
+acceleration for that step, and the fault is recorded (see
+:func:`safe_act`). What an agent senses is read-only (see
+:class:`~nao_arena.sensing.SensingBatch`): writing into it raises
+ValueError, a fault like any other. An agent whose constructor or ``reset``
+raises fails the episode with :class:`AgentError`.
+
+A plug-in file (``path/to/file.py:Class``) is imported once per process
+(per resolved path): every robot and every episode get the same class, so
+robots of one plug-in class act together through its ``act_batch``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import importlib.util
 import sys
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
+from types import ModuleType
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.sensing import Observation
+from nao_arena.watchdog import EpisodeTimeout
 
-__all__ = ["BUILTIN_AGENTS", "Agent", "AgentFault", "available_agents", "load_agent", "safe_act"]
+__all__ = [
+    "BUILTIN_AGENTS",
+    "UNCONTAINED",
+    "Agent",
+    "AgentError",
+    "AgentFault",
+    "available_agents",
+    "describe",
+    "load_agent",
+    "safe_act",
+]
+
+UNCONTAINED: tuple[type[BaseException], ...] = (KeyboardInterrupt, EpisodeTimeout)
+"""What an agent may raise that the loop does not contain: the user's interrupt and the
+episode's wall-clock budget (every other exception, SystemExit included, is a fault)."""
 
 ENTRY_POINT_GROUP = "nao_arena.agents"
 
@@ -68,17 +94,43 @@ class AgentFault:
     message: str
 
 
+class AgentError(RuntimeError):
+    """An agent could not be made ready for an episode: its constructor or ``reset`` raised."""
+
+
+def describe(exc: BaseException) -> str:
+    """``Type: message`` of an exception, as faults and errors report it."""
+    return f"{type(exc).__name__}: {exc}"
+
+
+_FILE_MODULES: dict[Path, ModuleType] = {}
+"""Plug-in files imported so far in this process, by resolved path."""
+
+
 def _load_from_file(path: str, cls: str) -> type:
     file = Path(path)
     if not file.is_file():
         raise ValueError(f"agent {path}:{cls}: no such file {file}")
-    name = f"nao_arena_plugin_{abs(hash(str(file.resolve())))}"
-    spec = importlib.util.spec_from_file_location(name, file)
-    if spec is None or spec.loader is None:
-        raise ValueError(f"agent {path}:{cls}: cannot import {file}")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
+    resolved = file.resolve()
+    module = _FILE_MODULES.get(resolved)
+    if module is None:
+        digest = hashlib.sha1(str(resolved).encode("utf-8")).hexdigest()[:16]
+        name = f"nao_arena_plugin_{digest}"
+        spec = importlib.util.spec_from_file_location(name, file)
+        if spec is None or spec.loader is None:
+            raise ValueError(f"agent {path}:{cls}: cannot import {file}")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except UNCONTAINED:
+            sys.modules.pop(name, None)
+            raise
+        except BaseException as exc:  # noqa: BLE001 - a plug-in's import error is reported
+            sys.modules.pop(name, None)
+            raise ValueError(f"agent {path}:{cls}: importing {file} raised {describe(exc)}") \
+                from exc
+        _FILE_MODULES[resolved] = module
     try:
         return getattr(module, cls)
     except AttributeError:
@@ -130,13 +182,14 @@ def load_agent(ref: str) -> type:
 def safe_act(
     agent: Agent, obs: Observation, name: str
 ) -> tuple[NDArray[np.float64], AgentFault | None]:
-    """Call ``agent.act``; on an exception or a non-finite/wrong-shape result return zero
-    acceleration and the fault."""
+    """Call ``agent.act``; on an exception (any but :data:`UNCONTAINED`, which propagate)
+    or a non-finite/wrong-shape result return zero acceleration and the fault."""
     try:
         out = np.asarray(agent.act(obs), dtype=np.float64)
-    except Exception as exc:  # noqa: BLE001 - any agent failure is contained
-        return np.zeros(2), AgentFault(obs.time, obs.robot_id, name,
-                                       f"{type(exc).__name__}: {exc}")
+    except UNCONTAINED:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - any agent failure is contained
+        return np.zeros(2), AgentFault(obs.time, obs.robot_id, name, describe(exc))
     if out.shape != (2,):
         return np.zeros(2), AgentFault(obs.time, obs.robot_id, name,
                                        f"expected an acceleration of shape (2,), got {out.shape}")

@@ -8,8 +8,9 @@ the scripted lane followers of the map's traffic and the episode's
 2. senses for every robot at once (:class:`~nao_arena.sensing.SensingBatch`):
    own state, goal/route, neighbours within ``sensing_range`` (with the true
    future paths of traffic and the accelerations other robots committed
-   to), walls; a per-robot agent gets it as an
-   :class:`~nao_arena.sensing.Observation`;
+   to, i.e. their last commands as the world applied them, scaled to
+   |a| <= a_max), walls; a per-robot agent gets it as an
+   :class:`~nao_arena.sensing.Observation`; all of it read-only;
 3. asks every robot's agent for an acceleration (m/s^2, world frame) —
    external actions (e.g. from the PettingZoo env) replace the agents of
    the robots they name; a failing agent gets zero acceleration and a fault
@@ -44,12 +45,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.agent import AgentFault, load_agent, safe_act
+from nao_arena.agent import (
+    UNCONTAINED,
+    AgentError,
+    AgentFault,
+    describe,
+    load_agent,
+    safe_act,
+)
 from nao_arena.maps import MapSpec, RobotSpec
-from nao_arena.sensing import Observation, SensingBatch, neighbour_lists
+from nao_arena.sensing import (
+    Observation,
+    ReadOnlyRoutes,
+    SensingBatch,
+    neighbour_lists,
+    read_only,
+)
 from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
 from nao_arena.traffic import LaneTraffic
-from nao_arena.world import World, WorldState
+from nao_arena.world import World, WorldState, clip_accelerations
 
 __all__ = ["Arena", "ArenaOptions", "StepResult", "make_agent"]
 
@@ -87,14 +101,16 @@ class StepResult:
     faults: list[AgentFault]
 
 
-def make_agent(ref: str, robot: RobotSpec, options: Mapping[str, Any] | None = None) -> Any:
-    """Instantiate the agent ``ref`` for ``robot``.
+def make_agent(
+    ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | None = None
+) -> Any:
+    """Instantiate the agent ``ref`` (a reference, or the class it names) for ``robot``.
 
     The robot's predictor and the map's ``agent_options`` for it are passed
     where the constructor takes them; ``options`` (from the caller) are
     passed as given and take precedence.
     """
-    cls = load_agent(ref)
+    cls = load_agent(ref) if isinstance(ref, str) else ref
     try:
         params = inspect.signature(cls).parameters
     except (TypeError, ValueError):
@@ -117,13 +133,21 @@ class Arena:
         self.robot_ids = self.world.robot_indices
         self.robots = list(spec.robots)
         self.agent_names = [self.options.agent or r.agent for r in self.robots]
-        self.goals = np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2)
-        self.routes = [None if r.route is None else np.asarray(r.route, float)
-                       for r in self.robots]
-        self.walls, self.wall_radius = self.world.wall_segments()
-        self.path_times = np.linspace(
+        # what agents sense is read-only (see SensingBatch): goals, routes, walls, times
+        self.goals = read_only(
+            np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
+        self.routes = ReadOnlyRoutes.of([None if r.route is None else np.array(r.route, float)
+                                         for r in self.robots])
+        walls, wall_radius = self.world.wall_segments()
+        self.walls, self.wall_radius = read_only(walls), read_only(wall_radius)
+        self.path_times = read_only(np.linspace(
             0.0, self.options.known_path_horizon, self.options.known_path_samples
-        )
+        ))
+        self._bodies = read_only(np.array(self.robot_ids, dtype=np.int64))
+        self._radii = read_only(self.world.radii)
+        self._a_max = read_only(self.world.a_max)
+        self._v_max = read_only(self.world.v_max)
+        self._robot_a_max = self.world.a_max[self.robot_ids]
         self.sensing_range = (
             spec.sensing.range if self.options.sensing_range is None
             else self.options.sensing_range
@@ -143,13 +167,28 @@ class Arena:
     # ------------------------------------------------------------------ episode
 
     def reset(self, seed: int | None = None) -> WorldState:
-        """Fresh world, fresh agents (one seeded generator each), fresh statistics."""
+        """Fresh world, fresh agents (one seeded generator each), fresh statistics.
+
+        An agent whose constructor or ``reset`` raises (anything but
+        KeyboardInterrupt or EpisodeTimeout) raises :class:`~nao_arena.agent.AgentError`
+        naming the agent, its robot and the exception."""
         self.state = self.world.reset()
         seeds = np.random.SeedSequence(seed).spawn(len(self.robots))
         self.agents = []
-        for robot, name, ss in zip(self.robots, self.agent_names, seeds, strict=True):
-            agent = make_agent(name, robot, self.options.agent_options)
-            agent.reset(robot, np.random.default_rng(ss))
+        for k, (robot, name, ss) in enumerate(zip(self.robots, self.agent_names, seeds,
+                                                   strict=True)):
+            cls = load_agent(name)
+            stage = "constructor"
+            try:
+                agent = make_agent(cls, robot, self.options.agent_options)
+                stage = "reset"
+                agent.reset(robot, np.random.default_rng(ss))
+            except UNCONTAINED:
+                raise
+            except BaseException as exc:  # noqa: BLE001 - reported as the episode's error
+                who = robot.name or f"robot {k}"
+                raise AgentError(f"agent {name!r} of {who}: its {stage} raised "
+                                 f"{describe(exc)}") from exc
             self.agents.append(agent)
         self.stats = EpisodeStats(
             self.world.radii, self.world.kinds, self.world.names,
@@ -208,18 +247,19 @@ class Arena:
         assert state is not None
         known = self._known_paths(state) if len(self.traffic.indices) else None
         plans = np.full((self.world.n, 2), np.nan)
-        plans[self.robot_ids] = self.commanded[self.robot_ids]
+        # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands
+        plans[self.robot_ids] = clip_accelerations(self.commanded[self.robot_ids],
+                                                   self._robot_a_max)
         if self._kinds is None:
-            self._kinds = np.array(self.world.kinds)
+            self._kinds = read_only(np.array(self.world.kinds))
         start, index = neighbour_lists(
             self.robot_ids, state.positions, self.sensing_range, self.max_neighbours,
         )
         return SensingBatch(
             time=state.time, dt=self.world.dt, positions=state.positions,
-            velocities=state.velocities, accelerations=state.accelerations, radii=state.radii,
-            a_max=self.world.a_max, v_max=self.world.v_max, kinds=self._kinds, plans=plans,
-            known_paths=known, path_times=self.path_times,
-            bodies=np.asarray(self.robot_ids, dtype=np.int64), goals=self.goals,
+            velocities=state.velocities, accelerations=state.accelerations, radii=self._radii,
+            a_max=self._a_max, v_max=self._v_max, kinds=self._kinds, plans=plans,
+            known_paths=known, path_times=self.path_times, bodies=self._bodies, goals=self.goals,
             routes=self.routes, walls=self.walls, wall_radius=self.wall_radius,
             nb_start=start, nb_index=index,
         )
@@ -314,7 +354,9 @@ class Arena:
                 raise ValueError(
                     f"act_batch returned {len(results)} results for {len(rows)} agents"
                 )
-        except Exception as exc:  # noqa: BLE001 - any agent failure is contained
+        except UNCONTAINED:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - any agent failure is contained
             results = [exc] * len(rows)
         if all(type(r) is np.ndarray and r.shape == (2,) and r.dtype == np.float64
                for r in results):
@@ -327,12 +369,14 @@ class Arena:
         for i, (k, res) in enumerate(zip(rows, results, strict=True)):
             name = self.agent_names[k]
             if isinstance(res, BaseException):
-                faults[k] = AgentFault(batch.time, k, name, f"{type(res).__name__}: {res}")
+                faults[k] = AgentFault(batch.time, k, name, describe(res))
                 continue
             try:
                 acc = np.asarray(res, dtype=np.float64)
-            except Exception as exc:  # noqa: BLE001
-                faults[k] = AgentFault(batch.time, k, name, f"{type(exc).__name__}: {exc}")
+            except UNCONTAINED:
+                raise
+            except BaseException as exc:  # noqa: BLE001
+                faults[k] = AgentFault(batch.time, k, name, describe(exc))
                 continue
             if acc.shape != (2,):
                 faults[k] = AgentFault(

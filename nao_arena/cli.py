@@ -3,10 +3,11 @@
 Sub-commands::
 
     nao-arena run MAP [--agent NAME|FILE.py:CLASS] [--seed S] [--set key=value ...]
-                  [--time-limit S] [--render human|gif|mp4 --out FILE] [--json FILE]
+                  [--time-limit S] [--episode-timeout S]
+                  [--render human|gif|mp4 --out FILE] [--json FILE]
     nao-arena trial --map MAP[,MAP...] --agent A[,B...] --episodes N --seed S
                     --workers W --out DIR [--csv] [--set key=value ...] [--time-limit S]
-                    [--backend local|ray [--address ADDR]]
+                    [--episode-timeout S] [--backend local|ray [--address ADDR]]
     nao-arena report DIR [--out PLOTS_DIR]
     nao-arena maps
     nao-arena agents
@@ -15,7 +16,11 @@ Sub-commands::
 Errors (unknown map, agent, parameter; a number out of its range, e.g.
 ``--time-limit`` must be finite and > 0 s and ``--seed`` >= 0; an output
 file or folder that cannot be written) are printed on stderr as one line
-``nao-arena: error: ...`` naming what was expected, exit status 2.
+``nao-arena: error: ...`` naming what was expected, exit status 2. ``run``
+also exits 2 with a one-line error when an agent's constructor or reset
+raises, or when the episode exceeds its wall-clock budget
+(``--episode-timeout``, default 600 s; 0 or none: no budget); a trial
+records such episodes as failed and goes on.
 """
 
 from __future__ import annotations
@@ -39,6 +44,20 @@ def _err(message: str) -> int:
 
 def _split(text: str) -> tuple[str, ...]:
     return tuple(part.strip() for part in text.split(",") if part.strip())
+
+
+def _timeout(text: str) -> float | None:
+    """``--episode-timeout``: seconds >= 0, or ``none`` / 0 for no budget."""
+    if text.strip().lower() in ("none", "0", ""):
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(
+            f"expected a number of seconds >= 0 (0 or none: no budget), got {text!r}")
+    return value or None
 
 
 def _overrides(items: list[str] | None) -> dict[str, Any]:
@@ -145,9 +164,11 @@ def episode_table(summary: Any, agents: list[str]) -> str:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from nao_arena.agent import AgentError, describe
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import MapError
     from nao_arena.trials import make_map
+    from nao_arena.watchdog import EpisodeTimeout, wall_clock_budget
 
     record = None
     if problem := _bad_number(args):
@@ -178,13 +199,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         arena = Arena(spec, ArenaOptions(agent=args.agent))
     except (MapError, ValueError) as exc:
         return _err(str(exc))
-    if args.render:
-        arena.reset(args.seed)
-        out = None if args.render == "human" else args.out
-        result = record(arena, out, fps=args.fps, max_steps=args.max_steps)
-        summary = result if hasattr(result, "robots") else arena.summary()
-    else:
-        summary = arena.run(args.seed, max_steps=args.max_steps)
+    try:
+        with wall_clock_budget(args.episode_timeout):
+            if args.render:
+                arena.reset(args.seed)
+                out = None if args.render == "human" else args.out
+                result = record(arena, out, fps=args.fps, max_steps=args.max_steps)
+                summary = result if hasattr(result, "robots") else arena.summary()
+            else:
+                summary = arena.run(args.seed, max_steps=args.max_steps)
+    except (AgentError, EpisodeTimeout) as exc:
+        return _err(describe(exc))
     agents = arena.agent_names
     n_traffic = arena.world.n - len(arena.robots)
     print(f"map {spec.name} ({spec.source}), seed {args.seed}, {len(arena.robots)} robots, "
@@ -229,6 +254,7 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             seed=args.seed, workers=args.workers, out=Path(args.out),
             overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
             retry_failed=args.retry_failed, backend=args.backend, address=args.address,
+            episode_timeout=args.episode_timeout,
         )
         _load_agents(config.agents)
         previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
@@ -304,6 +330,9 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
                    help="map parameter overrides, e.g. --set n=4 radius=6")
     p.add_argument("--time-limit", type=float, default=None, metavar="S",
                    help="episode time limit (s), replacing the map's")
+    p.add_argument("--episode-timeout", type=_timeout, default=600.0, metavar="S",
+                   help="wall-clock budget of an episode (s; default 600; 0 or none: no "
+                        "budget): an episode that exceeds it fails (a trial goes on)")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -30,9 +30,11 @@ world frame, normalized by the robot's a_max. Components outside [-1, 1]
 are clipped to it; the command a_max * action (m/s^2) is then scaled by the
 world to |a| <= a_max (a corner such as (1, 1) gives a_max in the diagonal
 direction), and the speed limit v_max applies as in :mod:`nao_arena.world`.
-An action of the wrong shape, NaN or inf raises ``ValueError``, as does a
-missing action for a live agent or an unknown agent name; actions for
-agents that are no longer live are ignored (the AEC converter sends None).
+An action of the wrong shape, NaN or inf, or not made of real numbers
+(booleans, complex numbers, strings) raises ``ValueError``, as does a
+missing action for a live agent, an unknown agent name, or actions that are
+not a dict; actions for agents that are no longer live are ignored (the AEC
+converter sends None).
 
 Observations
 ------------
@@ -287,6 +289,29 @@ def _observation_rows(
             o[c + 8] = is_traffic[j]
 
 
+_REAL_KINDS = frozenset("iuf")
+"""numpy dtype kinds accepted in actions: signed and unsigned integers, floats."""
+
+
+def _check_real(name: str, action: Any) -> None:
+    """ValueError unless ``action`` is made of real numbers (not bool, complex, str, object)."""
+    if type(action) is np.ndarray and action.dtype.kind in _REAL_KINDS:
+        return  # the common case
+    if isinstance(action, (list, tuple)) and any(
+            isinstance(x, (bool, np.bool_)) for x in action):
+        kind = "b"
+    else:
+        try:
+            kind = np.asarray(action).dtype.kind
+        except (TypeError, ValueError):
+            return  # not an array at all: the shape check explains it
+    if kind not in _REAL_KINDS:
+        what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
+            kind, "objects")
+        raise ValueError(f"action of {name!r}: expected real numbers (a float array of shape "
+                         f"(2,)), got {what}: {action!r}")
+
+
 def _split_kwargs(
     options: EnvOptions | None, map_params: Mapping[str, Any] | None, kwargs: Mapping[str, Any]
 ) -> tuple[EnvOptions, dict[str, Any]]:
@@ -483,7 +508,13 @@ class NaoArenaParallelEnv(ParallelEnv):
         return {a: obs[i] for i, a in enumerate(self.agents)}, infos
 
     def _actions_array(self, actions: Mapping[str, Any], live: list[str]) -> NDArray[np.float64]:
-        """Validated actions (m, 2) of the live agents, in ``live`` order, clipped to [-1, 1]."""
+        """Validated actions (m, 2) of the live agents, in ``live`` order, clipped to [-1, 1].
+
+        Each action must be real numbers (ints or floats; not booleans, complex numbers,
+        strings or objects) of shape (2,), finite; else ValueError naming the agent."""
+        if not isinstance(actions, Mapping):
+            raise ValueError(f"actions: expected a dict of agent name -> action of shape (2,), "
+                             f"got {type(actions).__name__}")
         if not self._row.keys() >= actions.keys():
             name = next(a for a in actions if a not in self._row)
             raise ValueError(f"action for unknown agent {name!r}; expected one of "
@@ -491,6 +522,8 @@ class NaoArenaParallelEnv(ParallelEnv):
         if len(actions) < len(live) or not actions.keys() >= set(live):
             missing = [a for a in live if a not in actions]
             raise ValueError(f"missing actions for live agents: {', '.join(missing)}")
+        for a in live:
+            _check_real(a, actions[a])
         try:
             arr = np.array([actions[a] for a in live], dtype=np.float64)
         except (TypeError, ValueError):

@@ -12,13 +12,22 @@ directly; :meth:`SensingBatch.observation` gives one robot's
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["Neighbours", "Observation", "SensingBatch", "neighbour_lists", "neighbours_in_range"]
+__all__ = [
+    "Neighbours",
+    "Observation",
+    "ReadOnlyRoutes",
+    "SensingBatch",
+    "neighbour_lists",
+    "neighbours_in_range",
+    "read_only",
+]
 
 
 def _vec(n: int = 0) -> NDArray[np.float64]:
@@ -191,6 +200,34 @@ def _stable_order(key, m, order, scratch):
         order[:m] = scratch[:m]
 
 
+def read_only(array: NDArray) -> NDArray:
+    """``array`` itself if it is read-only, else a read-only view of it (no copy)."""
+    if not array.flags.writeable:
+        return array
+    view = array.view()
+    view.setflags(write=False)
+    return view
+
+
+class ReadOnlyRoutes(tuple):
+    """Routes (M, 2) m (or None) of the robots, each read-only (made by :meth:`of`)."""
+
+    __slots__ = ()
+
+    @classmethod
+    def of(cls, routes: Sequence[NDArray[np.float64] | None]) -> ReadOnlyRoutes:
+        """``routes`` as read-only views (no copy)."""
+        if type(routes) is cls:
+            return routes
+        return cls(None if r is None else read_only(np.asarray(r)) for r in routes)
+
+
+_BATCH_ARRAYS = ("positions", "velocities", "accelerations", "radii", "a_max", "v_max", "kinds",
+                 "plans", "known_paths", "path_times", "bodies", "goals", "walls", "wall_radius",
+                 "nb_start", "nb_index")
+"""The array fields of :class:`SensingBatch` (made read-only)."""
+
+
 @dataclass
 class SensingBatch:
     """Every robot's view at one control step, as bulk arrays (world frame, m, m/s, m/s^2).
@@ -202,6 +239,12 @@ class SensingBatch:
     neighbours of robot k are ``nb_index[nb_start[k]:nb_start[k + 1]]``
     (nearest first). :meth:`observation` builds the :class:`Observation` a
     per-robot agent sees; batched agents read the arrays directly.
+
+    Every array the batch holds is read-only (a writable one given to the
+    constructor is replaced by a read-only view of it, no copy), and so is
+    every view of it handed out (an observation's position, goal, walls ...):
+    an agent that writes into what it senses gets ValueError (a fault) and
+    cannot change the arena's state. ``routes`` is a :class:`ReadOnlyRoutes` tuple.
     """
 
     time: float
@@ -218,12 +261,19 @@ class SensingBatch:
     path_times: NDArray[np.float64]
     bodies: NDArray[np.int64]
     goals: NDArray[np.float64]
-    routes: list[NDArray[np.float64] | None]
+    routes: Sequence[NDArray[np.float64] | None]
     walls: NDArray[np.float64]
     wall_radius: NDArray[np.float64]
     nb_start: NDArray[np.int64]
     nb_index: NDArray[np.int64]
     _everyone: Neighbours | None = None
+
+    def __post_init__(self) -> None:
+        for name in _BATCH_ARRAYS:
+            value = getattr(self, name)
+            if value is not None and value.flags.writeable:
+                setattr(self, name, read_only(value))
+        self.routes = ReadOnlyRoutes.of(self.routes)
 
     def neighbour_ids(self, k: int) -> NDArray[np.int64]:
         """Body indices robot k senses, nearest first."""

@@ -16,7 +16,10 @@ A trial runs every episode of the grid headless through :meth:`Arena.run`
   ``min_ttc`` null = no time to collision within ``ttc_horizon``), the
   robot's agent ``faults``, the episode's ``duration`` (s) and ``steps``,
   and ``error``: null, or for an episode that raised, the error message
-  (then the episode has a single row with ``robot`` and the metrics null).
+  (then the episode has a single row with ``robot`` and the metrics null);
+  e.g. ``AgentError: ...`` when an agent's constructor or reset raised,
+  ``EpisodeTimeout: ...`` when the episode ran past its wall-clock budget
+  (``episode_timeout``, default 600 s).
 - ``collisions.parquet``: one row per contact event (see
   :data:`COLLISION_SCHEMA`): ``map``, ``agent``, ``episode``, ``seed`` and
   the :class:`~nao_arena.stats.ContactEvent` fields.
@@ -114,7 +117,8 @@ however it ends): a second trial on the same folder fails at once with
 records different settings is refused the same way, before anything is
 written; only the settings that do not change results may differ
 (:data:`FREE_SETTINGS`: ``workers``, ``backend``, ``address``, ``csv``,
-``retry_failed``), the order of maps and agents does not matter, and
+``retry_failed``, ``episode_timeout``: a budget only decides whether a hung
+episode fails), the order of maps and agents does not matter, and
 ``episodes`` may grow (the earlier episodes are kept and the new ones run;
 ``trial.json`` then records the larger number) but not shrink.
 """
@@ -140,11 +144,12 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
-from nao_arena.agent import load_agent
+from nao_arena.agent import describe, load_agent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.backends import BACKENDS, make_backend
 from nao_arena.maps import MapError, MapSpec, load_map
 from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text, temporary_sibling
+from nao_arena.watchdog import wall_clock_budget
 
 __all__ = [
     "COLLISION_SCHEMA",
@@ -186,7 +191,8 @@ SUMMARY_KEYS: tuple[str, ...] = (
     "episodes_deadlocked",
 )
 
-FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed"})
+FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed",
+                           "episode_timeout"})
 """Settings that do not change results: they may differ from the ``trial.json`` of the
 output folder (``episodes`` may also grow)."""
 
@@ -244,7 +250,10 @@ class TrialConfig:
     files; retry_failed: run again the episodes whose recorded result is an
     error; backend: ``local`` or ``ray`` (see :mod:`nao_arena.backends`);
     address: the Ray cluster to connect to (None: a local Ray instance;
-    only with ``backend="ray"``).
+    only with ``backend="ray"``); episode_timeout: each episode's
+    wall-clock budget (s; None or 0: none), an episode that exceeds it is
+    recorded as failed (``EpisodeTimeout: ...``) and the trial goes on (see
+    :mod:`nao_arena.watchdog` for where it is enforced).
     """
 
     maps: tuple[str, ...]
@@ -259,6 +268,7 @@ class TrialConfig:
     retry_failed: bool = False
     backend: str = "local"
     address: str | None = None
+    episode_timeout: float | None = 600.0
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -280,8 +290,11 @@ class TrialConfig:
                              f"{', '.join(BACKENDS)}")
         if self.address is not None and self.backend != "ray":
             raise ValueError("an address is for the ray backend (--backend ray)")
-        if self.time_limit is not None and not self.time_limit > 0:
-            raise ValueError(f"time limit: expected > 0 s, got {self.time_limit}")
+        if self.time_limit is not None and not 0 < self.time_limit < math.inf:
+            raise ValueError(f"time limit: expected a finite time > 0 s, got {self.time_limit}")
+        if self.episode_timeout is not None and not 0 <= self.episode_timeout < math.inf:
+            raise ValueError(f"episode timeout: expected a number of s >= 0 (0: none), "
+                             f"got {self.episode_timeout}")
         if "seed" in self.overrides:
             raise ValueError("the map parameter 'seed' is set per episode by the trial; "
                              "choose the trial's root seed instead (--seed)")
@@ -292,7 +305,8 @@ class EpisodeTask:
     """One episode of a trial, as sent to a worker.
 
     seed: the episode's integer seed; overrides: the map parameters for
-    this map (without ``seed``); path: its result file.
+    this map (without ``seed``); path: its result file; episode_timeout:
+    its wall-clock budget (s; None or 0: none; not part of its key).
     """
 
     map: str
@@ -302,6 +316,7 @@ class EpisodeTask:
     overrides: Mapping[str, Any]
     time_limit: float | None
     path: str
+    episode_timeout: float | None = None
 
     def key(self) -> dict[str, Any]:
         """What identifies the episode's result (compared on resume)."""
@@ -388,7 +403,7 @@ def _tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) -> lis
         EpisodeTask(
             map=m, agent=a, episode=e, seed=episode_seed(config.seed, m, e),
             overrides=dict(per_map[m]), time_limit=config.time_limit,
-            path=str(episode_path(config.out, m, a, e)),
+            path=str(episode_path(config.out, m, a, e)), episode_timeout=config.episode_timeout,
         )
         for m in config.maps
         for a in config.agents
@@ -422,17 +437,22 @@ def compute_episode(task: EpisodeTask) -> dict[str, Any]:
     This is what every backend executes, wherever it runs: it writes no file.
     An exception while loading the map, building the arena or running is
     recorded (``error``: its type and message, ``result``: null) instead of
-    propagating. The record's ``wall_time_s`` is informative only (it is in
+    propagating; so is exceeding ``task.episode_timeout`` (``EpisodeTimeout:
+    episode exceeded its wall-clock budget of N s``). Only KeyboardInterrupt
+    propagates. The record's ``wall_time_s`` is informative only (it is in
     no results table).
     """
     start = time.perf_counter()
     record: dict[str, Any] = {"format": FORMAT, "key": task.key(), "error": None, "result": None}
     try:
-        spec = make_map(task.map, task.seed, task.overrides, task.time_limit)
-        arena = Arena(spec, ArenaOptions(agent=task.agent))
-        record["result"] = arena.run(task.seed).to_dict()
-    except Exception as exc:  # noqa: BLE001 - a failing episode must not stop the trial
-        record["error"] = f"{type(exc).__name__}: {exc}"
+        with wall_clock_budget(task.episode_timeout):
+            spec = make_map(task.map, task.seed, task.overrides, task.time_limit)
+            arena = Arena(spec, ArenaOptions(agent=task.agent))
+            record["result"] = arena.run(task.seed).to_dict()
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - a failing episode must not stop the trial
+        record["error"] = describe(exc)
     record["wall_time_s"] = time.perf_counter() - start
     return record
 

@@ -8,7 +8,10 @@ import numpy as np
 import pytest
 
 from nao_arena.agent import available_agents, load_agent, safe_act
+from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.maps import load_map
 from nao_arena.sensing import Observation
+from nao_arena.watchdog import EpisodeTimeout
 
 
 def obs() -> Observation:
@@ -73,10 +76,79 @@ class WrongShape:
         return np.zeros(3)
 
 
+class Exits:
+    def act(self, obs):
+        raise SystemExit(3)
+
+
 @pytest.mark.parametrize("agent, fragment", [
     (Raises(), "RuntimeError: boom"), (ReturnsNaN(), "non-finite"), (WrongShape(), "shape"),
+    (Exits(), "SystemExit: 3"),
 ])
 def test_faulty_agents_are_contained(agent, fragment):
     a, fault = safe_act(agent, obs(), "bad")
     np.testing.assert_array_equal(a, [0.0, 0.0])
     assert fault is not None and fragment in fault.message and fault.robot == 3
+
+
+class Interrupts:
+    def __init__(self, exc: BaseException) -> None:
+        self.exc = exc
+
+    def act(self, obs):
+        raise self.exc
+
+
+@pytest.mark.parametrize("exc", [KeyboardInterrupt(), EpisodeTimeout(1.0)])
+def test_interrupt_and_timeout_propagate(exc):
+    with pytest.raises(type(exc)):
+        safe_act(Interrupts(exc), obs(), "stop")
+
+
+BATCHED = """
+import numpy as np
+from pathlib import Path
+
+with Path({log!r}).open("a") as fh:
+    fh.write("imported\\n")
+
+
+class Together:
+    calls = []
+
+    def reset(self, spec, rng):
+        pass
+
+    def act(self, obs):
+        return np.zeros(2)
+
+    @classmethod
+    def act_batch(cls, agents, batch, rows):
+        cls.calls.append(list(rows))
+        return [np.zeros(2) for _ in rows]
+"""
+
+
+def test_file_plugin_is_imported_once_and_its_robots_act_together(tmp_path):
+    """Two robots of one file plug-in with an act_batch: one call per step for both,
+    and the file is executed once across loading, two resets and two arenas."""
+    log = tmp_path / "imports.log"
+    (tmp_path / "together.py").write_text(BATCHED.format(log=str(log)))
+    ref = f"{tmp_path / 'together.py'}:Together"
+    cls = load_agent(ref)
+    assert load_agent(ref) is cls
+    for _ in range(2):
+        arena = Arena(load_map("circle_swap", n=2), ArenaOptions(agent=ref))
+        for seed in (0, 1):
+            arena.reset(seed)
+            for _ in range(2):
+                arena.step()
+            assert all(type(a) is cls for a in arena.agents)
+    assert cls.calls == [[0, 1]] * 8
+    assert log.read_text() == "imported\n"
+
+
+def test_plugin_file_that_fails_to_import_is_explained(tmp_path):
+    (tmp_path / "quits.py").write_text("raise SystemExit(3)\n")
+    with pytest.raises(ValueError, match=r"quits.py raised SystemExit: 3"):
+        load_agent(f"{tmp_path / 'quits.py'}:Anything")

@@ -159,6 +159,30 @@ def test_bad_actions_raise():
         e.step({"swap0": ok, "swap1": ok, "ghost": ok})
 
 
+@pytest.mark.parametrize("actions, fragment", [
+    (None, "expected a dict of agent name -> action of shape \\(2,\\), got NoneType"),
+    ([np.zeros(2), np.zeros(2)], "expected a dict .* got list"),
+    (np.zeros((2, 2)), "expected a dict .* got ndarray"),
+    ({"swap0": np.array([0.5 + 1j, 0.0]), "swap1": np.zeros(2)},
+     "action of 'swap0': expected real numbers .* got complex numbers"),
+    ({"swap0": np.zeros(2), "swap1": np.array([True, False])},
+     "action of 'swap1': expected real numbers .* got booleans"),
+    ({"swap0": [True, 0.5], "swap1": np.zeros(2)}, "action of 'swap0': .* got booleans"),
+    ({"swap0": np.zeros(2), "swap1": ["1", "0"]}, "action of 'swap1': .* got strings"),
+    ({"swap0": None, "swap1": np.zeros(2)}, "action of 'swap0': .* got objects: None"),
+])
+def test_actions_that_are_not_real_numbers_raise(actions, fragment):
+    """Booleans and complex numbers used to be cast to floats, and a non-dict raised
+    AttributeError; every one now raises ValueError naming what was wrong."""
+    e = parallel_env("circle_swap", n=2)
+    e.reset(seed=0)
+    with pytest.raises(ValueError, match=fragment):
+        e.step(actions)
+    # nothing was stepped: a valid step still works from time 0
+    _, _, _, _, infos = e.step({"swap0": np.zeros(2), "swap1": [0, 1]})
+    assert infos["swap0"]["time"] == pytest.approx(e.arena.world.dt)
+
+
 def test_action_scaling_and_clipping():
     e = parallel_env("circle_swap", n=2, arena={"agent": "goal"})
     e.reset(seed=0)

@@ -450,3 +450,9 @@ def test_liveness_counts_in_the_summary_and_the_table():
     assert "timed out" in head and "deadlocks" in head
     assert "1/6 (16.7 %)" in cells and cells.split()[-3:] == ["2", "2", "1"]
     assert "deadlocks: episodes with a time at which" in table
+
+
+def test_trial_config_rejects_non_finite_time_limits():
+    for bad in (math.inf, math.nan, 0.0, -1.0):
+        with pytest.raises(ValueError, match="time limit"):
+            TrialConfig(maps=("crossing",), agents=("goal",), time_limit=bad)
