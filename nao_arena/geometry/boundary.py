@@ -251,7 +251,7 @@ def ao_boundary_paper(
     w_n = nrm @ w
     w_t = tan @ w
     valid = p_n * w_n > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf: not valid
         t_p = np.where(valid, 2.0 * p_n / w_n, np.nan)
         a_n = -(w_n**2) / (2.0 * p_n)
         a_t = 2.0 * (q_t - w_t * t_p) / t_p**2
