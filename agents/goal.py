@@ -9,6 +9,8 @@ from numpy.typing import NDArray
 
 from nao_arena.sensing import Observation
 
+APPROACH_GAIN = 2.0  # 1/s: the target speed near the goal, per metre to go (see below)
+
 
 def goal_target(obs: Observation) -> NDArray[np.float64] | None:
     """The point the robot heads for (m): its goal, else its route's last waypoint."""
@@ -21,15 +23,18 @@ def goal_target(obs: Observation) -> NDArray[np.float64] | None:
 
 def goal_seeking_accel(
     obs: Observation, v_pref: float | None = None, time_constant: float = 0.5,
-    braking: float = 0.5, heading_offset: float = 0.0,
+    braking: float = 0.5, heading_offset: float = 0.0, approach_gain: float = APPROACH_GAIN,
 ) -> NDArray[np.float64]:
     """Acceleration (m/s^2) that tracks a velocity toward the goal.
 
     Target velocity: towards the goal (turned by ``heading_offset`` rad,
-    counter-clockwise positive) at min(v_pref, sqrt(2 b d)), with b =
-    ``braking`` * a_max, so that the robot can stop at the goal; the
-    acceleration closes the velocity error in ``time_constant`` s and is
-    scaled to |a| <= a_max.
+    counter-clockwise positive) at min(v_pref, sqrt(2 b d), k d), with b =
+    ``braking`` * a_max, so that the robot can stop at the goal, and k =
+    ``approach_gain`` (1/s): close to the goal the speed falls linearly with
+    the distance d (m), so that the robot settles on it instead of chattering
+    around it (sqrt(2 b d) has no bounded slope at d = 0); the acceleration
+    closes the velocity error in ``time_constant`` s and is scaled to
+    |a| <= a_max.
     """
     target = goal_target(obs)
     speed_cap = obs.v_max if v_pref is None else min(v_pref, obs.v_max)
@@ -41,7 +46,8 @@ def goal_seeking_accel(
         if dist < 1e-9:
             v_target = np.zeros(2)
         else:
-            speed = min(speed_cap, float(np.sqrt(2.0 * braking * obs.a_max * dist)))
+            speed = min(speed_cap, float(np.sqrt(2.0 * braking * obs.a_max * dist)),
+                        approach_gain * dist)
             v_target = to_goal / dist * speed
             if heading_offset:
                 c, s_ = np.cos(heading_offset), np.sin(heading_offset)

@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.agents.goal import goal_seeking_accel
+from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_accel
 from nao_arena.geometry import (
     AccelLimits,
     PiecewisePath,
@@ -106,6 +106,7 @@ class NAOAgent:
         replan: bool = True,
         reselect_after: float = 1.0,
         infeasible: str = "auto",
+        goal_zone: float = 1.0,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
@@ -117,6 +118,9 @@ class NAOAgent:
         if not (math.isfinite(self.horizon) and self.horizon > 0.0):
             raise ValueError(f"horizon: expected a positive number of seconds, got {horizon!r}")
         self.detour_after = float(detour_after)
+        self.goal_zone = float(goal_zone)
+        if not (math.isfinite(self.goal_zone) and self.goal_zone >= 0.0):
+            raise ValueError(f"goal_zone: expected a distance >= 0 (m), got {goal_zone!r}")
         if samples is None:
             samples = max(2, round(self.horizon / _SAMPLE_STEP) + 1)
         self.times = np.linspace(0.0, self.horizon, int(samples))
@@ -139,6 +143,7 @@ class NAOAgent:
         self.free_time = 0.0
         self.detour = 0.0
         self.detour_turns = 0
+        self.settling = False
 
     def _update_detour(self, obs: Observation) -> None:
         """Track crawling away from the goal; start or end a detour to the right."""
@@ -306,13 +311,19 @@ class NAOAgent:
         """Whether the current acceleration is an avoidance adjustment young enough to keep
         (while admissible) even though it lies outside keep_band of the desired one."""
         sel = self.last_selection
-        return (sel is not None and sel.status == "adjusted"
+        return (sel is not None and sel.status == "adjusted" and not self.settling
                 and self.age < self.reselect_after - 1e-9)
+
+    def _band(self) -> float:
+        """keep_band (m/s^2), or 0 while settling on the goal (track the desired one)."""
+        return 0.0 if self.settling else self.keep_band
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         if not self.replan and self.last_selection is not None:
             return self.current
         self._update_detour(obs)
+        self.settling = (obs.goal is not None
+                         and float(np.hypot(*(obs.goal - obs.position))) <= self.goal_zone)
         self.age += obs.dt
         desired = goal_seeking_accel(obs, self.v_pref, heading_offset=self.detour)
         nb = obs.neighbours
@@ -323,7 +334,7 @@ class NAOAgent:
                                     obs.position, obs.radius, obs.walls, obs.wall_radius,
                                     obs.velocity, obs.a_max, obs.v_max)
         if (
-            (float(np.hypot(*(self.current - desired))) <= self.keep_band
+            (float(np.hypot(*(self.current - desired))) <= self._band()
              or self._holds_adjustment())
             and self._admissible(self.current, obs, path)
         ):
@@ -373,11 +384,13 @@ class NAOAgent:
             return out  # type: ignore[return-value]
         # liveness bookkeeping, as _update_detour
         speed = np.hypot(vel[:, 0], vel[:, 1])
-        far = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1]) > 4 * rad
-        far_l = far.tolist()
+        to_goal = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1])
+        far_l = (to_goal > 4 * rad).tolist()
+        to_goal_l = to_goal.tolist()
         crawling = (speed < 0.25 * v_max).tolist()
         for i in live:
             agents[i]._detour_step(far_l[i], crawling[i], batch.dt)
+            agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
             agents[i].age += batch.dt
         desired = _goal_seeking_batch(agents, batch, rows_a, pos, vel, a_max, v_max, goals)
         # predictions: once per (predictor, time grid) for every body
@@ -513,8 +526,8 @@ def _overrides_nothing(cls: type) -> bool:
     return all(getattr(cls, name) is getattr(NAOAgent, name)
                for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
                             "_select", "_paths", "_relevant_paths", "_near_walls",
-                            "_regular_grid", "_holds_adjustment", "_repair", "_fallback",
-                            "_commit"))
+                            "_regular_grid", "_holds_adjustment", "_band", "_repair",
+                            "_fallback", "_commit"))
 
 
 _NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
@@ -549,7 +562,8 @@ def _goal_seeking_batch(
     to_goal = goals - pos
     dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
     with np.errstate(divide="ignore", invalid="ignore"):
-        speed = np.minimum(cap, np.sqrt(2.0 * 0.5 * a_max * dist))
+        speed = np.minimum(np.minimum(cap, np.sqrt(2.0 * 0.5 * a_max * dist)),
+                           APPROACH_GAIN * dist)
         v_target = to_goal / dist[:, None] * speed[:, None]
     still = dist < 1e-9
     v_target[still] = 0.0
@@ -634,7 +648,7 @@ def _keep_current(
     times = ag0.times
     m = np.asarray(members, dtype=np.int64)
     band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
-        [agents[i].keep_band for i in members])
+        [agents[i]._band() for i in members])
     band |= holds
     inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
     status = np.where(band & inside, 2, 0)
@@ -727,6 +741,8 @@ class AOAgent(NAOAgent):
         replan: bool = True,
         reselect_after: float = 1.0,
         infeasible: str = "auto",
+        goal_zone: float = 1.0,
     ) -> None:
         super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
-                         sensing_range, detour_after, replan, reselect_after, infeasible)
+                         sensing_range, detour_after, replan, reselect_after, infeasible,
+                         goal_zone)
