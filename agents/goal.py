@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from nao_arena.sensing import Observation
 
-APPROACH_GAIN = 2.0  # 1/s: the target speed near the goal, per metre to go (see below)
+APPROACH_GAIN = 1.0  # 1/s: the target speed near the goal, per metre to go (see below)
 
 
 def goal_target(obs: Observation) -> NDArray[np.float64] | None:
@@ -28,13 +28,14 @@ def goal_seeking_accel(
     """Acceleration (m/s^2) that tracks a velocity toward the goal.
 
     Target velocity: towards the goal (turned by ``heading_offset`` rad,
-    counter-clockwise positive) at min(v_pref, sqrt(2 b d), k d), with b =
-    ``braking`` * a_max, so that the robot can stop at the goal, and k =
-    ``approach_gain`` (1/s): close to the goal the speed falls linearly with
-    the distance d (m), so that the robot settles on it instead of chattering
-    around it (sqrt(2 b d) has no bounded slope at d = 0); the acceleration
-    closes the velocity error in ``time_constant`` s and is scaled to
-    |a| <= a_max.
+    counter-clockwise positive) at min(v_pref, sqrt(2 b d + (b tau)^2) - b tau,
+    k d) at distance d (m), with b = ``braking`` * a_max and tau =
+    ``time_constant``: the speed from which the robot, lagging tau behind its
+    target, stops at the goal braking at b; k = ``approach_gain`` (1/s): close
+    to the goal the speed falls linearly with the distance (well damped:
+    k tau = 1/2), so that the robot settles on the goal instead of overshooting
+    or chattering around it. The acceleration closes the velocity error in
+    tau s and is scaled to |a| <= a_max.
     """
     target = goal_target(obs)
     speed_cap = obs.v_max if v_pref is None else min(v_pref, obs.v_max)
@@ -46,7 +47,9 @@ def goal_seeking_accel(
         if dist < 1e-9:
             v_target = np.zeros(2)
         else:
-            speed = min(speed_cap, float(np.sqrt(2.0 * braking * obs.a_max * dist)),
+            lag = braking * obs.a_max * time_constant
+            speed = min(speed_cap,
+                        float(np.sqrt(2.0 * braking * obs.a_max * dist + lag * lag)) - lag,
                         approach_gain * dist)
             v_target = to_goal / dist * speed
             if heading_offset:

@@ -562,7 +562,8 @@ def _goal_seeking_batch(
     to_goal = goals - pos
     dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
     with np.errstate(divide="ignore", invalid="ignore"):
-        speed = np.minimum(np.minimum(cap, np.sqrt(2.0 * 0.5 * a_max * dist)),
+        lag = 0.5 * a_max * 0.5
+        speed = np.minimum(np.minimum(cap, np.sqrt(2.0 * 0.5 * a_max * dist + lag * lag) - lag),
                            APPROACH_GAIN * dist)
         v_target = to_goal / dist[:, None] * speed[:, None]
     still = dist < 1e-9

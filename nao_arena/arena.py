@@ -225,10 +225,12 @@ class Arena:
 
     @property
     def done(self) -> bool:
-        """The time limit is reached, or every robot has arrived."""
+        """The time limit is reached, or every robot is at its goal (within the goal
+        tolerance) at the same time: robots that arrived early must have stayed, or
+        come back."""
         if self.time >= self.spec.episode.time_limit - 1e-9:
             return True
-        return bool(len(self.robots)) and bool(np.all(self.stats.reached[self.robot_ids]))
+        return bool(len(self.robots)) and bool(np.all(self.stats.at_goal[self.robot_ids]))
 
     # ------------------------------------------------------------------ sensing
 

@@ -56,6 +56,9 @@ Top level
     - ``circle_swap``: ``n`` robots (default 10) evenly on a circle of
       ``radius`` (m, default 8) around ``center`` (default [0, 0]), the first
       at ``angle`` (rad, default 0); each goes to the antipodal point;
+      ``arc_spacing`` (m, optional) grows the circle so that neighbours are
+      at least that far apart along it: radius max(radius, n arc_spacing /
+      (2 pi)) (radius 10, arc_spacing 2.2: the RVO2/AVO2 rule max(10, 1.1 n / pi));
       ``perturb`` (m, default 0) displaces each start uniformly within a disc
       of that radius (seeded).
     - ``crowd``: ``n`` robots (default 20) with random starts and goals drawn
@@ -586,6 +589,7 @@ class CircleSwapArgs(_Model):
 
     n: BodyCount = 10
     radius: Pos = 8.0
+    arc_spacing: Pos | None = None
     center: Vec2 = (0.0, 0.0)
     angle: Num = 0.0
     perturb: NonNeg = 0.0
@@ -596,7 +600,10 @@ def circle_swap(args: CircleSwapArgs, ctx: LayoutContext) -> Placement:
     """n robots evenly on a circle, each sent to the antipodal point."""
     th = args.angle + 2.0 * np.pi * np.arange(args.n) / args.n
     c = np.asarray(args.center, float)
-    ring = args.radius * np.stack([np.cos(th), np.sin(th)], axis=1)
+    radius = args.radius
+    if args.arc_spacing is not None:
+        radius = max(radius, args.n * args.arc_spacing / (2.0 * np.pi))
+    ring = radius * np.stack([np.cos(th), np.sin(th)], axis=1)
     starts = c + ring
     goals = c - ring
     if args.perturb > 0:

@@ -45,7 +45,8 @@ to another body (m, negative while overlapping; exact when below
 time to collision with another body at the step ends (s; inf beyond
 ``ttc_horizon``), time to goal (s, NaN if never),
 path length until the goal (m), success (goal reached without any
-collision), acceleration adjustments (steps where the commanded
+collision, and at the goal when the episode ended: arrived and stayed, or
+came back), acceleration adjustments (steps where the commanded
 acceleration changed by more than ``adjustment_threshold`` m/s^2, until the
 goal) and their rate (1/s).
 
@@ -1117,7 +1118,8 @@ class EpisodeStats:
                     index=k,
                     name=self.names[k],
                     reached_goal=bool(self.reached[k]),
-                    success=bool(self.reached[k] and self.collisions[k] == 0),
+                    success=bool(self.reached[k] and self.collisions[k] == 0
+                                 and self.at_goal[k]),
                     time_to_goal=float(self.time_to_goal[k]),
                     path_length=float(self.path_length[k]),
                     collisions=int(self.collisions[k]),

@@ -80,7 +80,7 @@ computed from:
     (robots of one episode are not, so the interval is optimistic for maps
     with many robots).
 ``robots_succeeded``: robot-episodes that reached the goal without any
-    collision; ``success_rate`` = robots_succeeded / robots;
+    collision and were at it when the episode ended; ``success_rate`` = robots_succeeded / robots;
     ``success_rate_ci95``: its Wilson interval, as above.
 ``robot_hours``: sum over robot-episodes of the episode's duration (h);
     ``collisions_per_robot_hour``: collisions / robot_hours.
@@ -967,7 +967,7 @@ def load_summary(folder: str | Path) -> list[dict[str, Any]]:
 TABLE_LEGEND = """\
 episodes: episodes with a result ("failed": raised, left out of every other column);
   distinct: distinct trajectories among the completed episodes (exact repeats counted once)
-success: robot-episodes that reached the goal without any contact / robot-episodes (%)
+success: robot-episodes that reached the goal without any contact and were at it at the end / robot-episodes (%)
 collision rate: robot-episodes with at least one contact / robot-episodes (%),
   [95 % Wilson interval; sample size: the robot-episodes of distinct episodes]
 contacts: contact events involving a robot (robot-robot counted once)

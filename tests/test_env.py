@@ -25,7 +25,9 @@ from nao_arena.geometry import nao_clearance
 from nao_arena.maps import MapError, available_maps, load_map
 
 SMALL = {"circle_swap": {"n": 4}, "circle_swap_perturbed": {"n": 4}, "crowd": {"n": 4},
-         "corridor": {"n": 2}, "crossing": {"n": 2}}
+         "corridor": {"n": 2}, "crossing": {"n": 2}, "dense_swap": {"n": 4},
+         "dense_swap_perturbed": {"n": 4}, "crossing_streams": {"n": 2},
+         "crossing_streams_perturbed": {"n": 2}}
 """Map parameters that keep the API tests quick."""
 
 

@@ -19,9 +19,9 @@ from nao_arena.maps import (
 
 BAD = Path(__file__).parent / "bad_maps"
 SHIPPED = [
-    "circle_swap", "circle_swap_perturbed", "corridor", "crossing", "crowd", "roundabout",
-    "roundabout_crossing",
-    "two_lane_road",
+    "circle_swap", "circle_swap_perturbed", "corridor", "crossing", "crossing_streams",
+    "crossing_streams_perturbed", "crowd", "dense_swap", "dense_swap_perturbed", "roundabout",
+    "roundabout_crossing", "two_lane_road",
 ]
 
 
