@@ -126,25 +126,99 @@ def neighbour_lists(
                             -1 if max_neighbours is None else int(max_neighbours))
 
 
+_MAX_CELLS_PER_BODY = 4  # a finer grid than this many cells per body costs more than it saves
+
+
 @njit(cache=True)
 def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
     """:func:`neighbour_lists` compiled: per body the others within range (the body
     itself counts at distance inf), by distance (a stable sort: ties by index), the
-    first max_neighbours (-1: all)."""
+    first max_neighbours (-1: all).
+
+    Candidates come from a uniform grid of cells at least sensing_range wide (the
+    3 x 3 cells around the body), taken in index order, so the lists are those of a
+    scan over all bodies; cells are widened so that there are at most about
+    _MAX_CELLS_PER_BODY per body; an infinite range is one cell."""
     b = bodies.shape[0]
     n = positions.shape[0]
+    # the grid: cell (cx, cy) of body j, bodies bucketed by cell in index order
+    x0 = positions[0, 0]
+    y0 = positions[0, 1]
+    x1 = x0
+    y1 = y0
+    for j in range(n):
+        x0 = min(x0, positions[j, 0])
+        x1 = max(x1, positions[j, 0])
+        y0 = min(y0, positions[j, 1])
+        y1 = max(y1, positions[j, 1])
+    gx = 1
+    gy = 1
+    h = 1.0
+    if math.isfinite(sensing_range) and math.isfinite(x1 - x0) and math.isfinite(y1 - y0):
+        # a little wider than the range: rounding cannot put a body in range two cells
+        # away; wider still where the cells would outnumber the bodies many times
+        cells = _MAX_CELLS_PER_BODY * n + 16
+        h = max(sensing_range * (1.0 + 1e-9), 1e-9,
+                1.01 * math.sqrt((x1 - x0) * (y1 - y0) / cells))
+        wx = math.floor((x1 - x0) / h) + 1.0
+        wy = math.floor((y1 - y0) / h) + 1.0
+        while wx * wy > cells:  # long thin extents: coarser until the cells fit
+            h *= 2.0
+            wx = math.floor((x1 - x0) / h) + 1.0
+            wy = math.floor((y1 - y0) / h) + 1.0
+        gx = int(wx)
+        gy = int(wy)
+    cell = np.zeros(n, dtype=np.int64)
+    if gx * gy > 1:
+        for j in range(n):
+            cx = min(int(math.floor((positions[j, 0] - x0) / h)), gx - 1)
+            cy = min(int(math.floor((positions[j, 1] - y0) / h)), gy - 1)
+            cell[j] = cy * gx + cx
+    cell_start = np.zeros(gx * gy + 1, dtype=np.int64)
+    for j in range(n):
+        cell_start[cell[j] + 1] += 1
+    for c in range(gx * gy):
+        cell_start[c + 1] += cell_start[c]
+    fill = cell_start[:-1].copy()
+    members = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        members[fill[cell[j]]] = j
+        fill[cell[j]] += 1
+
     start = np.zeros(b + 1, dtype=np.int64)
-    index = np.empty(b * n, dtype=np.int64)
+    index = np.empty(16 * b + 16, dtype=np.int64)
     d = np.empty(n)
     cand = np.empty(n, dtype=np.int64)
+    near = np.empty(n, dtype=np.int64)
     order = np.empty(n, dtype=np.int64)
     scratch = np.empty(n, dtype=np.int64)
     for k in range(b):
         me = bodies[k]
         mx = positions[me, 0]
         my = positions[me, 1]
+        cx = cell[me] % gx
+        cy = cell[me] // gx
+        c_n = 0
+        for yy in range(max(cy - 1, 0), min(cy + 2, gy)):
+            for xx in range(max(cx - 1, 0), min(cx + 2, gx)):
+                c = yy * gx + xx
+                for i in range(cell_start[c], cell_start[c + 1]):
+                    near[c_n] = members[i]
+                    c_n += 1
+        # index order, as a scan over all bodies (the cells' runs are each in order)
+        if c_n <= 64:
+            for i in range(1, c_n):
+                x = near[i]
+                j = i
+                while j > 0 and near[j - 1] > x:
+                    near[j] = near[j - 1]
+                    j -= 1
+                near[j] = x
+        else:
+            near[:c_n].sort()
         m = 0
-        for j in range(n):
+        for i in range(c_n):
+            j = near[i]
             dx = positions[j, 0] - mx
             dy = positions[j, 1] - my
             dj = math.inf if j == me else math.sqrt(dx * dx + dy * dy)
@@ -155,6 +229,10 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
         _stable_order(d, m, order, scratch)
         if 0 <= max_neighbours < m:
             m = max_neighbours
+        if start[k] + m > index.shape[0]:
+            grown = np.empty(max(2 * index.shape[0], start[k] + m), dtype=np.int64)
+            grown[:start[k]] = index[:start[k]]
+            index = grown
         for i in range(m):
             index[start[k] + i] = cand[order[i]]
         start[k + 1] = start[k] + m

@@ -967,7 +967,8 @@ def load_summary(folder: str | Path) -> list[dict[str, Any]]:
 TABLE_LEGEND = """\
 episodes: episodes with a result ("failed": raised, left out of every other column);
   distinct: distinct trajectories among the completed episodes (exact repeats counted once)
-success: robot-episodes that reached the goal without any contact and were at it at the end / robot-episodes (%)
+success: robot-episodes that reached the goal without any contact and were at it at the
+  episode's end / robot-episodes (%)
 collision rate: robot-episodes with at least one contact / robot-episodes (%),
   [95 % Wilson interval; sample size: the robot-episodes of distinct episodes]
 contacts: contact events involving a robot (robot-robot counted once)

@@ -319,6 +319,26 @@ def test_neighbour_lists_match_neighbours_in_range(seed):
             np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
 
 
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 120), st.floats(0.5, 400.0), st.sampled_from([0.0, 0.7, 3.0, 25.0]),
+       st.sampled_from([None, 1, 6]), st.integers(0, 2**32 - 1))
+def test_neighbour_lists_through_the_grid_are_a_scan_over_all_bodies(n, spread, rng_m, cap,
+                                                                     seed):
+    """Many cells (bodies spread far beyond the range), bodies on cell borders (positions
+    on a lattice of the range), duplicates: the same lists as a scan of every body."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(-spread, spread, size=(n, 2))
+    if rng_m > 0:
+        lattice = rng.random(n) < 0.3
+        pos[lattice] = np.round(pos[lattice] / rng_m) * rng_m
+    pos[rng.random(n) < 0.1] = pos[0]
+    bodies = rng.permutation(n)[: int(rng.integers(1, n + 1))]
+    start, index = neighbour_lists(bodies, pos, rng_m, cap)
+    for k, b in enumerate(bodies):
+        expect = neighbours_in_range(int(b), pos, rng_m, cap)
+        np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.integers(0, 12), min_size=0, max_size=140), st.integers(0, 3))
 def test_stable_order_is_numpys_stable_argsort(keys, spare):
