@@ -6,10 +6,13 @@ writes PNG figures (matplotlib, Agg canvas, no display needed):
 - ``rates.png``: per map, the collision rate per agent (share of
   robot-episodes with a collision, with its 95 % Wilson interval; each bar
   labelled with its count, robot-episodes with a collision / robot-episodes)
-  and the acceleration adjustments per second per agent;
+  and the acceleration adjustments per second driven per agent, with a 95 %
+  interval (:func:`adjustment_rate_ci95`) and the definition of an
+  adjustment under the plots;
 - ``time_to_goal.png``: per map, the distribution of the time to goal (s)
-  of the robot-episodes that arrived, one box per agent (with the share
-  that arrived);
+  of the robot-episodes that arrived, one box per agent (under each agent:
+  robot-episodes that arrived / robot-episodes; tick labels are turned
+  when they would overlap);
 - ``min_separation.png``: histograms of the robot-episodes' minimum
   separation (m, surface to surface; below 0 = contact), one per agent
   (rows) and map (columns); robot-episodes that never came within the
@@ -18,6 +21,8 @@ writes PNG figures (matplotlib, Agg canvas, no display needed):
 
 from __future__ import annotations
 
+import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -28,11 +33,21 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from nao_arena.stats import StatsConfig
 from nao_arena.trials import atomic_write_with, format_table, load_summary
 
-__all__ = ["REPORT_FILES", "rate_label", "report_text", "write_report"]
+__all__ = ["ADJUSTMENT_CAPTION", "REPORT_FILES", "adjustment_rate_ci95", "rate_label",
+           "report_text", "write_report"]
 
 REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
+
+ADJUSTMENT_CAPTION = (
+    "Adjustment: a control step at which the robot's commanded acceleration changed by more "
+    f"than {StatsConfig().adjustment_threshold:g} m/s^2 from the step before, counted until "
+    "the robot reaches its goal; rate = adjustments / time driven (until the goal, or the "
+    "episode's end), over all robot-episodes of the cell. Whiskers: 95 % intervals (collision "
+    "rate: Wilson; adjustments: ratio +- 1.96 standard errors, episodes as clusters).")
+"""The definition under ``rates.png``."""
 
 
 def report_text(folder: str | Path) -> str:
@@ -49,6 +64,41 @@ def rate_label(row: Mapping[str, Any] | None) -> str:
     if collided is None:  # a summary written before the counts were recorded
         collided = round(row["collision_rate"] * row["robots"])
     return f"{collided}/{row['robots']}"
+
+
+def _driven(row: Mapping[str, Any]) -> float:
+    """Time driven by a robot-episode (s): until its goal, else the whole episode."""
+    if row.get("reached_goal") and row.get("time_to_goal") is not None:
+        return float(row["time_to_goal"])
+    return float(row["duration"])
+
+
+def adjustment_rate_ci95(rows: Sequence[Mapping[str, Any]],
+                         repeats: float = 1.0) -> tuple[float, float, float] | None:
+    """(rate, low, high) of adjustments per second driven (1/s) over robot-episodes ``rows``
+    (``episodes.parquet`` rows of one map x agent, failed episodes left out): the rate is
+    sum(adjustments) / sum(time driven), as in ``summary.json``; the interval is the rate
+    +- 1.96 standard errors of that ratio (delta method) with the episodes as clusters, the
+    robots of one episode not being independent, clipped at 0 (a normal approximation:
+    optimistic for a handful of episodes). repeats: completed / distinct episodes (>= 1),
+    which scales the variance as exact repeats add no information. None: no time driven,
+    or fewer than two episodes."""
+    per_episode: dict[Any, list[float]] = {}
+    for r in rows:
+        if r.get("error") is not None or r.get("adjustments") is None:
+            continue
+        acc = per_episode.setdefault(r["episode"], [0.0, 0.0])
+        acc[0] += r["adjustments"]
+        acc[1] += _driven(r)
+    n = len(per_episode)
+    a = np.array([v[0] for v in per_episode.values()])
+    d = np.array([v[1] for v in per_episode.values()])
+    if n < 2 or d.sum() <= 0:
+        return None
+    rate = float(a.sum() / d.sum())
+    var = n / (n - 1) * float(np.sum((a - rate * d) ** 2)) / float(d.sum()) ** 2
+    half = 1.96 * math.sqrt(var * max(repeats, 1.0))
+    return rate, max(rate - half, 0.0), rate + half
 
 
 def _ordered(values: Sequence[str]) -> list[str]:
@@ -71,9 +121,10 @@ def _grid(n_maps: int, width: float = 5.0, height: float = 3.6) -> tuple[Figure,
     return fig, axes[:n_maps]
 
 
-def _rates(summary: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str]) -> Figure:
-    fig = Figure(figsize=(max(7.0, 1.1 * len(agents) * len(maps) + 3), 4.0),
-                 layout="constrained")
+def _rates(summary: Sequence[Mapping[str, Any]], robot_rows: Sequence[Mapping[str, Any]],
+           maps: list[str], agents: list[str]) -> Figure:
+    fig_w = max(7.0, 1.1 * len(agents) * len(maps) + 3)
+    fig = Figure(figsize=(fig_w, 4.6), layout="constrained")
     ax_c, ax_a = fig.subplots(1, 2)
     cell = {(r["map"], r["agent"]): r for r in summary}
     width = 0.8 / len(maps)
@@ -81,28 +132,32 @@ def _rates(summary: Sequence[Mapping[str, Any]], maps: list[str], agents: list[s
     colors = [f"C{k % 10}" for k in range(len(maps))]
     for k, m in enumerate(maps):
         pos = x - 0.4 + width * (k + 0.5)
-        rows = [cell.get((m, a)) for a in agents]
+        cells = [cell.get((m, a)) for a in agents]
         rate = np.array([np.nan if r is None or r["collision_rate"] is None
-                         else r["collision_rate"] for r in rows])
+                         else r["collision_rate"] for r in cells])
         lo = np.array([np.nan if r is None or r["collision_rate_ci95"] is None
-                       else r["collision_rate_ci95"][0] for r in rows])
+                       else r["collision_rate_ci95"][0] for r in cells])
         hi = np.array([np.nan if r is None or r["collision_rate_ci95"] is None
-                       else r["collision_rate_ci95"][1] for r in rows])
+                       else r["collision_rate_ci95"][1] for r in cells])
         err = np.vstack([np.nan_to_num(rate - lo), np.nan_to_num(hi - rate)])
         bars = ax_c.bar(pos, np.nan_to_num(rate), width, yerr=err, capsize=3,
                         color=colors[k], label=m, error_kw={"elinewidth": 1, "alpha": 0.7})
-        ax_c.bar_label(bars, labels=[rate_label(r) for r in rows], fontsize="x-small",
+        ax_c.bar_label(bars, labels=[rate_label(r) for r in cells], fontsize="x-small",
                        padding=2)
         adj = np.array([np.nan if r is None or r["adjustments_per_s"] is None
-                        else r["adjustments_per_s"] for r in rows])
-        bars = ax_a.bar(pos, np.nan_to_num(adj), width, color=colors[k], label=m)
+                        else r["adjustments_per_s"] for r in cells])
+        ci = [_adjustment_ci(robot_rows, r, m, a) for r, a in zip(cells, agents, strict=True)]
+        err = np.array([[0.0, 0.0] if c is None or v != v else [v - c[1], c[2] - v]
+                        for c, v in zip(ci, adj, strict=True)]).T
+        bars = ax_a.bar(pos, np.nan_to_num(adj), width, yerr=np.maximum(err, 0.0), capsize=3,
+                        color=colors[k], label=m, error_kw={"elinewidth": 1, "alpha": 0.7})
         ax_a.bar_label(bars, labels=["-" if v != v else f"{v:.1f}" for v in adj],
                        fontsize="x-small", padding=2)
     ax_c.set_ylim(0.0, 1.12)
     ax_c.set_ylabel("share of robot-episodes with a collision")
     ax_c.set_title("Collision rate (95% Wilson interval)")
-    ax_a.set_ylabel("adjustments per second (1/s)")
-    ax_a.set_title("Acceleration adjustments")
+    ax_a.set_ylabel("adjustments per second driven (1/s)")
+    ax_a.set_title("Acceleration adjustments (95% interval)")
     for ax in (ax_c, ax_a):
         ax.set_xticks(x, agents)
         ax.set_xlabel("agent")
@@ -111,7 +166,22 @@ def _rates(summary: Sequence[Mapping[str, Any]], maps: list[str], agents: list[s
         ax_c.legend(title="map", fontsize="small")
     else:
         fig.suptitle(maps[0])
+    chars = int(fig_w * 110 / 7)  # about 7 px per character at the caption's size
+    fig.supxlabel("\n".join(textwrap.wrap(ADJUSTMENT_CAPTION, chars)), fontsize="small",
+                  color="0.25")
     return fig
+
+
+def _adjustment_ci(robot_rows: Sequence[Mapping[str, Any]], cell: Mapping[str, Any] | None,
+                   m: str, a: str) -> tuple[float, float, float] | None:
+    """The adjustment rate's interval of one map x agent (see :func:`adjustment_rate_ci95`)."""
+    if cell is None:
+        return None
+    completed = (cell.get("episodes") or 0) - (cell.get("failed_episodes") or 0)
+    distinct = cell.get("distinct_episodes") or completed
+    repeats = completed / distinct if distinct else 1.0
+    return adjustment_rate_ci95([r for r in robot_rows if r["map"] == m and r["agent"] == a],
+                                repeats)
 
 
 def _column(rows: Sequence[Mapping[str, Any]], m: str, a: str, name: str) -> list[Any]:
@@ -130,7 +200,7 @@ def _time_to_goal(rows: Sequence[Mapping[str, Any]], maps: list[str],
                                          strict=True) if ok and t is not None]
             data.append(times)
             share = f"{len(times)}/{len(reached)}" if reached else "0/0"
-            labels.append(f"{a}\n{share} arrived")
+            labels.append(f"{a}\n{share}")
         positions = np.arange(1, len(agents) + 1)
         filled = [k for k, d in enumerate(data) if d]
         if filled:
@@ -143,11 +213,32 @@ def _time_to_goal(rows: Sequence[Mapping[str, Any]], maps: list[str],
                         color="0.4")
         ax.set_xticks(positions, labels, fontsize="small")
         ax.set_xlim(0.4, len(agents) + 0.6)
+        ax.set_xlabel("agent, and its robot-episodes that arrived / all")
         ax.set_ylabel("time to goal (s)")
         ax.set_title(m)
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle("Time to goal (robot-episodes that arrived; box: quartiles, triangle: mean)")
+    _turn_overlapping_ticks(fig, axes)
     return fig
+
+
+def _overlapping(boxes: Sequence[Any]) -> bool:
+    """Whether any two of the display-space boxes overlap."""
+    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def _turn_overlapping_ticks(fig: Figure, axes: Sequence[Axes]) -> None:
+    """Turn the x tick labels of axes whose labels overlap (long agent names) by 30 deg."""
+    FigureCanvasAgg(fig)
+    fig.draw_without_rendering()
+    renderer = fig.canvas.get_renderer()
+    for ax in axes:
+        ticks = [t for t in ax.get_xticklabels() if t.get_text()]
+        if _overlapping([t.get_window_extent(renderer) for t in ticks]):
+            for t in ticks:
+                t.set_rotation(30)
+                t.set_horizontalalignment("right")
+                t.set_rotation_mode("anchor")
 
 
 def _min_separation(rows: Sequence[Mapping[str, Any]], maps: list[str],
@@ -205,7 +296,7 @@ def write_report(folder: str | Path, out: str | Path | None = None) -> list[Path
     maps = _ordered([r["map"] for r in summary])
     agents = _ordered([r["agent"] for r in summary])
     return [
-        _save(_rates(summary, maps, agents), out / REPORT_FILES[0]),
+        _save(_rates(summary, rows, maps, agents), out / REPORT_FILES[0]),
         _save(_time_to_goal(rows, maps, agents), out / REPORT_FILES[1]),
         _save(_min_separation(rows, maps, agents), out / REPORT_FILES[2]),
     ]

@@ -30,10 +30,19 @@ against the wall segments; the acceleration-limit circle |a| = a_max; the desire
 (goal-seeking) acceleration as a green arrow and the last commanded one as
 a black arrow.
 
+Every symbol is explained in the panel's legend (:meth:`Viewer.legend_entries`):
+a neighbour's predicted path, its position at the horizon (hollow ring) and
+its NAO share one colour; trails are dotted; the walls' region is grey; a
+region that continues beyond the panel's edge gets a dashed band outside
+the frame; an acceleration too short for an arrow (e.g. none needed at
+v_max) is drawn as a ring.
+
 Headless: ``Viewer(human=False)`` draws on an off-screen surface and needs
-no display. ``human=True`` opens a window (``SDL_VIDEODRIVER=dummy`` is set
-first when there is no display, so that it never fails on a server); Tab
-cycles the selected robot there.
+no display; its frames depend on the simulation only (no wall-clock rate).
+``human=True`` opens a window (``SDL_VIDEODRIVER=dummy`` is set first when
+there is no display, so that it never fails on a server) that shows the
+steps per second and the keys (:data:`KEYS`): Tab / Shift+Tab cycle the
+selected robot, H or ? hides / shows the keys line.
 """
 
 from __future__ import annotations
@@ -43,7 +52,7 @@ import os
 import time
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -64,7 +73,8 @@ from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.traffic import CircleLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
 
-__all__ = ["AGENT_COLOURS", "FRAME_SIZE", "Viewer", "ViewerOptions"]
+__all__ = ["AGENT_COLOURS", "FRAME_SIZE", "KEYS", "EdgeRun", "FrameInfo", "LegendEntry", "Viewer",
+           "ViewerOptions", "edge_runs"]
 
 FRAME_SIZE: tuple[int, int] = (1200, 800)
 """Default frame size (width, height) px."""
@@ -95,6 +105,52 @@ _LANE: Colour = (222, 222, 218)
 _TEXT: Colour = (20, 20, 20)
 _RED: Colour = (220, 20, 30)
 _GREEN: Colour = (20, 150, 40)
+_MIN_ARROW_PX = 10.0
+"""Accelerations shorter than this on the panel (px) are drawn as rings, not arrows."""
+
+KEYS: tuple[tuple[str, str], ...] = (
+    ("Tab", "next robot"),
+    ("Shift+Tab", "previous robot"),
+    ("H or ?", "hide or show this line"),
+)
+"""Keys of the viewer's window (``human=True``): (key, what it does)."""
+
+
+@dataclass(frozen=True)
+class LegendEntry:
+    """One legend item: how its symbol is drawn (``disc``, ``ring``, ``goal``, ``dotted``,
+    ``line``, ``dashed``, ``arrow``, ``zero``, ``circle``, ``swatch``, ``cut``), its
+    label, and the colours the symbol shows (several: one per neighbour)."""
+
+    symbol: str
+    label: str
+    colours: tuple[Colour, ...] = ((0, 0, 0),)
+    section: str = "world"
+
+
+@dataclass(frozen=True)
+class EdgeRun:
+    """A region of the acceleration panel cut by the panel's edge: ``edge`` (top, bottom,
+    left, right), grid cells [start, stop) along it (left to right, top to bottom), and
+    the region's label (-2: walls, j >= 0: neighbour j)."""
+
+    edge: str
+    start: int
+    stop: int
+    label: int
+
+
+@dataclass
+class FrameInfo:
+    """What the last frame showed: texts drawn, legend entries, regions cut at the panel's
+    edge, the accelerations drawn as rings (too short for an arrow) and the scale bar's
+    box (x, y, width, height) px."""
+
+    texts: list[str] = field(default_factory=list)
+    legend: list[LegendEntry] = field(default_factory=list)
+    cut_edges: list[EdgeRun] = field(default_factory=list)
+    short_arrows: list[str] = field(default_factory=list)
+    scale_box: tuple[int, int, int, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -149,6 +205,29 @@ def _segment_distance(p: NDArray[np.float64], segs: NDArray[np.float64]) -> NDAr
     return np.hypot(d[..., 0], d[..., 1])
 
 
+def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
+    """Runs of region cells (label != -1) along the four edges of a panel's label grid
+    (g, g): row 0 is the top, column 0 the left edge."""
+    runs = []
+    for edge, line in (("top", labels[0]), ("bottom", labels[-1]),
+                       ("left", labels[:, 0]), ("right", labels[:, -1])):
+        k = 0
+        while k < len(line):
+            if line[k] == -1:
+                k += 1
+                continue
+            start = k
+            while k < len(line) and line[k] == line[start]:
+                k += 1
+            runs.append(EdgeRun(edge, start, k, int(line[start])))
+    return runs
+
+
+def _trail_colour(c: Colour) -> Colour:
+    """A robot's trail: its colour darkened towards grey (dotted, unlike predicted paths)."""
+    return _mix(c, 0.6, (165, 165, 165))
+
+
 class Viewer:
     """Draws arenas to frames (H, W, 3) uint8; optionally shows them in a window."""
 
@@ -181,6 +260,9 @@ class Viewer:
         self._rate = 0.0
         self._wall_clock: tuple[float, int] | None = None
         self._steps = 0
+        self.show_keys = True
+        self.info = FrameInfo()
+        self._horizon = 3.0
 
     # ------------------------------------------------------------------ public
 
@@ -209,6 +291,7 @@ class Viewer:
         if self.human:
             self._events(n_robots)
         selected = (int(selected) + self.selected_offset) % max(n_robots, 1)
+        self.info = FrameInfo()
         self._track(arena)
         surf = self.surface
         surf.fill(_BG)
@@ -231,9 +314,15 @@ class Viewer:
     # ------------------------------------------------------------------ state
 
     def _events(self, n_robots: int) -> None:
+        """The window's keys (:data:`KEYS`)."""
         for event in pygame.event.get():
-            if event.type == pygame.KEYDOWN and event.key == pygame.K_TAB:
-                self.selected_offset = (self.selected_offset + 1) % max(n_robots, 1)
+            if event.type != pygame.KEYDOWN:
+                continue
+            if event.key == pygame.K_TAB:
+                step = -1 if getattr(event, "mod", 0) & pygame.KMOD_SHIFT else 1
+                self.selected_offset = (self.selected_offset + step) % max(n_robots, 1)
+            elif event.key == pygame.K_h or getattr(event, "unicode", "") == "?":
+                self.show_keys = not self.show_keys
 
     def _track(self, arena: Any) -> None:
         """Trails, contact flashes and the step rate, reset on a new episode."""
@@ -358,12 +447,11 @@ class Viewer:
             pygame.draw.circle(surf, _mix(colours[k], 0.8), g, r, 2)
             pygame.draw.line(surf, _mix(colours[k], 0.8), (g[0] - r, g[1]), (g[0] + r, g[1]), 1)
             pygame.draw.line(surf, _mix(colours[k], 0.8), (g[0], g[1] - r), (g[0], g[1] + r), 1)
-        # trails
+        # trails (dotted, unlike the solid predicted paths)
         for k, body in enumerate(arena.robot_ids):
             trail = self._trails[int(body)]
             if len(trail) >= 2:
-                pygame.draw.lines(surf, _mix(colours[k], 0.45), False,
-                                  self._px(tr, np.array(trail)).tolist(), 2)
+                self._dotted(self._px(tr, np.array(trail)), _trail_colour(colours[k]))
         # selected robot: line to goal, predicted paths
         if obs is not None:
             body = int(arena.robot_ids[selected])
@@ -411,11 +499,21 @@ class Viewer:
             label = self._small.render(arena.robots[selected].name or f"robot{selected}", True,
                                        _TEXT)
             surf.blit(label, (p[0] + r + 5, p[1] - r - 14))
-        # scale bar
+        # scale bar on a light box, readable over walls and lanes
         bar_m = self._nice(80 / s)
+        bar_px = int(bar_m * s)
+        label = self._small.render(f"{bar_m:g} m", True, _TEXT)
         x0, y0 = 16, self.options.size[1] - 20
-        pygame.draw.line(surf, _TEXT, (x0, y0), (x0 + int(bar_m * s), y0), 3)
-        surf.blit(self._small.render(f"{bar_m:g} m", True, _TEXT), (x0, y0 - 16))
+        box = pygame.Rect(x0 - 6, y0 - label.get_height() - 6,
+                          max(bar_px, label.get_width()) + 12, label.get_height() + 12)
+        backing = pygame.Surface(box.size, pygame.SRCALPHA)
+        backing.fill((255, 255, 255, 225))
+        surf.blit(backing, box.topleft)
+        pygame.draw.rect(surf, (150, 150, 150), box, 1)
+        pygame.draw.line(surf, _TEXT, (x0, y0), (x0 + bar_px, y0), 3)
+        surf.blit(label, (x0, y0 - label.get_height() - 2))
+        self.info.texts.append(f"{bar_m:g} m")
+        self.info.scale_box = (box.x, box.y, box.width, box.height)
 
     @staticmethod
     def _nice(x: float) -> float:
@@ -424,6 +522,18 @@ class Viewer:
             if m * e >= x:
                 return m * e
         return 10 * e
+
+    def _dotted(self, q: NDArray[np.float64], colour: Colour, spacing: float = 6.0) -> None:
+        """Dots every ``spacing`` px along the polyline q (n, 2) px."""
+        seg = np.hypot(*np.diff(q, axis=0).T)
+        arc = np.concatenate([[0.0], np.cumsum(seg)])
+        if arc[-1] <= 0:
+            return
+        at = np.arange(0.0, arc[-1], spacing)
+        xs = np.interp(at, arc, q[:, 0])
+        ys = np.interp(at, arc, q[:, 1])
+        for x, y in zip(xs, ys, strict=True):
+            pygame.draw.circle(self.surface, colour, (int(round(x)), int(round(y))), 2)
 
     def _dashed(self, q: NDArray[np.float64], colour: Colour, closed: bool) -> None:
         pts = np.vstack([q, q[:1]]) if closed else q
@@ -474,6 +584,7 @@ class Viewer:
     def _draw_predictions(self, arena: Any, tr: tuple[float, ...], selected: int,
                           obs: Any) -> None:
         times, centres, _, _ = self._predictions(arena, selected, obs)
+        self._horizon = float(times[-1])
         surf = self.surface
         for j in range(len(centres)):
             col = _PALETTE[j % len(_PALETTE)]
@@ -495,6 +606,13 @@ class Viewer:
     def _text(self, text: str, pos: tuple[int, int], font: Any = None,
               colour: Colour = _TEXT) -> None:
         self.surface.blit((font or self._font).render(text, True, colour), pos)
+        self.info.texts.append(text)
+
+    def keys_line(self) -> str:
+        """The keys line shown at the bottom of the window (:data:`KEYS`)."""
+        if not self.show_keys:
+            return "H or ?: show keys"
+        return "  ".join(f"{k}: {what}" for k, what in KEYS[:2]) + f"  {KEYS[2][0]}: hide"
 
     def _draw_panel(self, arena: Any, panel: pygame.Rect, selected: int,
                     controlled: set[int], obs: Any) -> None:
@@ -503,28 +621,41 @@ class Viewer:
         stats = arena.stats
         limit = arena.spec.episode.time_limit
         robot_contacts = sum(1 for c in stats.contacts if "robot" in (c.kind_a, c.kind_b))
-        self._text(f"{arena.spec.name}", (x, 10), self._big)
-        self._text(f"t = {state.time:6.1f} s  / {limit:g} s     step {self._steps}", (x, 40))
-        rate = f"{self._rate:6.0f} steps/s ({self._rate * arena.world.dt:.1f}x real time)" \
-            if self._rate > 0 else "-- steps/s"
-        self._text(rate, (x, 62))
+        self._text(f"{arena.spec.name}", (x, 8), self._big)
+        self._text(f"t = {state.time:6.1f} s  / {limit:g} s     step {self._steps}", (x, 38))
+        y = 58
+        if self.human:  # the wall-clock rate: in the live window only, never in frames
+            rate = f"{self._rate:6.0f} steps/s ({self._rate * arena.world.dt:.1f}x real time)" \
+                if self._rate > 0 else "-- steps/s"
+            self._text(rate, (x, y))
+            y += 20
         reached = int(np.sum(stats.reached[arena.robot_ids])) if len(arena.robots) else 0
         self._text(f"collisions: {robot_contacts} involving robots ({len(stats.contacts)} "
-                   f"total)", (x, 84), colour=_RED if robot_contacts else _TEXT)
-        self._text(f"robots at goal: {reached} / {len(arena.robots)}", (x, 106))
+                   f"total)", (x, y), colour=_RED if robot_contacts else _TEXT)
+        self._text(f"robots at goal: {reached} / {len(arena.robots)}", (x, y + 20))
+        keys_h = 22 if self.human else 0
+        if self.human:
+            self._text(self.keys_line(), (x, panel.bottom - 20), self._small, (70, 70, 70))
         if obs is None:
             return
         body = int(arena.robot_ids[selected])
         name = arena.robots[selected].name or f"robot{selected}"
         who = "controlled" if selected in controlled else arena.agent_names[selected]
-        self._text(f"selected: {name} ({who})", (x, 136), self._font)
+        self._text(f"selected: {name} ({who})", (x, y + 46), self._font)
         speed = float(np.hypot(*state.velocities[body]))
         self._text(f"|v| = {speed:.2f} / {obs.v_max:g} m/s   a_max = {obs.a_max:g} m/s^2",
-                   (x, 158), self._small)
-        size = min(panel.width - 28, panel.height - 360)
-        plot = pygame.Rect(x, 200, size, size)
+                   (x, y + 68), self._small)
+        entries = self.legend_entries(arena, controlled)
+        col_w = (panel.right - 14 - x) // 2
+        rows = self._legend_rows(entries, col_w)
+        legend_h = 19 * len(rows)
+        top = 188
+        left = x + 40
+        size = min(panel.right - 14 - left, panel.height - top - 64 - legend_h - keys_h)
+        plot = pygame.Rect(left, top, max(size, 60), max(size, 60))
         self._draw_accel_space(arena, plot, selected, controlled, obs)
-        self._draw_legend(arena, controlled, (x, plot.bottom + 34))
+        self._draw_legend(rows, (x, plot.bottom + 64), col_w)
+        self.info.legend = entries
 
     def _draw_accel_space(self, arena: Any, plot: pygame.Rect, selected: int,
                           controlled: set[int], obs: Any) -> None:
@@ -563,11 +694,10 @@ class Viewer:
             lab[(wall_clear < 0) & (wall_clear < best)] = -2
             shown += len(walls[1])
         hit = lab != -1
+        grid_lab = lab.reshape(g, g)
         if np.any(hit):
-            cols = np.array([_mix(_PALETTE[j % len(_PALETTE)], 0.55) for j in range(len(_PALETTE))]
-                            + [_WALL_REGION], dtype=np.uint8)
-            img[hit] = cols[np.where(lab[hit] >= 0, lab[hit] % len(_PALETTE), len(_PALETTE))]
-            grid_lab = lab.reshape(g, g)
+            img[hit] = self._region_colours()[np.where(lab[hit] >= 0, lab[hit] % len(_PALETTE),
+                                                       len(_PALETTE))]
             edge = np.zeros((g, g), dtype=bool)
             edge[:-1] |= grid_lab[:-1] != grid_lab[1:]
             edge[1:] |= grid_lab[1:] != grid_lab[:-1]
@@ -580,23 +710,14 @@ class Viewer:
         image = pygame.surfarray.make_surface(img.reshape(g, g, 3).transpose(1, 0, 2))
         surf.blit(pygame.transform.smoothscale(image, plot.size), plot.topleft)
         pygame.draw.rect(surf, (120, 120, 120), plot, 1)
+        self._draw_cut_edges(plot, edge_runs(grid_lab), g)
         s = plot.width / (2 * ext)
         cx, cy = plot.center
 
         def to_px(a: NDArray[np.float64]) -> tuple[int, int]:
             return int(round(cx + a[0] * s)), int(round(cy - a[1] * s))
 
-        pygame.draw.line(surf, (170, 170, 170), (plot.left, cy), (plot.right, cy), 1)
-        pygame.draw.line(surf, (170, 170, 170), (cx, plot.top), (cx, plot.bottom), 1)
-        step = self._nice(ext / 3)
-        for k in range(1, int(ext / step) + 1):
-            for sgn in (-1, 1):
-                px = cx + sgn * k * step * s
-                pygame.draw.line(surf, (120, 120, 120), (px, cy - 3), (px, cy + 3), 1)
-                py = cy - sgn * k * step * s
-                pygame.draw.line(surf, (120, 120, 120), (cx - 3, py), (cx + 3, py), 1)
-            self._text(f"{k * step:g}", (int(cx + k * step * s) - 6, cy + 5), self._small,
-                       (90, 90, 90))
+        self._draw_axes(plot, ext)
         pygame.draw.circle(surf, (60, 60, 60), (cx, cy), int(round(obs.a_max * s)), 2)
         agent = arena.agents[selected]
         desired = goal_seeking_accel(obs, getattr(agent, "v_pref", None),
@@ -606,60 +727,201 @@ class Viewer:
         n = float(np.hypot(*chosen))
         if n > obs.a_max:
             chosen = chosen * obs.a_max / n
-        self._arrow(to_px(np.zeros(2)), to_px(desired), _GREEN)
-        self._arrow(to_px(np.zeros(2)), to_px(chosen), (0, 0, 0))
-        self._text("acceleration space (m/s^2), world axes", (plot.left, plot.top - 20),
+        self._arrow(to_px(np.zeros(2)), to_px(desired), _GREEN, "desired")
+        self._arrow(to_px(np.zeros(2)), to_px(chosen), (0, 0, 0), "commanded")
+        self._text("acceleration space (m/s^2), world axes", (plot.left - 40, plot.top - 24),
                    self._small)
         sel = getattr(agent, "last_selection", None)
         if selected not in controlled and sel is not None:
             status = f"last selection: {sel.status}; " + status
-        self._text(status, (plot.left, plot.bottom + 6), self._small, (70, 70, 70))
+        self._text(status, (plot.left - 40, plot.bottom + 42), self._small, (70, 70, 70))
 
-    def _arrow(self, p0: tuple[int, int], p1: tuple[int, int], colour: Colour) -> None:
+    @staticmethod
+    def _region_colours() -> NDArray[np.uint8]:
+        """Fill colours of the panel's regions: one per palette entry, then the walls'."""
+        return np.array([_mix(c, 0.55) for c in _PALETTE] + [_WALL_REGION], dtype=np.uint8)
+
+    def _draw_cut_edges(self, plot: pygame.Rect, runs: list[EdgeRun], g: int) -> None:
+        """A dashed band outside the panel's frame where a region reaches its edge."""
+        cols = self._region_colours()
+        cell = plot.width / g
+        for run in runs:
+            c = cols[len(_PALETTE) if run.label < 0 else run.label % len(_PALETTE)]
+            colour = tuple(int(v * 0.6) for v in c)
+            a = int(round(run.start * cell))
+            b = int(round(run.stop * cell))
+            for k in range(a, b, 9):
+                k1 = min(k + 6, b)
+                if run.edge in ("top", "bottom"):
+                    y = plot.top - 6 if run.edge == "top" else plot.bottom + 1
+                    rect = pygame.Rect(plot.left + k, y, k1 - k, 5)
+                else:
+                    xx = plot.left - 6 if run.edge == "left" else plot.right + 1
+                    rect = pygame.Rect(xx, plot.top + k, 5, k1 - k)
+                pygame.draw.rect(self.surface, colour, rect)
+        self.info.cut_edges = runs
+
+    def _draw_axes(self, plot: pygame.Rect, ext: float) -> None:
+        """Axes through the origin, ticks on every side, labelled below and left, and the
+        axis names a_x, a_y (m/s^2)."""
         surf = self.surface
-        pygame.draw.line(surf, colour, p0, p1, 3)
+        s = plot.width / (2 * ext)
+        cx, cy = plot.center
+        grey, tick_col = (170, 170, 170), (90, 90, 90)
+        pygame.draw.line(surf, grey, (plot.left, cy), (plot.right, cy), 1)
+        pygame.draw.line(surf, grey, (cx, plot.top), (cx, plot.bottom), 1)
+        step = self._nice(ext / 3)
+        k_max = int(ext / step + 1e-9)
+        for k in range(-k_max, k_max + 1):
+            v = k * step
+            px = int(round(cx + v * s))
+            py = int(round(cy - v * s))
+            if k:
+                pygame.draw.line(surf, tick_col, (px, cy - 3), (px, cy + 3), 1)
+                pygame.draw.line(surf, tick_col, (cx - 3, py), (cx + 3, py), 1)
+            for y0, y1 in ((plot.top, plot.top + 4), (plot.bottom - 5, plot.bottom - 1)):
+                pygame.draw.line(surf, tick_col, (px, y0), (px, y1), 1)
+            for x0, x1 in ((plot.left, plot.left + 4), (plot.right - 5, plot.right - 1)):
+                pygame.draw.line(surf, tick_col, (x0, py), (x1, py), 1)
+            label = f"{v:g}"
+            img = self._small.render(label, True, tick_col)
+            surf.blit(img, (px - img.get_width() // 2, plot.bottom + 8))
+            surf.blit(img, (plot.left - 9 - img.get_width(), py - img.get_height() // 2))
+            self.info.texts.append(label)
+        name_x = self._small.render("a_x (m/s^2)", True, _TEXT)
+        surf.blit(name_x, (plot.right - name_x.get_width(), plot.bottom + 24))
+        name_y = pygame.transform.rotate(self._small.render("a_y (m/s^2)", True, _TEXT), 90)
+        surf.blit(name_y, (plot.left - 40, plot.top))
+        self.info.texts += ["a_x (m/s^2)", "a_y (m/s^2)"]
+
+    def _arrow(self, p0: tuple[int, int], p1: tuple[int, int], colour: Colour,
+               name: str = "") -> None:
+        """An arrow p0 -> p1 (px); shorter than ``_MIN_ARROW_PX``: a ring around p1 (the
+        desired one larger, so that both show when they coincide)."""
+        surf = self.surface
         dx, dy = p1[0] - p0[0], p1[1] - p0[1]
         n = math.hypot(dx, dy)
-        if n < 1:
-            pygame.draw.circle(surf, colour, p0, 4)
+        if n < _MIN_ARROW_PX:
+            radius = 8 if colour == _GREEN else 4
+            pygame.draw.circle(surf, colour, p1, radius, 2)
+            if name:
+                self.info.short_arrows.append(name)
             return
+        pygame.draw.line(surf, colour, p0, p1, 3)
         ux, uy = dx / n, dy / n
         head = min(12.0, 0.5 * n)
         left = (p1[0] - head * (ux - 0.5 * uy), p1[1] - head * (uy + 0.5 * ux))
         right = (p1[0] - head * (ux + 0.5 * uy), p1[1] - head * (uy - 0.5 * ux))
         pygame.draw.polygon(surf, colour, [p1, left, right])
 
-    def _draw_legend(self, arena: Any, controlled: set[int], at: tuple[int, int]) -> None:
-        x, y = at
-        surf = self.surface
-        kinds = []
+    # ------------------------------------------------------------------ legend
+
+    def legend_entries(self, arena: Any, controlled: Sequence[int] = ()) -> list[LegendEntry]:
+        """The legend of a frame of ``arena``: every kind of robot, then each symbol of the
+        world view (section ``world``) and of the acceleration panel (``panel``)."""
+        entries = []
+        kinds: list[str] = []
         for k, name in enumerate(arena.agent_names):
-            label = "controlled" if k in controlled else name
+            label = "controlled" if k in set(controlled) else name
             if label not in kinds:
                 kinds.append(label)
         if len(arena.traffic.indices):
             kinds.append("traffic")
-        col_w = 120
-        for i, kind in enumerate(kinds):
-            px, py = x + (i % 3) * col_w, y + (i // 3) * 22
-            pygame.draw.circle(surf, _agent_colour(kind), (px + 7, py + 8), 7)
-            self._text(kind, (px + 20, py + 1), self._small)
-        y += ((len(kinds) + 2) // 3) * 22 + 6
-        self._arrow((x, y + 8), (x + 30, y + 8), _GREEN)
-        self._text("desired", (x + 36, y + 1), self._small)
-        self._arrow((x + 120, y + 8), (x + 150, y + 8), (0, 0, 0))
-        self._text("commanded", (x + 156, y + 1), self._small)
-        y += 22
-        pygame.draw.circle(surf, (60, 60, 60), (x + 15, y + 8), 8, 2)
-        self._text("|a| = a_max", (x + 36, y + 1), self._small)
-        pygame.draw.rect(surf, _mix(_PALETTE[0], 0.55), (x + 120, y + 1, 30, 14))
-        self._text("NAO of a neighbour", (x + 156, y + 1), self._small)
-        y += 22
-        pygame.draw.line(surf, _PALETTE[1], (x, y + 8), (x + 30, y + 8), 2)
-        self._text("neighbour's predicted path", (x + 36, y + 1), self._small)
-        y += 22
-        self._dashed(np.array([[x + 2.0 * k, y + 8.0] for k in range(16)]), (0, 0, 0), False)
-        self._text("own path under the command", (x + 36, y + 1), self._small)
-        y += 22
-        pygame.draw.circle(surf, _RED, (x + 15, y + 8), 8, 3)
-        self._text("contact (flashed)", (x + 36, y + 1), self._small)
+        entries += [LegendEntry("disc", kind, (_agent_colour(kind),), "kinds") for kind in kinds]
+        robot = _agent_colour(kinds[0]) if kinds else _TEXT
+        per_neighbour = tuple(_PALETTE[:4])
+        entries += [
+            LegendEntry("ring", "selected robot", ((0, 0, 0),)),
+            LegendEntry("goal", "goal", (_mix(robot, 0.8),)),
+            LegendEntry("dotted", f"trail (last {self.options.trail_seconds:g} s)",
+                        (_trail_colour(robot),)),
+            LegendEntry("ring", "contact (flashed)", (_RED,)),
+        ]
+        if self.options.predicted_paths:
+            entries += [
+                LegendEntry("line", "neighbour's predicted path (colour = neighbour)",
+                            per_neighbour),
+                LegendEntry("ring", f"hollow ring: its position in {self._horizon:g} s",
+                            per_neighbour),
+                LegendEntry("dashed", "own path under the command", ((0, 0, 0),)),
+            ]
+        entries += [
+            LegendEntry("arrow", "desired", (_GREEN,), "panel"),
+            LegendEntry("arrow", "commanded", ((0, 0, 0),), "panel"),
+            LegendEntry("circle", "|a| = a_max", ((60, 60, 60),), "panel"),
+            LegendEntry("zero", "ring: |a| ~ 0, no arrow", (_GREEN, (0, 0, 0)), "panel"),
+            LegendEntry("swatch", "NAO of a neighbour (colour = neighbour, as its path)",
+                        tuple(_mix(c, 0.55) for c in per_neighbour), "panel"),
+            LegendEntry("swatch", "walls' region", (_WALL_REGION,), "panel"),
+            LegendEntry("cut", "region cut by the edge",
+                        (tuple(int(v * 0.6) for v in _mix(_PALETTE[0], 0.55)),), "panel"),
+        ]
+        return entries
+
+    def _legend_rows(self, entries: list[LegendEntry], col_w: int) -> list[list[LegendEntry]]:
+        """Entries in rows: robot kinds three to a row, others two (one if the label is long),
+        each section starting a new row."""
+        rows: list[list[LegendEntry]] = []
+        full = True
+        for e in entries:
+            per_row = 3 if e.section == "kinds" else 2
+            wide = e.section != "kinds" and self._small.size(e.label)[0] > col_w - 40
+            if full or wide or e.section != rows[-1][0].section or len(rows[-1]) >= per_row:
+                rows.append([])
+            rows[-1].append(e)
+            full = wide
+        return rows
+
+    def _draw_legend(self, rows: list[list[LegendEntry]], at: tuple[int, int],
+                     col_w: int) -> None:
+        x, y = at
+        for row in rows:
+            per_row = 3 if row[0].section == "kinds" else 2
+            w = (2 * col_w) // per_row
+            for i, e in enumerate(row):
+                self._symbol(e, (x + i * w, y))
+                self._text(e.label, (x + i * w + 36, y + 1), self._small)
+            y += 19
+
+    def _symbol(self, e: LegendEntry, at: tuple[int, int]) -> None:
+        """Draw a legend entry's symbol in the 30 x 16 px box at ``at``."""
+        surf = self.surface
+        x, y = at
+        cols = e.colours
+        mid = y + 8
+        if e.symbol == "disc":
+            pygame.draw.circle(surf, cols[0], (x + 7, mid), 7)
+        elif e.symbol == "ring":
+            n = len(cols)
+            for i, c in enumerate(cols):
+                r = 7 if n == 1 else 4
+                cx = x + 15 if n == 1 else x + 4 + i * 8
+                pygame.draw.circle(surf, c, (cx, mid), r, 3 if c == _RED else 2 if n == 1 else 1)
+        elif e.symbol == "goal":
+            pygame.draw.circle(surf, cols[0], (x + 15, mid), 6, 2)
+            pygame.draw.line(surf, cols[0], (x + 9, mid), (x + 21, mid), 1)
+            pygame.draw.line(surf, cols[0], (x + 15, mid - 6), (x + 15, mid + 6), 1)
+        elif e.symbol == "dotted":
+            for k in range(0, 31, 6):
+                pygame.draw.circle(surf, cols[0], (x + k, mid), 2)
+        elif e.symbol == "line":
+            w = 30 / len(cols)
+            for i, c in enumerate(cols):
+                pygame.draw.line(surf, c, (x + i * w, mid), (x + (i + 1) * w, mid), 2)
+        elif e.symbol == "dashed":
+            self._dashed(np.array([[x + 2.0 * k, mid] for k in range(16)]), cols[0], False)
+        elif e.symbol == "arrow":
+            self._arrow((x, mid), (x + 30, mid), cols[0])
+        elif e.symbol == "zero":
+            pygame.draw.circle(surf, cols[0], (x + 15, mid), 8, 2)
+            pygame.draw.circle(surf, cols[1], (x + 15, mid), 4, 2)
+        elif e.symbol == "circle":
+            pygame.draw.circle(surf, cols[0], (x + 15, mid), 8, 2)
+        elif e.symbol == "swatch":
+            w = 30 / len(cols)
+            for i, c in enumerate(cols):
+                pygame.draw.rect(surf, c, (int(x + i * w), y + 1, int(math.ceil(w)), 14))
+        elif e.symbol == "cut":
+            pygame.draw.rect(surf, (120, 120, 120), (x, y + 6, 30, 10), 1)
+            for k in (0, 9, 18, 27):
+                pygame.draw.rect(surf, cols[0], (x + k, y, min(6, 30 - k), 5))
