@@ -786,3 +786,35 @@ def test_nao_single_sample_and_zero_radius_do_not_crash() -> None:
     assert_grazing(case, b, n=10)
     b0 = ao_boundary(v, (3.0, 0.0), 0.0, horizon=2.0)  # a point obstacle
     assert np.all(np.isfinite(b0.points()))
+
+
+def _obstacle_side_by_forward_simulation(a, t, v, centre_at, vel_at):
+    """+1 where the obstacle is on the robot's left at time t under constant acceleration
+    a from velocity v (robot at the origin), -1 on its right; by the robot's motion."""
+    x = v * t + 0.5 * a * t * t
+    u = v + a * t - vel_at(t)  # velocity relative to the obstacle
+    to_obstacle = centre_at(t) - x
+    return np.sign(u[0] * to_obstacle[1] - u[1] * to_obstacle[0])
+
+
+@pytest.mark.parametrize("kind", ["bao", "ao", "nao"])
+def test_left_branch_passes_the_obstacle_on_the_robots_left(kind):
+    """ObstacleBoundary.left / right: the obstacle is on the robot's left / right at the
+    grazing time, checked on the robot's simulated motion (not by the boundary's code)."""
+    v = np.array([0.0, 0.0]) if kind == "bao" else np.array([1.0, 0.2])
+    q = np.array([4.0, 1.0])
+    w = np.array([0.0, 0.0]) if kind == "bao" else np.array([-0.5, 0.3])
+    if kind == "bao":
+        b = bao_boundary(q, 1.0, extent=6.0)
+    elif kind == "ao":
+        b = ao_boundary(v, q, 1.0, w, horizon=6.0, extent=6.0)
+    else:
+        times = np.linspace(0.0, 6.0, 61)
+        b = nao_boundary(v, times, q + times[:, None] * w, 1.0, extent=6.0)
+    for branch, times, side in ((b.left, b.left_times, 1.0), (b.right, b.right_times, -1.0)):
+        ok = np.isfinite(times) & (times > 1e-3) & np.all(np.isfinite(branch), axis=1)
+        assert np.count_nonzero(ok) > 5
+        for a, t in zip(branch[ok], times[ok], strict=True):
+            got = _obstacle_side_by_forward_simulation(a, t, v, lambda s: q + w * s,
+                                                       lambda s: w)
+            assert got == side, (kind, a, t)

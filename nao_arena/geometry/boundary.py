@@ -92,7 +92,8 @@ def _obstacle_on_left(rel_vel: NDArray[np.float64], normal: NDArray[np.float64])
     rel_vel: robot velocity relative to the obstacle at contact; normal:
     unit vector from the obstacle centre to the robot.
     """
-    return rel_vel[:, 0] * normal[:, 1] - rel_vel[:, 1] * normal[:, 0] > 0
+    # the obstacle lies along -normal: on the left where rel_vel x (-normal) > 0
+    return rel_vel[:, 0] * normal[:, 1] - rel_vel[:, 1] * normal[:, 0] < 0
 
 
 def grazing_filter(
