@@ -366,6 +366,12 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._viewer: Any = None
         self.last_result: StepResult | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Everything but the viewer (pygame objects; a copy opens its own on render)."""
+        state = self.__dict__.copy()
+        state["_viewer"] = None
+        return state
+
     # ------------------------------------------------------------------ setup
 
     def _load(self, params: Mapping[str, Any]) -> MapSpec:
