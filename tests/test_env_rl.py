@@ -13,8 +13,19 @@ import warnings
 import cloudpickle
 import numpy as np
 import pytest
+import supersuit as ss
+import yaml
+from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
 
-from nao_arena.environment import env, parallel_env
+from nao_arena.environment import (
+    NEIGHBOUR_FEATURES,
+    OWN_FEATURES,
+    EnvOptions,
+    RewardWeights,
+    env,
+    observation_layout,
+    parallel_env,
+)
 from nao_arena.maps import load_map
 from nao_arena.world import World
 
@@ -189,3 +200,241 @@ def test_copies_drop_the_viewer_and_render_alike():
     assert np.array_equal(twin.render(), frame)
     e.close()
     twin.close()
+
+
+# ---------------------------------------------------------------- agents that finish
+
+
+def _tiny_map(tmp_path, robots, time_limit=5.0, **extra):
+    data = {"name": "tiny", "bounds": {"min": [-10, -10], "max": [10, 10]},
+            "robots": robots, "episode": {"time_limit": time_limit}, **extra}
+    path = tmp_path / "tiny.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+NEAR_AND_FAR = [
+    {"name": "near_0", "start": [0.0, 0.0], "goal": [0.1, 0.0], "agent": "goal"},
+    {"name": "far_0", "start": [5.0, 5.0], "goal": [-5.0, 5.0], "agent": "goal"},
+]
+
+
+def test_keep_finished_keeps_agents_live_until_the_time_limit(tmp_path):
+    e = parallel_env(_tiny_map(tmp_path, NEAR_AND_FAR), keep_finished=True, after_done="hold")
+    lay = observation_layout(e.options)
+    assert lay["finished"].stop - lay["finished"].start == 1
+    obs, infos = e.reset(seed=0)
+    assert all(o[lay["finished"]] == 0.0 for o in obs.values())
+    assert infos["near_0"]["finished"] is False
+    zero = np.zeros(2, dtype=np.float32)
+    obs, rew, term, trunc, info = e.step({"near_0": zero, "far_0": zero})
+    assert rew["near_0"] == pytest.approx(RewardWeights().goal, abs=0.05)  # the arrival
+    assert term == {"near_0": False, "far_0": False} and not any(trunc.values())
+    assert info["near_0"]["finished"] is True and info["far_0"]["finished"] is False
+    assert obs["near_0"][lay["finished"]] == 1.0 and obs["far_0"][lay["finished"]] == 0.0
+    assert e.agents == ["near_0", "far_0"] and e.finished_agents == ["near_0"]
+    held = e.arena.state.positions[0].copy()
+    push = np.ones(2, dtype=np.float32)
+    n = 1
+    while e.agents:
+        obs, rew, term, trunc, info = e.step({"near_0": push, "far_0": zero})  # ignored
+        n += 1
+        if e.agents:
+            assert rew["near_0"] == 0.0 and not term["near_0"] and not trunc["near_0"]
+            assert obs["near_0"][lay["finished"]] == 1.0
+    assert n == 50 and e.agents == []
+    assert term == {"near_0": True, "far_0": False}  # finished: terminated at the end
+    assert trunc == {"near_0": False, "far_0": True}  # the time limit
+    assert np.hypot(*(e.arena.state.positions[0] - held)) < 0.05  # braked, not pushed
+
+
+def test_keep_finished_ends_when_every_agent_has_finished(tmp_path):
+    robots = [dict(NEAR_AND_FAR[0]),
+              {"name": "next_0", "start": [3.0, 0.0], "goal": [3.0, 1.5], "agent": "goal"}]
+    e = parallel_env(_tiny_map(tmp_path, robots), keep_finished=True)
+    e.reset(seed=0)
+    up = {"near_0": np.zeros(2), "next_0": np.array([0.0, 1.0])}
+    _, _, term, _, _ = e.step(up)
+    assert e.finished_agents == ["near_0"] and term == {"near_0": False, "next_0": False}
+    while e.agents:
+        _, rew, term, trunc, _ = e.step(up)
+    assert term == {"near_0": True, "next_0": True}
+    assert trunc == {"near_0": False, "next_0": False}
+    assert e.arena.time < 5.0
+
+
+@pytest.mark.parametrize("name", ["circle_swap", "corridor", "roundabout"])
+def test_keep_finished_passes_the_api_tests(name):
+    kw = {"keep_finished": True, "time_limit": 1.5,
+          "map_params": {"n": 3} if name == "circle_swap" else {"n": 1} if name == "corridor"
+          else {}}
+    parallel_api_test(parallel_env(name, **kw), num_cycles=30)
+    api_test(env(name, **kw), num_cycles=30)
+    parallel_seed_test(lambda: parallel_env(name, **kw), num_cycles=15)
+
+
+def test_default_mode_has_no_finished_entry():
+    lay = observation_layout(EnvOptions())
+    assert lay["finished"].start == lay["finished"].stop == lay["nao"].stop
+    e = parallel_env("circle_swap", n=3)
+    assert e.observation_space("swap0").shape == (lay["nao"].stop,)
+    e.reset(seed=0)
+    assert e.finished_agents == []
+
+
+def test_supersuit_vector_env_needs_keep_finished_or_black_death(tmp_path):
+    path = _tiny_map(tmp_path, NEAR_AND_FAR, time_limit=1.0)
+    vec = ss.pettingzoo_env_to_vec_env_v1(parallel_env(path))
+    vec.reset(seed=0)
+    with pytest.raises(AssertionError, match="black_death"):
+        vec.step(np.zeros((2, 2), dtype=np.float32))  # near_0 arrives and leaves
+    for vec in (ss.pettingzoo_env_to_vec_env_v1(parallel_env(path, keep_finished=True)),
+                ss.pettingzoo_env_to_vec_env_v1(ss.black_death_v3(parallel_env(path)))):
+        obs, _ = vec.reset(seed=0)
+        assert obs.shape == (2, vec.observation_space.shape[0])
+        resets = 0
+        for _ in range(25):  # two and a half episodes of 10 steps
+            obs, rew, term, trunc, infos = vec.step(np.zeros((2, 2), dtype=np.float32))
+            assert obs.shape[0] == rew.shape[0] == term.shape[0] == trunc.shape[0] == 2
+            resets += bool(np.all(term | trunc))
+        assert resets == 2
+
+
+# ---------------------------------------------------------------- observation bounds
+
+
+def _finite(e) -> bool:
+    box = e.observation_space(e.possible_agents[0])
+    return bool(np.all(np.isfinite(box.low)) and np.all(np.isfinite(box.high)))
+
+
+def test_observation_bounds_are_finite_where_the_quantities_are_bounded():
+    for name in ("crowd", "corridor"):  # closed by walls at their bounds
+        assert _finite(parallel_env(name))
+    e = parallel_env("circle_swap", n=3, nao_features=True, keep_finished=True)
+    box = e.observation_space("swap0")
+    own = {f: (box.low[i], box.high[i]) for i, f in enumerate(OWN_FEATURES)}
+    # open map: positions (and the goal offset) unbounded, everything else finite
+    assert own["x"] == (-np.inf, np.inf) and own["goal_dx"] == (-np.inf, np.inf)
+    assert own["goal_x"] == (-12.0, 12.0)
+    assert own["vx"][1] == pytest.approx(1.5, rel=1e-5)
+    assert own["ax"][1] == pytest.approx(2 * 1.5 / 0.1, rel=1e-5)
+    assert own["cmd_ax"][1] == pytest.approx(2.0, rel=1e-5)
+    assert own["time_left"] == (0.0, 40.0)
+    nb = slice(len(OWN_FEATURES), len(OWN_FEATURES) + len(NEIGHBOUR_FEATURES))
+    assert np.all(np.isfinite(box.low[nb])) and np.all(np.isfinite(box.high[nb]))
+    assert box.high[nb][NEIGHBOUR_FEATURES.index("dx")] == pytest.approx(30.0, rel=1e-5)
+    assert np.all(np.isfinite(box.low[len(OWN_FEATURES) + 4:]))
+    e = parallel_env("circle_swap", n=3, position_margin=2.0)
+    assert _finite(e)
+    box = e.observation_space("swap0")
+    assert box.high[OWN_FEATURES.index("x")] == 14.0
+    assert box.high[OWN_FEATURES.index("goal_dx")] == pytest.approx(26.0, rel=1e-5)
+
+
+@pytest.mark.parametrize("name, kw", [
+    ("crowd", {"n": 10, "lo": -4.0, "hi": 4.0}),
+    ("roundabout", {}),
+    ("circle_swap", {"position_margin": 0.5, "nao_features": True}),
+    ("two_lane_road", {"keep_finished": True}),
+])
+def test_observations_stay_within_their_space(name, kw):
+    e = parallel_env(name, controlled="all", time_limit=20.0, **kw)
+    obs, _ = e.reset(seed=1)
+    rng = np.random.default_rng(0)
+    while e.agents:
+        for a, o in obs.items():
+            assert e.observation_space(a).contains(o), a
+        obs = e.step({a: rng.uniform(-1, 1, 2) for a in e.agents})[0]
+
+
+def test_position_margin_clips_positions_into_the_bounds():
+    e = parallel_env("circle_swap", n=2, position_margin=0.0)
+    e.reset(seed=0)
+    east = {a: np.array([1.0, 0.0]) for a in e.agents}
+    for _ in range(150):
+        obs = e.step(east)[0]
+    x = OWN_FEATURES.index("x")
+    assert e.arena.state.positions[0, 0] > 12.0  # left the open map
+    assert obs["swap0"][x] == 12.0
+    assert e.observation_space("swap0").contains(obs["swap0"])
+
+
+def test_normalize_obs_needs_finite_bounds():
+    ss.normalize_obs_v0(parallel_env("crowd", n=4))
+    ss.normalize_obs_v0(parallel_env("circle_swap", n=4, position_margin=1.0))
+    with pytest.raises(AssertionError, match="infinite bounds"):
+        ss.normalize_obs_v0(parallel_env("circle_swap", n=4))
+
+
+# ---------------------------------------------------------------- SuperSuit and Gymnasium
+
+
+def _vec_run(num_cpus: int, steps: int = 25) -> list:
+    """A SuperSuit vector env of 2 envs x 4 agents (``keep_finished``), driven by seeded
+    random actions; returns what it returned, step by step."""
+    par = parallel_env("circle_swap", n=4, time_limit=1.0, keep_finished=True)
+    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus,
+                                base_class="gymnasium")
+    try:
+        assert vec.num_envs == 8
+        box = vec.observation_space
+        obs, _ = vec.reset(seed=7)  # (the infos' layout depends on num_cpus in SuperSuit)
+        assert obs.shape == (8, box.shape[0]) and obs.dtype == np.float32
+        out = [obs]
+        rng = np.random.default_rng(0)
+        for _ in range(steps):
+            actions = rng.uniform(-1, 1, (8, 2)).astype(np.float32)
+            obs, rew, term, trunc, infos = vec.step(actions)
+            assert obs.shape == (8, box.shape[0]) and rew.shape == (8,)
+            assert term.shape == trunc.shape == (8,) and len(infos) == 8
+            assert all(box.contains(o) for o in obs)
+            # (flags come as uint8 in process, bool from worker processes)
+            out += [obs, rew, term.astype(bool), trunc.astype(bool)]
+        return out
+    finally:
+        vec.close()
+
+
+def test_concat_vec_envs_in_process():
+    out = _vec_run(0)
+    # out: the reset's observations, then (obs, rew, term, trunc) per step; both envs
+    # reach the time limit (10 steps) together, twice in 25 steps
+    assert sum(bool(np.all(trunc)) for trunc in out[4::4]) == 2
+
+
+@pytest.mark.slow
+def test_concat_vec_envs_in_two_processes_give_the_same_results():
+    assert same(_vec_run(2), _vec_run(0))
+
+
+def test_concat_vec_envs_for_stable_baselines3():
+    pytest.importorskip("stable_baselines3", reason="SuperSuit's stable_baselines3 base "
+                        "class imports stable_baselines3, which is not installed")
+    par = parallel_env("circle_swap", n=4, time_limit=1.0, keep_finished=True)
+    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2,
+                                base_class="stable_baselines3")
+    assert vec.reset().shape == (8, par.observation_space("swap0").shape[0])
+    vec.close()
+
+
+def test_frame_stack_and_normalize_through_the_vector_env():
+    par = parallel_env("crowd", n=4, time_limit=1.0, keep_finished=True)
+    box = par.observation_space("crowd0")
+    dim = box.shape[0]
+    wrapped = ss.frame_stack_v1(ss.normalize_obs_v0(par), 3)
+    assert wrapped.observation_space("crowd0").shape == (3 * dim,)
+    obs, _ = wrapped.reset(seed=0)
+    raw = par.observations()["crowd0"]
+    assert np.all(obs["crowd0"][: 2 * dim] == 0.0)  # the stack starts empty
+    np.testing.assert_allclose(obs["crowd0"][2 * dim:], (raw - box.low) / (box.high - box.low),
+                               rtol=1e-5, atol=1e-6)
+    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(wrapped), 2,
+                                base_class="gymnasium")
+    obs, _ = vec.reset(seed=0)
+    assert obs.shape == (8, 3 * dim)
+    for _ in range(12):
+        obs = vec.step(np.zeros((8, 2), dtype=np.float32))[0]
+        assert obs.shape == (8, 3 * dim)
+        assert np.all((obs >= 0.0) & (obs <= 1.0))  # normalized by the finite bounds
+    vec.close()
