@@ -128,8 +128,8 @@ def _load_from_file(path: str, cls: str) -> type:
             raise
         except BaseException as exc:  # noqa: BLE001 - a plug-in's import error is reported
             sys.modules.pop(name, None)
-            raise ValueError(f"agent {path}:{cls}: importing {file} raised {describe(exc)}") \
-                from exc
+            first = (describe(exc).splitlines() or [""])[0]
+            raise ValueError(f"agent {path}:{cls}: cannot be loaded ({first})") from exc
         _FILE_MODULES[resolved] = module
     try:
         return getattr(module, cls)

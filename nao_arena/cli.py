@@ -2,16 +2,25 @@
 
 Sub-commands::
 
-    nao-arena run MAP [--agent NAME|FILE.py:CLASS] [--seed S] [--set key=value ...]
+    nao-arena run MAP [--agent [LABEL=]AGENT] [--seed S] [--set key=value ...]
                   [--time-limit S] [--episode-timeout S]
-                  [--render human|gif|mp4 --out FILE] [--json FILE]
-    nao-arena trial --map MAP[,MAP...] --agent A[,B...] --episodes N --seed S
-                    --workers W --out DIR [--csv] [--set key=value ...] [--time-limit S]
-                    [--episode-timeout S] [--backend local|ray [--address ADDR]]
+                  [--render human | --render gif|mp4 --out FILE] [--json FILE]
+    nao-arena trial --map MAP[,MAP...] --agent [LABEL=]A[,[LABEL=]B...] --episodes N
+                    --seed S --workers W --out DIR [--csv] [--set key=value ...]
+                    [--time-limit S] [--episode-timeout S]
+                    [--backend local|ray [--address ADDR]]
     nao-arena report DIR [--out PLOTS_DIR]
-    nao-arena maps
+    nao-arena maps [--schema]
     nao-arena agents
     nao-arena figures [--out DIR] [--only NAMES]
+    nao-arena --version
+
+An agent is a built-in or plug-in name, ``FILE.py:CLASS`` or
+``module:CLASS``; ``LABEL=AGENT`` (e.g. ``mine=path/to/mine.py:Mine``) loads
+AGENT and shows it as LABEL in tables, plots and results files.
+
+The first command that runs an episode compiles the numba kernels and caches
+them (about a minute); a note on stderr says so when it happens.
 
 Errors (unknown map, agent, parameter; a number out of its range, e.g.
 ``--time-limit`` must be finite and > 0 s and ``--seed`` >= 0; an output
@@ -20,21 +29,31 @@ file or folder that cannot be written) are printed on stderr as one line
 also exits 2 with a one-line error when an agent's constructor or reset
 raises, or when the episode exceeds its wall-clock budget
 (``--episode-timeout``, default 600 s; 0 or none: no budget); a trial
-records such episodes as failed and goes on.
+records such episodes as failed and goes on. ``run --render human`` needs a
+display (and refuses ``--out``).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import signal
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from nao_arena import __version__
+
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
+COMPILE_NOTE = "compiling geometry kernels (first run only, about a minute) ..."
+KERNEL_MODULES = ("nao_arena.world", "nao_arena.stats", "nao_arena.sensing",
+                  "nao_arena.geometry.kernel")
+"""Modules whose numba kernels every episode (``world``, ``stats``, ``sensing``) or the
+``nao`` and ``ao`` agents (``geometry.kernel``) compile."""
 
 
 def _err(message: str) -> int:
@@ -44,6 +63,65 @@ def _err(message: str) -> int:
 
 def _split(text: str) -> tuple[str, ...]:
     return tuple(part.strip() for part in text.split(",") if part.strip())
+
+
+def _plural(n: int, noun: str) -> str:
+    """``1 robot``, ``2 robots``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
+# --------------------------------------------------------------------------- compiling
+
+
+class _CompileNote:
+    """Prints :data:`COMPILE_NOTE` once on stderr when numba starts compiling in this
+    process (a cold or stale kernel cache), as a numba event listener."""
+
+    def __init__(self) -> None:
+        self.shown = False
+
+    def show(self) -> None:
+        if not self.shown:
+            self.shown = True
+            print(COMPILE_NOTE, file=sys.stderr, flush=True)
+
+    @contextlib.contextmanager
+    def listening(self) -> Iterator[None]:
+        """While the block runs: show the note when a numba compilation starts here."""
+        from numba.core import event
+
+        note = self
+
+        class Listener(event.Listener):
+            def on_start(self, ev: event.Event) -> None:
+                note.show()
+
+            def on_end(self, ev: event.Event) -> None:
+                pass
+
+        with event.install_listener("numba:compile", Listener()):
+            yield
+
+
+def kernel_cache_cold(modules: Iterable[str] = KERNEL_MODULES) -> bool:
+    """Whether some of ``modules`` has no numba cache index file yet (``<module>.*.nbi``,
+    where numba caches its ``cache=True`` kernels), i.e. its kernels will be compiled."""
+    import importlib
+
+    from numba.core.dispatcher import Dispatcher
+
+    for name in modules:
+        module = importlib.import_module(name)
+        kernels = [f for f in vars(module).values()
+                   if isinstance(f, Dispatcher) and getattr(f, "_cache", None) is not None
+                   and f.__module__ == name]
+        cache = getattr(kernels[0]._cache, "cache_path", None) if kernels else None
+        if cache is None:
+            continue
+        stem = Path(module.__file__ or name).stem
+        if not any(Path(cache).glob(f"{stem}.*.nbi")):
+            return True
+    return False
 
 
 def _timeout(text: str) -> float | None:
@@ -163,15 +241,46 @@ def episode_table(summary: Any, agents: list[str]) -> str:
     return "\n".join(lines)
 
 
+def _no_display() -> str | None:
+    """Why a window cannot open here (None if it can, as far as the environment tells)."""
+    if os.environ.get("SDL_VIDEODRIVER", "").lower() in ("dummy", "offscreen"):
+        return f"SDL_VIDEODRIVER={os.environ['SDL_VIDEODRIVER']} draws off-screen"
+    if sys.platform.startswith(("darwin", "win", "cygwin")):
+        return None
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        return "no display (DISPLAY and WAYLAND_DISPLAY are unset)"
+    return None
+
+
+def _render_problem(args: argparse.Namespace) -> str | None:
+    """What is wrong with ``--render``/``--out`` of ``run`` (None: nothing)."""
+    if args.render == "human":
+        if args.out:
+            kind = "mp4" if args.out.lower().endswith(".mp4") else "gif"
+            return (f"--render human shows a window and writes no file: drop --out, or "
+                    f"record with --render {kind} --out {args.out}")
+        if why := _no_display():
+            return (f"--render human: cannot open a window: {why}; record the episode "
+                    "instead with --render gif --out FILE.gif (or mp4)")
+    return None
+
+
+def _map_origin(name: str, source: str) -> str:
+    """Where the map came from: its file as given, or the shipped map's installed file."""
+    if source == f"maps/{name}.yaml":
+        return f"shipped map, {resources.files('nao_arena.maps_data') / f'{name}.yaml'}"
+    return source
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.agent import AgentError, describe
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import MapError
-    from nao_arena.trials import make_map
+    from nao_arena.trials import make_map, split_agent
     from nao_arena.watchdog import EpisodeTimeout, wall_clock_budget
 
     record = None
-    if problem := _bad_number(args):
+    if problem := _bad_number(args) or _render_problem(args):
         return _err(problem)
     if args.render:
         if args.render in RENDER_SUFFIX and not args.out:
@@ -191,12 +300,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if path and (problem := _unwritable(path)):
             return _err(problem)
     try:
+        label, agent = split_agent(args.agent) if args.agent else (None, None)
         overrides = _overrides(args.set)
         if "seed" in overrides:
             return _err("set the seed with --seed (it seeds the map and the agents)")
         spec = make_map(args.map, args.seed, overrides, args.time_limit)
-        _load_agents([args.agent] if args.agent else [r.agent for r in spec.robots])
-        arena = Arena(spec, ArenaOptions(agent=args.agent))
+        _load_agents([agent] if agent else [r.agent for r in spec.robots])
+        arena = Arena(spec, ArenaOptions(agent=agent))
     except (MapError, ValueError) as exc:
         return _err(str(exc))
     try:
@@ -210,10 +320,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 summary = arena.run(args.seed, max_steps=args.max_steps)
     except (AgentError, EpisodeTimeout) as exc:
         return _err(describe(exc))
-    agents = arena.agent_names
+    agents = [label or name for name in arena.agent_names]
     n_traffic = arena.world.n - len(arena.robots)
-    print(f"map {spec.name} ({spec.source}), seed {args.seed}, {len(arena.robots)} robots, "
-          f"{n_traffic} traffic vehicles; {summary.steps} steps, {summary.duration:.1f} s")
+    print(f"map {spec.name} ({_map_origin(args.map, spec.source)}), seed {args.seed}, "
+          f"{_plural(len(arena.robots), 'robot')}, {_plural(n_traffic, 'traffic vehicle')}; "
+          f"{_plural(summary.steps, 'step')}, {summary.duration:.1f} s")
     print(episode_table(summary, agents))
     robot_contacts = [c for c in summary.contacts if "robot" in (c.kind_a, c.kind_b)]
     print(f"contacts involving robots: {len(robot_contacts)}; agent faults: "
@@ -242,21 +353,26 @@ def _terminate_as_interrupt(signum: int, frame: object) -> None:
 def _cmd_trial(args: argparse.Namespace) -> int:
     from nao_arena.backends import BackendError
     from nao_arena.maps import MapError
-    from nao_arena.trials import TrialConfig, format_table, run_trial
+    from nao_arena.trials import TrialConfig, format_table, run_trial, split_agent
 
     if args.address is not None and args.backend != "ray":
         return _err("--address is for the ray backend: add --backend ray")
     if problem := _bad_number(args) or _unwritable(args.out, folder=True):
         return _err(problem)
     try:
+        agents = [split_agent(a) for a in _split(args.agent)]
         config = TrialConfig(
-            maps=_split(args.map), agents=_split(args.agent), episodes=args.episodes,
-            seed=args.seed, workers=args.workers, out=Path(args.out),
+            maps=_split(args.map), agents=tuple(label for label, _ in agents),
+            episodes=args.episodes, seed=args.seed, workers=args.workers, out=Path(args.out),
             overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
             retry_failed=args.retry_failed, backend=args.backend, address=args.address,
             episode_timeout=args.episode_timeout,
+            agent_refs={label: ref for label, ref in agents if label != ref},
         )
-        _load_agents(config.agents)
+        _load_agents(config.reference(a) for a in config.agents)
+        in_other_processes = args.workers > 1 or args.backend == "ray"
+        if in_other_processes and args.address is None and kernel_cache_cold():
+            (getattr(args, "compile_note", None) or _CompileNote()).show()
         previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
         try:
             result = run_trial(config, progress=None if args.quiet else sys.stderr)
@@ -290,8 +406,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_maps(args: argparse.Namespace) -> int:
-    from nao_arena.maps import MapError, available_maps, load_map
+    from nao_arena.maps import MapError, available_maps, format_reference, load_map
 
+    if args.schema:
+        print(format_reference())
+        return 0
     for name in available_maps():
         try:
             spec = load_map(name)
@@ -301,12 +420,14 @@ def _cmd_maps(args: argparse.Namespace) -> int:
         n_traffic = sum(g.count for g in spec.traffic)
         desc = " ".join(spec.description.split())
         params = ", ".join(f"{k}={v}" for k, v in spec.parameters.items()) or "none"
-        print(f"{name}: {spec.n_robots} robots, {n_traffic} traffic, "
+        print(f"{name}: {_plural(spec.n_robots, 'robot')}, {n_traffic} traffic, "
               f"{spec.episode.time_limit:g} s")
         if desc:
             print(f"    {desc}")
         print(f"    parameters: {params}")
-    print("(any map file can be given by its path, e.g. path/to/my_map.yaml)")
+    print("(any map file can be given by its path, e.g. path/to/my_map.yaml; the shipped "
+          f"ones are in {resources.files('nao_arena.maps_data')}; the format: "
+          "nao-arena maps --schema)")
     return 0
 
 
@@ -318,7 +439,8 @@ def _cmd_agents(args: argparse.Namespace) -> int:
     for name, ref in found.items():
         origin = "built-in" if name in BUILTIN_AGENTS else "plug-in"
         print(f"{name.ljust(width)}  {origin:8s}  {ref}")
-    print("(also: path/to/file.py:ClassName or package.module:ClassName)")
+    print("(also: path/to/file.py:ClassName or package.module:ClassName; LABEL=AGENT shows "
+          "it as LABEL in tables and files)")
     return 0
 
 
@@ -339,18 +461,21 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="nao-arena", description="Multi-robot testbed built around the NAO."
     )
+    parser.add_argument("--version", action="version", version=f"nao-arena {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run one episode and print its summary")
     run.add_argument("map", help="map name (see `nao-arena maps`) or map file path")
-    run.add_argument("--agent", default=None,
-                     help="agent of the map's robots (default: the map's own)")
+    run.add_argument("--agent", default=None, metavar="[LABEL=]AGENT",
+                     help="agent of the map's robots (default: the map's own): a name, "
+                          "FILE.py:CLASS or module:CLASS; LABEL=AGENT shows it as LABEL")
     run.add_argument("--seed", type=int, default=0,
                      help="seeds the map (if it has a seed parameter) and the agents")
     _add_map_options(run)
     run.add_argument("--max-steps", type=int, default=None, help="stop after this many steps")
     run.add_argument("--render", choices=["human", "gif", "mp4"], default=None,
-                     help="show the episode in a window, or record it")
+                     help="show the episode in a window (human; needs a display), or "
+                          "record it (gif, mp4; with --out)")
     run.add_argument("--out", default=None, help="recording file (with --render gif|mp4)")
     run.add_argument("--fps", type=float, default=None, help="recording frame rate")
     run.add_argument("--json", default=None, metavar="FILE",
@@ -359,7 +484,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     trial = sub.add_parser("trial", help="run the grid maps x agents x episodes")
     trial.add_argument("--map", required=True, help="comma-separated map names or paths")
-    trial.add_argument("--agent", required=True, help="comma-separated agents")
+    trial.add_argument("--agent", required=True, metavar="[LABEL=]AGENT,...",
+                       help="comma-separated agents (names, FILE.py:CLASS, module:CLASS); "
+                            "LABEL=AGENT names one LABEL in tables, plots and files")
     trial.add_argument("--episodes", type=int, default=10, help="episodes per map x agent")
     trial.add_argument("--seed", type=int, default=0, help="the trial's root seed")
     trial.add_argument("--workers", type=int, default=1,
@@ -389,6 +516,8 @@ def build_parser() -> argparse.ArgumentParser:
     report.set_defaults(func=_cmd_report)
 
     maps = sub.add_parser("maps", help="list the shipped maps and their parameters")
+    maps.add_argument("--schema", action="store_true",
+                      help="print the map file format instead (every key, type, default)")
     maps.set_defaults(func=_cmd_maps)
     agents = sub.add_parser("agents", help="list the agents (built-in and plug-ins)")
     agents.set_defaults(func=_cmd_agents)
@@ -402,7 +531,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return int(args.func(args))
+    args.compile_note = _CompileNote()
+    try:
+        with args.compile_note.listening():
+            return int(args.func(args))
+    except BrokenPipeError:  # the reader went away (`nao-arena maps --schema | head`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

@@ -541,8 +541,8 @@ def _segment_distance_1(p0x: float, p0y: float, p1x: float, p1y: float, ax: floa
 @njit(cache=True, inline="always")
 def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
     """Minimum distance (m) between the centres of bodies i and j over the substep path
-    (S + 1, N, 2), each moving in a straight line between rows (the operations of
-    swept_disc_distances, per substep)."""
+    (S + 1, N, 2), each moving in a straight line between rows: per substep the closest
+    point as in swept_disc_distances, the square root of the smallest squared norm."""
     best = math.inf
     for s in range(path.shape[0] - 1):
         d0x, d0y = path[s, j, 0] - path[s, i, 0], path[s, j, 1] - path[s, i, 1]
@@ -551,8 +551,9 @@ def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
         ww = wx * wx + wy * wy
         dw = d0x * wx + d0y * wy
         tt = _clip01(-dw / (ww if ww > 0.0 else 1.0))
-        best = min(best, math.hypot(d0x + wx * tt, d0y + wy * tt))
-    return best
+        mx, my = d0x + wx * tt, d0y + wy * tt
+        best = min(best, mx * mx + my * my)
+    return math.sqrt(best)
 
 
 @njit(cache=True, error_model="numpy")

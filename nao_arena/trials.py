@@ -25,7 +25,8 @@ A trial runs every episode of the grid headless through :meth:`Arena.run`
   the :class:`~nao_arena.stats.ContactEvent` fields.
 - ``summary.json`` (and the printed table): see below.
 - with ``csv``: ``episodes.csv``, ``collisions.csv``, ``summary.csv``.
-- ``trial.json``: the trial's settings.
+- ``trial.json``: the trial's settings (``agent_refs``: label -> agent reference of
+  the agents given as ``NAME=REFERENCE``).
 
 Backends
 --------
@@ -57,7 +58,8 @@ A JSON list, one object per map x agent (grid order), with the keys
 (stable; others may be added). Every rate comes with the counts it was
 computed from:
 
-``map``, ``agent``: as given on the command line.
+``map``, ``agent``: as given on the command line (``agent``: the agent's label
+    for ``--agent NAME=REFERENCE``, see :class:`TrialConfig`).
 ``episodes``: episodes of the grid cell that have a result file;
 ``failed_episodes``: those that raised (excluded from every metric below).
 ``distinct_episodes``: distinct trajectories among the completed episodes
@@ -144,7 +146,7 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
-from nao_arena.agent import describe, load_agent
+from nao_arena.agent import available_agents, describe, load_agent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.backends import BACKENDS, make_backend
 from nao_arena.maps import MapError, MapSpec, load_map
@@ -173,6 +175,7 @@ __all__ = [
     "map_overrides",
     "run_episode",
     "run_trial",
+    "split_agent",
     "summarize",
     "wilson_interval",
 ]
@@ -240,8 +243,11 @@ COLLISION_SCHEMA = pa.schema(_KEY_COLUMNS + _arrow_fields(ContactEvent))
 class TrialConfig:
     """A trial: the grid ``maps`` x ``agents`` x ``episodes`` and how to run it.
 
-    maps: shipped map names or map file paths; agents: agent references
-    (built-in names, ``FILE.py:Class``, ``module:Class``, plug-in names);
+    maps: shipped map names or map file paths; agents: the agents' names in
+    the grid (what the files, tables and plots show): agent references
+    (built-in names, ``FILE.py:Class``, ``module:Class``, plug-in names) or
+    labels; agent_refs: label -> agent reference for the agents named by a
+    label (``--agent mine=path/to/mine.py:Mine``; see :func:`split_agent`);
     seed: the trial's root seed; workers: local processes (1 = in this
     process), or the CPUs of the local Ray instance; out: the results
     folder; overrides: map parameters (``name -> value``), each applied to
@@ -269,6 +275,7 @@ class TrialConfig:
     backend: str = "local"
     address: str | None = None
     episode_timeout: float | None = 600.0
+    agent_refs: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -298,15 +305,26 @@ class TrialConfig:
         if "seed" in self.overrides:
             raise ValueError("the map parameter 'seed' is set per episode by the trial; "
                              "choose the trial's root seed instead (--seed)")
+        for label, ref in self.agent_refs.items():
+            if label not in self.agents:
+                raise ValueError(f"agent label {label!r} is not one of the agents "
+                                 f"{', '.join(self.agents)}")
+            _check_label(label, ref)
+
+    def reference(self, agent: str) -> str:
+        """The agent reference to load for ``agent`` (a label or a reference itself)."""
+        return self.agent_refs.get(agent, agent)
 
 
 @dataclass(frozen=True)
 class EpisodeTask:
     """One episode of a trial, as sent to a worker.
 
-    seed: the episode's integer seed; overrides: the map parameters for
-    this map (without ``seed``); path: its result file; episode_timeout:
-    its wall-clock budget (s; None or 0: none; not part of its key).
+    agent: the agent's name in the grid; seed: the episode's integer seed;
+    overrides: the map parameters for this map (without ``seed``); path: its
+    result file; episode_timeout: its wall-clock budget (s; None or 0: none;
+    not part of its key); agent_ref: the agent reference to load (None:
+    ``agent`` itself; not part of its key, ``trial.json`` records it).
     """
 
     map: str
@@ -317,6 +335,7 @@ class EpisodeTask:
     time_limit: float | None
     path: str
     episode_timeout: float | None = None
+    agent_ref: str | None = None
 
     def key(self) -> dict[str, Any]:
         """What identifies the episode's result (compared on resume)."""
@@ -335,6 +354,39 @@ class TrialResult:
     ran: int
     skipped: int
     files: list[Path]
+
+
+# --------------------------------------------------------------------------- agent labels
+
+
+def split_agent(text: str) -> tuple[str, str]:
+    """``"NAME=REFERENCE"`` -> (label, reference); any other text is its own label.
+
+    A label names the agent in tables, plots and results files (e.g.
+    ``mine=path/to/mine.py:Mine``); text whose part before the first ``=``
+    holds ``/``, ``\\`` or ``:`` is a reference. ValueError for an empty
+    label or reference, or a label that names another known agent.
+    """
+    label, sep, ref = text.partition("=")
+    label, ref = label.strip(), ref.strip()
+    if not sep or any(c in label for c in "/:\\"):
+        return text.strip(), text.strip()
+    if not label or not ref:
+        raise ValueError(f"agent {text!r}: expected NAME=REFERENCE, e.g. "
+                         "mine=path/to/mine.py:Mine")
+    _check_label(label, ref)
+    return label, ref
+
+
+def _check_label(label: str, ref: str) -> None:
+    """ValueError unless ``label`` is a plain name that names no other known agent."""
+    if not label or any(c in label for c in "/:\\,=") or label != label.strip():
+        raise ValueError(f"agent label {label!r}: expected a short name without "
+                         "'/', ':', ',', '=' or surrounding spaces, e.g. mine")
+    known = available_agents()
+    if label in known and label != ref:
+        raise ValueError(f"agent label {label!r} is the name of the agent {known[label]}: "
+                         f"choose another label for {ref}")
 
 
 # --------------------------------------------------------------------------- seeds and maps
@@ -404,6 +456,7 @@ def _tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) -> lis
             map=m, agent=a, episode=e, seed=episode_seed(config.seed, m, e),
             overrides=dict(per_map[m]), time_limit=config.time_limit,
             path=str(episode_path(config.out, m, a, e)), episode_timeout=config.episode_timeout,
+            agent_ref=config.agent_refs.get(a),
         )
         for m in config.maps
         for a in config.agents
@@ -447,7 +500,7 @@ def compute_episode(task: EpisodeTask) -> dict[str, Any]:
     try:
         with wall_clock_budget(task.episode_timeout):
             spec = make_map(task.map, task.seed, task.overrides, task.time_limit)
-            arena = Arena(spec, ArenaOptions(agent=task.agent))
+            arena = Arena(spec, ArenaOptions(agent=task.agent_ref or task.agent))
             record["result"] = arena.run(task.seed).to_dict()
     except KeyboardInterrupt:
         raise
@@ -550,7 +603,7 @@ def _validate(config: TrialConfig) -> dict[str, dict[str, Any]]:
     for m in config.maps:
         make_map(m, 0, per_map[m], config.time_limit)
     for a in config.agents:
-        load_agent(a)
+        load_agent(config.reference(a))
     return per_map
 
 
@@ -585,7 +638,7 @@ def _settings(config: TrialConfig) -> dict[str, Any]:
     """The trial's settings as ``trial.json`` holds them (JSON types)."""
     settings = {k: v for k, v in asdict(config).items() if k != "out"}
     settings.update(maps=list(config.maps), agents=list(config.agents),
-                    overrides=dict(config.overrides))
+                    overrides=dict(config.overrides), agent_refs=dict(config.agent_refs))
     return json.loads(json.dumps(settings))
 
 

@@ -230,20 +230,37 @@ def _finish_period(
 
 class _ReadBuffer:
     """A ``pymunk.batch`` buffer that pymunk fills (and grows); its C arrays are freed
-    when it is collected."""
+    when it is collected. :meth:`fill` is ``pymunk.batch.get_space_bodies`` without its
+    per-call set-up, and :meth:`floats` reuses its array view while the C array stays
+    where it is (pymunk only moves it to grow it)."""
+
+    _GET = pb.ffi.addressof(pb.lib, "pmSpaceBodyGetIteratorFuncBatched")
 
     def __init__(self) -> None:
         self._float_arr = pb.ffi.gc(pb.lib.pmFloatArrayNew(0), pb.lib.pmFloatArrayFree)
         self._int_arr = pb.ffi.gc(pb.lib.pmIntArrayNew(0), pb.lib.pmIntArrayFree)
+        self._data = pb.ffi.new("pmBatchedData *")
+        self._data.floatArray = self._float_arr
+        self._data.intArray = self._int_arr
+        self._view_key: tuple[int, int, int] | None = None
+        self._view = np.zeros((0, 0))
 
-    def clear(self) -> None:
+    def fill(self, space: pymunk.Space, fields: pb.BodyFields) -> None:
+        """Clear, then read ``fields`` of every body of ``space`` (its iteration order)."""
         self._float_arr.num = 0
         self._int_arr.num = 0
+        self._data.fields = fields.value
+        pb.lib.cpSpaceEachBody(space._space, self._GET, self._data)
 
     def floats(self, rows: int, cols: int) -> FloatArray:
         """The float data as a (rows, cols) array (a view, valid until the next fill)."""
-        data = pb.ffi.buffer(self._float_arr.arr, 8 * self._float_arr.num)
-        return np.frombuffer(data, dtype=np.float64).reshape(rows, cols)
+        arr = self._float_arr
+        key = (int(pb.ffi.cast("uintptr_t", arr.arr)), arr.num, cols)
+        if key != self._view_key:
+            data = pb.ffi.buffer(arr.arr, 8 * arr.num)
+            self._view = np.frombuffer(data, dtype=np.float64).reshape(rows, cols)
+            self._view_key = key
+        return self._view
 
     def ints(self) -> NDArray[np.uintp]:
         """The integer data (a copy)."""
@@ -376,10 +393,7 @@ class World:
 
     def _read(self) -> None:
         buf = self._get_buf
-        buf.clear()
-        pb.get_space_bodies(
-            self._space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY, buf
-        )
+        buf.fill(self._space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY)
         data = buf.floats(self._n_rows, 4)
         data = data[: self.n] if self._identity else data[self._rows]
         self._pos = data[:, 0:2].copy()
@@ -477,13 +491,11 @@ class World:
             pb.set_space_bodies(space, pb.BodyFields.FORCE, force_buf)
             space.step(h)
             if j + 1 < self.substeps:
-                buf.clear()
-                pb.get_space_bodies(space, pb.BodyFields.POSITION, buf)
+                buf.fill(space, pb.BodyFields.POSITION)
                 data = buf.floats(self._n_rows, 2)
                 path[j + 1] = data[: self.n] if self._identity else data[self._rows]
         self._prev_positions = self._pos
-        buf.clear()
-        pb.get_space_bodies(space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY, buf)
+        buf.fill(space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY)
         data = buf.floats(self._n_rows, 4)
         self._pos = np.empty((self.n, 2))
         vel = np.empty((self.n, 2))

@@ -150,5 +150,5 @@ def test_file_plugin_is_imported_once_and_its_robots_act_together(tmp_path):
 
 def test_plugin_file_that_fails_to_import_is_explained(tmp_path):
     (tmp_path / "quits.py").write_text("raise SystemExit(3)\n")
-    with pytest.raises(ValueError, match=r"quits.py raised SystemExit: 3"):
+    with pytest.raises(ValueError, match=r"quits.py:Anything: cannot be loaded \(SystemExit: 3\)"):
         load_agent(f"{tmp_path / 'quits.py'}:Anything")

@@ -25,7 +25,7 @@ def run(map_name: str, seed: int, options: ArenaOptions | None = None, **params)
     robots = summary["robots"]
     return {
         "collisions": sum(r["collisions"] for r in robots),
-        "arrived": sum(bool(r["success"]) for r in robots),
+        "arrived": sum(bool(r["reached_goal"]) for r in robots),
         "robots": len(robots),
         "adjustments": sum(r["adjustments"] for r in robots),
         "time": arena.time,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 
 import pytest
@@ -290,3 +291,213 @@ def test_agent_references_that_fail_to_load_are_one_line_errors(capsys, tmp_path
         assert main(["trial", "--map", "circle_swap", "--agent", ref, "--quiet",
                      "--out", str(tmp_path / "res"), *TINY]) == 2, ref
         assert f"agent {ref}: " in (err := _one_line_error(capsys)) and expected in err
+
+
+# --------------------------------------------------------------------------- newcomer
+
+
+def test_version(capsys):
+    from nao_arena import __version__
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"nao-arena {__version__}\n"
+
+
+def _schema_models():
+    """Every pydantic model a map file reaches from its top level, and the builders' args."""
+    import typing
+
+    from pydantic import BaseModel
+
+    from nao_arena.maps import LAYOUTS, _MapFile
+
+    found, todo = [], [_MapFile]
+    while todo:
+        model = todo.pop()
+        if model in found:
+            continue
+        found.append(model)
+        for info in model.model_fields.values():
+            stack = [info.annotation]
+            while stack:
+                tp = stack.pop()
+                if isinstance(tp, type) and issubclass(tp, BaseModel):
+                    todo.append(tp)
+                stack.extend(typing.get_args(tp))
+    return found + [model for model, _ in LAYOUTS.values()]
+
+
+def test_maps_schema_documents_every_field(capsys):
+    import nao_arena.maps as maps
+
+    assert main(["maps", "--schema"]) == 0
+    out = capsys.readouterr().out
+    assert out == maps.format_reference() + "\n"
+    sections = dict((model, where) for where, model in maps._sections())
+    quoted = " ".join(re.findall(r"``(.+?)``", maps.__doc__, re.S))  # the written description
+    for model in _schema_models():
+        assert model in sections, f"{model.__name__} has no section in the reference"
+        table = out.split(f"\n{sections[model]}\n", 1)[1].split("\n\n", 1)[0]
+        for name in model.model_fields:
+            assert re.search(rf"^  {name} ", table, re.M), f"{sections[model]}: {name}"
+            assert re.search(rf"\b{name}\b", quoted), f"{model.__name__}.{name} undocumented"
+    assert "`bounds`: `min: [x, y]`" in out and ":data:" not in out
+
+
+def test_maps_and_run_header_grammar_and_map_origin(capsys, tmp_path):
+    from nao_arena.cli import _plural
+
+    assert (_plural(1, "robot"), _plural(0, "robot"), _plural(2, "robot")) == (
+        "1 robot", "0 robots", "2 robots")
+    assert main(["run", "circle_swap", "--set", "n=1", "--time-limit", "1"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert ", 1 robot, 0 traffic vehicles; 10 steps," in head
+    shipped = re.search(r"\(shipped map, (.+?)\)", head).group(1)
+    assert shipped.endswith("circle_swap.yaml") and os.path.isfile(shipped)
+    path = _map_with_robot(tmp_path, name="solo")
+    assert main(["run", path, "--time-limit", "1"]) == 0
+    assert capsys.readouterr().out.startswith(f"map m ({path}), seed 0, 1 robot,")
+    assert main(["maps"]) == 0
+    out = capsys.readouterr().out
+    assert " 1 robots" not in out and "nao-arena maps --schema" in out
+
+
+@pytest.mark.skipif(sys.platform.startswith(("darwin", "win")), reason="X11/Wayland displays")
+def test_render_human_needs_a_display_and_no_out(capsys, monkeypatch, tmp_path):
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER"):
+        monkeypatch.delenv(name, raising=False)
+    assert main(["run", "circle_swap", *TINY, "--render", "human"]) == 2
+    err = _one_line_error(capsys)
+    assert "cannot open a window: no display" in err and "--render gif --out" in err
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    assert main(["run", "circle_swap", *TINY, "--render", "human"]) == 2
+    assert "SDL_VIDEODRIVER=dummy" in _one_line_error(capsys)
+    out = tmp_path / "x.gif"
+    assert main(["run", "circle_swap", *TINY, "--render", "human", "--out", str(out)]) == 2
+    assert f"drop --out, or record with --render gif --out {out}" in _one_line_error(capsys)
+    assert not out.exists()
+
+
+def test_agent_labels_in_run(capsys):
+    assert main(["run", "circle_swap", "--agent", "g=goal", *TINY, "--time-limit", "1"]) == 0
+    out = capsys.readouterr().out
+    assert [line.split()[1] for line in out.splitlines() if line.startswith("swap")] == [
+        "g", "g"]
+    for bad, expected in [("nao=goal", "agent label 'nao' is the name of the agent"),
+                          ("=goal", "expected NAME=REFERENCE"),
+                          ("g=", "expected NAME=REFERENCE"),
+                          ("g=nope", "nope")]:
+        assert main(["run", "circle_swap", "--agent", bad, *TINY]) == 2, bad
+        assert expected in _one_line_error(capsys)
+
+
+def test_agent_labels_in_trial_files_tables_and_resume(capsys, tmp_path):
+    out = tmp_path / "res"
+    argv = ["trial", "--map", "circle_swap", "--episodes", "1", "--quiet", "--out", str(out),
+            *TINY, "--time-limit", "1"]
+    assert main([*argv, "--agent", "nao,g=goal"]) == 0
+    table = capsys.readouterr().out
+    assert [r.split()[1] for r in table.splitlines() if r.startswith("circle_swap")] == [
+        "nao", "g"]
+    assert [r["agent"] for r in json.loads((out / "summary.json").read_text())] == ["nao", "g"]
+    assert json.loads((out / "trial.json").read_text())["agent_refs"] == {"g": "goal"}
+    assert sorted(p.name for p in (out / "episodes").iterdir()) == [
+        "circle_swap__g__00000.json", "circle_swap__nao__00000.json"]
+    record = json.loads((out / "episodes" / "circle_swap__g__00000.json").read_text())
+    assert record["key"]["agent"] == "g" and record["error"] is None
+    # the same label for another agent is another trial
+    assert main([*argv, "--agent", "nao,g=orca"]) == 2
+    assert "agent_refs {'g': 'goal'} there, {'g': 'orca'} now" in _one_line_error(capsys)
+    # repeated: resumed, nothing runs
+    assert main([*argv, "--agent", "nao,g=goal"]) == 0
+    assert "0 episodes run, 2 already done" in capsys.readouterr().out
+
+
+def test_results_folders_without_agent_labels_still_resume(capsys, tmp_path):
+    """trial.json written before labels existed (no agent_refs key) is the same trial."""
+    out = tmp_path / "res"
+    argv = ["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
+            "--out", str(out), *TINY, "--time-limit", "1"]
+    assert main(argv) == 0
+    settings = json.loads((out / "trial.json").read_text())
+    del settings["agent_refs"]
+    (out / "trial.json").write_text(json.dumps(settings))
+    capsys.readouterr()
+    assert main(argv) == 0
+    assert "0 episodes run, 1 already done" in capsys.readouterr().out
+
+
+def test_split_agent_and_trial_config_labels(tmp_path):
+    from nao_arena.trials import TrialConfig, split_agent
+
+    assert split_agent("nao") == ("nao", "nao")
+    assert split_agent(" mine = pkg.mod:Mine ") == ("mine", "pkg.mod:Mine")
+    assert split_agent("path/x=y.py:A") == ("path/x=y.py:A", "path/x=y.py:A")
+    assert split_agent("pkg.mod:A") == ("pkg.mod:A", "pkg.mod:A")
+    config = TrialConfig(maps=("circle_swap",), agents=("nao", "mine"),
+                         agent_refs={"mine": "goal"}, out=tmp_path)
+    assert (config.reference("mine"), config.reference("nao")) == ("goal", "nao")
+    with pytest.raises(ValueError, match="'other' is not one of the agents"):
+        TrialConfig(maps=("m",), agents=("nao",), agent_refs={"other": "goal"})
+    with pytest.raises(ValueError, match="expected a short name"):
+        TrialConfig(maps=("m",), agents=("a/b",), agent_refs={"a/b": "goal"})
+
+
+def test_compile_note_once_when_numba_compiles(capsys, monkeypatch):
+    """The note is printed once, on stderr, by the command line only, when numba compiles."""
+    import numba
+
+    import nao_arena.cli as cli
+
+    numba.njit(lambda x: x + 1)(1)  # a library user compiling: no note
+    assert capsys.readouterr().err == ""
+
+    def compiling_command(args):
+        numba.njit(lambda x: x + 2)(1)
+        numba.njit(lambda x: x + 3)(1)
+        print("listed")
+        return 0
+
+    monkeypatch.setattr(cli, "_cmd_agents", compiling_command)
+    assert main(["agents"]) == 0
+    assert capsys.readouterr() == ("listed\n", cli.COMPILE_NOTE + "\n")
+    numba.njit(lambda x: x + 4)(1)  # after the command: no listener left
+    assert capsys.readouterr().err == ""
+
+
+def test_no_compile_note_when_the_kernels_are_cached(capsys):
+    argv = ["run", "circle_swap", "--agent", "nao", *TINY, "--time-limit", "1"]
+    assert main(argv) == 0  # compiles whatever is not cached yet
+    capsys.readouterr()
+    assert main(argv) == 0
+    assert "compiling" not in capsys.readouterr().err
+
+
+def test_kernel_cache_cold(tmp_path, monkeypatch):
+    """Cold until numba has written a cache index for the module's kernels."""
+    from nao_arena.cli import kernel_cache_cold
+
+    (tmp_path / "tiny_kernels.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef double(x):\n    return 2 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import tiny_kernels
+
+    assert kernel_cache_cold(["tiny_kernels"])
+    assert tiny_kernels.double(2) == 4
+    assert not kernel_cache_cold(["tiny_kernels"])
+
+
+def test_compile_note_before_a_trial_in_worker_processes(capsys, monkeypatch, tmp_path):
+    """Workers compile out of the command's sight: it checks the cache itself, once."""
+    import nao_arena.cli as cli
+
+    monkeypatch.setattr(cli, "kernel_cache_cold", lambda: True)
+    argv = ["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
+            *TINY, "--time-limit", "1"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0  # in this process
+    assert cli.COMPILE_NOTE not in capsys.readouterr().err
+    assert main([*argv, "--out", str(tmp_path / "b"), "--workers", "2"]) == 0
+    assert capsys.readouterr().err.count(cli.COMPILE_NOTE) == 1

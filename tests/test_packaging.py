@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -20,3 +21,39 @@ def test_every_subpackage_is_listed_in_pyproject():
     assert on_disk <= listed, f"missing from [tool.setuptools] packages: {on_disk - listed}"
     assert config["package-dir"]["nao_arena.agents"] == "agents"
     assert (ROOT / "agents" / "__init__.py").is_file()
+
+
+def test_import_exports_only_its_api():
+    """``import nao_arena`` defines __all__ and no other public name (no `Any`, `annotations`)."""
+    import subprocess
+    import sys
+
+    code = ("import json, nao_arena; print(json.dumps([nao_arena.__all__, "
+            "[n for n in dir(nao_arena) if not n.startswith('_')]]))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=ROOT / "tests")
+    exported, public = json.loads(proc.stdout)
+    assert exported == ["__version__", "env", "parallel_env"]
+    assert public == ["env", "parallel_env"]
+
+
+def test_version_has_one_source():
+    """pyproject takes the version from nao_arena.__version__; the installed metadata agrees."""
+    from importlib.metadata import version
+
+    import nao_arena
+
+    tomllib = pytest.importorskip("tomllib")
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert "version" not in config["project"] and "version" in config["project"]["dynamic"]
+    assert config["tool"]["setuptools"]["dynamic"]["version"] == {
+        "attr": "nao_arena.__version__"}
+    assert version("nao-arena") == nao_arena.__version__
+
+
+def test_license_is_an_spdx_string():
+    """The table form of project.license is deprecated by setuptools (>= 77 reads the string)."""
+    tomllib = pytest.importorskip("tomllib")
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert config["project"]["license"] == "MIT"
+    assert "setuptools>=77" in config["build-system"]["requires"]

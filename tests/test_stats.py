@@ -445,7 +445,13 @@ class ReferenceStats:
         np.minimum.at(s.min_ttc, j[soon], ttc[soon])
         rel = path[:, j] - path[:, i]  # (m + 1, pairs, 2)
         per_substep = np.array([swept_disc_distances(rel[k], rel[k + 1])[0] for k in range(m)])
-        sep = per_substep.min(axis=0) - reach
+        if m == 1:
+            sep = per_substep[0] - reach
+        else:  # the closest points of swept_disc_distances, the root of the least square
+            closest = [rel[k] + (rel[k + 1] - rel[k]) * swept_disc_distances(
+                rel[k], rel[k + 1])[1][:, None] for k in range(m)]
+            sep = np.sqrt(np.min([c[:, 0] * c[:, 0] + c[:, 1] * c[:, 1] for c in closest],
+                                 axis=0)) - reach
         near = np.flatnonzero(sep < cfg.separation_range)
         if len(near):
             i, j, sep, reach, d1 = i[near], j[near], sep[near], reach[near], d1[near]

@@ -251,7 +251,7 @@ def ao_boundary_paper(
     w_n = nrm @ w
     w_t = tan @ w
     valid = p_n * w_n > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf: not valid
         t_p = np.where(valid, 2.0 * p_n / w_n, np.nan)
         a_n = -(w_n**2) / (2.0 * p_n)
         a_t = 2.0 * (q_t - w_t * t_p) / t_p**2
@@ -295,7 +295,11 @@ def _envelope_times(path: PiecewisePath, per_piece: int) -> NDArray[np.float64]:
             pieces.append(np.linspace(lo, hi, count + 1)[:-1] + 1e-9 * (hi - lo))
     pieces.append([t_end - 1e-9 * t_end])
     ts = np.unique(np.concatenate(pieces))
-    return ts[ts > 0]
+    # below 1e-100 s, t^3 underflows; the disks there lie far outside any extent
+    return ts[ts > _SHORTEST_TIME]
+
+
+_SHORTEST_TIME = 1e-100  # s: earliest time sampled on the envelope
 
 
 def _disk_centres(path: PiecewisePath, v: NDArray[np.float64], ts: NDArray[np.float64]):
@@ -386,7 +390,7 @@ def path_boundary(
         ang = np.linspace(0.0, 2.0 * np.pi, 180, endpoint=False)
         circle = np.stack([np.cos(ang), np.sin(ang)], axis=1)
         for tk in path.t[1:-1]:
-            if not math.isfinite(tk) or tk <= 0:
+            if not math.isfinite(tk) or tk <= _SHORTEST_TIME:
                 continue
             ck = _centre_at(path, tk)
             pts = 2.0 * (ck - v * tk) / tk**2 + (2.0 * r / tk**2) * circle

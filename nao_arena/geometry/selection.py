@@ -98,14 +98,24 @@ class AccelLimits:
             x = arr[0] if np.isfinite(arr[0]) else np.float64(0.0)
             y = arr[1] if np.isfinite(arr[1]) else np.float64(0.0)
             norm = np.hypot(x, y)
-            scale = self.a_max / max(norm, 1e-300) if norm > self.a_max else 1.0
+            if norm <= self.a_max:
+                return np.array([x, y])
+            scale = self.a_max / norm
+            if scale < _SMALLEST_NORMAL:
+                # a_max / norm would be subnormal and lose digits: normalise first
+                return np.array([x / norm * self.a_max, y / norm * self.a_max])
             return np.array([x * scale, y * scale])
         flat = np.atleast_2d(arr)
         if self.box_lo is None:
-            out = np.where(np.isfinite(flat), flat, 0.0)
-            norm = np.hypot(out[:, 0], out[:, 1])
-            scale = np.where(norm > self.a_max, self.a_max / np.maximum(norm, 1e-300), 1.0)
-            out = out * scale[:, None]
+            clean = np.where(np.isfinite(flat), flat, 0.0)
+            norm = np.hypot(clean[:, 0], clean[:, 1])
+            outside = norm > self.a_max
+            scale = np.where(outside, self.a_max / np.maximum(norm, 1e-300), 1.0)
+            tiny = outside & (scale < _SMALLEST_NORMAL)
+            out = clean * scale[:, None]
+            if np.any(tiny):
+                # subnormal scales lose digits: normalise first
+                out[tiny] = clean[tiny] / norm[tiny, None] * self.a_max
         else:
             out = np.array([self._project_one(p) for p in flat]) if len(flat) else flat.copy()
         return out[0] if arr.ndim == 1 else out
@@ -258,6 +268,7 @@ class _Tester:
         return bool(self._res1[0])
 
 
+_SMALLEST_NORMAL = float(np.finfo(np.float64).tiny)
 _UNIT_RINGS: dict[tuple[int, float], NDArray[np.float64]] = {}
 
 
