@@ -11,6 +11,7 @@ import pickle
 import warnings
 
 import cloudpickle
+import gymnasium
 import numpy as np
 import pytest
 import supersuit as ss
@@ -370,6 +371,17 @@ def test_normalize_obs_needs_finite_bounds():
 # ---------------------------------------------------------------- SuperSuit and Gymnasium
 
 
+def need_sb3():
+    """The stable_baselines3 module; skip the test without it (fail if
+    NAO_ARENA_REQUIRE_RL=1, as .ci/run sets after installing the rl extra)."""
+    if os.environ.get("NAO_ARENA_REQUIRE_RL") == "1":
+        import stable_baselines3
+
+        return stable_baselines3
+    return pytest.importorskip("stable_baselines3", reason="SuperSuit's stable_baselines3 "
+                              "base class needs stable_baselines3 (the rl extra)")
+
+
 def _vec_run(num_cpus: int, steps: int = 25) -> list:
     """A SuperSuit vector env of 2 envs x 4 agents (``keep_finished``), driven by seeded
     random actions; returns what it returned, step by step."""
@@ -377,8 +389,12 @@ def _vec_run(num_cpus: int, steps: int = 25) -> list:
     vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus,
                                 base_class="gymnasium")
     try:
+        assert isinstance(vec, gymnasium.vector.VectorEnv)
         assert vec.num_envs == 8
+        # SuperSuit's spaces are one agent's, not batched (Gymnasium's single_* spaces)
         box = vec.observation_space
+        assert box == par.observation_space("swap0")
+        assert vec.action_space == par.action_space("swap0")
         obs, _ = vec.reset(seed=7)  # (the infos' layout depends on num_cpus in SuperSuit)
         assert obs.shape == (8, box.shape[0]) and obs.dtype == np.float32
         out = [obs]
@@ -408,14 +424,45 @@ def test_concat_vec_envs_in_two_processes_give_the_same_results():
     assert same(_vec_run(2), _vec_run(0))
 
 
-def test_concat_vec_envs_for_stable_baselines3():
-    pytest.importorskip("stable_baselines3", reason="SuperSuit's stable_baselines3 base "
-                        "class imports stable_baselines3, which is not installed")
-    par = parallel_env("circle_swap", n=4, time_limit=1.0, keep_finished=True)
-    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2,
+def _sb3_run(num_cpus: int) -> list:
+    """SuperSuit's stable_baselines3 vector env of 2 envs x 4 agents over 12 steps (an
+    episode is 10), seeded as examples/train_ppo.py does: through the Gymnasium vector env
+    below the wrapper (the wrapper's seed() reaches a SuperSuit env without one)."""
+    from stable_baselines3.common.vec_env import VecEnv
+
+    par = parallel_env("circle_swap_perturbed", n=4, time_limit=1.0, keep_finished=True)
+    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus,
                                 base_class="stable_baselines3")
-    assert vec.reset().shape == (8, par.observation_space("swap0").shape[0])
-    vec.close()
+    try:
+        assert isinstance(vec, VecEnv) and vec.num_envs == 8
+        dim = par.observation_space(par.possible_agents[0]).shape[0]
+        assert vec.observation_space.shape == (dim,) and vec.action_space.shape == (2,)
+        vec.venv.reset(seed=3)
+        obs = vec.reset()  # unseeded: each env's seed drawn from its seeded generator
+        assert obs.shape == (8, dim)
+        assert not np.array_equal(obs[:4], obs[4:])  # two episodes, two seeded maps
+        out = [obs]
+        for i in range(12):
+            obs, rew, dones, infos = vec.step(np.full((8, 2), 0.5, dtype=np.float32))
+            assert obs.shape == (8, dim) and rew.shape == dones.shape == (8,)
+            assert len(infos) == 8
+            assert np.all(dones) == (i == 9)  # the time limit: every agent of both envs
+            out += [obs, rew, dones.astype(bool)]  # (uint8 in process, bool from workers)
+        return out
+    finally:
+        vec.close()
+
+
+def test_concat_vec_envs_for_stable_baselines3():
+    need_sb3()
+    first = _sb3_run(0)
+    assert same(_sb3_run(0), first)  # the seeding above makes runs repeat
+
+
+@pytest.mark.slow
+def test_concat_vec_envs_for_stable_baselines3_in_two_processes():
+    need_sb3()
+    assert same(_sb3_run(2), _sb3_run(0))
 
 
 def test_frame_stack_and_normalize_through_the_vector_env():
