@@ -8,7 +8,9 @@ import copy
 import json
 import os
 import pickle
+import re
 import warnings
+from pathlib import Path
 
 import cloudpickle
 import gymnasium
@@ -485,3 +487,27 @@ def test_frame_stack_and_normalize_through_the_vector_env():
         assert obs.shape == (8, 3 * dim)
         assert np.all((obs >= 0.0) & (obs <= 1.0))  # normalized by the finite bounds
     vec.close()
+
+
+def _readme_recipe() -> str:
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = readme.split("\n## Training with RL\n", 1)[1].split("\n## ", 1)[0]
+    return next(b for b in re.findall(r"```python\n(.*?)```", section, re.S)
+                if "concat_vec_envs_v1" in b)
+
+
+@pytest.mark.parametrize("way", ["keep_finished", "black_death"])
+def test_readme_vector_env_recipe_runs_both_ways(way):
+    code = _readme_recipe()
+    if way == "black_death":
+        code = re.sub(r"^par = .*\n# par = ", "par = ", code, flags=re.M)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    vec, par = scope["vec"], scope["par"]
+    try:
+        assert vec.num_envs == 4 * 12
+        assert scope["obs"].shape == (48, par.observation_space("east0").shape[0])
+        assert scope["rewards"].shape == scope["terminations"].shape == (48,)
+        assert ("black_death" in type(par).__name__) == (way == "black_death")
+    finally:
+        vec.close()

@@ -13,6 +13,7 @@ import pkgutil
 import re
 import warnings
 from importlib.resources import files
+from pathlib import Path
 
 import numpy as np
 import pettingzoo
@@ -174,3 +175,10 @@ def test_what_affects_learning_is_unchanged_within_a_version(name):
 def _next(name: str) -> str:
     base, version = name.rsplit("_v", 1)
     return f"{base}_v{int(version) + 1}"
+
+
+def test_readme_lists_every_versioned_env():
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = readme.split("\n## Training with RL\n", 1)[1].split("\n## ", 1)[0]
+    listed = re.search(r"^`circle_swap_v0`.*?\n\n", section, re.M | re.S).group(0)
+    assert sorted(re.findall(r"`(\w+_v\d+)`", listed)) == available()
