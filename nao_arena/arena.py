@@ -164,6 +164,29 @@ class Arena:
         self._plan: tuple[list[type], dict[type, list[int]], list[int]] | None = None
         self._trajectory = hashlib.sha256()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The attributes without the trajectory hash (a C object; see __setstate__)."""
+        state = self.__dict__.copy()
+        del state["_trajectory"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Restore a copy: what agents sense made read-only again, and the trajectory
+        hash recomputed from a replay of the world's commands since its reset (the
+        arena hashes the world's state after each reset and step)."""
+        self.__dict__.update(state)
+        for name in ("goals", "walls", "wall_radius", "path_times", "_bodies", "_radii",
+                     "_a_max", "_v_max", "_kinds"):
+            if getattr(self, name) is not None:
+                setattr(self, name, read_only(getattr(self, name)))
+        self.routes = ReadOnlyRoutes(None if r is None else read_only(r) for r in self.routes)
+        self._trajectory = hashlib.sha256()
+        if self.state is not None:
+            replica = World(self.spec)
+            self._hash_state(replica.state())
+            for accels in self.world.commands:
+                self._hash_state(replica.step(accels))
+
     # ------------------------------------------------------------------ episode
 
     def reset(self, seed: int | None = None) -> WorldState:

@@ -23,6 +23,19 @@ from then on (e.g. the NAO agent holding it at its goal); with
 ``after_done="hold"`` it brakes to a stop (acceleration -v/dt, clipped to
 a_max) and stays there.
 
+Agents that finish
+------------------
+With ``keep_finished=True`` every agent stays in ``agents`` until the
+episode ends, which vector envs (SuperSuit's ``pettingzoo_env_to_vec_env_v1``)
+need. An agent finishes when it terminates as above; from then on its
+actions are still required and checked but ignored, its robot is driven as
+``after_done`` says (by default its own built-in agent: the NAO agent holds
+it at its goal), its observation's ``finished`` entry is 1, its reward is 0
+and its terminated and truncated flags stay False. The episode ends at the
+time limit or when every agent has finished: then every agent leaves
+``agents``, the finished ones terminated, the others truncated. Infos get
+``finished`` (bool); :attr:`NaoArenaParallelEnv.finished_agents` lists them.
+
 Actions
 -------
 A float32 Box of shape (2,) in [-1, 1]: the acceleration command in the
@@ -60,7 +73,28 @@ frame, units m, m/s, m/s^2, s:
   for each ring fraction f of ``nao_rings`` (a = f a_max), ``nao_angles``
   directions starting at +x counter-clockwise (a single candidate for f =
   0). Negative clearance: that constant acceleration collides within the
-  horizon if the predictions hold; nao_clip: nothing within reach.
+  horizon if the predictions hold; nao_clip: nothing within reach;
+- ``finished`` (1, only with ``keep_finished``): 1 once the agent has
+  finished, else 0.
+
+Observation bounds
+------------------
+The observation Box is finite wherever the quantity is bounded, with bounds
+common to all agents (the maxima over the controlled robots, or over all
+bodies for neighbour rows): velocities |v| <= v_max and relative velocities
+<= v_max + the neighbour's v_max (speeds are capped at the end of every
+period), measured accelerations <= 2 v_max / dt, commanded ones <= a_max,
+a_max, v_max, radius >= 0, time left in [0, time limit], neighbour offsets
+within the sensing range, goals within the map's bounds, masks and flags in
+[0, 1], the NAO block in [-nao_clip, nao_clip]; dynamic bounds are widened
+by a relative 1e-6 against rounding. Positions (x, y, and the goal offset)
+are bounded by the map's bounds when walls close them (``bounds.walls``);
+on open maps they are unbounded (inf) unless ``position_margin`` (m) is
+set: then they are clipped to the bounds grown by that margin. Every
+observation is clipped to its Box (a no-op except for positions clipped by
+``position_margin``), so ``observation_space(a).contains(obs)`` always
+holds. SuperSuit's ``normalize_obs_v0`` needs every bound finite: a walled
+map, or ``position_margin``.
 
 Rewards, terminations, truncations, infos
 -----------------------------------------
@@ -89,6 +123,7 @@ actions: identical observations, rewards and infos.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -134,6 +169,9 @@ NEIGHBOUR_FEATURES: tuple[str, ...] = (
 
 _KINEMATIC_PREDICTORS = ("constant_velocity", "constant_acceleration", "turn_rate")
 
+_BOUND_SLACK = 1e-6
+"""Relative widening of the observation bounds that rounding could otherwise cross."""
+
 
 @dataclass(frozen=True)
 class RewardWeights:
@@ -160,7 +198,10 @@ class EnvOptions:
     reseed_map: reset(seed) also seeds the map; arena: options of the
     control loop; render_size: frame (width, height) px; selected: robot
     (name or index) shown in the viewer's acceleration panel (None: the
-    first controlled one).
+    first controlled one); keep_finished: agents stay in ``agents`` until the
+    episode ends (see "Agents that finish"); position_margin (m): None, or
+    positions clipped to the map's bounds grown by this margin (see
+    "Observation bounds").
     """
 
     controlled: str | Sequence[str | int] = "all"
@@ -182,8 +223,14 @@ class EnvOptions:
     arena: ArenaOptions = field(default_factory=ArenaOptions)
     render_size: tuple[int, int] = (1200, 800)
     selected: str | int | None = None
+    keep_finished: bool = False
+    position_margin: float | None = None
 
     def __post_init__(self) -> None:
+        if self.position_margin is not None and not (
+                math.isfinite(self.position_margin) and self.position_margin >= 0):
+            raise ValueError(f"position_margin: expected None or a finite number of m >= 0, "
+                             f"got {self.position_margin}")
         if self.max_neighbours < 0:
             raise ValueError(f"max_neighbours: expected >= 0, got {self.max_neighbours}")
         if self.after_done not in ("agent", "hold"):
@@ -206,15 +253,18 @@ def nao_candidates(options: EnvOptions) -> NDArray[np.float64]:
 
 
 def observation_layout(options: EnvOptions | None = None) -> dict[str, slice]:
-    """Slices of the observation vector: "own", "neighbours" (reshape to (K, 9)), "nao"."""
+    """Slices of the observation vector: "own", "neighbours" (reshape to (K, 9)), "nao",
+    "finished" (one entry with ``keep_finished``, else empty)."""
     options = options or EnvOptions()
     n_own = len(OWN_FEATURES)
     n_nb = options.max_neighbours * len(NEIGHBOUR_FEATURES)
     n_nao = len(nao_candidates(options)) if options.nao_features else 0
+    end = n_own + n_nb + n_nao
     return {
         "own": slice(0, n_own),
         "neighbours": slice(n_own, n_own + n_nb),
-        "nao": slice(n_own + n_nb, n_own + n_nb + n_nao),
+        "nao": slice(n_own + n_nb, end),
+        "finished": slice(end, end + (1 if options.keep_finished else 0)),
     }
 
 
@@ -366,6 +416,12 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._viewer: Any = None
         self.last_result: StepResult | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Everything but the viewer (pygame objects; a copy opens its own on render)."""
+        state = self.__dict__.copy()
+        state["_viewer"] = None
+        return state
+
     # ------------------------------------------------------------------ setup
 
     def _load(self, params: Mapping[str, Any]) -> MapSpec:
@@ -429,32 +485,72 @@ class NaoArenaParallelEnv(ParallelEnv):
 
     def _build_spaces(self) -> None:
         lay = observation_layout(self.options)
-        dim = lay["nao"].stop
-        low = np.full(dim, -np.inf, dtype=np.float32)
-        high = np.full(dim, np.inf, dtype=np.float32)
-        k = self.options.max_neighbours
-        nb = len(NEIGHBOUR_FEATURES)
-        nb_low = low[lay["neighbours"]].reshape(k, nb)
-        nb_high = high[lay["neighbours"]].reshape(k, nb)
-        for col in (0, 8):  # mask, is_traffic
-            nb_low[:, col], nb_high[:, col] = 0.0, 1.0
-        nb_low[:, 7] = 0.0  # radius
-        low[lay["neighbours"]] = nb_low.ravel()
-        high[lay["neighbours"]] = nb_high.ravel()
-        for name in ("a_max", "v_max", "radius", "time_left"):
-            low[OWN_FEATURES.index(name)] = 0.0
-        low[lay["nao"]] = -self.options.nao_clip
-        high[lay["nao"]] = self.options.nao_clip
+        self._layout = lay
+        dim = lay["finished"].stop
+        low, high = self._observation_bounds(lay)
         self._obs_dim = dim
         self._observation_spaces = {
-            a: spaces.Box(low, high, shape=(dim,), dtype=np.float32) for a in self.possible_agents
+            a: spaces.Box(low.astype(np.float32), high.astype(np.float32), shape=(dim,),
+                          dtype=np.float32)
+            for a in self.possible_agents
         }
+        box = self._observation_spaces[self.possible_agents[0]]
+        # observations are clipped to the float32 bounds themselves (see _observe)
+        self._obs_low = box.low.astype(np.float64)
+        self._obs_high = box.high.astype(np.float64)
         self._action_spaces = {
             a: spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32) for a in self.possible_agents
         }
         n, r = self.arena.world.n, len(self.arena.robots)
         sdim = 1 + 8 * n + 2 * r
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(sdim,), dtype=np.float32)
+
+    def _observation_bounds(
+        self, lay: dict[str, slice]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Lower and upper bounds (D,) of the observation entries (module docstring,
+        "Observation bounds"); dynamic bounds widened by a relative _BOUND_SLACK."""
+        world = self.arena.world
+        ctl = self.arena.robot_ids[self._controlled]
+        wide = 1.0 + _BOUND_SLACK
+        v_all, v_own = float(np.max(world.v_max)), float(np.max(world.v_max[ctl]))
+        a_own = float(np.max(world.a_max[ctl]))
+        r_all, r_own = float(np.max(world.radii)), float(np.max(world.radii[ctl]))
+        bounds = self.spec.bounds
+        lo, hi = np.array(bounds.min, dtype=float), np.array(bounds.max, dtype=float)
+        if self.options.position_margin is not None:
+            p_lo, p_hi = lo - self.options.position_margin, hi + self.options.position_margin
+        elif bounds.walls:
+            p_lo, p_hi = lo, hi
+        else:
+            p_lo, p_hi = np.full(2, -np.inf), np.full(2, np.inf)
+        v, acc, dv = v_own * wide, 2.0 * v_own / world.dt * wide, (v_all + v_own) * wide
+        own = {
+            "goal_dx": ((lo[0] - p_hi[0]) * wide, (hi[0] - p_lo[0]) * wide),
+            "goal_dy": ((lo[1] - p_hi[1]) * wide, (hi[1] - p_lo[1]) * wide),
+            "vx": (-v, v), "vy": (-v, v), "ax": (-acc, acc), "ay": (-acc, acc),
+            "cmd_ax": (-a_own * wide, a_own * wide), "cmd_ay": (-a_own * wide, a_own * wide),
+            "a_max": (0.0, a_own), "v_max": (0.0, v_own), "radius": (0.0, r_own),
+            "x": (p_lo[0], p_hi[0]), "y": (p_lo[1], p_hi[1]),
+            "goal_x": (lo[0], hi[0]), "goal_y": (lo[1], hi[1]),
+            "time_left": (0.0, self.time_limit),
+        }
+        reach = self._sensing_range * wide
+        reach_xy = [reach if math.isfinite(reach) else p_hi[i] - p_lo[i] for i in (0, 1)]
+        acc_all = 2.0 * v_all / world.dt * wide
+        row = {
+            "mask": (0.0, 1.0), "dx": (-reach_xy[0], reach_xy[0]),
+            "dy": (-reach_xy[1], reach_xy[1]), "dvx": (-dv, dv), "dvy": (-dv, dv),
+            "ax": (-acc_all, acc_all), "ay": (-acc_all, acc_all), "radius": (0.0, r_all),
+            "is_traffic": (0.0, 1.0),
+        }
+        k = self.options.max_neighbours
+        pairs = ([own[f] for f in OWN_FEATURES] + [row[f] for f in NEIGHBOUR_FEATURES] * k
+                 + [(-self.options.nao_clip, self.options.nao_clip)]
+                 * (lay["nao"].stop - lay["nao"].start)
+                 + [(0.0, 1.0)] * (lay["finished"].stop - lay["finished"].start))
+        out = np.array(pairs, dtype=np.float64).reshape(-1, 2)
+        return out[:, 0].copy(), out[:, 1].copy()
 
     def observation_space(self, agent: str) -> spaces.Box:
         """The agent's observation space (the same object on every call)."""
@@ -503,6 +599,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         obs = self._observe(rows)
         infos = {a: {"collisions": [], "reached": False, "time": 0.0, "faults": []}
                  for a in self.agents}
+        if self.options.keep_finished:
+            for info in infos.values():
+                info["finished"] = False
         if self.render_mode == "human":
             self.render()
         return {a: obs[i] for i, a in enumerate(self.agents)}, infos
@@ -555,8 +654,15 @@ class NaoArenaParallelEnv(ParallelEnv):
         live = self.agents
         if not live:
             return {}, {}, {}, {}, {}
-        rows = np.fromiter((self._row[a] for a in live), dtype=np.intp, count=len(live))
-        cmd = self._actions_array(actions, live) * self._a_max[rows, None]
+        live_rows = np.fromiter((self._row[a] for a in live), dtype=np.intp, count=len(live))
+        cmd = self._actions_array(actions, live) * self._a_max[live_rows, None]
+        keep = self.options.keep_finished
+        if keep:
+            # finished agents stay live; their actions are ignored
+            acting = self._alive[live_rows]
+            rows, cmd = live_rows[acting], cmd[acting]
+        else:
+            rows = live_rows
         arena_actions: dict[int, NDArray[np.float64]] = dict(
             zip(np.asarray(self._controlled)[rows].tolist(), cmd, strict=True)
         )
@@ -597,6 +703,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         if opts.terminate_on_collision and n_col is not None:
             terminated |= n_col > 0
         time_up = res.time >= self.time_limit - 1e-9
+        if keep:
+            return self._step_keep(live, live_rows, rows, reward, terminated, time_up, events,
+                                   faults, res)
         obs = self._observe(rows)
         out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
         reached_l = reached.tolist()
@@ -618,6 +727,54 @@ class NaoArenaParallelEnv(ParallelEnv):
         if self.render_mode == "human":
             self.render()
         return out_obs, out_rew, out_term, out_trunc, out_info
+
+    def _step_keep(
+        self, live: list[str], live_rows: NDArray[np.intp], rows: NDArray[np.intp],
+        reward: NDArray[np.float64], terminated: NDArray[np.bool_], time_up: bool,
+        events: dict[int, list[dict[str, Any]]], faults: dict[int, list[dict[str, Any]]],
+        res: StepResult,
+    ) -> tuple[
+        dict[str, NDArray[np.float32]], dict[str, float], dict[str, bool], dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """The end of :meth:`step` with ``keep_finished``: ``rows`` (the acting agents among
+        ``live_rows``) got ``reward`` and ``terminated``; every live agent stays live until
+        the time limit or until all have finished."""
+        finished_before = ~self._alive[live_rows]
+        self._alive[rows[terminated]] = False
+        # what drove the finished robots (their agent, or braking), as the world applied it
+        held = live_rows[finished_before]
+        self._prev_cmd[held] = clip_accelerations(
+            res.commanded[self._bodies[held]], self._a_max[held])
+        obs = self._observe(live_rows)
+        end = time_up or not np.any(self._alive)
+        finished = ~self._alive[live_rows]
+        rew = np.zeros(len(live_rows))
+        rew[~finished_before] = reward
+        reached = self.arena.stats.reached[self._bodies[live_rows]].tolist()
+        t = float(res.time)
+        out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
+        for i, a in enumerate(live):
+            b = int(self._bodies[live_rows[i]])
+            fin = bool(finished[i])
+            out_obs[a] = obs[i]
+            out_rew[a] = float(rew[i])
+            out_term[a] = end and fin
+            out_trunc[a] = end and time_up and not fin
+            out_info[a] = {"collisions": events.get(b, []), "reached": reached[i], "time": t,
+                           "faults": faults.get(b, []), "finished": fin}
+        if end:
+            self._alive[live_rows] = False
+            self.agents = []
+        if self.render_mode == "human":
+            self.render()
+        return out_obs, out_rew, out_term, out_trunc, out_info
+
+    @property
+    def finished_agents(self) -> list[str]:
+        """The agents in ``agents`` that have finished (``keep_finished``: their actions
+        are ignored; always empty without it, as finished agents leave ``agents``)."""
+        return [a for a in self.agents if not self._alive[self._row[a]]]
 
     # ------------------------------------------------------------------ observations
 
@@ -650,7 +807,10 @@ class NaoArenaParallelEnv(ParallelEnv):
                           max(self.time_limit - state.time, 0.0), self._sensing_range, out,
                           idx, present)
         if self._cand is not None:
-            out[:, observation_layout(opts)["nao"]] = self._nao_block(bodies, idx, present)
+            out[:, self._layout["nao"]] = self._nao_block(bodies, idx, present)
+        if opts.keep_finished:
+            out[:, self._layout["finished"]] = ~self._alive[rows, None]
+        np.clip(out, self._obs_low, self._obs_high, out=out)
         return out.astype(np.float32)
 
     def _nao_block(

@@ -945,6 +945,20 @@ class EpisodeStats:
         self.deadlock_time = math.nan
         self.deadlock_duration = 0.0
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The attributes, the depth map (a numba typed dict) as a plain dict."""
+        state = self.__dict__.copy()
+        state["_depth"] = dict(self._depth)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Restore the attributes; the depth map is refilled in its insertion order."""
+        self.__dict__.update(state)
+        depth = _new_depth_map()
+        for key, value in state["_depth"].items():
+            depth[key] = value
+        self._depth = depth
+
     # ------------------------------------------------------------------ update
 
     def update(

@@ -29,6 +29,19 @@ end. The batch buffers' C arrays are owned here and freed with the world
 (``pymunk.batch.Buffer`` never frees its own). A fresh ``pymunk.Space`` is
 built on every :meth:`World.reset`. Same map and same commands give
 bit-identical trajectories.
+
+Copies and pickles
+------------------
+A world is copied (``copy.deepcopy``) and pickled as its map and the
+commands it was stepped with since its last reset (:attr:`World.commands`,
+16 bytes per body per step); unpickling builds the world afresh from the
+map and replays them, so that a copy continues bit for bit like the
+original. Pickling the pymunk space itself is not enough: pymunk restores
+bodies, shapes and the cached contacts (arbiters, with their accumulated
+impulses), but rebuilds the broad phase's bounding-box tree by inserting
+the shapes anew, so later steps find the same touching pairs in another
+order, some with the two shapes swapped; the solver then rounds
+differently wherever a body has two contacts at once.
 """
 
 from __future__ import annotations
@@ -274,7 +287,8 @@ class World:
     ``World(spec)`` builds the space (see :meth:`reset`); :meth:`step`
     advances one control period; :meth:`state` reads the bodies. Static
     per-body data: :attr:`radii`, :attr:`masses`, :attr:`a_max`,
-    :attr:`v_max` (N,), :attr:`names`, :attr:`kinds`.
+    :attr:`v_max` (N,), :attr:`names`, :attr:`kinds`. Copies and pickles replay
+    :attr:`commands` (see the module docstring).
     """
 
     def __init__(self, spec: MapSpec) -> None:
@@ -296,7 +310,19 @@ class World:
             [b.index for b in self.bodies if b.kind == "traffic"], dtype=np.intp
         )
         self._walls = spec.wall_segments()
+        self._log = np.empty((0, self.n, 2))
         self.reset()
+
+    def __getstate__(self) -> dict[str, object]:
+        """The map and the commands since the last reset (the space and the batch
+        buffers, C objects, are rebuilt by :meth:`__setstate__`)."""
+        return {"spec": self.spec, "commands": self.commands.copy()}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """A fresh world for the map, stepped with the pickled commands."""
+        self.__init__(state["spec"])  # type: ignore[misc]
+        for accels in state["commands"]:  # type: ignore[attr-defined]
+            self.step(accels)
 
     # ------------------------------------------------------------------ setup
 
@@ -383,6 +409,14 @@ class World:
         pb.set_space_bodies(self._space, pb.BodyFields.VELOCITY, self._vel_buf)
         self._vel = v
 
+    def _record(self, accels: FloatArray) -> None:
+        """Append one step's commands to the log (capacity doubled when full)."""
+        if self._steps == len(self._log):
+            grown = np.empty((max(16, 2 * len(self._log)), self.n, 2))
+            grown[: self._steps] = self._log[: self._steps]
+            self._log = grown
+        self._log[self._steps] = accels
+
     # ------------------------------------------------------------------ public
 
     @property
@@ -406,6 +440,14 @@ class World:
         its start (row 0) and end (row S) included: the engine moves every body in a
         straight line between two rows. Read-only; (1, N, 2) after a reset."""
         return self._path
+
+    @property
+    def commands(self) -> FloatArray:
+        """The commanded accelerations (steps, N, 2) m/s^2 given to :meth:`step` since
+        the last reset, as given (before any limit), one row per step (read-only view)."""
+        log = self._log[: self._steps]
+        log.setflags(write=False)
+        return log
 
     def wall_segments(self) -> tuple[FloatArray, FloatArray]:
         """All walls as segments (W, 2, 2) m and half-thicknesses (W,) m (polygon edges: 0)."""
@@ -437,6 +479,7 @@ class World:
                                     self._rows, self._forces, v)
         if not finite:
             raise ValueError("expected finite accelerations")
+        self._record(a)
         if over:
             self._write_velocities(v)
         h = self.dt / self.substeps

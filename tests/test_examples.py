@@ -69,7 +69,8 @@ def test_readme_map_example_loads_and_runs(tmp_path, capsys):
 def test_readme_points_to_every_example():
     section = _section("Examples")
     examples = sorted(p.name for p in EXAMPLES.iterdir() if p.suffix in (".py", ".yaml"))
-    assert examples == ["compare_agents.py", "custom_agent.py", "my_map.yaml", "record_gif.py"]
+    assert examples == ["compare_agents.py", "custom_agent.py", "my_map.yaml", "record_gif.py",
+                        "train_ppo.py"]
     for name in examples:
         assert f"`examples/{name}`" in section
 
