@@ -1,0 +1,12 @@
+"""crossing_streams_perturbed_v0: crossing_streams with seeded start noise (perturb, default 0.01 m).
+
+The shipped map ``crossing_streams_perturbed`` (maps/crossing_streams_perturbed.yaml); see :mod:`nao_arena.envs` for the
+keywords and the versioning rule.
+"""
+
+from nao_arena.envs._make import constructors
+
+MAP = "crossing_streams_perturbed"
+env, parallel_env = constructors(__name__, MAP)
+
+__all__ = ["MAP", "env", "parallel_env"]
