@@ -47,6 +47,10 @@ In the arena the agents of one class act together (:meth:`NAOAgent.act_batch`,
 the same results as :meth:`NAOAgent.act` robot by robot): predictions once
 per step for all bodies, goal seeking vectorised, the keep test (1.) in one
 compiled call; only the robots that must re-select run the selection.
+
+:meth:`NAOAgent.nearest_admissible` (and its batch form) is the selection on
+its own, for an acceleration chosen by something else: the safety shield of
+:mod:`nao_arena.shield`.
 """
 
 from __future__ import annotations
@@ -326,13 +330,7 @@ class NAOAgent:
                          and float(np.hypot(*(obs.goal - obs.position))) <= self.goal_zone)
         self.age += obs.dt
         desired = goal_seeking_accel(obs, self.v_pref, heading_offset=self.detour)
-        nb = obs.neighbours
-        predicted = (np.ascontiguousarray(self.predict(self.times, nb), dtype=np.float64)
-                     if len(nb) else np.zeros((0, len(self.times), 2)))
-        path = self._relevant_paths(predicted, path_excursions(predicted), np.arange(len(nb)),
-                                    np.asarray(nb.radii, float),
-                                    obs.position, obs.radius, obs.walls, obs.wall_radius,
-                                    obs.velocity, obs.a_max, obs.v_max)
+        path = self._observed_path(obs)
         if (
             (float(np.hypot(*(self.current - desired))) <= self._band()
              or self._holds_adjustment())
@@ -345,6 +343,17 @@ class NAOAgent:
         traffic = "traffic" in obs.neighbours.kinds
         return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max, obs.dt,
                             traffic)
+
+    def _observed_path(self, obs: Observation) -> PiecewisePath:
+        """:meth:`_relevant_paths` of everything ``obs`` senses: its neighbours' predicted
+        paths and the walls, robot-relative (m)."""
+        nb = obs.neighbours
+        predicted = (np.ascontiguousarray(self.predict(self.times, nb), dtype=np.float64)
+                     if len(nb) else np.zeros((0, len(self.times), 2)))
+        return self._relevant_paths(predicted, path_excursions(predicted), np.arange(len(nb)),
+                                    np.asarray(nb.radii, float),
+                                    obs.position, obs.radius, obs.walls, obs.wall_radius,
+                                    obs.velocity, obs.a_max, obs.v_max)
 
     @classmethod
     def act_batch(
@@ -485,6 +494,135 @@ class NAOAgent:
         )
         return bool(ok[0])
 
+    # ------------------------------------------------------------ the selection on its own
+    # For an acceleration chosen by something else (the safety shield of nao_arena.shield):
+    # the same predictions, admissibility test, repair, selection and fallbacks as act and
+    # act_batch, with that acceleration in place of goal seeking (no detours, no replan).
+
+    def nearest_admissible(
+        self, obs: Observation, desired: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], str]:
+        """The admissible acceleration (m/s^2) nearest ``desired`` (2,) m/s^2 for the robot
+        of ``obs``, and how it was found (:data:`SHIELD_STATUSES`): "kept" (``desired`` is
+        admissible and comes back as it is), "repaired" (it is not, and a young adjustment
+        is repaired locally, as in :meth:`act`), "adjusted" (the full selection's nearest
+        admissible one) or "infeasible" (nothing admissible: the fallback of
+        ``infeasible``). Call once per control step: it ages the current adjustment
+        (``reselect_after``) and the result becomes the current acceleration."""
+        want = _desired_rows(desired, 1)[0]
+        self.age += obs.dt
+        path = self._observed_path(obs)
+        return self._nearest_on(want, obs.velocity, path, obs.a_max, obs.v_max, obs.dt,
+                                "traffic" in obs.neighbours.kinds)
+
+    def _nearest_on(
+        self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
+        a_max: float, v_max: float, dt: float, traffic: bool,
+    ) -> tuple[NDArray[np.float64], str]:
+        """:meth:`nearest_admissible` on the robot's obstacle paths ``path`` (velocity m/s,
+        limits a_max m/s^2 and v_max m/s, control period dt s; traffic: whether traffic is
+        among the neighbours)."""
+        if self._admissible_arrays(desired, velocity, a_max, v_max, path):
+            self.current = desired.copy()
+            return self.current, "kept"
+        fixed = self._repair(desired, velocity, path, a_max, v_max)
+        if fixed is not None:
+            return fixed, "repaired"
+        accel = self._select(desired, velocity, path, a_max, v_max, dt, traffic)
+        assert self.last_selection is not None
+        return accel, _SELECTION_STATUS[self.last_selection.status]
+
+    @classmethod
+    def nearest_admissible_batch(
+        cls, agents: Sequence[NAOAgent], batch: SensingBatch, rows: Sequence[int],
+        desired: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], list[str]]:
+        """:meth:`nearest_admissible` for many robots at once (same results): agent i
+        drives robot rows[i] of ``batch`` and gets desired[i] (m/s^2). Predictions once
+        per step for all bodies, the admissibility of the desired accelerations in one
+        compiled call, the repairs and selections of the others in another (as
+        :meth:`act_batch`). Returns the accelerations (n, 2) m/s^2 and the statuses."""
+        n = len(rows)
+        rows_a = np.asarray(rows, dtype=np.int64)
+        want = _desired_rows(desired, n)
+        out = np.zeros((n, 2))
+        status = [""] * n
+        bodies = batch.bodies[rows_a]
+        pos = batch.positions[bodies]
+        vel = batch.velocities[bodies]
+        rad = batch.radii[bodies]
+        a_max = batch.a_max[bodies]
+        v_max = batch.v_max[bodies]
+        groups: dict[tuple[str, bytes], list[int]] = {}
+        for i, ag in enumerate(agents):
+            if _batchable(type(ag)):
+                ag.age += batch.dt
+                groups.setdefault(ag._grid_key(), []).append(i)
+            else:
+                out[i], status[i] = ag.nearest_admissible(batch.observation(int(rows_a[i])),
+                                                          want[i])
+        if not groups:
+            return out, status
+        traffic_near = _traffic_near(batch, rows_a)
+        previous = np.array([ag.current for ag in agents], dtype=np.float64).reshape(n, 2)
+        for members in groups.values():
+            ag0 = agents[members[0]]
+            pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
+                                        dtype=np.float64)
+            excursions = path_excursions(pred)
+            lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
+                     if ag0._regular_grid() else None)
+            margin = np.array([agents[i].margin for i in members])
+            # the keep test with the desired accelerations as the ones to keep
+            every = np.ones(len(members), dtype=bool)
+            keep = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
+                                 vel, rad, v_max, want, want, a_max, every, margin)
+            holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
+            decided = (_decide(members, keep, agents, pred, excursions, lists, batch.radii,
+                               pos, vel, rad, a_max, v_max, previous, want, holds, margin)
+                       if lists is not None else None)
+            for j, (i, st) in enumerate(zip(members, keep, strict=True)):
+                ag = agents[i]
+                if st == 1:
+                    ag.current = want[i].copy()
+                    out[i], status[i] = ag.current, "kept"
+                    continue
+                if decided is not None and st == 0:
+                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch.dt,
+                                          bool(traffic_near[i]))
+                    if done is not None:
+                        out[i], status[i] = done, _KIND_STATUS[int(decided[0][j])]
+                        continue
+                # undecided here: robot by robot
+                idx = batch.neighbour_ids(int(rows_a[i]))
+                path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
+                                          float(rad[i]), batch.walls, batch.wall_radius,
+                                          vel[i], float(a_max[i]), float(v_max[i]))
+                out[i], status[i] = ag._nearest_on(want[i], vel[i], path, float(a_max[i]),
+                                                   float(v_max[i]), batch.dt,
+                                                   bool(traffic_near[i]))
+        return out, status
+
+
+def _desired_rows(desired: Any, n: int) -> NDArray[np.float64]:
+    """``desired`` as n finite accelerations (n, 2) m/s^2 (n = 1: also a (2,) vector);
+    else ValueError."""
+    want = np.array(desired, dtype=np.float64)
+    if want.shape != (n, 2) and not (n == 1 and want.shape == (2,)):
+        raise ValueError(f"desired: expected {'(2,) or ' if n == 1 else ''}({n}, 2) "
+                         f"accelerations (m/s^2), got shape {want.shape}")
+    if not np.all(np.isfinite(want)):
+        raise ValueError(f"desired: expected finite accelerations (m/s^2), got {want.tolist()}")
+    return want.reshape(n, 2)
+
+
+SHIELD_STATUSES: tuple[str, ...] = ("kept", "repaired", "adjusted", "infeasible")
+"""How :meth:`NAOAgent.nearest_admissible` found its acceleration (see there)."""
+
+_SELECTION_STATUS = {"desired": "kept", "adjusted": "adjusted", "infeasible": "infeasible"}
+_KIND_STATUS = {REPAIRED: "repaired", DESIRED: "kept", ADJUSTED: "adjusted",
+                INFEASIBLE: "infeasible"}
+
 
 def _within_reach(
     radii: NDArray[np.float64], rel: NDArray[np.float64]
@@ -527,7 +665,8 @@ def _overrides_nothing(cls: type) -> bool:
                for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
                             "_select", "_paths", "_relevant_paths", "_near_walls",
                             "_regular_grid", "_holds_adjustment", "_band", "_repair",
-                            "_fallback", "_commit"))
+                            "_fallback", "_commit", "_observed_path", "nearest_admissible",
+                            "_nearest_on"))
 
 
 _NO_WALLS = (np.zeros((0, 2)), np.zeros(0))

@@ -1,7 +1,8 @@
-"""crossing_streams_perturbed_v0: crossing_streams with seeded start noise (perturb, default 0.01 m).
+"""crossing_streams_perturbed_v0: crossing_streams with seeded start noise
+(perturb, default 0.01 m).
 
-The shipped map ``crossing_streams_perturbed`` (maps/crossing_streams_perturbed.yaml); see :mod:`nao_arena.envs` for the
-keywords and the versioning rule.
+The shipped map ``crossing_streams_perturbed`` (maps/crossing_streams_perturbed.yaml); see
+:mod:`nao_arena.envs` for the keywords and the versioning rule.
 """
 
 from nao_arena.envs._make import constructors
