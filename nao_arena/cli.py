@@ -588,7 +588,7 @@ def _cmd_explain(args: argparse.Namespace) -> int:
     try:
         expl = explain_contact(log, args.contact)
     except ValueError as exc:
-        return _err(str(exc))
+        return _err(f"{args.log}: {exc}")
     print(expl.text)
     try:
         write_explanation(log, expl, out)

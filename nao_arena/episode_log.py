@@ -52,8 +52,10 @@ The file's key-value metadata ``nao_arena.episode_log`` is a JSON object:
 version that wrote it), ``map`` (the resolved map: every field, parameters
 and seed included), ``seed`` (the agents' seed), ``run`` (how the episode
 was started: map reference, overrides, time limit, trial cell), ``options``
-(the arena's sensing options), ``robots`` (per robot: name, body, agent,
-label, predictor, times (s), margin (m), v_pref (m/s)), ``steps`` (rows),
+(the arena's sensing options), ``time_grids`` (the agents' prediction time
+grids, s), ``robots`` (per robot: name, body, agent, label, predictor,
+times (an index into ``time_grids``), margin (m), v_pref (m/s),
+neighbours (whether its neighbours are logged)), ``steps`` (rows),
 ``contact_steps`` (per contact of the summary, the row that reported it),
 ``fault_steps``, ``summary`` (the episode's summary, as ``run --json``
 writes it). ``nao_arena.episode_log.sha256`` holds the SHA-256 of that JSON
@@ -576,6 +578,10 @@ def _checksum_options() -> tuple[dict[str, bool], dict[str, bool]]:
 
 
 def _metadata(log: EpisodeLog) -> dict[str, Any]:
+    grids: list[list[float]] = []
+    for r in log.robots:
+        if r.times is not None and r.times.tolist() not in grids:
+            grids.append(r.times.tolist())
     return {
         "format": LOG_FORMAT,
         "version": LOG_VERSION,
@@ -584,9 +590,11 @@ def _metadata(log: EpisodeLog) -> dict[str, Any]:
         "seed": log.seed,
         "run": log.run,
         "options": log.options,
+        "time_grids": grids,
         "robots": [{
             "name": r.name, "body": r.body, "agent": r.agent, "label": r.label,
-            "predictor": r.predictor, "times": None if r.times is None else r.times.tolist(),
+            "predictor": r.predictor,
+            "times": None if r.times is None else grids.index(r.times.tolist()),
             "margin": r.margin, "v_pref": r.v_pref, "neighbours": bool(logged),
         } for r, logged in zip(log.robots, log.nb_logged, strict=True)],
         "steps": log.n_steps,
@@ -647,19 +655,26 @@ def write_log(log: EpisodeLog, path: str | Path) -> Path:
     the path."""
     path = Path(path)
     meta = json.dumps(_metadata(log), separators=(",", ":"), allow_nan=False)
-    table = to_table(log).replace_schema_metadata({
-        META_KEY: meta.encode("utf-8"),
-        META_SHA_KEY: hashlib.sha256(meta.encode("utf-8")).hexdigest().encode("ascii"),
-    })
+    kv = {META_KEY: meta.encode("utf-8"),
+          META_SHA_KEY: hashlib.sha256(meta.encode("utf-8")).hexdigest().encode("ascii")}
+    table = to_table(log)
+    # the file's own key-value pairs; where pyarrow cannot add them, the schema's (which
+    # pyarrow then also keeps in its serialized schema)
+    own_kv = hasattr(pq.ParquetWriter, "add_key_value_metadata")
+    if not own_kv:
+        table = table.replace_schema_metadata(kv)
     write_checks, _ = _checksum_options()
     fd, tmp = temporary_sibling(path, suffix=".tmp.parquet")
     os.close(fd)
     try:
         # plain float64 pages compress better with zstd here than byte-stream-split ones
-        pq.write_table(
-            table, tmp, compression="zstd", compression_level=3,
-            use_dictionary=["step", "time", "status", "selection", "neighbours"],
-            write_statistics=False, row_group_size=max(table.num_rows, 1), **write_checks)
+        with pq.ParquetWriter(
+                tmp, table.schema, compression="zstd", compression_level=3,
+                use_dictionary=["step", "time", "status", "selection", "neighbours"],
+                write_statistics=False, **write_checks) as writer:
+            writer.write_table(table, row_group_size=max(table.num_rows, 1))
+            if own_kv:
+                writer.add_key_value_metadata(kv)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -771,11 +786,12 @@ def _from_table(path: Path, table: pa.Table, meta: dict[str, Any]) -> EpisodeLog
         return np.stack([col(a), col(b)], axis=-1).reshape(n_rows, n, 2)
 
     robots = []
+    grids = [np.array(g, dtype=np.float64) for g in meta.get("time_grids", [])]
     for r in meta["robots"]:
         robots.append(RobotInfo(
             name=str(r["name"]), body=int(r["body"]), agent=str(r["agent"]),
             label=str(r["label"]), predictor=r.get("predictor"),
-            times=None if r.get("times") is None else np.array(r["times"], dtype=np.float64),
+            times=None if r.get("times") is None else grids[int(r["times"])],
             margin=float(r.get("margin", 0.0)),
             v_pref=None if r.get("v_pref") is None else float(r["v_pref"])))
     ids = np.array([r.body for r in robots], dtype=np.intp)

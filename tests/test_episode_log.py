@@ -259,7 +259,8 @@ def test_corrupt_and_foreign_files_are_clear_errors(goal_log, tmp_path):
 
 def _rewrite(src: Path, dst: Path, meta_edit=None, table_edit=None, fix_sha=True) -> Path:
     table = pq.read_table(src)
-    kv = dict(table.schema.metadata)
+    kv = {k: v for k, v in pq.ParquetFile(src).metadata.metadata.items()
+          if k != b"ARROW:schema"}
     meta = json.loads(kv[episode_log.META_KEY])
     if meta_edit:
         meta_edit(meta)
@@ -306,10 +307,12 @@ def test_a_failed_write_leaves_the_old_log(goal_log, tmp_path, monkeypatch):
     target.write_bytes(b"old")
     log = read_log(goal_log)
 
-    def fail(*args, **kwargs):
-        raise OSError("disk full")
+    class Failing(pq.ParquetWriter):
+        def write_table(self, *args, **kwargs):
+            super().write_table(*args, **kwargs)
+            raise OSError("disk full")
 
-    monkeypatch.setattr(episode_log.pq, "write_table", fail)
+    monkeypatch.setattr(episode_log.pq, "ParquetWriter", Failing)
     with pytest.raises(OSError):
         write_log(log, target)
     assert target.read_bytes() == b"old"
@@ -369,3 +372,13 @@ def test_trial_logs_the_episodes_with_contacts_and_names_them(tmp_path):
     assert len(list((tmp_path / "logs").iterdir())) == 2
     with pytest.raises(ValueError, match="log: expected one of all, contacts"):
         TrialConfig(maps=("crowd",), agents=("nao",), log="some")
+
+
+def test_the_readme_documents_every_column_and_status():
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = readme.split("\n## Look at an episode again\n", 1)[1].split("\n## ", 1)[0]
+    for name in episode_log._SCHEMA.names:
+        assert f"`{name}`" in section, name
+    for status in STATUSES:
+        assert f"`{status}`" in section, status
+    assert f"(version {LOG_VERSION})" in section

@@ -110,4 +110,5 @@ def test_cli_lists_explains_and_draws(goal_crowd, tmp_path, capsys):
     assert len(np.unique(picture.reshape(-1, picture.shape[-1]), axis=0)) > 100
     assert main(["explain", path, "--contact", "99"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("nao-arena: error: --contact: expected 1 .. ") and err.count("\n") == 1
+    assert err.startswith(f"nao-arena: error: {path}: --contact: expected 1 .. ")
+    assert err.count("\n") == 1
