@@ -18,6 +18,7 @@ import math
 import textwrap
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +26,12 @@ from numpy.typing import NDArray
 from nao_arena.agents.goal import goal_seeking_accel
 from nao_arena.episode_log import EpisodeLog
 from nao_arena.stats import ContactEvent
+
+if TYPE_CHECKING:  # matplotlib and the viewer load only when a picture is drawn
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from nao_arena.render.viewer import ViewerOptions
 
 __all__ = ["Explanation", "Party", "explain_contact", "explain_figure", "explain_picture",
            "write_explanation"]
@@ -307,7 +314,8 @@ def _summary(log: EpisodeLog, number: int, ev: ContactEvent, step: int,
 # --------------------------------------------------------------------------- the picture
 
 
-def explain_figure(log: EpisodeLog, expl: Explanation, options: object | None = None) -> object:
+def explain_figure(log: EpisodeLog, expl: Explanation,
+                   options: ViewerOptions | None = None) -> Figure:
     """A matplotlib Figure of the explanation: the paths and predictions (left) and the
     robots' acceleration panels at the step before, as the viewer draws them (with the
     decision taken there), and the text."""
@@ -322,7 +330,7 @@ def explain_figure(log: EpisodeLog, expl: Explanation, options: object | None = 
                             width_ratios=[6.0] + [4.2] * len(robots))
     ax = fig.add_subplot(grid[0, 0])
     _draw_paths(ax, log, expl)
-    vopts = options if isinstance(options, ViewerOptions) else ViewerOptions()
+    vopts = options or ViewerOptions()
     replayer = Replayer(log, options=vopts)
     h = vopts.size[1]
     for i, p in enumerate(robots):
@@ -344,7 +352,7 @@ def explain_figure(log: EpisodeLog, expl: Explanation, options: object | None = 
 _COLOURS = ("tab:blue", "tab:orange")
 
 
-def _draw_paths(ax: object, log: EpisodeLog, expl: Explanation) -> None:
+def _draw_paths(ax: Axes, log: EpisodeLog, expl: Explanation) -> None:
     """World view around the pair: where they went and where each predicted the other."""
     from matplotlib.patches import Circle
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -39,8 +39,8 @@ from nao_arena.stats import ContactEvent, temporary_sibling
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState
 
-__all__ = ["KEYS", "ReplayArena", "Replayer", "frames_of", "play", "record_replay",
-           "robot_index", "write_frame"]
+__all__ = ["KEYS", "ReplayArena", "Replayer", "play", "record_replay", "robot_index",
+           "write_frame"]
 
 KEYS = """\
 space: play / pause        right, left: one step forward, back
@@ -360,10 +360,3 @@ def _show_picture(picture: NDArray[np.uint8]) -> None:
     window.blit(pygame.transform.smoothscale(surf, size), ((w - size[0]) // 2,
                                                              (h - size[1]) // 2))
     pygame.display.flip()
-
-
-def frames_of(log: EpisodeLog, steps: Sequence[int], selected: int = 0,
-              options: ViewerOptions | None = None) -> list[NDArray[np.uint8]]:
-    """The frames of the given rows, drawn in that order by one replayer."""
-    replayer = Replayer(log, options=options)
-    return [replayer.frame(s, selected) for s in steps]
