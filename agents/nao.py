@@ -149,6 +149,13 @@ class NAOAgent:
         self.detour_turns = 0
         self.settling = False
 
+    def last_decision(self) -> tuple[Selection | None, NDArray[np.float64], float]:
+        """What the agent keeps of its decisions, read-only: its last full selection (None
+        before the first; ``status`` "desired", "adjusted" or "infeasible"), a copy of its
+        current acceleration (2,) m/s^2 (kept, repaired or selected) and its detour (rad,
+        <= 0: the goal direction is turned right by -detour, see the module docstring)."""
+        return self.last_selection, np.array(self.current, dtype=np.float64), float(self.detour)
+
     def _update_detour(self, obs: Observation) -> None:
         """Track crawling away from the goal; start or end a detour to the right."""
         speed = float(np.hypot(*obs.velocity))

@@ -30,6 +30,11 @@ two episodes with the same hash followed the same trajectory.
 
 The PettingZoo env and the trial runner both drive this loop; neither has a
 loop of its own.
+
+Recording: an arena whose ``recorder`` is set (a :class:`StepRecorder`, e.g.
+:class:`nao_arena.episode_log.EpisodeRecorder`) hands it the state after
+:meth:`Arena.reset` and every step's sensing and result; it only reads them
+(with ``recorder = None``, the default, nothing else happens).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ import inspect
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -65,7 +70,7 @@ from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsCon
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState, clip_accelerations
 
-__all__ = ["Arena", "ArenaOptions", "StepResult", "make_agent"]
+__all__ = ["Arena", "ArenaOptions", "StepRecorder", "StepResult", "make_agent"]
 
 
 @dataclass(frozen=True)
@@ -99,6 +104,18 @@ class StepResult:
     commanded: NDArray[np.float64]
     contacts: list[ContactEvent]
     faults: list[AgentFault]
+
+
+class StepRecorder(Protocol):
+    """Receives an episode as it runs (see :attr:`Arena.recorder`); reads, never writes."""
+
+    def begin(self, arena: Arena, seed: int | None) -> None:
+        """The arena was just reset with ``seed``: its state, agents and statistics are fresh."""
+
+    def step(self, arena: Arena, sensing: SensingBatch, result: StepResult,
+             actions: Mapping[int, Any]) -> None:
+        """One step ended: what the robots sensed before it, its result, the external
+        actions (robot index -> acceleration) that replaced agents."""
 
 
 def make_agent(
@@ -163,6 +180,7 @@ class Arena:
         self._kinds: NDArray[np.str_] | None = None
         self._plan: tuple[list[type], dict[type, list[int]], list[int]] | None = None
         self._trajectory = hashlib.sha256()
+        self.recorder: StepRecorder | None = None
 
     def __getstate__(self) -> dict[str, Any]:
         """The attributes without the trajectory hash (a C object; see __setstate__)."""
@@ -222,6 +240,8 @@ class Arena:
         self.commanded = np.zeros((self.world.n, 2))
         self._trajectory = hashlib.sha256()
         self._hash_state(self.state)
+        if self.recorder is not None:
+            self.recorder.begin(self, seed)
         return self.state
 
     def _body_goals(self) -> NDArray[np.float64]:
@@ -346,7 +366,10 @@ class Arena:
             state.time, before, new_state.positions, new_state.velocities, commanded, reached,
             substeps=self.world.substep_positions,
         )
-        return StepResult(new_state.time, new_state, commanded, contacts, faults)
+        result = StepResult(new_state.time, new_state, commanded, contacts, faults)
+        if self.recorder is not None:
+            self.recorder.step(self, batch, result, actions)
+        return result
 
     def _dispatch(self) -> tuple[dict[type, list[int]], list[int]]:
         """Robots whose agents act together (per class with an ``act_batch``, robot

@@ -4,12 +4,15 @@ Sub-commands::
 
     nao-arena run MAP [--agent [LABEL=]AGENT] [--seed S] [--set key=value ...]
                   [--time-limit S] [--episode-timeout S]
-                  [--render human | --render gif|mp4 --out FILE] [--json FILE]
+                  [--render human | --render gif|mp4 --out FILE] [--json FILE] [--log FILE]
     nao-arena trial --map MAP[,MAP...] --agent [LABEL=]A[,[LABEL=]B...] --episodes N
                     --seed S --workers W --out DIR [--csv] [--set key=value ...]
                     [--time-limit S] [--episode-timeout S]
-                    [--backend local|ray [--address ADDR]]
+                    [--backend local|ray [--address ADDR]] [--log [all|contacts]]
     nao-arena report DIR [--out PLOTS_DIR]
+    nao-arena replay LOG [--robot R] [--at T [--png FILE]]
+                     [--render human | --render gif|mp4 --out FILE [--from S] [--to S]]
+    nao-arena explain LOG [--contact K [--out FILE.png]]
     nao-arena maps [--schema]
     nao-arena agents
     nao-arena figures [--out DIR] [--only NAMES]
@@ -31,6 +34,13 @@ raises, or when the episode exceeds its wall-clock budget
 (``--episode-timeout``, default 600 s; 0 or none: no budget); a trial
 records such episodes as failed and goes on. ``run --render human`` needs a
 display (and refuses ``--out``).
+
+Episode logs (:mod:`nao_arena.episode_log`): ``run --log FILE`` writes the
+episode's log; ``trial --log`` one per episode into ``DIR/logs`` (``--log
+contacts``: only the episodes with a contact or a stuck robot). ``replay``
+shows a log in the viewer (or writes a PNG, GIF or MP4 of it), ``explain``
+explains one of its contacts. A log that cannot be read (missing,
+truncated, corrupt, another format version) is a one-line error, exit status 2.
 """
 
 from __future__ import annotations
@@ -296,7 +306,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                         f"installation (cannot import nao_arena.render: {exc})")
     elif args.out:
         return _err("--out is the recording's file: use it with --render gif|mp4")
-    for path in (args.json, args.out if args.render in RENDER_SUFFIX else None):
+    for path in (args.json, args.out if args.render in RENDER_SUFFIX else None, args.log):
         if path and (problem := _unwritable(path)):
             return _err(problem)
     try:
@@ -307,6 +317,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         spec = make_map(args.map, args.seed, overrides, args.time_limit)
         _load_agents([agent] if agent else [r.agent for r in spec.robots])
         arena = Arena(spec, ArenaOptions(agent=agent))
+        recorder = _run_recorder(args, arena, label, overrides)
     except (MapError, ValueError) as exc:
         return _err(str(exc))
     try:
@@ -339,6 +350,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"wrote {args.json}")
     if args.render and args.render != "human":
         print(f"wrote {args.out}")
+    if recorder is not None:
+        return _write_run_log(args.log, recorder, arena)
     return 0
 
 
@@ -367,7 +380,7 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
             retry_failed=args.retry_failed, backend=args.backend, address=args.address,
             episode_timeout=args.episode_timeout,
-            agent_refs={label: ref for label, ref in agents if label != ref},
+            agent_refs={label: ref for label, ref in agents if label != ref}, log=args.log,
         )
         _load_agents(config.reference(a) for a in config.agents)
         in_other_processes = args.workers > 1 or args.backend == "ray"
@@ -386,6 +399,8 @@ def _cmd_trial(args: argparse.Namespace) -> int:
         return 130
     print(format_table(result.summary))
     print(f"{result.ran} episodes run, {result.skipped} already done; results in {args.out}")
+    if args.log:
+        print(_trial_logs_note(Path(args.out)))
     return 0
 
 
@@ -444,6 +459,178 @@ def _cmd_agents(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- episode logs
+
+
+def _run_recorder(args: argparse.Namespace, arena: Any, label: str | None,
+                  overrides: dict[str, Any]) -> Any:
+    """With ``run --log``: an episode recorder set on the arena (else None)."""
+    if not args.log:
+        return None
+    from nao_arena.episode_log import EpisodeRecorder
+
+    recorder = EpisodeRecorder(
+        context={"command": "run", "map": args.map, "seed": args.seed,
+                 "overrides": overrides, "time_limit": args.time_limit, "agent": args.agent},
+        labels=[label or name for name in arena.agent_names])
+    arena.recorder = recorder
+    return recorder
+
+
+def _write_run_log(path: str, recorder: Any, arena: Any) -> int:
+    from nao_arena.episode_log import write_log
+
+    try:
+        write_log(recorder.finish(arena), path)
+    except OSError as exc:
+        return _err(f"{path}: cannot be written ({exc.strerror or exc})")
+    print(f"wrote {path} (replay it: nao-arena replay {path}; its contacts: "
+          f"nao-arena explain {path})")
+    return 0
+
+
+def _trial_logs_note(out: Path) -> str:
+    logs = sorted((out / "logs").glob("*.parquet")) if (out / "logs").is_dir() else []
+    return (f"{len(logs)} episode logs in {out / 'logs'} (collisions.parquet names each "
+            f"contact's log; nao-arena report {out} lists them)")
+
+
+def _read_log_or_error(path: str) -> tuple[Any, str | None]:
+    """(log, None) or (None, the one-line error)."""
+    from nao_arena.episode_log import LogError, read_log
+
+    try:
+        return read_log(path), None
+    except LogError as exc:
+        return None, str(exc)
+
+
+def _replay_problem(args: argparse.Namespace) -> str | None:
+    """What is wrong with the options of ``replay`` (None: nothing)."""
+    if args.png and args.render:
+        return "--png writes one frame: drop --render (or drop --png to record a video)"
+    if args.png and args.at is None:
+        return "--png writes the frame at --at T: add --at (s)"
+    if args.png and (problem := _unwritable(args.png)):
+        return problem
+    if args.render in RENDER_SUFFIX:
+        if not args.out:
+            return f"--render {args.render} needs --out FILE{RENDER_SUFFIX[args.render]}"
+        if not args.out.lower().endswith(RENDER_SUFFIX[args.render]):
+            return (f"--render {args.render}: expected --out ending in "
+                    f"{RENDER_SUFFIX[args.render]}, got {args.out}")
+        return _unwritable(args.out)
+    if args.out:
+        return "--out is the recording's file: use it with --render gif|mp4"
+    if (args.start is not None or args.end is not None) and args.render not in RENDER_SUFFIX:
+        return "--from and --to choose the span of a recording: use them with --render gif|mp4"
+    if not args.png:
+        if why := _no_display():
+            return (f"replay: cannot open a window: {why}; write a frame with --at T --png "
+                    "FILE.png or a video with --render gif --out FILE.gif (or mp4)")
+    return None
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    if problem := _bad_number(args) or _replay_problem(args):
+        return _err(problem)
+    log, problem = _read_log_or_error(args.log)
+    if problem:
+        return _err(problem)
+    from nao_arena.render.replay import play, record_replay, robot_index, write_frame
+
+    try:
+        selected = robot_index(log, args.robot)
+        if args.png:
+            print(f"wrote {write_frame(log, args.png, args.at, selected)}")
+        elif args.render in RENDER_SUFFIX:
+            start = 0.0 if args.start is None else args.start
+            print(f"wrote {record_replay(log, args.out, args.fps, start, args.end, selected)}")
+        else:
+            from nao_arena.explain import explain_contact, explain_picture
+
+            def explain(number: int) -> tuple[str, Any]:
+                expl = explain_contact(log, number)
+                return expl.text, explain_picture(log, expl)
+
+            play(log, selected, 0.0 if args.at is None else args.at, explain=explain)
+    except ValueError as exc:
+        return _err(str(exc))
+    except OSError as exc:
+        return _err(f"cannot write the output: {exc.strerror or exc}")
+    return 0
+
+
+def _contact_list(log: Any, path: str) -> str:
+    contacts = log.contacts
+    if not contacts:
+        return f"{path}: the episode has no contact"
+    lines = [f"contacts in {path} (explain one with --contact K):"]
+    for k, c in enumerate(contacts, start=1):
+        other = f"wall {c.b}" if c.kind_b == "wall" else f"{c.name_b} ({c.kind_b})"
+        lines.append(f"  {k:3d}  t = {c.time:7.2f} s  {c.name_a} ({c.kind_a}) - {other}  "
+                     f"{c.impact_speed:.2f} m/s  {1000 * c.max_penetration:.1f} mm")
+    return "\n".join(lines)
+
+
+def _cmd_explain(args: argparse.Namespace) -> int:
+    log, problem = _read_log_or_error(args.log)
+    if problem:
+        return _err(problem)
+    if args.contact is None:
+        print(_contact_list(log, args.log))
+        return 0
+    from nao_arena.explain import explain_contact, write_explanation
+
+    out = args.out or str(Path(args.log).with_suffix("")) + f".contact{args.contact}.png"
+    if problem := _unwritable(out):
+        return _err(problem)
+    try:
+        expl = explain_contact(log, args.contact)
+    except ValueError as exc:
+        return _err(f"{args.log}: {exc}")
+    print(expl.text)
+    try:
+        write_explanation(log, expl, out)
+    except OSError as exc:
+        return _err(f"{out}: cannot be written ({exc.strerror or exc})")
+    print(f"wrote {out}")
+    return 0
+
+
+def _add_log_commands(sub: Any) -> None:
+    """The ``replay`` and ``explain`` sub-commands."""
+    replay = sub.add_parser("replay", help="show an episode log in the viewer, or write a "
+                                           "frame or video of it")
+    replay.add_argument("log", help="an episode log (run --log FILE, trial --log)")
+    replay.add_argument("--robot", default=None, metavar="R",
+                        help="robot of the acceleration panel: index or name (default 0)")
+    replay.add_argument("--at", type=float, default=None, metavar="T",
+                        help="time (s): of the frame with --png; where the window starts")
+    replay.add_argument("--png", default=None, metavar="FILE",
+                        help="write the frame at --at T as a PNG")
+    replay.add_argument("--render", choices=["human", "gif", "mp4"], default=None,
+                        help="a window (human, the default), or a recording (gif, mp4; "
+                             "with --out)")
+    replay.add_argument("--out", default=None, help="recording file (with --render gif|mp4)")
+    replay.add_argument("--fps", type=float, default=None,
+                        help="recording frame rate (default 1 / dt: every step)")
+    replay.add_argument("--from", dest="start", type=float, default=None, metavar="S",
+                        help="recording start (s; default 0)")
+    replay.add_argument("--to", dest="end", type=float, default=None, metavar="S",
+                        help="recording end (s; default the episode's end)")
+    replay.set_defaults(func=_cmd_replay)
+
+    explain = sub.add_parser("explain", help="why did these two touch? a logged contact, "
+                                             "the step before it")
+    explain.add_argument("log", help="an episode log (run --log FILE, trial --log)")
+    explain.add_argument("--contact", type=int, default=None, metavar="K",
+                         help="the contact to explain (1 = the first); without it: list them")
+    explain.add_argument("--out", default=None, metavar="FILE.png",
+                         help="the picture (default: LOG without its suffix + .contactK.png)")
+    explain.set_defaults(func=_cmd_explain)
+
+
 # --------------------------------------------------------------------------- parser
 
 
@@ -480,6 +667,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--fps", type=float, default=None, help="recording frame rate")
     run.add_argument("--json", default=None, metavar="FILE",
                      help="also write the episode summary as JSON")
+    run.add_argument("--log", default=None, metavar="FILE",
+                     help="also write the episode's log (every step; for replay, explain)")
     run.set_defaults(func=_cmd_run)
 
     trial = sub.add_parser("trial", help="run the grid maps x agents x episodes")
@@ -508,6 +697,10 @@ def build_parser() -> argparse.ArgumentParser:
     trial.add_argument("--address", default=None, metavar="ADDR",
                        help="with --backend ray: the Ray cluster to connect to (e.g. auto, "
                             "HOST:6379, ray://HOST:10001); default: start a local Ray")
+    trial.add_argument("--log", nargs="?", const="all", default=None,
+                       choices=["all", "contacts"],
+                       help="write each episode's log into OUT/logs (for replay, explain); "
+                            "--log contacts: only those with a contact or a stuck robot")
     trial.set_defaults(func=_cmd_trial)
 
     report = sub.add_parser("report", help="table and plots of a trial's results")
@@ -521,6 +714,8 @@ def build_parser() -> argparse.ArgumentParser:
     maps.set_defaults(func=_cmd_maps)
     agents = sub.add_parser("agents", help="list the agents (built-in and plug-ins)")
     agents.set_defaults(func=_cmd_agents)
+
+    _add_log_commands(sub)
 
     fig = sub.add_parser("figures", help="draw the paper's geometric figures (PNG)")
     fig.add_argument("--out", default="figures", help="output folder (default: figures)")

@@ -17,6 +17,10 @@ writes PNG figures (matplotlib, Agg canvas, no display needed):
   separation (m, surface to surface; below 0 = contact), one per agent
   (rows) and map (columns); robot-episodes that never came within the
   stats' ``separation_range`` are counted in each panel's note.
+
+:func:`report_text` adds the episodes with contacts and their logs (see
+:func:`contact_logs`): ``nao-arena replay LOG`` shows one, ``nao-arena
+explain LOG --contact K`` explains its contact K.
 """
 
 from __future__ import annotations
@@ -36,10 +40,12 @@ from matplotlib.figure import Figure
 from nao_arena.stats import StatsConfig
 from nao_arena.trials import atomic_write_with, format_table, load_summary
 
-__all__ = ["ADJUSTMENT_CAPTION", "REPORT_FILES", "adjustment_rate_ci95", "rate_label",
-           "report_text", "write_report"]
+__all__ = ["ADJUSTMENT_CAPTION", "REPORT_FILES", "adjustment_rate_ci95", "contact_logs",
+           "format_contact_logs", "rate_label", "report_text", "write_report"]
 
 REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
+MAX_LISTED = 30
+"""Episodes with contacts listed by :func:`format_contact_logs` (the others are counted)."""
 
 ADJUSTMENT_CAPTION = (
     "Adjustment: a control step at which the robot's commanded acceleration changed by more "
@@ -52,8 +58,58 @@ ADJUSTMENT_CAPTION = (
 
 def report_text(folder: str | Path) -> str:
     """The summary table of a results folder, with its notes and the columns' legend
-    (see :func:`~nao_arena.trials.format_table`)."""
-    return format_table(load_summary(folder))
+    (see :func:`~nao_arena.trials.format_table`), then the episodes with contacts and
+    their logs (:func:`format_contact_logs`)."""
+    text = format_table(load_summary(folder))
+    listing = format_contact_logs(folder)
+    return f"{text}\n\n{listing}" if listing else text
+
+
+def contact_logs(folder: str | Path) -> list[dict[str, Any]]:
+    """The episodes of ``folder/collisions.parquet`` with a contact involving a robot, in
+    the table's order: map, agent, episode, seed, ``contacts`` (their number), ``first``
+    (the time of the first, s) and ``log`` (the log's path, None without one)."""
+    folder = Path(folder)
+    table = folder / "collisions.parquet"
+    if not table.is_file():
+        return []
+    rows = pq.read_table(table).to_pylist()
+    episodes: dict[tuple[Any, ...], dict[str, Any]] = {}
+    for r in rows:
+        if "robot" not in (r["kind_a"], r["kind_b"]):
+            continue
+        key = (r["map"], r["agent"], r["episode"])
+        ep = episodes.setdefault(key, {
+            "map": r["map"], "agent": r["agent"], "episode": r["episode"], "seed": r["seed"],
+            "contacts": 0, "first": r["time"], "log": None})
+        ep["contacts"] += 1
+        ep["first"] = min(ep["first"], r["time"])
+        if r.get("log"):
+            ep["log"] = str(folder / r["log"])
+    return list(episodes.values())
+
+
+def format_contact_logs(folder: str | Path) -> str:
+    """The episodes with contacts and their logs as text ("" when there are none)."""
+    episodes = contact_logs(folder)
+    if not episodes:
+        return ""
+    logged = sum(1 for e in episodes if e["log"])
+    lines = [f"episodes with contacts: {len(episodes)}, {logged} with a log (see one: "
+             "nao-arena replay LOG; explain its contact K: nao-arena explain LOG --contact K)"]
+    head = ["map", "agent", "episode", "contacts", "first s", "log"]
+    body = [[str(e["map"]), str(e["agent"]), str(e["episode"]), str(e["contacts"]),
+             f"{e['first']:.1f}", e["log"] or "none (run the trial again with --log contacts)"]
+            for e in episodes[:MAX_LISTED]]
+    widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head) - 1)]
+    for row in [head, *body]:
+        cells = [c.ljust(w) if i < 2 else c.rjust(w)
+                 for i, (c, w) in enumerate(zip(row[:-1], widths, strict=True))]
+        lines.append("  " + "  ".join([*cells, row[-1]]))
+    if len(episodes) > MAX_LISTED:
+        lines.append(f"  ... and {len(episodes) - MAX_LISTED} more (collisions.parquet, "
+                     "columns episode and log)")
+    return "\n".join(lines)
 
 
 def rate_label(row: Mapping[str, Any] | None) -> str:

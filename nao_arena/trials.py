@@ -21,8 +21,18 @@ A trial runs every episode of the grid headless through :meth:`Arena.run`
   ``EpisodeTimeout: ...`` when the episode ran past its wall-clock budget
   (``episode_timeout``, default 600 s).
 - ``collisions.parquet``: one row per contact event (see
-  :data:`COLLISION_SCHEMA`): ``map``, ``agent``, ``episode``, ``seed`` and
-  the :class:`~nao_arena.stats.ContactEvent` fields.
+  :data:`COLLISION_SCHEMA`): ``map``, ``agent``, ``episode``, ``seed``, the
+  :class:`~nao_arena.stats.ContactEvent` fields, ``contact`` (its number in
+  the episode, 1 = the first: ``nao-arena explain LOG --contact K``) and
+  ``log`` (the episode's log, relative to ``DIR``; null without one).
+- with ``log`` (``--log``): ``logs/<map>__<agent>__<episode>.parquet``, the
+  episode's log (:mod:`nao_arena.episode_log`), for every episode (``all``)
+  or for those with a contact involving a robot or a stuck robot
+  (``contacts``); written atomically by the process that runs the episode
+  (on a Ray cluster: the node's file system). The episode's file names it
+  (``log``). A trial resumed with ``log`` runs again the episodes done
+  without the log they need (with the same results: episodes are
+  deterministic).
 - ``summary.json`` (and the printed table): see below.
 - with ``csv``: ``episodes.csv``, ``collisions.csv``, ``summary.csv``.
 - ``trial.json``: the trial's settings (``agent_refs``: label -> agent reference of
@@ -120,7 +130,7 @@ records different settings is refused the same way, before anything is
 written; only the settings that do not change results may differ
 (:data:`FREE_SETTINGS`: ``workers``, ``backend``, ``address``, ``csv``,
 ``retry_failed``, ``episode_timeout``: a budget only decides whether a hung
-episode fails), the order of maps and agents does not matter, and
+episode fails, ``log``), the order of maps and agents does not matter, and
 ``episodes`` may grow (the earlier episodes are kept and the new ones run;
 ``trial.json`` then records the larger number) but not shrink.
 """
@@ -157,6 +167,7 @@ __all__ = [
     "COLLISION_SCHEMA",
     "EPISODE_SCHEMA",
     "FREE_SETTINGS",
+    "LOG_MODES",
     "SUMMARY_KEYS",
     "TABLE_LEGEND",
     "EpisodeTask",
@@ -171,6 +182,7 @@ __all__ = [
     "folder_lock",
     "format_table",
     "load_summary",
+    "log_path",
     "make_map",
     "map_overrides",
     "run_episode",
@@ -195,7 +207,7 @@ SUMMARY_KEYS: tuple[str, ...] = (
 )
 
 FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed",
-                           "episode_timeout"})
+                           "episode_timeout", "log"})
 """Settings that do not change results: they may differ from the ``trial.json`` of the
 output folder (``episodes`` may also grow)."""
 
@@ -232,8 +244,15 @@ EPISODE_SCHEMA = pa.schema(
 )
 """Columns of ``episodes.parquet``: one row per robot per episode."""
 
-COLLISION_SCHEMA = pa.schema(_KEY_COLUMNS + _arrow_fields(ContactEvent))
+COLLISION_SCHEMA = pa.schema(_KEY_COLUMNS + _arrow_fields(ContactEvent) + [
+    pa.field("contact", pa.int64()),
+    pa.field("log", pa.string()),
+])
 """Columns of ``collisions.parquet``: one row per contact event."""
+
+LOG_MODES = ("all", "contacts")
+"""What ``TrialConfig.log`` may be: log every episode, or those with a contact or a
+stuck robot."""
 
 
 # --------------------------------------------------------------------------- settings
@@ -259,7 +278,8 @@ class TrialConfig:
     only with ``backend="ray"``); episode_timeout: each episode's
     wall-clock budget (s; None or 0: none), an episode that exceeds it is
     recorded as failed (``EpisodeTimeout: ...``) and the trial goes on (see
-    :mod:`nao_arena.watchdog` for where it is enforced).
+    :mod:`nao_arena.watchdog` for where it is enforced); log: write episode logs
+    (:data:`LOG_MODES`; None: none; see the module docstring).
     """
 
     maps: tuple[str, ...]
@@ -276,6 +296,7 @@ class TrialConfig:
     address: str | None = None
     episode_timeout: float | None = 600.0
     agent_refs: Mapping[str, str] = field(default_factory=dict)
+    log: str | None = None
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -302,6 +323,9 @@ class TrialConfig:
         if self.episode_timeout is not None and not 0 <= self.episode_timeout < math.inf:
             raise ValueError(f"episode timeout: expected a number of s >= 0 (0: none), "
                              f"got {self.episode_timeout}")
+        if self.log is not None and self.log not in LOG_MODES:
+            raise ValueError(f"log: expected one of {', '.join(LOG_MODES)} (or none), got "
+                             f"{self.log!r}")
         if "seed" in self.overrides:
             raise ValueError("the map parameter 'seed' is set per episode by the trial; "
                              "choose the trial's root seed instead (--seed)")
@@ -324,7 +348,9 @@ class EpisodeTask:
     overrides: the map parameters for this map (without ``seed``); path: its
     result file; episode_timeout: its wall-clock budget (s; None or 0: none;
     not part of its key); agent_ref: the agent reference to load (None:
-    ``agent`` itself; not part of its key, ``trial.json`` records it).
+    ``agent`` itself; not part of its key, ``trial.json`` records it); log: which
+    episodes write a log (:data:`LOG_MODES`; None: none) and log_path: where (neither
+    is part of its key).
     """
 
     map: str
@@ -336,6 +362,8 @@ class EpisodeTask:
     path: str
     episode_timeout: float | None = None
     agent_ref: str | None = None
+    log: str | None = None
+    log_path: str | None = None
 
     def key(self) -> dict[str, Any]:
         """What identifies the episode's result (compared on resume)."""
@@ -449,6 +477,11 @@ def episode_path(out: Path, map_name: str, agent: str, episode: int) -> Path:
     return Path(out) / "episodes" / f"{_slug(map_name)}__{_slug(agent)}__{episode:05d}.json"
 
 
+def log_path(out: Path, map_name: str, agent: str, episode: int) -> Path:
+    """The log file of one episode (with ``--log``)."""
+    return Path(out) / "logs" / f"{_slug(map_name)}__{_slug(agent)}__{episode:05d}.parquet"
+
+
 def _tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) -> list[EpisodeTask]:
     """All episodes of the grid, in grid order (maps, agents, episodes)."""
     return [
@@ -456,7 +489,8 @@ def _tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) -> lis
             map=m, agent=a, episode=e, seed=episode_seed(config.seed, m, e),
             overrides=dict(per_map[m]), time_limit=config.time_limit,
             path=str(episode_path(config.out, m, a, e)), episode_timeout=config.episode_timeout,
-            agent_ref=config.agent_refs.get(a),
+            agent_ref=config.agent_refs.get(a), log=config.log,
+            log_path=str(log_path(config.out, m, a, e)) if config.log else None,
         )
         for m in config.maps
         for a in config.agents
@@ -481,14 +515,36 @@ def _done_record(task: EpisodeTask, retry_failed: bool) -> dict[str, Any] | None
     rec = _read_record(task.path)
     if rec is None or rec.get("format") != FORMAT or rec.get("key") != task.key():
         return None
+    if _lacks_log(task, rec):
+        return None
     return None if retry_failed and rec.get("error") is not None else rec
+
+
+def _wants_log(mode: str | None, result: Mapping[str, Any] | None) -> bool:
+    """Whether an episode with this result gets a log in ``mode`` (:data:`LOG_MODES`):
+    all, or those with a contact involving a robot or a stuck robot."""
+    if mode is None or result is None:
+        return False
+    if mode == "all":
+        return True
+    return _robot_contacts(result) > 0 or any(
+        (r.get("stuck_time") or 0.0) > 0.0 for r in result["robots"])
+
+
+def _lacks_log(task: EpisodeTask, rec: Mapping[str, Any]) -> bool:
+    """A completed episode that should have a log (task.log) but has none (or it is gone)."""
+    if rec.get("error") is not None or not _wants_log(task.log, rec.get("result")):
+        return False
+    return not (rec.get("log") and task.log_path and Path(task.log_path).is_file())
 
 
 def compute_episode(task: EpisodeTask) -> dict[str, Any]:
     """Run one episode; returns its record (what the episode's result file holds).
 
-    This is what every backend executes, wherever it runs: it writes no file.
-    An exception while loading the map, building the arena or running is
+    This is what every backend executes, wherever it runs: it writes no file
+    but the episode's log (``task.log``; the record's ``log`` names it relative
+    to the results folder, null without one; ``log_error``: why it could not be
+    written). An exception while loading the map, building the arena or running is
     recorded (``error``: its type and message, ``result``: null) instead of
     propagating; so is exceeding ``task.episode_timeout`` (``EpisodeTimeout:
     episode exceeded its wall-clock budget of N s``). Only KeyboardInterrupt
@@ -497,17 +553,51 @@ def compute_episode(task: EpisodeTask) -> dict[str, Any]:
     """
     start = time.perf_counter()
     record: dict[str, Any] = {"format": FORMAT, "key": task.key(), "error": None, "result": None}
+    recorder = None
     try:
         with wall_clock_budget(task.episode_timeout):
             spec = make_map(task.map, task.seed, task.overrides, task.time_limit)
             arena = Arena(spec, ArenaOptions(agent=task.agent_ref or task.agent))
+            recorder = _episode_recorder(task, arena)
             record["result"] = arena.run(task.seed).to_dict()
     except KeyboardInterrupt:
         raise
     except BaseException as exc:  # noqa: BLE001 - a failing episode must not stop the trial
         record["error"] = describe(exc)
+    if recorder is not None and _wants_log(task.log, record["result"]):
+        _write_episode_log(task, recorder, arena, record)
     record["wall_time_s"] = time.perf_counter() - start
     return record
+
+
+def _episode_recorder(task: EpisodeTask, arena: Arena) -> Any:
+    """With ``task.log``: an episode recorder set on the arena (else None)."""
+    if task.log is None or task.log_path is None:
+        return None
+    from nao_arena.episode_log import EpisodeRecorder
+
+    recorder = EpisodeRecorder(
+        context={"command": "trial", "map": task.map, "agent": task.agent,
+                 "agent_ref": task.agent_ref, "episode": task.episode, "seed": task.seed,
+                 "overrides": dict(task.overrides), "time_limit": task.time_limit},
+        labels=[task.agent] * len(arena.robots))
+    arena.recorder = recorder
+    return recorder
+
+
+def _write_episode_log(task: EpisodeTask, recorder: Any, arena: Arena,
+                       record: dict[str, Any]) -> None:
+    """Write the episode's log; the record names it (``log``, relative to the results
+    folder) or says why it could not be written (``log_error``)."""
+    from nao_arena.episode_log import write_log
+
+    assert task.log_path is not None
+    try:
+        write_log(recorder.finish(arena), task.log_path)
+        record["log"] = f"logs/{Path(task.log_path).name}"
+    except OSError as exc:
+        record["log"] = None
+        record["log_error"] = f"{task.log_path}: cannot be written ({exc.strerror or exc})"
 
 
 def _write_record(task: EpisodeTask, record: Mapping[str, Any]) -> None:
@@ -774,7 +864,8 @@ def _episode_rows(rec: Mapping[str, Any]) -> tuple[list[dict[str, Any]], list[di
         row.update(faults=faults.get(r["index"], 0), duration=result["duration"],
                    steps=result["steps"], error=None)
         robots.append(row)
-    contacts = [{**base, **c} for c in result["contacts"]]
+    contacts = [{**base, **c, "contact": k, "log": rec.get("log")}
+                for k, c in enumerate(result["contacts"], start=1)]
     return robots, contacts
 
 

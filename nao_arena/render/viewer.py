@@ -51,7 +51,7 @@ import math
 import os
 import time
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -73,8 +73,8 @@ from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.traffic import CircleLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
 
-__all__ = ["AGENT_COLOURS", "FRAME_SIZE", "KEYS", "EdgeRun", "FrameInfo", "LegendEntry", "Viewer",
-           "ViewerOptions", "edge_runs"]
+__all__ = ["AGENT_COLOURS", "FRAME_SIZE", "KEYS", "EdgeRun", "FrameInfo", "LegendEntry",
+           "PanelAgent", "Viewer", "ViewerOptions", "edge_runs", "panel_agent"]
 
 FRAME_SIZE: tuple[int, int] = (1200, 800)
 """Default frame size (width, height) px."""
@@ -167,6 +167,37 @@ class ViewerOptions:
     panel_grid: int = 101
     panel_extent: float = 1.3
     predicted_paths: bool = True
+
+
+@dataclass(frozen=True)
+class PanelAgent:
+    """What the acceleration panel reads of a robot's agent: its time grid (s) and
+    predictor (None: turn-rate predictions over 3 s), safety margin (m), preferred speed
+    (m/s; None: v_max), detour (rad; its goal direction is turned by it) and the status
+    of its last full selection (None: it reports none)."""
+
+    times: NDArray[np.float64] | None = None
+    predict: Callable[..., NDArray[np.float64]] | None = None
+    margin: float = 0.0
+    v_pref: float | None = None
+    detour: float = 0.0
+    status: str | None = None
+
+
+def panel_agent(arena: Any, k: int) -> PanelAgent:
+    """What the panel shows of robot k's agent: ``arena.panel_agent(k)`` where the arena
+    answers it itself (a replay, which has no agents), else the agent's attributes."""
+    own = getattr(arena, "panel_agent", None)
+    if callable(own):
+        return own(k)
+    agent = arena.agents[k] if k < len(arena.agents) else None
+    sel = getattr(agent, "last_selection", None)
+    return PanelAgent(
+        times=getattr(agent, "times", None), predict=getattr(agent, "predict", None),
+        margin=float(getattr(agent, "margin", 0.0)), v_pref=getattr(agent, "v_pref", None),
+        detour=float(getattr(agent, "detour", 0.0)),
+        status=None if sel is None else sel.status,
+    )
 
 
 def _agent_colour(name: str) -> Colour:
@@ -310,6 +341,15 @@ class Viewer:
             self._window.blit(surf, (0, 0))
             pygame.display.flip()
         return np.ascontiguousarray(pygame.surfarray.array3d(surf).transpose(1, 0, 2))
+
+    def forget(self) -> None:
+        """Drop the trails and contact flashes: the next draw starts afresh (a replay
+        that jumps to another time)."""
+        self._episode_key = None
+
+    def track(self, arena: Any) -> None:
+        """Take in the arena's current state without drawing it (trails, contact flashes)."""
+        self._track(arena)
 
     # ------------------------------------------------------------------ state
 
@@ -561,14 +601,13 @@ class Viewer:
         """(times (T,) s, predicted neighbour centres (n, T, 2) world m, their paths
         robot-relative with grown radii, the nearby walls (robot-relative segments (W, 2, 2)
         m, grown half-thicknesses (W,) m) or None)."""
-        agent = arena.agents[selected] if selected < len(arena.agents) else None
+        agent = panel_agent(arena, selected)
         nb = obs.neighbours
-        times = getattr(agent, "times", None)
-        predict = getattr(agent, "predict", None)
+        times, predict = agent.times, agent.predict
         if times is None or predict is None:
             times = np.linspace(0.0, 3.0, 31)
             predict = get_predictor("turn_rate")
-        grow = obs.radius + float(getattr(agent, "margin", 0.0))
+        grow = obs.radius + agent.margin
         centres = predict(times, nb) if len(nb) else np.zeros((0, len(times), 2))
         path = sampled_path(times, centres - obs.position, nb.radii + grow)
         walls = None
@@ -719,9 +758,8 @@ class Viewer:
 
         self._draw_axes(plot, ext)
         pygame.draw.circle(surf, (60, 60, 60), (cx, cy), int(round(obs.a_max * s)), 2)
-        agent = arena.agents[selected]
-        desired = goal_seeking_accel(obs, getattr(agent, "v_pref", None),
-                                     heading_offset=float(getattr(agent, "detour", 0.0)))
+        agent = panel_agent(arena, selected)
+        desired = goal_seeking_accel(obs, agent.v_pref, heading_offset=agent.detour)
         body = int(arena.robot_ids[selected])
         chosen = np.asarray(arena.commanded[body], dtype=float)
         n = float(np.hypot(*chosen))
@@ -731,9 +769,8 @@ class Viewer:
         self._arrow(to_px(np.zeros(2)), to_px(chosen), (0, 0, 0), "commanded")
         self._text("acceleration space (m/s^2), world axes", (plot.left - 40, plot.top - 24),
                    self._small)
-        sel = getattr(agent, "last_selection", None)
-        if selected not in controlled and sel is not None:
-            status = f"last selection: {sel.status}; " + status
+        if selected not in controlled and agent.status is not None:
+            status = f"last selection: {agent.status}; " + status
         self._text(status, (plot.left - 40, plot.bottom + 42), self._small, (70, 70, 70))
 
     @staticmethod
