@@ -1,0 +1,171 @@
+"""Golden episodes: refactors keep every trajectory bit for bit.
+
+A fixed set of short episodes (every shipped map with the ``nao`` agent, the
+baselines and predictors on the paper's maps and the swap, the env's NAO
+features and the NAO shield) is run and each episode's trajectory hash (or a
+SHA-256 of the env's observations and rewards) is compared with the values
+recorded in ``tests/data/golden_episodes.json``.
+
+Floating-point results may differ between CPUs and library versions, so the
+file records the machine it was made on (CPU model, Python, numpy, numba,
+pymunk); on another machine the comparison is skipped with that reason. To
+record after an intended change of behaviour::
+
+    python tests/test_golden_episodes.py --record
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+DATA = Path(__file__).parent / "data" / "golden_episodes.json"
+
+# (map, agent, predictor or None for the map's, control steps)
+ARENA_CASES: list[tuple[str, str, str | None, int]] = [
+    ("circle_swap", "nao", None, 150),
+    ("circle_swap", "nao", "constant_velocity", 100),
+    ("circle_swap", "nao", "constant_acceleration", 100),
+    ("circle_swap", "nao", "shared_plan", 100),
+    ("circle_swap_perturbed", "nao", None, 150),
+    ("circle_swap", "ao", None, 100),
+    ("circle_swap", "vo", None, 100),
+    ("circle_swap", "orca", None, 100),
+    ("circle_swap", "goal", None, 100),
+    ("corridor", "nao", None, 120),
+    ("crossing", "nao", None, 150),
+    ("crossing_streams", "nao", None, 120),
+    ("crossing_streams_perturbed", "nao", None, 120),
+    ("crowd", "nao", None, 120),
+    ("dense_swap", "nao", None, 60),
+    ("dense_swap_perturbed", "nao", None, 60),
+    ("roundabout", "nao", None, 120),
+    ("roundabout", "nao", "turn_rate", 80),
+    ("roundabout", "ao", None, 80),
+    ("roundabout", "vo", None, 80),
+    ("roundabout", "orca", None, 80),
+    ("roundabout", "goal", None, 80),
+    ("roundabout_crossing", "nao", None, 60),
+    ("two_lane_road", "nao", None, 60),
+    ("two_lane_road", "ao", None, 40),
+]
+
+
+def machine() -> dict[str, str]:
+    """What floating-point results depend on: CPU model and library versions."""
+    import numba
+    import pymunk
+
+    cpu = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "machine": platform.machine(), "python": platform.python_version(),
+            "numpy": np.__version__, "numba": numba.__version__, "pymunk": pymunk.version}
+
+
+def arena_hash(map_name: str, agent: str, predictor: str | None, steps: int) -> str:
+    """Trajectory hash of ``steps`` control steps of the map (seed 0)."""
+    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.maps import load_map
+
+    overrides = {"agent": agent}
+    if predictor is not None:
+        overrides["predictor"] = predictor
+    arena = Arena(load_map(map_name, **overrides), ArenaOptions())
+    arena.reset(seed=0)
+    for _ in range(steps):
+        arena.step()
+    return arena.summary().trajectory_hash
+
+
+def _env_digest(env, steps: int, seed: int) -> str:
+    out = hashlib.sha256()
+    obs, _ = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(steps):
+        for name in sorted(obs):
+            out.update(np.ascontiguousarray(obs[name], dtype=np.float64).tobytes())
+        if not env.agents:
+            break
+        actions = {a: env.action_space(a).sample() * 0 + rng.uniform(-2, 2, 2).astype(
+            env.action_space(a).dtype) for a in env.agents}
+        obs, rewards, _, _, infos = env.step(actions)
+        for name in sorted(rewards):
+            out.update(np.float64(rewards[name]).tobytes())
+        for name in sorted(infos):
+            shield = infos[name].get("shield")
+            if shield is not None:
+                out.update(repr(sorted(shield.items())).encode())
+    return out.hexdigest()
+
+
+def env_features_hash() -> str:
+    """Observations (NAO features on) and rewards of 60 random-action steps on crossing."""
+    from nao_arena.environment import parallel_env
+
+    return _env_digest(parallel_env("crossing", nao_features=True, keep_finished=True), 60, 3)
+
+
+def shield_hash() -> str:
+    """Observations, rewards and shield reports of 60 random-action steps on circle_swap."""
+    from nao_arena.environment import parallel_env
+    from nao_arena.shield import NAOShield
+
+    return _env_digest(NAOShield(parallel_env("circle_swap", keep_finished=True)), 60, 5)
+
+
+def cases() -> dict[str, Callable[[], str]]:
+    """Every golden case by name."""
+    out: dict[str, Callable[[], str]] = {}
+    for map_name, agent, predictor, steps in ARENA_CASES:
+        key = f"{map_name}/{agent}/{predictor or 'map'}/{steps}"
+        out[key] = (lambda m=map_name, a=agent, p=predictor, s=steps: arena_hash(m, a, p, s))
+    out["env/crossing/nao_features/60"] = env_features_hash
+    out["shield/circle_swap/60"] = shield_hash
+    return out
+
+
+def _recorded() -> dict:
+    if not DATA.exists():
+        pytest.skip(f"{DATA} not recorded (python {__file__} --record)")
+    data = json.loads(DATA.read_text())
+    if data["machine"] != machine():
+        pytest.skip(f"golden hashes recorded on {data['machine']}, this is {machine()}")
+    return data["hashes"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(cases()))
+def test_golden_episode(name: str) -> None:
+    recorded = _recorded()
+    assert name in recorded, f"{name} not recorded (python {__file__} --record)"
+    assert cases()[name]() == recorded[name], f"{name}: trajectory changed"
+
+
+def record() -> None:
+    """Run every case and write the data file (atomically)."""
+    hashes = {name: fn() for name, fn in sorted(cases().items())}
+    DATA.parent.mkdir(exist_ok=True)
+    tmp = DATA.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"machine": machine(), "hashes": hashes}, indent=1) + "\n")
+    tmp.replace(DATA)
+    print(f"recorded {len(hashes)} golden episodes in {DATA}")
+
+
+if __name__ == "__main__":
+    if sys.argv[1:] == ["--record"]:
+        record()
+    else:
+        sys.exit(f"usage: python {sys.argv[0]} --record")
