@@ -10,167 +10,446 @@ half-planes have no common point, the velocity that minimises the largest
 violation. The acceleration that reaches it in ``time_constant`` s is
 applied within a_max, so, unlike in the velocity-controlled original, the
 acceleration limit may keep the robot from following its ORCA velocity.
+
+The computation is one compiled kernel (:func:`orca_accelerations`): in the
+arena all robots of the class act together (:meth:`ORCAAgent.act_batch`,
+one call per step from the bulk arrays), and :meth:`ORCAAgent.act` passes
+one robot's observation to the same kernel. Its floating-point operations
+are those of the earlier numpy implementation (kept as the test reference),
+with every 2-vector dot product a . b evaluated as fma(a1, b1, fma(a0, b0, 0))
+(each fma rounded once), the order in which numpy's OpenBLAS dot evaluates
+it on x86-64 with FMA, so the accelerations are the same to the bit there.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import operator
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 from numpy.typing import NDArray
 
-from nao_arena.agents._obstacles import observed_discs, preferred_velocity, track_velocity
-from nao_arena.sensing import Observation
+from nao_arena.agents.goal import goal_target
+from nao_arena.geometry.walls import wall_discs
+from nao_arena.sensing import Observation, SensingBatch
+
+__all__ = ["ORCAAgent", "orca_accelerations"]
 
 _EPS = 1e-9
 
-
-@dataclass(frozen=True)
-class HalfPlane:
-    """Permitted velocities: those on the left of the directed line point + s direction."""
-
-    point: NDArray[np.float64]
-    direction: NDArray[np.float64]
+# columns of the per-robot option matrix handed to the kernel
+_HORIZON, _MARGIN, _V_PREF, _TIME_CONSTANT, _SENSING_RANGE = range(5)
 
 
-def _det(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
-    return float(a[0] * b[1] - a[1] * b[0])
+# ---------------------------------------------------------------- kernel
 
 
-def orca_half_plane(
-    rel_pos: NDArray[np.float64], rel_vel: NDArray[np.float64], radius: float,
-    v_own: NDArray[np.float64], horizon: float, dt: float, share: float,
-) -> HalfPlane:
-    """Half-plane for one neighbour at rel_pos (m) with relative velocity v_own - v_other.
+@intrinsic
+def _fma(typingctx, x, y, z):  # type: ignore[no-untyped-def]
+    """x * y + z rounded once (IEEE 754 fused multiply-add) of three float64."""
+    if not all(isinstance(a, types.Float) for a in (x, y, z)):
+        return None
+    sig = types.float64(types.float64, types.float64, types.float64)
 
-    radius: combined radius (m); share: the part of the avoidance this robot takes
-    (0.5 reciprocal, 1 against non-reacting obstacles); dt: control period (s),
-    used when the discs already overlap.
-    """
-    dist2 = float(rel_pos @ rel_pos)
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        double = ir.DoubleType()
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(double, [double, double, double]), "llvm.fma.f64")
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _dot(ax, ay, bx, by):
+    """a . b as fma(a1, b1, fma(a0, b0, 0)) (see the module docstring)."""
+    return _fma(ay, by, _fma(ax, bx, 0.0))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _det(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
+@njit(cache=True, error_model="numpy")
+def _half_plane(rpx, rpy, rvx, rvy, radius, vx, vy, horizon, dt, share):
+    """ORCA half-plane (point x, y; direction x, y: permitted velocities are on its left)
+    for a neighbour at rel_pos (m) with relative velocity rel_vel = v_own - v_other
+    (m/s); radius: combined radius (m); share: the part of the avoidance this robot
+    takes (0.5 reciprocal, 1 against non-reacting obstacles); dt: control period (s),
+    used when the discs already overlap."""
+    dist2 = _dot(rpx, rpy, rpx, rpy)
     r2 = radius * radius
     if dist2 > r2:
-        w = rel_vel - rel_pos / horizon
-        w2 = float(w @ w)
-        dot = float(w @ rel_pos)
+        wx = rvx - rpx / horizon
+        wy = rvy - rpy / horizon
+        w2 = _dot(wx, wy, wx, wy)
+        dot = _dot(wx, wy, rpx, rpy)
         if dot < 0.0 and dot * dot > r2 * w2:
             # nearest boundary point is on the truncation circle
             wl = math.sqrt(w2)
-            unit = w / wl
-            direction = np.array([unit[1], -unit[0]])
-            u = (radius / horizon - wl) * unit
+            ux = wx / wl
+            uy = wy / wl
+            dx = uy
+            dy = -ux
+            c = radius / horizon - wl
+            ux = c * ux
+            uy = c * uy
         else:
             leg = math.sqrt(dist2 - r2)
-            if _det(rel_pos, w) > 0.0:
-                direction = np.array([
-                    rel_pos[0] * leg - rel_pos[1] * radius,
-                    rel_pos[0] * radius + rel_pos[1] * leg,
-                ]) / dist2
+            if _det(rpx, rpy, wx, wy) > 0.0:
+                dx = (rpx * leg - rpy * radius) / dist2
+                dy = (rpx * radius + rpy * leg) / dist2
             else:
-                direction = -np.array([
-                    rel_pos[0] * leg + rel_pos[1] * radius,
-                    -rel_pos[0] * radius + rel_pos[1] * leg,
-                ]) / dist2
-            u = float(rel_vel @ direction) * direction - rel_vel
+                dx = -(rpx * leg + rpy * radius) / dist2
+                dy = -(-rpx * radius + rpy * leg) / dist2
+            s = _dot(rvx, rvy, dx, dy)
+            ux = s * dx - rvx
+            uy = s * dy - rvy
     else:
         # already overlapping: leave within one control period
-        w = rel_vel - rel_pos / dt
-        wl = max(math.sqrt(float(w @ w)), _EPS)
-        unit = w / wl
-        direction = np.array([unit[1], -unit[0]])
-        u = (radius / dt - wl) * unit
-    return HalfPlane(v_own + share * u, direction)
+        wx = rvx - rpx / dt
+        wy = rvy - rpy / dt
+        wl = math.sqrt(_dot(wx, wy, wx, wy))
+        if _EPS > wl:
+            wl = _EPS
+        ux = wx / wl
+        uy = wy / wl
+        dx = uy
+        dy = -ux
+        c = radius / dt - wl
+        ux = c * ux
+        uy = c * uy
+    return vx + share * ux, vy + share * uy, dx, dy
 
 
-def _lp1(lines, i, radius, opt, direction_opt):
-    """Best point on line i within the disc |v| <= radius and lines[:i]; None if empty."""
-    line = lines[i]
-    dot = float(line.point @ line.direction)
-    disc = dot * dot + radius * radius - float(line.point @ line.point)
+@njit(cache=True, error_model="numpy")
+def _lp1(lp, ld, i, radius, ox, oy, direction_opt):
+    """Best point on line i within |v| <= radius and lines[:i]: (found, x, y)."""
+    px = lp[i, 0]
+    py = lp[i, 1]
+    dx = ld[i, 0]
+    dy = ld[i, 1]
+    dot = _dot(px, py, dx, dy)
+    disc = dot * dot + radius * radius - _dot(px, py, px, py)
     if disc < 0.0:
-        return None
+        return False, 0.0, 0.0
     sq = math.sqrt(disc)
-    t_left, t_right = -dot - sq, -dot + sq
+    t_left = -dot - sq
+    t_right = -dot + sq
     for j in range(i):
-        denom = _det(line.direction, lines[j].direction)
-        numer = _det(lines[j].direction, line.point - lines[j].point)
+        denom = _det(dx, dy, ld[j, 0], ld[j, 1])
+        numer = _det(ld[j, 0], ld[j, 1], px - lp[j, 0], py - lp[j, 1])
         if abs(denom) <= _EPS:
             if numer < 0.0:
-                return None
+                return False, 0.0, 0.0
             continue
         t = numer / denom
         if denom >= 0.0:
-            t_right = min(t_right, t)
-        else:
-            t_left = max(t_left, t)
+            if t < t_right:
+                t_right = t
+        elif t > t_left:
+            t_left = t
         if t_left > t_right:
-            return None
+            return False, 0.0, 0.0
     if direction_opt:
-        t = t_right if float(opt @ line.direction) > 0.0 else t_left
+        t = t_right if _dot(ox, oy, dx, dy) > 0.0 else t_left
     else:
-        t = min(max(float(line.direction @ (opt - line.point)), t_left), t_right)
-    return line.point + t * line.direction
+        t = _dot(dx, dy, ox - px, oy - py)
+        if t_left > t:
+            t = t_left
+        if t_right < t:
+            t = t_right
+    return True, px + t * dx, py + t * dy
 
 
-def _lp2(lines, radius, opt, direction_opt):
-    """Velocity nearest opt (or furthest along opt) in all half-planes and the disc.
-
-    Returns (index of the first line that could not be satisfied or len(lines), result).
-    """
+@njit(cache=True, error_model="numpy")
+def _lp2(lp, ld, n, radius, ox, oy, direction_opt):
+    """Velocity nearest opt (or furthest along the direction opt) in lines[:n] and
+    |v| <= radius: (index of the first line that could not be satisfied, or n; x; y)."""
     if direction_opt:
-        result = opt * radius
-    elif float(opt @ opt) > radius * radius:
-        result = opt / math.sqrt(float(opt @ opt)) * radius
+        rx = ox * radius
+        ry = oy * radius
+    elif _dot(ox, oy, ox, oy) > radius * radius:
+        s = math.sqrt(_dot(ox, oy, ox, oy))
+        rx = ox / s * radius
+        ry = oy / s * radius
     else:
-        result = opt.copy()
-    for i, line in enumerate(lines):
-        if _det(line.direction, line.point - result) > 0.0:
-            found = _lp1(lines, i, radius, opt, direction_opt)
-            if found is None:
-                return i, result
-            result = found
-    return len(lines), result
+        rx = ox
+        ry = oy
+    for i in range(n):
+        if _det(ld[i, 0], ld[i, 1], lp[i, 0] - rx, lp[i, 1] - ry) > 0.0:
+            found, x, y = _lp1(lp, ld, i, radius, ox, oy, direction_opt)
+            if not found:
+                return i, rx, ry
+            rx = x
+            ry = y
+    return n, rx, ry
 
 
-def _lp3(lines, begin, radius, result):
-    """Minimise the largest violation of lines[begin:] (all lines are soft here)."""
+@njit(cache=True, error_model="numpy")
+def _lp3(lp, ld, n, begin, radius, rx, ry, pp, pd):
+    """Minimise the largest violation of lines[begin:n] (all soft here), from (rx, ry);
+    pp, pd: scratch (>= n, 2) for the projected lines."""
     distance = 0.0
-    for i in range(begin, len(lines)):
-        if _det(lines[i].direction, lines[i].point - result) > distance:
-            projected = []
+    for i in range(begin, n):
+        pix = lp[i, 0]
+        piy = lp[i, 1]
+        dix = ld[i, 0]
+        diy = ld[i, 1]
+        if _det(dix, diy, pix - rx, piy - ry) > distance:
+            m = 0
             for j in range(i):
-                det = _det(lines[i].direction, lines[j].direction)
+                pjx = lp[j, 0]
+                pjy = lp[j, 1]
+                djx = ld[j, 0]
+                djy = ld[j, 1]
+                det = _det(dix, diy, djx, djy)
                 if abs(det) <= _EPS:
-                    if float(lines[i].direction @ lines[j].direction) > 0.0:
+                    if _dot(dix, diy, djx, djy) > 0.0:
                         continue
-                    point = 0.5 * (lines[i].point + lines[j].point)
+                    qx = 0.5 * (pix + pjx)
+                    qy = 0.5 * (piy + pjy)
                 else:
-                    point = lines[i].point + (
-                        _det(lines[j].direction, lines[i].point - lines[j].point) / det
-                    ) * lines[i].direction
-                d = lines[j].direction - lines[i].direction
-                n = math.sqrt(float(d @ d))
-                if n <= _EPS:
+                    s = _det(djx, djy, pix - pjx, piy - pjy) / det
+                    qx = pix + s * dix
+                    qy = piy + s * diy
+                ex = djx - dix
+                ey = djy - diy
+                nn = math.sqrt(_dot(ex, ey, ex, ey))
+                if nn <= _EPS:
                     continue
-                projected.append(HalfPlane(point, d / n))
-            opt = np.array([-lines[i].direction[1], lines[i].direction[0]])
-            fail, candidate = _lp2(projected, radius, opt, True)
-            if fail == len(projected):
-                result = candidate
-            distance = _det(lines[i].direction, lines[i].point - result)
-    return result
+                pp[m, 0] = qx
+                pp[m, 1] = qy
+                pd[m, 0] = ex / nn
+                pd[m, 1] = ey / nn
+                m += 1
+            fail, cx, cy = _lp2(pp, pd, m, radius, -diy, dix, True)
+            if fail == m:
+                rx = cx
+                ry = cy
+            distance = _det(dix, diy, pix - rx, piy - ry)
+    return rx, ry
 
 
-def orca_velocity(
-    lines: list[HalfPlane], v_pref: NDArray[np.float64], v_max: float
-) -> NDArray[np.float64]:
-    """The ORCA velocity (m/s): nearest v_pref in all half-planes with |v| <= v_max."""
-    fail, result = _lp2(lines, v_max, v_pref, False)
-    if fail < len(lines):
-        result = _lp3(lines, fail, v_max, result)
-    return result
+@njit(cache=True, error_model="numpy", inline="always")
+def _before(da, ia, db, ib):
+    """Whether key (da, ia) sorts before (db, ib): by distance, NaN last, ties by index
+    (numpy's stable argsort)."""
+    if da < db:
+        return True
+    if da == db:
+        return ia < ib
+    if db != db and da == da:
+        return True
+    if db != db and da != da:
+        return ia < ib
+    return False
+
+
+@njit(cache=True, error_model="numpy")
+def orca_accelerations(positions, velocities, radii, a_max, v_max, reactive, bodies, goals,
+                       has_goal, nb_start, nb_index, rows, wall_c, wall_r, wall_start,
+                       wall_set, options, has_v_pref, limit, dt):
+    """ORCA accelerations (len(rows), 2) m/s^2 of the robots ``rows`` (robot order).
+
+    Bodies (N): positions (N, 2) m, velocities (N, 2) m/s, radii, a_max, v_max (N,),
+    reactive (N,) (robots: they take half of the avoidance). Robots (R): bodies (R,)
+    body indices, goals (R, 2) m where has_goal (R,), neighbours nb_index[nb_start[k]:
+    nb_start[k + 1]] (body indices). Per row: wall discs wall_c, wall_r
+    [wall_start[s]:wall_start[s + 1]] of set s = wall_set[row] (-1: none; radii grown
+    by the robot's radius and margin), options (rows, 5): horizon (s), margin (m),
+    v_pref (m/s; used where has_v_pref), time_constant (s), sensing_range (m) (wall
+    discs within it count), limit: how many of the nearest obstacles count (< 0: all).
+    dt: control period (s).
+    """
+    n = rows.shape[0]
+    out = np.zeros((n, 2))
+    # scratch sized for the row with the most obstacles
+    most = 0
+    for i in range(n):
+        k = rows[i]
+        c = nb_start[k + 1] - nb_start[k]
+        s = wall_set[i]
+        if s >= 0:
+            c += wall_start[s + 1] - wall_start[s]
+        most = max(most, c)
+    cp = np.empty((most, 2))
+    cv = np.empty((most, 2))
+    cr = np.empty(most)
+    cs = np.empty(most)
+    cd = np.empty(most)
+    order = np.empty(most, dtype=np.int64)
+    lp = np.empty((most, 2))
+    ld = np.empty((most, 2))
+    pp = np.empty((most, 2))
+    pd = np.empty((most, 2))
+    for i in range(n):
+        k = rows[i]
+        b = bodies[k]
+        px = positions[b, 0]
+        py = positions[b, 1]
+        vx = velocities[b, 0]
+        vy = velocities[b, 1]
+        horizon = options[i, _HORIZON]
+        # the obstacles: neighbours, then the wall discs within sensing range
+        m = 0
+        for e in range(nb_start[k], nb_start[k + 1]):
+            j = nb_index[e]
+            cp[m, 0] = positions[j, 0] - px
+            cp[m, 1] = positions[j, 1] - py
+            cv[m, 0] = velocities[j, 0]
+            cv[m, 1] = velocities[j, 1]
+            cr[m] = radii[j] + radii[b] + options[i, _MARGIN]
+            cs[m] = 0.5 if reactive[j] else 1.0
+            m += 1
+        s = wall_set[i]
+        if s >= 0:
+            reach = options[i, _SENSING_RANGE]
+            for w in range(wall_start[s], wall_start[s + 1]):
+                wx = wall_c[w, 0] - px
+                wy = wall_c[w, 1] - py
+                if math.hypot(wx, wy) <= reach + wall_r[w]:
+                    cp[m, 0] = wx
+                    cp[m, 1] = wy
+                    cv[m, 0] = 0.0
+                    cv[m, 1] = 0.0
+                    cr[m] = wall_r[w]
+                    cs[m] = 1.0
+                    m += 1
+        # the nearest `limit` of them, nearest first (ties: in the order above)
+        cap = m if limit[i] < 0 else min(limit[i], m)
+        taken = 0
+        for c in range(m):
+            if taken == cap:
+                if cap == 0:
+                    break
+                # hypot(x, y) >= max(|x|, |y|): no nearer than the last one taken
+                worst = cd[order[cap - 1]]
+                if max(abs(cp[c, 0]), abs(cp[c, 1])) >= worst:
+                    continue
+            cd[c] = math.hypot(cp[c, 0], cp[c, 1])
+            if taken < cap:
+                q = taken
+                taken += 1
+            elif cap > 0 and _before(cd[c], c, cd[order[cap - 1]], order[cap - 1]):
+                q = cap - 1
+            else:
+                continue
+            while q > 0 and _before(cd[c], c, cd[order[q - 1]], order[q - 1]):
+                order[q] = order[q - 1]
+                q -= 1
+            order[q] = c
+        for q in range(taken):
+            c = order[q]
+            x, y, ex, ey = _half_plane(cp[c, 0], cp[c, 1], vx - cv[c, 0], vy - cv[c, 1],
+                                       cr[c], vx, vy, horizon, dt, cs[c])
+            lp[q, 0] = x
+            lp[q, 1] = y
+            ld[q, 0] = ex
+            ld[q, 1] = ey
+        # the preferred velocity: toward the goal, slowing down to stop at it
+        fx = 0.0
+        fy = 0.0
+        am = a_max[b]
+        vm = v_max[b]
+        if has_goal[k]:
+            tx = goals[k, 0] - px
+            ty = goals[k, 1] - py
+            dist = math.hypot(tx, ty)
+            if not dist < 1e-9:
+                top = vm
+                if has_v_pref[i]:
+                    vp = options[i, _V_PREF]
+                    top = vm if vm < vp else vp
+                sp = math.sqrt(am * dist)
+                sp = sp if sp < top else top
+                fx = tx / dist * sp
+                fy = ty / dist * sp
+        fail, rx, ry = _lp2(lp, ld, taken, vm, fx, fy, False)
+        if fail < taken:
+            rx, ry = _lp3(lp, ld, taken, fail, vm, rx, ry, pp, pd)
+        # track the ORCA velocity within a_max
+        tc = options[i, _TIME_CONSTANT]
+        ax = (rx - vx) / tc
+        ay = (ry - vy) / tc
+        norm = math.hypot(ax, ay)
+        if norm > am:
+            f = am / norm
+            ax = ax * f
+            ay = ay * f
+        out[i, 0] = ax
+        out[i, 1] = ay
+    return out
+
+
+# ---------------------------------------------------------------- agent
+
+
+def _number(name: str, value: Any, low: float, strict: bool, unit: str) -> float:
+    """``value`` as a float > low (strict) or >= low; else ValueError naming the option."""
+    bad = isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
+                                                                   np.floating))
+    if not bad:
+        x = float(value)
+        bad = math.isnan(x) or (x <= low if strict else x < low)
+    if bad:
+        rel = ">" if strict else ">="
+        raise ValueError(f"orca option {name}: expected a number {rel} {low:g} ({unit}), "
+                         f"got {value!r}")
+    return x
+
+
+_NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
+_WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64],
+                                                     NDArray[np.float64]]] = {}
+
+
+def _wall_discs(
+    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`wall_discs` (centres (M, 2) m, radii (M,) m), memoised: walls do not move."""
+    if not len(walls):
+        return _NO_WALLS
+    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
+           float(grow))
+    hit = _WALL_CACHE.get(key)
+    if hit is None:
+        if len(_WALL_CACHE) > 64:
+            _WALL_CACHE.clear()
+        wc, wr = wall_discs(walls, wall_radius, grow)
+        hit = _WALL_CACHE[key] = (np.ascontiguousarray(wc, dtype=np.float64),
+                                  np.ascontiguousarray(wr, dtype=np.float64))
+    return hit
+
+
+def _wall_sets(
+    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """The wall discs per grown radius (m) the rows have: centres, radii, set starts and
+    each row's set (-1: no walls)."""
+    if not len(walls):
+        return (_NO_WALLS[0], _NO_WALLS[1], np.zeros(1, dtype=np.int64),
+                np.full(len(grow), -1, dtype=np.int64))
+    values = list(dict.fromkeys(grow.tolist()))
+    parts = [_wall_discs(walls, wall_radius, g) for g in values]
+    start = np.zeros(len(parts) + 1, dtype=np.int64)
+    np.cumsum([len(r) for _, r in parts], out=start[1:])
+    which = {g: s for s, g in enumerate(values)}
+    wall_set = np.array([which[g] for g in grow.tolist()], dtype=np.int64)
+    return (np.concatenate([c for c, _ in parts]).reshape(-1, 2),
+            np.concatenate([r for _, r in parts]), start, wall_set)
+
+
+def _f64(a: Any) -> NDArray[np.float64]:
+    """A contiguous writable float64 array (a copy where needed), as the kernel takes."""
+    return np.require(a, dtype=np.float64, requirements=("C", "W"))
 
 
 class ORCAAgent:
@@ -181,26 +460,141 @@ class ORCAAgent:
         self, horizon: float = 3.0, margin: float = 0.05, v_pref: float | None = None,
         time_constant: float = 0.3, sensing_range: float = 30.0, max_neighbours: int = 16,
     ) -> None:
-        self.horizon = horizon
-        self.margin = margin
-        self.v_pref = v_pref
-        self.time_constant = time_constant
-        self.sensing_range = sensing_range
+        self.horizon = _number("horizon", horizon, 0.0, True, "s")
+        margin_ = _number("margin", margin, -math.inf, False, "m")
+        if not math.isfinite(margin_):
+            raise ValueError(f"orca option margin: expected a finite number (m), got {margin!r}")
+        self.margin = margin_
+        self.v_pref = None if v_pref is None else _number("v_pref", v_pref, 0.0, False, "m/s")
+        self.time_constant = _number("time_constant", time_constant, 0.0, True, "s")
+        self.sensing_range = _number("sensing_range", sensing_range, 0.0, False, "m")
+        if max_neighbours is not None:
+            try:
+                count = operator.index(max_neighbours)
+            except TypeError:
+                count = -1
+            if isinstance(max_neighbours, bool) or count < 0:
+                raise ValueError("orca option max_neighbours: expected an integer >= 0 or "
+                                 f"None (all), got {max_neighbours!r}")
+            max_neighbours = count
         self.max_neighbours = max_neighbours
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        object.__setattr__(self, name, value)
+        _TABLES.clear()  # an option changed: the memoised option tables are stale
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
         """Stateless."""
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
-        pref = preferred_velocity(obs, self.v_pref)
-        discs = observed_discs(obs, self.margin, self.sensing_range)
-        order = np.argsort(np.hypot(*discs.positions.T), kind="stable")[: self.max_neighbours]
-        lines = [
-            orca_half_plane(
-                discs.positions[k], obs.velocity - discs.velocities[k], float(discs.radii[k]),
-                obs.velocity, self.horizon, obs.dt, 0.5 if discs.reactive[k] else 1.0,
-            )
-            for k in order
-        ]
-        v_new = orca_velocity(lines, pref, obs.v_max)
-        return track_velocity(obs, v_new, self.time_constant)
+        """The ORCA acceleration (m/s^2) of the robot ``obs`` describes."""
+        nb = obs.neighbours
+        m = len(nb)
+        positions = _f64(np.concatenate([np.reshape(obs.position, (1, 2)),
+                                         np.reshape(nb.positions, (m, 2))]))
+        velocities = _f64(np.concatenate([np.reshape(obs.velocity, (1, 2)),
+                                          np.reshape(nb.velocities, (m, 2))]))
+        radii = _f64(np.concatenate([[obs.radius], np.reshape(nb.radii, m)]))
+        reactive = np.array([False] + [k == "robot" for k in nb.kinds], dtype=np.bool_)
+        target = goal_target(obs)
+        goals = _f64(np.zeros((1, 2)) if target is None else np.reshape(target, (1, 2)))
+        options, has_v_pref, limit = _options_of([self])
+        wall_c, wall_r, wall_start, wall_set = _wall_sets(
+            obs.walls, obs.wall_radius, np.array([obs.radius + self.margin]))
+        acc = orca_accelerations(
+            positions, velocities, radii, _f64(np.full(m + 1, obs.a_max)),
+            _f64(np.full(m + 1, obs.v_max)), reactive, np.zeros(1, dtype=np.int64), goals,
+            np.array([target is not None]), np.array([0, m], dtype=np.int64),
+            np.arange(1, m + 1, dtype=np.int64), np.zeros(1, dtype=np.int64),
+            wall_c, wall_r, wall_start, wall_set, options, has_v_pref, limit, float(obs.dt))
+        return acc[0]
+
+    @classmethod
+    def act_batch(
+        cls, agents: Sequence[ORCAAgent], batch: SensingBatch, rows: Sequence[int]
+    ) -> list[NDArray[np.float64] | Exception]:
+        """:meth:`act` for many robots at once, in one compiled call from the bulk arrays
+        (the same accelerations, m/s^2). Agents of a subclass with its own ``act`` act
+        robot by robot. Returns one acceleration or exception per row."""
+        n = len(rows)
+        if all(t.act is _ACT for t in set(map(type, agents))):
+            return list(_batch_accelerations(agents, batch, np.asarray(rows, dtype=np.int64)))
+        out: list[NDArray[np.float64] | Exception] = [np.zeros(2)] * n
+        todo = []
+        for i, ag in enumerate(agents):
+            if type(ag).act is _ACT:
+                todo.append(i)
+                continue
+            try:
+                out[i] = ag.act(batch.observation(int(rows[i])))
+            except Exception as exc:  # noqa: BLE001 - the agent's failure
+                out[i] = exc
+        if todo:
+            acc = _batch_accelerations([agents[i] for i in todo], batch,
+                                       np.asarray(rows, dtype=np.int64)[todo])
+            for j, i in enumerate(todo):
+                out[i] = acc[j]
+        return out
+
+
+_ACT = ORCAAgent.act
+_OPTIONS = operator.attrgetter("horizon", "margin", "v_pref", "time_constant",
+                               "sensing_range", "max_neighbours")
+
+
+_Table = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]
+_TABLES: dict[tuple[int, ...], tuple[list[ORCAAgent], _Table]] = {}
+
+
+def _option_table(agents: Sequence[ORCAAgent]) -> _Table:
+    """The kernel's options of ``agents``: (n, 5) horizon, margin, v_pref (NaN: none),
+    time_constant, sensing_range; whether v_pref is set; max_neighbours (-1: all).
+    Memoised per sequence of agents (the arena asks for the same robots every step)
+    until an option of any agent is set."""
+    key = tuple(map(id, agents))
+    hit = _TABLES.get(key)
+    if hit is None:
+        if len(_TABLES) > 16:
+            _TABLES.clear()
+        # the agents are kept with their table: their ids stay theirs while it is here
+        hit = _TABLES[key] = (list(agents), _options_of(agents))
+    return hit[1]
+
+
+def _options_of(agents: Sequence[ORCAAgent]) -> _Table:
+    """:func:`_option_table`, computed."""
+    table = np.array(list(map(_OPTIONS, agents)), dtype=np.float64).reshape(-1, 6)
+    has_v_pref = ~np.isnan(table[:, _V_PREF])
+    limit = np.where(np.isnan(table[:, 5]), -1.0, np.minimum(table[:, 5], 2.0**62))
+    return np.ascontiguousarray(table[:, :5]), has_v_pref, limit.astype(np.int64)
+
+
+def _batch_accelerations(
+    agents: Sequence[ORCAAgent], batch: SensingBatch, rows: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """The kernel on the bulk arrays for ``agents`` at robot rows ``rows``: (n, 2) m/s^2."""
+    bodies = _i64(batch.bodies)
+    options, has_v_pref, limit = _option_table(agents)
+    grow = _f64(batch.radii)[bodies[rows]] + options[:, _MARGIN]
+    wall_c, wall_r, wall_start, wall_set = _wall_sets(batch.walls, batch.wall_radius, grow)
+    return orca_accelerations(
+        _f64(batch.positions), _f64(batch.velocities), _f64(batch.radii),
+        _f64(batch.a_max), _f64(batch.v_max), _reactive(batch.kinds), bodies,
+        _f64(batch.goals), np.ones(len(bodies), dtype=np.bool_),
+        _i64(batch.nb_start), _i64(batch.nb_index), rows, wall_c, wall_r, wall_start,
+        wall_set, options, has_v_pref, limit, float(batch.dt))
+
+
+def _i64(a: Any) -> NDArray[np.int64]:
+    """A contiguous writable int64 array (a copy where needed), as the kernel takes."""
+    return np.require(a, dtype=np.int64, requirements=("C", "W"))
+
+
+_REACTIVE: list[Any] = [None, None]
+
+
+def _reactive(kinds: NDArray[np.str_]) -> NDArray[np.bool_]:
+    """Which bodies are robots (they reciprocate), memoised for the arena's kinds array."""
+    if _REACTIVE[0] is not kinds:
+        _REACTIVE[0], _REACTIVE[1] = kinds, np.asarray(kinds) == "robot"
+    return _REACTIVE[1]
