@@ -68,8 +68,6 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -80,6 +78,8 @@ from numba import njit, types
 from numba.typed import Dict
 from numpy.typing import ArrayLike, NDArray
 
+from nao_arena.atomic import atomic_write_text
+
 __all__ = [
     "ContactEvent",
     "EpisodeStats",
@@ -87,7 +87,6 @@ __all__ = [
     "FaultEvent",
     "RobotSummary",
     "StatsConfig",
-    "atomic_write_text",
     "segment_distances",
     "swept_disc_distances",
     "sweep_pairs",
@@ -203,30 +202,6 @@ class RobotSummary:
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (non-finite numbers as None)."""
         return {k: _clean(v) for k, v in asdict(self).items()}
-
-
-def temporary_sibling(path: str | Path, suffix: str = ".tmp") -> tuple[int, str]:
-    """(fd, name) of a new temporary file next to ``path`` with the permissions an ordinary
-    new file gets (mkstemp's 0600 widened to 0666 minus the umask), for atomic replaces."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    umask = os.umask(0o022)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    return fd, tmp
-
-
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write text to path atomically: a temporary file in the same folder, then os.replace."""
-    fd, tmp = temporary_sibling(path)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _csv_text(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:

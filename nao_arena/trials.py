@@ -158,9 +158,10 @@ import pyarrow.parquet as pq
 
 from nao_arena.agent import available_agents, describe, load_agent
 from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.atomic import atomic_write_text, atomic_write_with
 from nao_arena.backends import BACKENDS, make_backend
 from nao_arena.maps import MapError, MapSpec, load_map
-from nao_arena.stats import ContactEvent, RobotSummary, atomic_write_text, temporary_sibling
+from nao_arena.stats import ContactEvent, RobotSummary
 from nao_arena.watchdog import wall_clock_budget
 
 __all__ = [
@@ -174,7 +175,6 @@ __all__ = [
     "ResultsFolderError",
     "TrialConfig",
     "TrialResult",
-    "atomic_write_with",
     "build_results",
     "check_folder",
     "compute_episode",
@@ -873,18 +873,6 @@ def _table(rows: Sequence[Mapping[str, Any]], schema: pa.Schema) -> pa.Table:
     return pa.Table.from_pylist(
         [{name: row.get(name) for name in schema.names} for row in rows], schema=schema
     )
-
-
-def atomic_write_with(path: Path, write: Callable[[str], None]) -> None:
-    """Call write(tmp) for a temporary name next to path, then os.replace it onto path."""
-    fd, tmp = temporary_sibling(path)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
