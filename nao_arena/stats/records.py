@@ -99,7 +99,7 @@ class FaultEvent:
 
 @dataclass
 class RobotSummary:
-    """One robot's metrics over an episode (see the module docstring; units m, s)."""
+    """One robot's metrics over an episode (see :mod:`nao_arena.stats`; units m, s)."""
 
     index: int
     name: str
