@@ -4,7 +4,8 @@ disk (fsync), then moved onto the destination with ``os.replace``.
 A reader sees either the old file or the complete new one, never a partial
 write; on an error the temporary file is removed and the destination is left
 untouched. The new file gets the permissions an ordinary new file gets
-(0666 minus the umask). Every file nao_arena writes goes through this module.
+(0666 minus the umask). Every output file of nao_arena (results, logs, figures,
+recordings) goes through this module; only a trial folder's lock file does not.
 """
 
 from __future__ import annotations
