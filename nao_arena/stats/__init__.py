@@ -34,8 +34,8 @@ of first contact; without substeps, from the velocities at the step's start)
 and the maximum penetration depth over the episode (m). Pairs are
 found by a sort-and-sweep broad phase on the swept bounding boxes; the
 per-pair work of a step is one numba-compiled kernel (same float operations
-as the numpy functions here, so bit-identical results), and only the rare
-contact events are handled in Python.
+as the numpy reference in tests/reference/stats_reference.py, so bit-identical
+results), and only the rare contact events are handled in Python.
 
 Per robot: collisions (contact episodes it took part in, walls included),
 near misses (proximity episodes with another body, separation below
