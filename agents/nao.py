@@ -70,15 +70,11 @@ from nao_arena.geometry import (
     sampled_path,
     select_acceleration,
 )
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
+from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
 from nao_arena.geometry.decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
-from nao_arena.geometry.kernel import (
-    RADIUS_CUT,
-    admissible_kernel,
-    path_excursions,
-    piece_sweep,
-    relevant_sampled_paths,
-    sampled_admissible_batch,
-)
 from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor

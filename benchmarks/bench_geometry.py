@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from nao_arena.geometry import AccelLimits, path_clearance, sampled_path, select_acceleration
-from nao_arena.geometry.kernel import admissible_kernel, piece_sweep
+from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 
 
 def _timeit(fn, min_time: float = 1.0) -> float:

@@ -22,6 +22,28 @@ from numba import njit
 from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.disks import (
+    capped_disks,
+    drop_contained,
+    largest_capped_reach,
+    nao_disk_samples,
+    nao_disks,
+    nao_disks_within,
+    radius_order,
+)
+from nao_arena.geometry._kernel.exact import admissible_kernel, clearance_kernel, piece_sweep
+from nao_arena.geometry._kernel.outside import nearest_outside_disks
+from nao_arena.geometry._kernel.relevance import relevant_obstacles, relevant_sampled_paths
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
+from nao_arena.geometry._kernel.search import (
+    bisect_disc,
+    ok_disc,
+    outward_normal,
+    ring_search_disc,
+    slide_disc,
+    try_candidates_disc,
+)
 from nao_arena.geometry.clearance import sampled_path
 from nao_arena.geometry.decide import (
     ADJUSTED,
@@ -30,30 +52,6 @@ from nao_arena.geometry.decide import (
     REPAIRED,
     UNDECIDED,
     decide,
-)
-from nao_arena.geometry.kernel import (
-    RADIUS_CUT,
-    _capped_disks,
-    _drop_contained,
-    _ok_disc,
-    _outward_normal,
-    _radius_order,
-    admissible_kernel,
-    bisect_disc,
-    clearance_kernel,
-    largest_capped_reach,
-    nao_disk_samples,
-    nao_disks,
-    nao_disks_within,
-    nearest_outside_disks,
-    path_excursions,
-    piece_sweep,
-    relevant_obstacles,
-    relevant_sampled_paths,
-    ring_search_disc,
-    sampled_admissible_batch,
-    slide_disc,
-    try_candidates_disc,
 )
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
@@ -418,7 +416,7 @@ def _random_disks(rng: np.random.Generator) -> np.ndarray:
 def test_drop_contained_matches_reference(seed):
     rng = np.random.default_rng(seed)
     disks = _random_disks(rng) if seed % 2 else _disk_scene(rng, True)[0]
-    np.testing.assert_array_equal(_drop_contained(disks), drop_contained_ref(disks))
+    np.testing.assert_array_equal(drop_contained(disks), drop_contained_ref(disks))
 
 
 @pytest.mark.parametrize("seed", range(60))
@@ -445,7 +443,7 @@ def test_nearest_outside_disks_matches_reference(seed):
 
 @pytest.mark.parametrize("seed", range(20))
 def test_capped_disks_are_the_chosen_balls_disks(seed):
-    """_capped_disks hands back the disks of the ball it chose, whether it worked out their
+    """capped_disks hands back the disks of the ball it chose, whether it worked out their
     containment while choosing (a ball over the cap in raw samples) or afterwards."""
     rng = np.random.default_rng(800 + seed)
     n = int(rng.integers(1, 12))
@@ -454,7 +452,7 @@ def test_capped_disks_are_the_chosen_balls_disks(seed):
     samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
                                path.radius, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02)
     for cap in (2, 8, 24, 64, 1000):
-        chosen, disks = _capped_disks(samples, _radius_order(samples), 0.0625, 8.0, cap)
+        chosen, disks = capped_disks(samples, radius_order(samples), 0.0625, 8.0, cap)
         assert chosen == largest_capped_reach(samples, 0.0625, 8.0, cap)
         if chosen < 0.0:
             assert disks.shape == (0, 3)
@@ -1042,9 +1040,9 @@ def test_outward_normal_points_away_from_the_circles_through_the_point():
     # two unit circles centred at (-0.6, 0) and (0.6, 0) meet at (0, 0.8): away from both
     # is straight up; a point on one circle only gets that circle's normal; off all: none
     disks = np.array([[-0.6, 0.0, 1.0], [0.6, 0.0, 1.0], [5.0, 5.0, 0.5]])
-    np.testing.assert_allclose(_outward_normal(0.0, 0.8, disks), (0.0, 1.0), atol=1e-12)
-    np.testing.assert_allclose(_outward_normal(-1.6, 0.0, disks), (-1.0, 0.0), atol=1e-12)
-    assert _outward_normal(3.0, 3.0, disks) == (0.0, 0.0)
+    np.testing.assert_allclose(outward_normal(0.0, 0.8, disks), (0.0, 1.0), atol=1e-12)
+    np.testing.assert_allclose(outward_normal(-1.6, 0.0, disks), (-1.0, 0.0), atol=1e-12)
+    assert outward_normal(3.0, 3.0, disks) == (0.0, 0.0)
 
 
 def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
@@ -1075,7 +1073,7 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
 
 @pytest.mark.parametrize("seed", range(20))
 def test_exact_test_answer_does_not_depend_on_its_hint(seed):
-    """_ok_disc tests the (obstacle, piece) that last rejected first: whatever the hint
+    """ok_disc tests the (obstacle, piece) that last rejected first: whatever the hint
     (none, random, the one a nearby candidate left), the answer is admissible_kernel's."""
     for attempt in range(20):  # a scene with both admissible and colliding accelerations
         t, rng = _tester(1000 * seed + attempt)
@@ -1093,7 +1091,7 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
     for a, want in zip(cands, ref, strict=True):
         for hint in (np.full(2, -1, dtype=np.int64), carried,
                      np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64)):
-            ok, tested = _ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, p.t, p.c, p.w,
+            ok, tested = ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, p.t, p.c, p.w,
                                   p.b, p.radius, t.sweep, 0.0, buf, res, hint)
             assert ok == want and tested == 1
 

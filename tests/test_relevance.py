@@ -1,4 +1,4 @@
-"""Verification of ``nao_arena.geometry.kernel.relevant_obstacles``.
+"""Verification of ``nao_arena.geometry._kernel.relevance.relevant_obstacles``.
 
 The mask promises: an obstacle left out of it cannot be brought within
 radius + margin (m) over the horizon by any constant acceleration |a| <= a_max,
@@ -24,8 +24,8 @@ from hypothesis import HealthCheck, example, given, note, settings, target
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.relevance import relevant_obstacles
 from nao_arena.geometry.clearance import sampled_path
-from nao_arena.geometry.kernel import relevant_obstacles
 
 try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
     from tests.forward_sim import Polyline, Robot, screened_min_distance, simulate

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.geometry.kernel import clearance_kernel
+from nao_arena.geometry._kernel.exact import clearance_kernel
 
 __all__ = [
     "Clearance",

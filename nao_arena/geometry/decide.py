@@ -2,7 +2,7 @@
 
 :func:`decide_batch` is what the ``nao`` agent does, robot by robot, for the
 robots whose current acceleration it cannot keep: build the obstacle paths it
-needs (:func:`~nao_arena.geometry.kernel.relevant_sampled_paths`), repair a
+needs (:func:`~nao_arena.geometry._kernel.relevance.relevant_sampled_paths`), repair a
 young adjustment locally (:func:`~nao_arena.geometry.selection.repair_acceleration`)
 and otherwise select in full
 (:func:`~nao_arena.geometry.selection.select_acceleration`, limit disc,
@@ -19,13 +19,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.geometry.kernel import (
-    _onto_disc,
-    piece_sweep,
-    relevant_sampled_paths,
-    repair_relevant,
-    select_relevant,
-)
+from nao_arena.geometry._kernel.exact import piece_sweep
+from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
+from nao_arena.geometry._kernel.search import onto_disc, repair_relevant, select_relevant
 from nao_arena.geometry.selection import (
     _DISKS_PER_PIECE,
     _DISKS_PER_SECOND,
@@ -62,7 +58,7 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
     and the static discs wall_index[wall_start[k]:wall_start[k + 1]] of wall_c (m,
     world frame, radii wall_r m, already grown); position pos[k] (m), velocity
     vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s). excursion,
-    finite_path: :func:`~nao_arena.geometry.kernel.path_excursions` of ``pred``.
+    finite_path: :func:`~nao_arena.geometry._kernel.sampled.path_excursions` of ``pred``.
     When repair[k], the current acceleration current[k] is first repaired towards
     desired[k] (m/s^2). Selection parameters: ring_radii[k] (m/s^2), unit_rings,
     max_disks, n_sub, per_second, sliver_depth (fraction of a_max), as
@@ -111,7 +107,7 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
                     accel[k, 1] = y
                     continue
         # select_acceleration: the desired acceleration projected onto the limit disc
-        dx, dy = _onto_disc(desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
+        dx, dy = onto_disc(desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
                             desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0, a_max[k])
         a_d = np.empty(2)
         a_d[0] = dx

@@ -34,24 +34,24 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.geometry.clearance import PiecewisePath, path_clearance
-from nao_arena.geometry.kernel import (
-    _capped_disks,
-    _outward_normal,
-    _radius_order,
-    admissible_kernel,
-    bisect_disc,
-    latest_contact_kernel,
+from nao_arena.geometry._kernel.disks import (
+    capped_disks,
     nao_disk_samples,
     nao_disks_within,
-    nearest_outside_disks,
-    piece_sweep,
-    relevant_obstacles,
+    radius_order,
+)
+from nao_arena.geometry._kernel.exact import admissible_kernel, latest_contact_kernel, piece_sweep
+from nao_arena.geometry._kernel.outside import nearest_outside_disks
+from nao_arena.geometry._kernel.relevance import relevant_obstacles
+from nao_arena.geometry._kernel.search import (
+    bisect_disc,
+    outward_normal,
     repair_disc,
     select_disc,
     slide_disc,
     try_candidates_disc,
 )
+from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 
 __all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
 
@@ -641,7 +641,7 @@ def _nearest_by_disks(
     # Ball by ball, every ball's candidates within a smaller ball are that ball's
     # (nearest first, the same points) and fail again, so the largest ball within
     # the disk cap alone decides as a doubling from the smallest would.
-    chosen, disks = _capped_disks(samples, _radius_order(samples), 0.5 * reach,
+    chosen, disks = capped_disks(samples, radius_order(samples), 0.5 * reach,
                                   max(limit, reach), max_disks)
     if chosen < 0.0:
         return None
@@ -672,7 +672,7 @@ def _try_ball(
         if tester.ok1(point):
             return point
         directions = [(point - a_d) / dist] if dist > 0.0 else []
-        normal = np.array(_outward_normal(x, y, disks))
+        normal = np.array(outward_normal(x, y, disks))
         if np.any(normal != 0.0):
             directions.append(normal)
         for u in directions:

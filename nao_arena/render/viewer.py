@@ -62,12 +62,12 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
+from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
 from nao_arena.geometry.clearance import (  # noqa: E402
     PiecewisePath,
     path_clearance,
     sampled_path,
 )
-from nao_arena.geometry.kernel import relevant_obstacles  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.traffic import CircleLane  # noqa: E402
