@@ -55,6 +55,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
+from nao_arena.speed_limit import saturation_time, speed_limit_time
 
 __all__ = [
     "World",
@@ -96,28 +97,6 @@ def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
     norm = np.hypot(a[:, 0], a[:, 1])
     scale = np.minimum(1.0, np.asarray(a_max, float) / np.maximum(norm, 1e-300))
     return a * scale[:, None]
-
-
-def speed_limit_time(v: ArrayLike, a: ArrayLike, v_max: ArrayLike) -> FloatArray:
-    """Time tau (N,) s at which |v + a tau| reaches v_max: the positive root, inf if never.
-
-    v (N, 2) m/s must satisfy |v| <= v_max (N,) m/s (rounding tolerated);
-    a (N, 2) m/s^2. At |v| = v_max, tau = 0 unless a points backwards
-    (a . v < 0), when tau = -2 a.v / |a|^2.
-    """
-    v = np.asarray(v, dtype=float)
-    a = np.asarray(a, dtype=float)
-    aa = a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1]
-    b = a[:, 0] * v[:, 0] + a[:, 1] * v[:, 1]
-    c = np.minimum(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] - np.asarray(v_max, float) ** 2, 0.0)
-    root = np.sqrt(b * b - aa * c)
-    forward = b + root
-    tau = np.where(
-        b >= 0.0,
-        (0.0 - c) / np.where(forward > 0.0, forward, 1.0),
-        (root - b) / np.where(aa > 0.0, aa, 1.0),
-    )
-    return np.where(aa > 0.0, tau, np.inf)
 
 
 def substep_weights(tau: ArrayLike, dt: float, substeps: int) -> FloatArray:
@@ -162,7 +141,8 @@ def _plan_period(
     and the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s;
     returns (all commands finite, some start velocity was scaled). Same
     arithmetic as :func:`clip_accelerations`, :func:`speed_limit_time` and
-    :func:`substep_weights` (bit-identical results; tested).
+    :func:`substep_weights` (bit-identical results; tested); the saturation time is
+    :func:`nao_arena.speed_limit.saturation_time`, the model the planner predicts with.
     """
     n = accels.shape[0]
     substeps = forces.shape[0]
@@ -183,18 +163,7 @@ def _plan_period(
             vx, vy = vx * f, vy * f
             any_over = True
         v_out[i, 0], v_out[i, 1] = vx, vy
-        aa = ax * ax + ay * ay
-        b = ax * vx + ay * vy
-        c = min(vx * vx + vy * vy - v_max[i] * v_max[i], 0.0)
-        if aa > 0.0:
-            root = np.sqrt(b * b - aa * c)
-            forward = b + root
-            if b >= 0.0:
-                tau = (0.0 - c) / (forward if forward > 0.0 else 1.0)
-            else:
-                tau = (root - b) / aa
-        else:
-            tau = np.inf
+        tau = saturation_time(vx, vy, ax, ay, v_max[i])
         fx, fy = masses[i] * ax, masses[i] * ay
         r = rows[i]
         for j in range(substeps):

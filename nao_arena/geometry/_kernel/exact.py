@@ -17,30 +17,7 @@ import numpy as np
 from numba import njit
 
 from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
-
-
-@njit(cache=True, error_model="numpy")
-def saturation_time(vx, vy, ax, ay, v_max):
-    """Time at which |v + a t| reaches v_max (inf if never); |v| <= v_max."""
-    if not math.isfinite(v_max):
-        return math.inf
-    a2 = ax * ax + ay * ay
-    if a2 == 0.0:
-        return math.inf
-    va = vx * ax + vy * ay
-    c = vx * vx + vy * vy - v_max * v_max
-    if c > 0.0:
-        c = 0.0
-    # positive root of a2 t^2 + 2 va t + c = 0
-    disc = va * va - a2 * c
-    if disc < 0.0:
-        disc = 0.0
-    sq = math.sqrt(disc)
-    if va >= 0.0:
-        # numerically stable form of (-va + sq) / a2
-        den = va + sq
-        return -c / den if den > 0.0 else 0.0
-    return (sq - va) / a2
+from nao_arena.speed_limit import saturation_time
 
 
 @njit(cache=True, error_model="numpy", inline="always")
