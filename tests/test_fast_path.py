@@ -53,6 +53,7 @@ from nao_arena.geometry.decide import (
     UNDECIDED,
     decide,
 )
+from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
 from nao_arena.predictors import _turn_rate_numpy, turn_rate
@@ -1029,11 +1030,11 @@ def test_compiled_selection_matches_the_python_steps(seed):
         ref = selection._search_boxed(t, a_d, radii, 16, t.limits, 1e-3)
         statuses.add(status)
         if ref is None:
-            assert status == 2
+            assert status == Outcome.INFEASIBLE
         else:
-            assert selection._STATUS[status] == ref[1]
+            assert status.label == ref[1]
             np.testing.assert_array_equal([x, y], ref[0])
-    assert statuses - {0}
+    assert statuses - {Outcome.DESIRED}
 
 
 def test_outward_normal_points_away_from_the_circles_through_the_point():

@@ -52,6 +52,7 @@ from nao_arena.geometry._kernel.search import (
     try_candidates_disc,
 )
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
+from nao_arena.geometry.outcome import Outcome
 
 __all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
 
@@ -156,7 +157,8 @@ class AccelLimits:
 class Selection:
     """Result of :func:`select_acceleration`.
 
-    accel: chosen acceleration (2,) m/s^2. status: "desired" (the desired
+    accel: chosen acceleration (2,) m/s^2. status: the :attr:`Outcome.label
+    <nao_arena.geometry.outcome.Outcome.label>` "desired" (the desired
     acceleration was admissible), "adjusted" (nearest admissible one) or
     "infeasible" (nothing admissible found: the candidate that postpones
     contact longest). clearance: its exact clearance (m) to the obstacles
@@ -174,7 +176,7 @@ class Selection:
 
     @property
     def feasible(self) -> bool:
-        return self.status != "infeasible"
+        return self.status != Outcome.INFEASIBLE.label
 
 
 class _Tester:
@@ -393,11 +395,11 @@ def select_acceleration(
             np.ascontiguousarray(path.b), np.ascontiguousarray(path.radius), float(margin), tol,
             radii, _unit_rings(rings, ring_points), _MAX_DISKS, _DISKS_PER_PIECE,
             _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
-        found = a_d if status == 0 else np.array([x, y])
-        if status < 2 and not with_clearance:
-            return Selection(found, _STATUS[status], None, math.inf, count)
-        if status == 2 and fallback is not None and not with_clearance:
-            return Selection(_projected_fallback(fallback, limits), "infeasible", None,
+        found = a_d if status == Outcome.DESIRED else np.array([x, y])
+        if status != Outcome.INFEASIBLE and not with_clearance:
+            return Selection(found, Outcome(status).label, None, math.inf, count)
+        if status == Outcome.INFEASIBLE and fallback is not None and not with_clearance:
+            return Selection(_projected_fallback(fallback, limits), _INFEASIBLE, None,
                              math.inf, count)
     tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
 
@@ -409,13 +411,13 @@ def select_acceleration(
         res = path_clearance(a, v_arr, tester.path, v_max=v_max)
         clear = float(np.min(res.clearance)) if res.clearance.size else math.inf
         first = float(np.min(res.time_of_first_contact)) if res.clearance.size else math.inf
-        return Selection(a, status, clear, first if status == "infeasible" else math.inf,
+        return Selection(a, status, clear, first if status == _INFEASIBLE else math.inf,
                          tester.count)
 
     if limits.box_lo is None:
         tester.count = count
-        if status < 2:
-            return done(found, _STATUS[status])
+        if status != Outcome.INFEASIBLE:
+            return done(found, Outcome(status).label)
     else:
         found = _search_boxed(tester, a_d, radii, ring_points, limits, tol)
         if found is not None:
@@ -424,13 +426,13 @@ def select_acceleration(
     # 4. nothing admissible: the caller's fallback, or postpone contact as long as
     #    possible, then least penetration
     if fallback is not None:
-        return done(_projected_fallback(fallback, limits), "infeasible")
+        return done(_projected_fallback(fallback, limits), _INFEASIBLE)
     cand = np.ascontiguousarray(np.concatenate(
         [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]))
-    return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
+    return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), _INFEASIBLE)
 
 
-_STATUS = ("desired", "adjusted")
+_INFEASIBLE = Outcome.INFEASIBLE.label
 
 
 def _projected_fallback(fallback: ArrayLike, limits: AccelLimits) -> NDArray[np.float64]:
@@ -446,13 +448,13 @@ def _search_boxed(
     """Steps 1-3 of :func:`select_acceleration` (what :func:`select_disc` does for the
     limit disc) in Python, for box limits: (acceleration, status) or None."""
     if tester.ok1(a_d):
-        return a_d, "desired"
+        return a_d, Outcome.DESIRED.label
 
     # 1. exact nearest point outside the sampled disks of the NAO union, in a small
     #    ball around the desired acceleration, then in the largest within the disk cap
     best = _nearest_by_disks(tester, a_d, tol)
     if best is not None:
-        return best, "adjusted"
+        return best, Outcome.ADJUSTED.label
 
     # 2. speed saturation, very crowded scenes: the nearest admissible candidate on
     #    rings of growing radius (all tested in one call; the innermost ring with an
@@ -465,12 +467,12 @@ def _search_boxed(
             good = cand[ring_ok[i]]
             dist = np.hypot(*(good - a_d).T)
             start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
-            return _slide_towards(tester, a_d, start, limits, tol), "adjusted"
+            return _slide_towards(tester, a_d, start, limits, tol), Outcome.ADJUSTED.label
 
     # 3. before giving up: the disk search without its size cap (small pockets)
     best = _nearest_by_disks(tester, a_d, tol, max_disks=None)
     if best is not None:
-        return best, "adjusted"
+        return best, Outcome.ADJUSTED.label
     return None
 
 

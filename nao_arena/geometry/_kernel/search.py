@@ -21,6 +21,7 @@ from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan
 from nao_arena.geometry._kernel.outside import nearest_outside_disks
 from nao_arena.geometry._kernel.relevance import relevant_subset
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.outcome import Outcome
 
 
 @njit(cache=True, error_model="numpy")
@@ -409,8 +410,8 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
     a_d (the desired acceleration, inside the disc) if admissible, else the disk search
     in the largest ball (radius max(a_max / 16, 4 tol) doubled) within ``max_disks``
     disks, the rings, and the disk search without a cap. Returns (status, x, y,
-    candidates tested): status 0 desired, 1 adjusted, 2 nothing admissible found (the
-    caller falls back)."""
+    candidates tested): status the :class:`~nao_arena.geometry.outcome.Outcome` DESIRED,
+    ADJUSTED or INFEASIBLE (nothing admissible found: the caller falls back)."""
     c, w, b, r, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius,
                                         margin)
     return select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
@@ -428,7 +429,7 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
     ok, count = ok_disc(a_d[0], a_d[1], a_max, v[0], v[1], v_max, seg_t, c, w, b, r, sweep,
                         margin, buf, res, hint)
     if ok:
-        return 0, a_d[0], a_d[1], count
+        return Outcome.DESIRED, a_d[0], a_d[1], count
     reach = max(a_max / 16.0, 4.0 * tol)
     limit = math.hypot(a_d[0], a_d[1]) + a_max
     last = reach
@@ -445,7 +446,7 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
                                                seg_t, c, w, b, r, sweep, margin, 0.0)
         count += k
         if found:
-            return 1, x, y, count
+            return Outcome.ADJUSTED, x, y, count
         if empty:
             covered = chosen
     # 2. rings of candidates
@@ -453,11 +454,11 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
                                       seg_t, c, w, b, r, sweep, margin)
     count += k
     if found:
-        return 1, x, y, count
+        return Outcome.ADJUSTED, x, y, count
     # 3. the disk search without a cap, in the largest ball
     found, x, y, k, _ = _try_ball_disc(a_d, disks_within(samples, order, last), last, tol, a_max,
                                        v, v_max, seg_t, c, w, b, r, sweep, margin, covered)
     count += k
     if found:
-        return 1, x, y, count
-    return 2, 0.0, 0.0, count
+        return Outcome.ADJUSTED, x, y, count
+    return Outcome.INFEASIBLE, 0.0, 0.0, count
