@@ -264,8 +264,8 @@ class NAOAgent:
             return True
         ok = np.empty(1, dtype=bool)
         admissible_kernel(
-            obs.velocity[None].copy(), a[None].copy(), obs.v_max, path.t, path.c, path.w,
-            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+            obs.velocity[None].copy(), a[None].copy(), obs.v_max, *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
         )
         return bool(ok[0])
 
@@ -492,8 +492,8 @@ class NAOAgent:
             return True
         ok = np.empty(1, dtype=bool)
         admissible_kernel(
-            v[None].copy(), a[None].copy(), v_max, path.t, path.c, path.w,
-            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+            v[None].copy(), a[None].copy(), v_max, *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
         )
         return bool(ok[0])
 

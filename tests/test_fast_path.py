@@ -299,7 +299,7 @@ def _disk_scene(rng: np.random.Generator, crowded: bool):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     reach = float(rng.choice([0.25, 1.0, 4.0]))
-    return nao_disks(v, path.t, path.c, path.w, path.b, path.radius, 0.0, 4, q, reach, 2.0), q
+    return nao_disks(v, *path.arrays, 0.0, 4, q, reach, 2.0), q
 
 
 # ---------------------------------------------------------------- sensing
@@ -450,8 +450,8 @@ def test_capped_disks_are_the_chosen_balls_disks(seed):
     n = int(rng.integers(1, 12))
     times = np.linspace(0.0, 2.5, 26)
     path = _straight_paths(rng, n, times, spread=2.0)
-    samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
-                               path.radius, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, rng.normal(size=2),
+                               16.0, 2.0, 16.0, 0.02)
     for cap in (2, 8, 24, 64, 1000):
         chosen, disks = capped_disks(samples, radius_order(samples), 0.0625, 8.0, cap)
         assert chosen == largest_capped_reach(samples, 0.0625, 8.0, cap)
@@ -471,8 +471,7 @@ def test_largest_capped_reach_matches_the_doubling(seed):
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, n, times, spread=2.0)
     q = rng.normal(size=2)
-    samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
-                               path.radius, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
     for cap in (4, 16, 48):
         reach, ref = 0.125, -1.0
         while reach < 8.0:
@@ -491,7 +490,7 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     path = _straight_paths(rng, n, times, spread=3.0)
     v = rng.normal(size=2)
     q = rng.normal(size=2)
-    args = (v, path.t, path.c, path.w, path.b, path.radius, 0.1, 4, q)
+    args = (v, *path.arrays, 0.1, 4, q)
     samples = nao_disk_samples(*args, 8.0, 2.0)
     for reach in (0.125, 0.5, 2.0, 8.0):
         np.testing.assert_array_equal(nao_disks_within(samples, reach),
@@ -528,7 +527,8 @@ def _disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
                 if t <= 0.0:
                     continue
                 dt = t - t0
-                c = path.c[n, j] + path.w[n, j] * dt + 0.5 * path.b[n, j] * dt * dt
+                c = (path.c[n, j] + path.velocity[n, j] * dt
+                     + 0.5 * path.acceleration[n, j] * dt * dt)
                 m = (c - v * t) * 2.0 / (t * t)
                 rho = rr * 2.0 / (t * t)
                 dq = math.hypot(*(m - q))
@@ -551,7 +551,7 @@ def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     for reach in (0.5, 4.0):
-        got = nao_disk_samples(v, path.t, path.c, path.w, path.b, path.radius, 0.1, 2, q,
+        got = nao_disk_samples(v, *path.arrays, 0.1, 2, q,
                                reach, 2.0, 16.0, 0.0)
         ref = _disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
         assert got.shape == ref.shape
@@ -566,7 +566,7 @@ def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     rng = np.random.default_rng(500 + seed)
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, 1, times, spread=3.0)
-    args = (rng.normal(size=2), path.t, path.c, path.w, path.b, path.radius, 0.1, 2,
+    args = (rng.normal(size=2), *path.arrays, 0.1, 2,
             np.zeros(2), 8.0, 2.0, 16.0)
     full = nao_disk_samples(*args)
     thin = 0.02
@@ -636,9 +636,8 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
         radii = np.minimum(radii, np.sqrt(x0 * x0 + y0 * y0) * (1.0 - 1e-9))
         path = sampled_path(times, centres, radii)
         ok = np.empty(1, dtype=bool)
-        admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], path.t, path.c,
-                          path.w, path.b, path.radius, piece_sweep(path.t, path.w, path.b),
-                          0.0, ok)
+        admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], *path.arrays,
+                          piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok)
         assert out[k] == int(ok[0]), k
 
 
@@ -719,7 +718,7 @@ def test_compiled_bisect_and_slide_match_python_loops(seed):
     good = grid[ok][0]
     bad = grid[~ok][0]
     p = t.path
-    args = (limits.a_max, t.v, t.v_max, p.t, p.c, p.w, p.b, p.radius, t.sweep, t.margin)
+    args = (limits.a_max, t.v, t.v_max, *p.arrays, t.sweep, t.margin)
     before = t.count
     ref = _bisect_ref(t, bad, good, 1e-3)
     ref_count = t.count - before
@@ -903,8 +902,8 @@ def test_compiled_rings_match_the_python_rings(seed):
     for _ in range(10):
         a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
         found, x, y, _ = ring_search_disc(
-            a_d, radii, selection._unit_rings(8, 16), 1e-3, 2.0, t.v, t.v_max, p.t, p.c,
-            p.w, p.b, p.radius, t.sweep, 0.0)
+            a_d, radii, selection._unit_rings(8, 16), 1e-3, 2.0, t.v, t.v_max, *p.arrays,
+            t.sweep, 0.0)
         cands = selection._ring_candidates(a_d, radii, 16, t.limits)
         ok = t.ok(cands).reshape(8, 16)
         ref = None
@@ -981,11 +980,10 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
                        np.sqrt(centres[:, 0, 0] * centres[:, 0, 0]
                                + centres[:, 0, 1] * centres[:, 0, 1]) * RADIUS_CUT)
     full = sampled_path(times, centres.reshape(-1, len(times), 2), all_r)
-    keep = relevant_obstacles(velocity, a_max, v_max, full.t, full.c, full.w, full.b,
-                              full.radius, 0.0)
+    keep = relevant_obstacles(velocity, a_max, v_max, *full.arrays, 0.0)
     np.testing.assert_array_equal(c, full.c[keep])
-    np.testing.assert_array_equal(w, full.w[keep])
-    np.testing.assert_array_equal(b, full.b[keep])
+    np.testing.assert_array_equal(w, full.velocity[keep])
+    np.testing.assert_array_equal(b, full.acceleration[keep])
     np.testing.assert_array_equal(rad, full.radius[keep])
     if n:
         bad = pred.copy()
@@ -1024,7 +1022,7 @@ def test_compiled_selection_matches_the_python_steps(seed):
         a_d = (grid[~ok][k % (~ok).sum()] if k % 2 else
                t.limits.project(rng.uniform(-2.5, 2.5, size=2)))
         status, x, y, _ = selection.select_disc(
-            a_d, t.v, 2.0, t.v_max, p.t, p.c, p.w, p.b, p.radius, 0.0, 1e-3, radii,
+            a_d, t.v, 2.0, t.v_max, *p.arrays, 0.0, 1e-3, radii,
             selection._unit_rings(8, 16), selection._MAX_DISKS, selection._DISKS_PER_PIECE,
             selection._DISKS_PER_SECOND, selection._SLIVER_DEPTH * 2.0)
         ref = selection._search_boxed(t, a_d, radii, 16, t.limits, 1e-3)
@@ -1056,13 +1054,13 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
         p = t.path
         for _ in range(3):
             a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-            samples = nao_disk_samples(t.v, p.t, p.c, p.w, p.b, p.radius, 0.0, 2, a_d, 8.0,
+            samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0,
                                        2.0, 16.0, 0.02)
             disks = nao_disks_within(samples, 8.0)
             cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
             for k in range(len(cands)):
-                args = (cands[k:k + 1], 0, 8.0, a_d, 1e-3, 2.0, t.v, t.v_max, p.t, p.c, p.w,
-                        p.b, p.radius, t.sweep, 0.0)
+                args = (cands[k:k + 1], 0, 8.0, a_d, 1e-3, 2.0, t.v, t.v_max, *p.arrays,
+                        t.sweep, 0.0)
                 found, x, y, _, _ = try_candidates_disc(*args, disks)
                 ray_only = try_candidates_disc(*args, np.zeros((0, 3)))[0]
                 assert found or not ray_only
@@ -1092,8 +1090,8 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
     for a, want in zip(cands, ref, strict=True):
         for hint in (np.full(2, -1, dtype=np.int64), carried,
                      np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64)):
-            ok, tested = ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, p.t, p.c, p.w,
-                                  p.b, p.radius, t.sweep, 0.0, buf, res, hint)
+            ok, tested = ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, *p.arrays, t.sweep,
+                                 0.0, buf, res, hint)
             assert ok == want and tested == 1
 
 

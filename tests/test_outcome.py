@@ -16,14 +16,14 @@ from nao_arena.geometry.selection import _ring_radii, _unit_rings
 def _wall_ahead(gap: float) -> PiecewisePath:
     """One obstacle at rest ``gap`` m ahead (radius 0.5 m), over 3 s."""
     t = np.array([0.0, 3.0])
-    return PiecewisePath(t=t, c=np.array([[[gap, 0.0]]]), w=np.zeros((1, 1, 2)),
-                         b=np.zeros((1, 1, 2)), radius=np.array([0.5]))
+    return PiecewisePath(t=t, c=np.array([[[gap, 0.0]]]), velocity=np.zeros((1, 1, 2)),
+                         acceleration=np.zeros((1, 1, 2)), radius=np.array([0.5]))
 
 
 def _select_disc(desired: tuple[float, float], path: PiecewisePath) -> Outcome:
     status, _, _, _ = select_disc(
-        np.array(desired), np.array([1.0, 0.0]), 2.0, 1.5, path.t, path.c, path.w, path.b,
-        path.radius, 0.0, 1e-3, _ring_radii(2.0, 4), _unit_rings(4, 16), 64, 6, 16.0, 0.0)
+        np.array(desired), np.array([1.0, 0.0]), 2.0, 1.5, *path.arrays, 0.0, 1e-3,
+        _ring_radii(2.0, 4), _unit_rings(4, 16), 64, 6, 16.0, 0.0)
     return status
 
 

@@ -191,21 +191,20 @@ class _Tester:
         v_max: float,
     ) -> None:
         keep = relevant_obstacles(
-            v, limits.a_max, v_max, path.t, path.c, path.w, path.b, path.radius, margin
+            v, limits.a_max, v_max, *path.arrays, margin
         )
-        if keep.all() and all(a.flags.c_contiguous for a in (path.c, path.w, path.b,
-                                                              path.radius)):
+        if keep.all() and all(a.flags.c_contiguous for a in path.arrays[1:]):
             self.path = path  # already only the relevant obstacles (agents filter first)
         else:
             idx = np.flatnonzero(keep)
             self.path = PiecewisePath(
                 path.t,
                 np.ascontiguousarray(path.c[idx]),
-                np.ascontiguousarray(path.w[idx]),
-                np.ascontiguousarray(path.b[idx]),
+                np.ascontiguousarray(path.velocity[idx]),
+                np.ascontiguousarray(path.acceleration[idx]),
                 np.ascontiguousarray(path.radius[idx]),
             )
-        self.sweep = piece_sweep(self.path.t, self.path.w, self.path.b)
+        self.sweep = piece_sweep(self.path.t, self.path.velocity, self.path.acceleration)
         self.v = v
         self.limits = limits
         self.margin = margin
@@ -230,7 +229,7 @@ class _Tester:
         p = self.path
         admissible_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, cand.shape)), cand, self.v_max,
-            p.t, p.c, p.w, p.b, p.radius, self.sweep, self.margin, res,
+            *p.arrays, self.sweep, self.margin, res,
         )
         self.count += len(idx)
         out[idx] = res
@@ -244,7 +243,7 @@ class _Tester:
         p = self.path
         latest_contact_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, a.shape)), a, self.v_max,
-            p.t, p.c, p.w, p.b, p.radius, self.sweep, out,
+            *p.arrays, self.sweep, out,
         )
         return out
 
@@ -265,7 +264,7 @@ class _Tester:
         self._one[0, 0] = x
         self._one[0, 1] = y
         p = self.path
-        admissible_kernel(self._v1, self._one, self.v_max, p.t, p.c, p.w, p.b, p.radius,
+        admissible_kernel(self._v1, self._one, self.v_max, *p.arrays,
                           self.sweep, self.margin, self._res1)
         return bool(self._res1[0])
 
@@ -333,7 +332,7 @@ def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol
         p = t.path
         gx, gy, count = bisect_disc(
             np.asarray(bad, dtype=np.float64), np.asarray(good, dtype=np.float64), tol,
-            t.limits.a_max, t.v, t.v_max, p.t, p.c, p.w, p.b, p.radius, t.sweep, t.margin,
+            t.limits.a_max, t.v, t.v_max, *p.arrays, t.sweep, t.margin,
         )
         t.count += count
         return np.array([gx, gy])
@@ -391,10 +390,10 @@ def select_acceleration(
         # steps 1-3 below, compiled for the limit disc
         status, x, y, count = select_disc(
             a_d, v_arr, limits.a_max, float(v_max), np.ascontiguousarray(path.t),
-            np.ascontiguousarray(path.c), np.ascontiguousarray(path.w),
-            np.ascontiguousarray(path.b), np.ascontiguousarray(path.radius), float(margin), tol,
-            radii, _unit_rings(rings, ring_points), _MAX_DISKS, _DISKS_PER_PIECE,
-            _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
+            np.ascontiguousarray(path.c), np.ascontiguousarray(path.velocity),
+            np.ascontiguousarray(path.acceleration), np.ascontiguousarray(path.radius),
+            float(margin), tol, radii, _unit_rings(rings, ring_points), _MAX_DISKS,
+            _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
         found = a_d if status == Outcome.DESIRED else np.array([x, y])
         if status != Outcome.INFEASIBLE and not with_clearance:
             return Selection(found, Outcome(status).label, None, math.inf, count)
@@ -510,7 +509,7 @@ def repair_acceleration(
         found, x, y, _ = repair_disc(
             prev, want, limits.a_max, _REPAIR_STEPS, _REPAIR_UNIT, v_arr, float(v_max),
             np.ascontiguousarray(path.t), np.ascontiguousarray(path.c),
-            np.ascontiguousarray(path.w), np.ascontiguousarray(path.b),
+            np.ascontiguousarray(path.velocity), np.ascontiguousarray(path.acceleration),
             np.ascontiguousarray(path.radius))
         return np.array([x, y]) if found else None
     tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
@@ -537,7 +536,7 @@ def _slide_towards(
         p = tester.path
         x, y, count = slide_disc(
             np.asarray(a_d, dtype=np.float64), np.asarray(best, dtype=np.float64), tol,
-            limits.a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b, p.radius, tester.sweep,
+            limits.a_max, tester.v, tester.v_max, *p.arrays, tester.sweep,
             tester.margin,
         )
         tester.count += count
@@ -635,7 +634,7 @@ def _nearest_by_disks(
     while last < limit:
         last *= 2.0
     samples = nao_disk_samples(
-        tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
+        tester.v, *p.arrays, tester.margin, _DISKS_PER_PIECE,
         a_d, last, a_max, _DISKS_PER_SECOND, _SLIVER_DEPTH * a_max,
     )
     if max_disks is None:
@@ -663,8 +662,8 @@ def _try_ball(
     if tester.limits.box_lo is None:
         # the loop below, compiled
         found, x, y, count, _ = try_candidates_disc(
-            cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
-            p.radius, tester.sweep, tester.margin, disks)
+            cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, *p.arrays, tester.sweep,
+            tester.margin, disks)
         tester.count += count
         return np.array([x, y]) if found else None
     for x, y, dist in cands:
