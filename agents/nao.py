@@ -62,6 +62,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
 from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_accel
 from nao_arena.geometry import (
     AccelLimits,
@@ -74,7 +75,6 @@ from nao_arena.geometry._kernel.batch import sampled_admissible_batch
 from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
-from nao_arena.geometry.decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
 from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor

@@ -19,6 +19,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numba import njit
 
+from nao_arena.agents._nao_decide import (
+    ADJUSTED,
+    DESIRED,
+    INFEASIBLE,
+    REPAIRED,
+    UNDECIDED,
+    decide,
+)
 from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
@@ -45,14 +53,6 @@ from nao_arena.geometry._kernel.search import (
     try_candidates_disc,
 )
 from nao_arena.geometry.clearance import sampled_path
-from nao_arena.geometry.decide import (
-    ADJUSTED,
-    DESIRED,
-    INFEASIBLE,
-    REPAIRED,
-    UNDECIDED,
-    decide,
-)
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nao_arena.agents._nao_decide import decide
 from nao_arena.geometry import AccelLimits, Outcome, PiecewisePath, select_acceleration
 from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry._kernel.search import select_disc
-from nao_arena.geometry.decide import decide
 from nao_arena.geometry.selection import _ring_radii, _unit_rings
 
 

@@ -1,4 +1,4 @@
-"""Many robots' re-selections in one compiled call.
+"""The ``nao`` agent's policy for many robots' re-selections, in one compiled call.
 
 :func:`decide_batch` is what the ``nao`` agent does, robot by robot, for the
 robots whose current acceleration it cannot keep: build the obstacle paths it
