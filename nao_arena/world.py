@@ -15,7 +15,9 @@ accelerates at a until its speed reaches v_max, at time tau (the positive
 root of |v + a tau| = v_max, or never), and coasts for the rest of the
 period: in substep j the force m a clamp((tau - j h) / h, 0, 1) is applied,
 so that without contacts the velocity after the period is exactly
-v + a min(tau, dt) (up to rounding); see :func:`velocity_after_period`. A
+v + a min(tau, dt) (up to rounding; tests/reference/world_reference.py writes
+this model out in numpy). The saturation time tau is
+:func:`nao_arena.speed_limit.saturation_time`, shared with the planner. A
 body faster than v_max (after a contact) is first slowed to v_max by
 scaling its velocity (never by moving it), and then gains no speed. Speeds
 above v_max left by contacts at the end of a period are scaled back too, so
@@ -62,8 +64,6 @@ __all__ = [
     "WorldState",
     "clip_accelerations",
     "speed_limit_time",
-    "substep_weights",
-    "velocity_after_period",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -99,36 +99,6 @@ def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
     return a * scale[:, None]
 
 
-def substep_weights(tau: ArrayLike, dt: float, substeps: int) -> FloatArray:
-    """Fraction (substeps, N) of each substep spent accelerating: clamp((tau - j h)/h, 0, 1)."""
-    h = dt / substeps
-    j = np.arange(substeps, dtype=float)[:, None]
-    return np.clip((np.asarray(tau, float)[None, :] - j * h) / h, 0.0, 1.0)
-
-
-def _scale_to_vmax(v: FloatArray, v_max: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-    speed = np.hypot(v[:, 0], v[:, 1])
-    over = speed > v_max
-    if not np.any(over):
-        return v, over
-    scale = np.where(over, v_max / np.where(over, speed, 1.0), 1.0)
-    return v * scale[:, None], over
-
-
-def velocity_after_period(
-    v: ArrayLike, a: ArrayLike, a_max: ArrayLike, v_max: ArrayLike, dt: float
-) -> FloatArray:
-    """The speed-limit model without contacts: v' + a' min(tau, dt), (N, 2) m/s.
-
-    a' is a (m/s^2) scaled to |a'| <= a_max; v' is v (m/s) scaled to
-    |v'| <= v_max; tau from :func:`speed_limit_time`.
-    """
-    a_c = clip_accelerations(a, a_max)
-    v_c, _ = _scale_to_vmax(np.asarray(v, float), np.asarray(v_max, float))
-    tau = speed_limit_time(v_c, a_c, v_max)
-    return v_c + a_c * np.minimum(tau, dt)[:, None]
-
-
 @njit(cache=True)
 def _plan_period(
     accels: FloatArray, v: FloatArray, a_max: FloatArray, v_max: FloatArray,
@@ -140,9 +110,10 @@ def _plan_period(
     Writes the substep forces (substeps, rows, 2) N (row rows[i] for body i)
     and the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s;
     returns (all commands finite, some start velocity was scaled). Same
-    arithmetic as :func:`clip_accelerations`, :func:`speed_limit_time` and
-    :func:`substep_weights` (bit-identical results; tested); the saturation time is
-    :func:`nao_arena.speed_limit.saturation_time`, the model the planner predicts with.
+    arithmetic as :func:`clip_accelerations` and the numpy model in
+    tests/reference/world_reference.py (bit-identical results; tested); the saturation
+    time is :func:`nao_arena.speed_limit.saturation_time`, the model the planner
+    predicts with.
     """
     n = accels.shape[0]
     substeps = forces.shape[0]
