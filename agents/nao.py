@@ -62,6 +62,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
 from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_accel
 from nao_arena.geometry import (
     AccelLimits,
@@ -70,15 +71,10 @@ from nao_arena.geometry import (
     sampled_path,
     select_acceleration,
 )
-from nao_arena.geometry.decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
-from nao_arena.geometry.kernel import (
-    RADIUS_CUT,
-    admissible_kernel,
-    path_excursions,
-    piece_sweep,
-    relevant_sampled_paths,
-    sampled_admissible_batch,
-)
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
+from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
 from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.predictors import get_predictor
@@ -268,8 +264,8 @@ class NAOAgent:
             return True
         ok = np.empty(1, dtype=bool)
         admissible_kernel(
-            obs.velocity[None].copy(), a[None].copy(), obs.v_max, path.t, path.c, path.w,
-            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+            obs.velocity[None].copy(), a[None].copy(), obs.v_max, *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
         )
         return bool(ok[0])
 
@@ -496,8 +492,8 @@ class NAOAgent:
             return True
         ok = np.empty(1, dtype=bool)
         admissible_kernel(
-            v[None].copy(), a[None].copy(), v_max, path.t, path.c, path.w,
-            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+            v[None].copy(), a[None].copy(), v_max, *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
         )
         return bool(ok[0])
 
