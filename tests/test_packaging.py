@@ -86,3 +86,53 @@ def test_a_plain_install_has_every_file(tmp_path):
     assert {p.name for p in (installed / "agents").glob("*.py")} == agents
     maps = {p.name for p in (ROOT / "maps").glob("*.yaml")}
     assert {p.name for p in (installed / "maps_data").glob("*.yaml")} == maps
+
+
+def plain_python(tmp_path: Path) -> Path:
+    """A Python that has this one's dependencies but not nao_arena: a fresh virtual
+    environment whose .pth file lists this interpreter's site-packages folders (folders
+    listed there are on sys.path, but their own .pth files, e.g. an editable install's,
+    are not run)."""
+    import site
+    import subprocess
+    import sys
+    import venv
+
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(with_pip=False).create(env_dir)
+    python = env_dir / ("Scripts/python.exe" if sys.platform == "win32" else "bin/python")
+    proc = subprocess.run([str(python), "-c", "import site; print(site.getsitepackages()[0])"],
+                          capture_output=True, text=True, check=True)
+    folders = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
+    folders += [p for p in site.getsitepackages() if p not in folders]
+    (Path(proc.stdout.strip()) / "dependencies.pth").write_text("\n".join(folders) + "\n")
+    return python
+
+
+@pytest.mark.slow
+def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
+    """``python -m pytest`` from the repository without installing nao_arena: tests/conftest.py
+    registers agents/ and maps/ as nao_arena.agents and nao_arena.maps_data."""
+    import os
+    import subprocess
+
+    python = plain_python(tmp_path)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    plain = subprocess.run([str(python), "-c", "import nao_arena.agents"], cwd=ROOT, env=env,
+                           capture_output=True, text=True, check=False)
+    assert "No module named 'nao_arena.agents'" in plain.stderr  # not installed there
+    proc = subprocess.run(
+        [str(python), "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_front_door.py"],
+        cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert " passed" in proc.stdout and "skipped" not in proc.stdout
+
+
+def test_conftest_maps_the_folders_as_pyproject_does():
+    from conftest import MAPPED
+
+    tomllib = pytest.importorskip("tomllib")
+    mapping = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-dir"]
+    assert {name: ROOT / folder for name, folder in mapping.items()
+            if name != "nao_arena"} == MAPPED
