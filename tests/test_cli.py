@@ -117,6 +117,7 @@ def _parent_pid(pid: str) -> int | None:
         return None
 
 
+@pytest.mark.installed
 @pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals and /proc")
 def test_sigterm_stops_a_trial_and_its_workers(tmp_path):

@@ -78,6 +78,7 @@ def test_readme_points_to_every_example():
 # --------------------------------------------------------------------------- examples
 
 
+@pytest.mark.installed
 @pytest.mark.slow
 def test_custom_agent_script(tmp_path):
     out = _script("custom_agent.py", "--map", "crossing", "--set", "n=2",
@@ -123,6 +124,7 @@ def test_my_map_and_its_commands(tmp_path, capsys):
     assert json.loads((tmp_path / "pillar" / "summary.json").read_text())[0]["robots"] == 3
 
 
+@pytest.mark.installed
 @pytest.mark.slow
 def test_compare_agents_script(tmp_path):
     out_dir = tmp_path / "compare"
@@ -138,6 +140,7 @@ def test_compare_agents_script(tmp_path):
         assert (out_dir / name).read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.installed
 @pytest.mark.slow
 def test_record_gif_script_headless(tmp_path):
     path = tmp_path / "run.gif"

@@ -25,18 +25,24 @@ def test_every_subpackage_is_listed_in_pyproject():
 
 def test_import_exports_only_its_api():
     """``import nao_arena`` defines __all__ and no other public name (no `Any`, `annotations`)."""
+    import os
     import subprocess
     import sys
 
+    from conftest import REGISTERED
+
     code = ("import json, nao_arena; print(json.dumps([nao_arena.__all__, "
             "[n for n in dir(nao_arena) if not n.startswith('_')]]))")
+    # from tests/: the installed package, or (plain checkout) the repository's
+    env = dict(os.environ, PYTHONPATH=str(ROOT)) if REGISTERED else None
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True, cwd=ROOT / "tests")
+                          check=True, cwd=ROOT / "tests", env=env)
     exported, public = json.loads(proc.stdout)
     assert "__version__" in exported and "Arena" in exported  # the list: test_front_door.py
     assert public == sorted(n for n in exported if not n.startswith("_"))
 
 
+@pytest.mark.installed
 def test_version_has_one_source():
     """pyproject takes the version from nao_arena.__version__; the installed metadata agrees."""
     from importlib.metadata import version
@@ -112,7 +118,8 @@ def plain_python(tmp_path: Path) -> Path:
 @pytest.mark.slow
 def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
     """``python -m pytest`` from the repository without installing nao_arena: tests/conftest.py
-    registers agents/ and maps/ as nao_arena.agents and nao_arena.maps_data."""
+    registers agents/ and maps/ as nao_arena.agents and nao_arena.maps_data, and skips the
+    tests marked ``installed``."""
     import os
     import subprocess
 
@@ -122,10 +129,13 @@ def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
                            capture_output=True, text=True, check=False)
     assert "No module named 'nao_arena.agents'" in plain.stderr  # not installed there
     proc = subprocess.run(
-        [str(python), "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_front_door.py"],
+        [str(python), "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",
+         "tests/test_front_door.py", "tests/test_borrow.py"],
         cwd=ROOT, env=env, capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
-    assert " passed" in proc.stdout and "skipped" not in proc.stdout
+    # the one test marked `installed` (it starts a Python process) skips, and says why
+    assert " passed, 1 skipped" in proc.stdout, proc.stdout[-3000:]
+    assert "test_borrow.py:" in proc.stdout and "needs nao_arena installed" in proc.stdout
 
 
 def test_conftest_maps_the_folders_as_pyproject_does():

@@ -287,6 +287,7 @@ def test_same_commands_give_identical_arrays() -> None:
     assert np.array_equal(p1, p2) and np.array_equal(v1, v2)
 
 
+@pytest.mark.installed
 @pytest.mark.slow
 def test_bit_identical_across_processes_and_hash_seeds() -> None:
     here = hashlib.sha256()
