@@ -2,12 +2,12 @@
 // one thread. Written against the peers' public APIs (RVO::RVOSimulator,
 // AVO::Simulator); the scene loop follows their Circle examples: each step the
 // preferred velocity is the vector to the goal (m -> m/s, gain 1/s), capped at
-// the maximum speed, then doStep().
+// --pref-speed (default: the maximum speed), then doStep().
 //
 //   driver_<peer> SCENE OUT [--dt 0.1] [--time-limit 500] [--tolerance 0.1]
 //       [--radius 0.5] [--max-speed 1.5] [--max-accel 2] [--accel-interval 2]
 //       [--neighbor-dist 15] [--max-neighbors 10] [--time-horizon 10]
-//       [--time-horizon-obst 10]
+//       [--time-horizon-obst 10] [--pref-speed V]
 //
 // SCENE (text): the robot count n, then n lines "start_x start_y goal_x goal_y" (m).
 // OUT (binary, little-endian float64): one row of 1 + 2 n values per state, the
@@ -51,7 +51,7 @@ struct Options {
       {"dt", 0.1},           {"time-limit", 500.0},   {"tolerance", 0.1},
       {"radius", 0.5},       {"max-speed", 1.5},      {"max-accel", 2.0},
       {"accel-interval", 2.0}, {"neighbor-dist", 15.0}, {"max-neighbors", 10.0},
-      {"time-horizon", 10.0}, {"time-horizon-obst", 10.0}};
+      {"time-horizon", 10.0}, {"time-horizon-obst", 10.0}, {"pref-speed", -1.0}};
   double operator[](const std::string &key) const { return values.at(key); }
 };
 
@@ -89,6 +89,7 @@ int main(int argc, char **argv) {
 
   const float dt = static_cast<float>(opt["dt"]);
   const float vmax = static_cast<float>(opt["max-speed"]);
+  const float vpref = opt["pref-speed"] < 0.0 ? vmax : static_cast<float>(opt["pref-speed"]);
   Sim sim;
   sim.setTimeStep(dt);
 #if defined(PEER_RVO2)
@@ -128,7 +129,7 @@ int main(int argc, char **argv) {
     for (std::size_t i = 0; i < n; ++i) {
       Vec to_goal = goals[i] - sim.getAgentPosition(i);
       const float d = abs(to_goal);
-      if (d > vmax) to_goal = to_goal * (vmax / d);
+      if (d > vpref) to_goal = to_goal * (vpref / d);
       sim.setAgentPrefVelocity(i, to_goal);
     }
     const auto t0 = std::chrono::steady_clock::now();
