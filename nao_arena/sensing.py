@@ -353,6 +353,41 @@ class SensingBatch:
                 setattr(self, name, read_only(value))
         self.routes = ReadOnlyRoutes.of(self.routes)
 
+    @classmethod
+    def of_observation(cls, obs: Observation) -> SensingBatch:
+        """The one-robot batch of ``obs``: body 0 is the robot (robot 0), bodies 1 .. n its
+        neighbours in their order (what it does not know of them, a_max and v_max, NaN);
+        a goal of None is NaN; the robot senses every neighbour and the walls of ``obs``."""
+        nb = obs.neighbours
+        n = len(nb)
+
+        def own_first(own: object, rows: object, width: tuple[int, ...]) -> NDArray[np.float64]:
+            return np.concatenate([np.asarray(own, dtype=np.float64).reshape((1, *width)),
+                                   np.asarray(rows, dtype=np.float64).reshape((n, *width))])
+
+        unknown = np.full(n, np.nan)
+        t = nb.known_paths.shape[1:] if nb.known_paths is not None else ()
+        return cls(
+            time=obs.time, dt=obs.dt,
+            positions=own_first(obs.position, nb.positions, (2,)),
+            velocities=own_first(obs.velocity, nb.velocities, (2,)),
+            accelerations=own_first(obs.acceleration, nb.accelerations, (2,)),
+            radii=own_first(obs.radius, nb.radii, ()),
+            a_max=own_first(obs.a_max, unknown, ()), v_max=own_first(obs.v_max, unknown, ()),
+            kinds=np.array(("robot", *nb.kinds)),
+            plans=None if nb.plans is None else own_first(np.full(2, np.nan), nb.plans, (2,)),
+            known_paths=(None if nb.known_paths is None
+                         else own_first(np.full(t, np.nan), nb.known_paths, t)),
+            path_times=np.asarray(nb.path_times, dtype=np.float64),
+            bodies=np.zeros(1, dtype=np.int64),
+            goals=(np.full((1, 2), np.nan) if obs.goal is None
+                   else np.asarray(obs.goal, dtype=np.float64).reshape(1, 2)),
+            routes=(obs.route,), walls=np.asarray(obs.walls, dtype=np.float64),
+            wall_radius=np.asarray(obs.wall_radius, dtype=np.float64),
+            nb_start=np.array([0, n], dtype=np.int64),
+            nb_index=np.arange(1, n + 1, dtype=np.int64),
+        )
+
     def neighbour_ids(self, k: int) -> NDArray[np.int64]:
         """Body indices robot k senses, nearest first."""
         return self.nb_index[self.nb_start[k]:self.nb_start[k + 1]]
