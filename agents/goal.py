@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agent import PanelAgent
 from nao_arena.sensing import Observation, SensingBatch
 
 APPROACH_GAIN = 1.0  # 1/s: the target speed near the goal, per metre to go (see below)
@@ -111,6 +112,10 @@ class GoalAgent:
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         return goal_seeking_accel(obs, self.v_pref, self.time_constant)
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent: its v_pref."""
+        return PanelAgent(v_pref=self.v_pref)
 
     @classmethod
     def act_batch(

@@ -66,17 +66,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agent import PanelAgent
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.geometry import (
     AccelLimits,
     PiecewisePath,
     repair_acceleration,
-    sampled_path,
     select_acceleration,
 )
 from nao_arena.geometry.decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
 from nao_arena.geometry.kernel import (
-    RADIUS_CUT,
     admissible_kernel,
     path_excursions,
     piece_sweep,
@@ -85,6 +84,7 @@ from nao_arena.geometry.kernel import (
 )
 from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
+from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -163,30 +163,6 @@ class NAOAgent:
         <= 0: the goal direction is turned right by -detour, see the module docstring)."""
         return self.last_selection, np.array(self.current, dtype=np.float64), float(self.detour)
 
-    def _paths(
-        self,
-        predicted: NDArray[np.float64] | None,
-        nb_radii: NDArray[np.float64],
-        position: NDArray[np.float64],
-        radius: float,
-        walls: NDArray[np.float64],
-        wall_radius: NDArray[np.float64],
-    ) -> PiecewisePath:
-        """Sampled paths of the neighbours' predicted centres (n, T, 2) m (world frame,
-        None: no neighbours) and of the wall discs in range, relative to ``position``,
-        grown by the robot's radius and the margin (m)."""
-        grow = radius + self.margin
-        centres = [predicted - position] if predicted is not None else []
-        radii = ([_within_reach(nb_radii + grow, centres[0][:, 0])]
-                 if predicted is not None else [])
-        if len(walls):
-            rel, wr = self._near_walls(walls, wall_radius, grow, position)
-            centres.append(np.repeat(rel[:, None, :], len(self.times), 1))
-            radii.append(_within_reach(wr, rel))
-        if not centres:
-            return sampled_path(self.times, np.zeros((0, len(self.times), 2)), np.zeros(0))
-        return sampled_path(self.times, np.concatenate(centres), np.concatenate(radii))
-
     def _regular_grid(self) -> bool:
         """Whether the time grid starts at 0 and increases (what the compiled paths
         assume); checked once per grid."""
@@ -230,16 +206,20 @@ class NAOAgent:
         a_max: float,
         v_max: float,
     ) -> PiecewisePath:
-        """:meth:`_paths` of the neighbours predicted[idx] (radii nb_radii[idx]) and walls,
-        without the obstacles that no acceleration within a_max (m/s^2) can reach
-        (velocity m/s, speed limit v_max m/s): what every selection drops first
-        (:func:`relevant_obstacles`), built in one compiled pass. excursions:
-        :func:`path_excursions` of ``predicted`` (shared by the robots of a step)."""
+        """:func:`~nao_arena.obstacles.obstacle_paths` of the neighbours predicted[idx]
+        (radii nb_radii[idx]) and the wall discs in sensing range, without the obstacles
+        that no acceleration within a_max (m/s^2) can reach (velocity m/s, speed limit
+        v_max m/s): what every selection drops first (:func:`relevant_obstacles`), built
+        in one compiled pass (where the time grid is regular and the velocity finite).
+        excursions: :func:`path_excursions` of ``predicted`` (shared by the robots of a
+        step)."""
         times = self.times
         if not (self._regular_grid() and math.isfinite(velocity[0])
                 and math.isfinite(velocity[1])):
-            return self._paths(predicted[idx] if len(idx) else None, nb_radii[idx], position,
-                               radius, walls, wall_radius)
+            grow = radius + self.margin
+            wc, wr = _wall_discs(walls, wall_radius, grow) if len(walls) else _NO_WALLS
+            return obstacle_paths(times, predicted[idx], nb_radii[idx] + grow, position, wc, wr,
+                                  self.sensing_range)
         grow = radius + self.margin
         if len(walls):
             wall_rel, wall_r = self._near_walls(walls, wall_radius, grow, position)
@@ -349,6 +329,14 @@ class NAOAgent:
             for i, res in zip(rest, done, strict=True):
                 out[i] = res
         return out  # type: ignore[return-value]
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent (its time grid,
+        predictor, margin, v_pref, detour and the status of its last selection)."""
+        sel = self.last_selection
+        return PanelAgent(times=self.times, predict=self.predict, margin=self.margin,
+                          v_pref=self.v_pref, detour=float(self.detour),
+                          status=None if sel is None else sel.status)
 
     def last_obstacles(self) -> PiecewisePath | None:
         """The obstacles of the agent's last step (None before its first): its
@@ -536,17 +524,6 @@ SHIELD_STATUSES: tuple[str, ...] = ("kept", "repaired", "adjusted", "infeasible"
 _SELECTION_STATUS = {"desired": "kept", "adjusted": "adjusted", "infeasible": "infeasible"}
 _KIND_STATUS = {REPAIRED: "repaired", DESIRED: "kept", ADJUSTED: "adjusted",
                 INFEASIBLE: "infeasible"}
-
-
-def _within_reach(
-    radii: NDArray[np.float64], rel: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Grown radii (m) cut to just under the current distances of the centres ``rel``
-    (n, 2) m: an obstacle already inside its margin (or touching) keeps the robot from
-    closing in further but lets it move away, instead of making every acceleration
-    inadmissible. The same operations as the compiled keep test."""
-    dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
-    return np.minimum(radii, dist * RADIUS_CUT)
 
 
 _LIMITS: dict[float, AccelLimits] = {}

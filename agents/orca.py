@@ -35,6 +35,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
+from nao_arena.agent import PanelAgent
 from nao_arena.agents.goal import goal_target
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.sensing import Observation, SensingBatch
@@ -485,6 +486,10 @@ class ORCAAgent:
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
         """Stateless."""
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent: margin and v_pref."""
+        return PanelAgent(margin=float(self.margin), v_pref=self.v_pref)
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         """The ORCA acceleration (m/s^2) of the robot ``obs`` describes."""

@@ -44,6 +44,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.predictors import Predictor
 from nao_arena.sensing import Observation
 from nao_arena.watchdog import EpisodeTimeout
 
@@ -53,6 +54,8 @@ __all__ = [
     "Agent",
     "AgentError",
     "AgentFault",
+    "PanelAgent",
+    "ShowsPanel",
     "available_agents",
     "describe",
     "load_agent",
@@ -82,6 +85,29 @@ class Agent(Protocol):
     def reset(self, spec: Any, rng: np.random.Generator) -> None: ...
 
     def act(self, obs: Observation) -> NDArray[np.float64]: ...
+
+
+@dataclass(frozen=True)
+class PanelAgent:
+    """What the viewer's acceleration panel shows of a robot's agent: its time grid (s)
+    and predictor (None: turn-rate predictions over 3 s), safety margin (m), preferred
+    speed (m/s; None: v_max), detour (rad; its goal direction is turned by it) and the
+    status of its last full selection (None: it reports none)."""
+
+    times: NDArray[np.float64] | None = None
+    predict: Predictor | None = None
+    margin: float = 0.0
+    v_pref: float | None = None
+    detour: float = 0.0
+    status: str | None = None
+
+
+@runtime_checkable
+class ShowsPanel(Protocol):
+    """An agent that tells the viewer's acceleration panel how it plans (agents without
+    ``panel`` are shown with the defaults of :class:`PanelAgent`)."""
+
+    def panel(self) -> PanelAgent: ...
 
 
 @dataclass(frozen=True)

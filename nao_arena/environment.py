@@ -137,9 +137,10 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, ArenaOptions, StepResult
-from nao_arena.geometry.clearance import path_clearance, sampled_path
+from nao_arena.geometry.clearance import path_clearance
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.maps import MapSpec, load_map
+from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Neighbours
 from nao_arena.world import clip_accelerations
@@ -834,24 +835,18 @@ class NaoArenaParallelEnv(ParallelEnv):
         counts = present.sum(axis=1)
         starts = np.concatenate([[0], np.cumsum(counts)])
         out = np.full((len(bodies), len(self._cand)), opts.nao_clip)
+        h = opts.nao_horizon
         for i, b in enumerate(bodies.tolist()):
-            pos = state.positions[b]
             r_own = float(state.radii[b])
-            centres = [predicted[starts[i]:starts[i + 1]] - pos]
-            radii = [state.radii[flat[starts[i]:starts[i + 1]]] + r_own + opts.nao_margin]
             a_max, v_max = float(world.a_max[b]), float(world.v_max[b])
-            if self._walls is not None:
-                wc, wr = self._walls[r_own]
-                h = opts.nao_horizon
-                reach = v_max * h + 0.5 * a_max * h * h
-                near = np.hypot(*(wc - pos).T) <= reach + wr
-                if np.any(near):
-                    centres.append(np.repeat((wc[near] - pos)[:, None, :], len(times), 1))
-                    radii.append(wr[near])
-            c = np.concatenate(centres)
-            if not len(c):
+            wc, wr = self._walls[r_own] if self._walls is not None else (None, None)
+            # the agent's obstacles, without its radius cut: the walls within reach
+            path = obstacle_paths(
+                times, predicted[starts[i]:starts[i + 1]],
+                state.radii[flat[starts[i]:starts[i + 1]]] + r_own + opts.nao_margin,
+                state.positions[b], wc, wr, v_max * h + 0.5 * a_max * h * h, cut=False)
+            if path.n_obstacles == 0:
                 continue
-            path = sampled_path(times, c, np.concatenate(radii))
             clear = path_clearance(self._cand * a_max, state.velocities[b], path, v_max=v_max)
             out[i] = np.min(clear.clearance, axis=1)
         return np.clip(out, -opts.nao_clip, opts.nao_clip)

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from nao_arena.agents.goal import GoalAgent, goal_seeking_accel
 from nao_arena.agents.nao import NAOAgent
 from nao_arena.geometry import AccelLimits, repair_acceleration
+from nao_arena.obstacles import RADIUS_CUT, obstacle_paths
 from nao_arena.sensing import Neighbours, Observation, SensingBatch, neighbour_lists
 
 
@@ -266,3 +267,19 @@ def test_goal_seeking_in_bulk_is_goal_seeking_robot_by_robot(seed, n_robots, odd
     for k in range(n_robots):
         want = goal_seeking_accel(batch.observation(k), v_pref, 0.3 + 0.1 * k)
         np.testing.assert_array_equal(got[k], want)
+
+
+def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach():
+    times = np.linspace(0.0, 1.0, 3)
+    centres = np.array([[[1.5, 1.0]] * 3, [[5.0, 1.0]] * 3])  # world frame, at rest
+    position = np.array([1.0, 1.0])
+    walls_c = np.array([[1.0, 3.0], [1.0, 9.0]])  # 2 m and 8 m away
+    walls_r = np.array([0.5, 0.5])
+    cut = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls_c, walls_r,
+                         wall_reach=4.0)
+    np.testing.assert_array_equal(cut.radius, [0.5 * RADIUS_CUT, 0.75, 0.5])  # one wall
+    np.testing.assert_array_equal(cut.c[:, 0], [[0.5, 0.0], [4.0, 0.0], [0.0, 2.0]])
+    whole = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls_c, walls_r,
+                           cut=False)
+    np.testing.assert_array_equal(whole.radius, [0.75, 0.75, 0.5, 0.5])
+    assert obstacle_paths(times, np.zeros((0, 3, 2)), np.zeros(0), position).n_obstacles == 0

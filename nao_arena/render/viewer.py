@@ -51,9 +51,9 @@ import math
 import os
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -61,20 +61,21 @@ from numpy.typing import NDArray
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
+from nao_arena.agent import PanelAgent, ShowsPanel  # noqa: E402
 from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
-from nao_arena.geometry.clearance import (  # noqa: E402
-    PiecewisePath,
-    path_clearance,
-    sampled_path,
-)
+from nao_arena.geometry.clearance import PiecewisePath, path_clearance  # noqa: E402
 from nao_arena.geometry.kernel import relevant_obstacles  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
+from nao_arena.obstacles import obstacle_paths  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.traffic import CircleLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
 
+if TYPE_CHECKING:
+    from nao_arena.arena import Arena
+
 __all__ = ["AGENT_COLOURS", "FRAME_SIZE", "KEYS", "EdgeRun", "FrameInfo", "LegendEntry",
-           "PanelAgent", "Viewer", "ViewerOptions", "edge_runs", "panel_agent"]
+           "PanelAgent", "PanelSource", "Viewer", "ViewerOptions", "edge_runs", "panel_agent"]
 
 FRAME_SIZE: tuple[int, int] = (1200, 800)
 """Default frame size (width, height) px."""
@@ -169,35 +170,22 @@ class ViewerOptions:
     predicted_paths: bool = True
 
 
-@dataclass(frozen=True)
-class PanelAgent:
-    """What the acceleration panel reads of a robot's agent: its time grid (s) and
-    predictor (None: turn-rate predictions over 3 s), safety margin (m), preferred speed
-    (m/s; None: v_max), detour (rad; its goal direction is turned by it) and the status
-    of its last full selection (None: it reports none)."""
+@runtime_checkable
+class PanelSource(Protocol):
+    """An arena that answers itself what the panel shows of each robot's agent (a replay,
+    which has no agents)."""
 
-    times: NDArray[np.float64] | None = None
-    predict: Callable[..., NDArray[np.float64]] | None = None
-    margin: float = 0.0
-    v_pref: float | None = None
-    detour: float = 0.0
-    status: str | None = None
+    def panel_agent(self, k: int) -> PanelAgent: ...
 
 
-def panel_agent(arena: Any, k: int) -> PanelAgent:
+def panel_agent(arena: Arena | PanelSource, k: int) -> PanelAgent:
     """What the panel shows of robot k's agent: ``arena.panel_agent(k)`` where the arena
-    answers it itself (a replay, which has no agents), else the agent's attributes."""
-    own = getattr(arena, "panel_agent", None)
-    if callable(own):
-        return own(k)
+    answers it itself (:class:`PanelSource`), else the agent's ``panel()``
+    (:class:`~nao_arena.agent.ShowsPanel`; the defaults for an agent without one)."""
+    if isinstance(arena, PanelSource):
+        return arena.panel_agent(k)
     agent = arena.agents[k] if k < len(arena.agents) else None
-    sel = getattr(agent, "last_selection", None)
-    return PanelAgent(
-        times=getattr(agent, "times", None), predict=getattr(agent, "predict", None),
-        margin=float(getattr(agent, "margin", 0.0)), v_pref=getattr(agent, "v_pref", None),
-        detour=float(getattr(agent, "detour", 0.0)),
-        status=None if sel is None else sel.status,
-    )
+    return agent.panel() if isinstance(agent, ShowsPanel) else PanelAgent()
 
 
 def _agent_colour(name: str) -> Colour:
@@ -609,7 +597,8 @@ class Viewer:
             predict = get_predictor("turn_rate")
         grow = obs.radius + agent.margin
         centres = predict(times, nb) if len(nb) else np.zeros((0, len(times), 2))
-        path = sampled_path(times, centres - obs.position, nb.radii + grow)
+        # the neighbours as the agent sees them (its radius cut included)
+        path = obstacle_paths(times, centres, nb.radii + grow, obs.position)
         walls = None
         if len(obs.walls):
             h = float(times[-1])

@@ -1,0 +1,58 @@
+"""The predicted obstacle set a robot avoids, as the NAO agent, the env's NAO features and
+the viewer's acceleration panel all build it.
+
+Robot-relative (m): each neighbour's predicted centres over the time grid with its radius
+grown by the robot's own radius and a margin, then the wall discs (static, already grown,
+see :func:`nao_arena.geometry.walls.wall_discs`) within reach. With ``cut`` an obstacle
+already closer than its grown radius (inside the margin, or touching) counts with just
+under its current distance (``RADIUS_CUT``): the robot may not close in further but may
+move away, instead of finding every acceleration inadmissible.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.geometry.clearance import PiecewisePath, sampled_path
+from nao_arena.geometry.kernel import RADIUS_CUT
+
+__all__ = ["RADIUS_CUT", "obstacle_paths", "within_reach"]
+
+
+def within_reach(radii: NDArray[np.float64], rel: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Grown radii (m) cut to just under the current distances of the centres ``rel``
+    (n, 2) m (the same operations as the compiled keep test)."""
+    dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
+    return np.minimum(radii, dist * RADIUS_CUT)
+
+
+def obstacle_paths(
+    times: NDArray[np.float64],
+    centres: NDArray[np.float64],
+    grown_radii: NDArray[np.float64],
+    position: NDArray[np.float64],
+    wall_centres: NDArray[np.float64] | None = None,
+    wall_radii: NDArray[np.float64] | None = None,
+    wall_reach: float = math.inf,
+    cut: bool = True,
+) -> PiecewisePath:
+    """The obstacles of a robot at ``position`` (2,) m over ``times`` (T,) s, robot-relative.
+
+    centres: the neighbours' predicted centres (n, T, 2) m, world frame; grown_radii (n,)
+    m: their radii grown by the robot's radius and margin; wall_centres (W, 2) m and
+    wall_radii (W,) m: wall discs (grown alike), of which those whose centre lies within
+    ``wall_reach`` (m) + their radius of ``position`` count, after the neighbours;
+    cut: radii cut to just under the current distances (see the module docstring).
+    """
+    rel = centres - position
+    parts = [rel]
+    radii = [within_reach(grown_radii, rel[:, 0]) if cut else grown_radii]
+    if wall_centres is not None and wall_radii is not None and len(wall_centres):
+        near = np.hypot(*(wall_centres - position).T) <= wall_reach + wall_radii
+        wall_rel = wall_centres[near] - position
+        parts.append(np.repeat(wall_rel[:, None, :], len(times), 1))
+        radii.append(within_reach(wall_radii[near], wall_rel) if cut else wall_radii[near])
+    return sampled_path(times, np.concatenate(parts), np.concatenate(radii))
