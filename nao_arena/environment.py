@@ -142,7 +142,7 @@ from nao_arena.geometry.walls import wall_discs
 from nao_arena.maps import MapSpec, load_map
 from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
-from nao_arena.sensing import Neighbours
+from nao_arena.sensing import Neighbours, neighbour_lists
 from nao_arena.world import clip_accelerations
 
 __all__ = [
@@ -274,18 +274,18 @@ def _observation_rows(
     p: NDArray[np.float64], v: NDArray[np.float64], acc: NDArray[np.float64],
     rad: NDArray[np.float64], is_traffic: NDArray[np.float64], a_max: NDArray[np.float64],
     v_max: NDArray[np.float64], bodies: NDArray[np.int64], goals: NDArray[np.float64],
-    prev_cmd: NDArray[np.float64], time_left: float, sensing_range: float,
-    out: NDArray[np.float64], idx: NDArray[np.int64], present: NDArray[np.bool_],
+    prev_cmd: NDArray[np.float64], time_left: float, nb_start: NDArray[np.int64],
+    nb_index: NDArray[np.int64], out: NDArray[np.float64], idx: NDArray[np.int64],
+    present: NDArray[np.bool_],
 ) -> None:
     """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
-    (goals (m, 2) m, last commands (m, 2) m/s^2), with the K = idx.shape[1] nearest bodies
-    within ``sensing_range`` (m), nearest first, ties by body index (absent rows stay zero);
-    ``idx`` / ``present`` (m, K) get the neighbours' body indices and the row mask."""
-    n = p.shape[0]
+    (goals (m, 2) m, last commands (m, 2) m/s^2) with the first K = idx.shape[1]
+    neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
+    (:func:`~nao_arena.sensing.neighbour_lists`: nearest first; the robot itself, listed
+    last with an infinite range, is skipped; absent rows stay zero); ``idx`` /
+    ``present`` (m, K) get the neighbours' body indices and the row mask."""
     k = idx.shape[1]
     n_own = 16
-    best_d = np.empty(max(k, 1))
-    best_j = np.empty(max(k, 1), dtype=np.int64)
     for i in range(bodies.shape[0]):
         b = bodies[i]
         o = out[i]
@@ -305,27 +305,11 @@ def _observation_rows(
         o[13] = goals[i, 0]
         o[14] = goals[i, 1]
         o[15] = time_left
-        found = 0
-        for j in range(n if k > 0 else 0):
-            if j == b:
+        r = 0
+        for e in range(nb_start[i], nb_start[i + 1]):
+            j = nb_index[e]
+            if j == b or r == k:
                 continue
-            d = np.hypot(p[j, 0] - p[b, 0], p[j, 1] - p[b, 1])
-            if not d <= sensing_range:
-                continue
-            if found == k and d >= best_d[k - 1]:
-                continue  # on a tie the lower index, already listed, stays
-            # insertion into the sorted list (strict <: equal distances keep index order)
-            pos = found if found < k else k - 1
-            while pos > 0 and d < best_d[pos - 1]:
-                best_d[pos] = best_d[pos - 1]
-                best_j[pos] = best_j[pos - 1]
-                pos -= 1
-            best_d[pos] = d
-            best_j[pos] = j
-            if found < k:
-                found += 1
-        for r in range(found):
-            j = best_j[r]
             idx[i, r] = j
             present[i, r] = True
             c = n_own + 9 * r
@@ -338,6 +322,7 @@ def _observation_rows(
             o[c + 6] = acc[j, 1]
             o[c + 7] = rad[j]
             o[c + 8] = is_traffic[j]
+            r += 1
 
 
 _REAL_KINDS = frozenset("iuf")
@@ -803,9 +788,11 @@ class NaoArenaParallelEnv(ParallelEnv):
         k = self._k
         idx = np.zeros((m, k), dtype=np.int64)
         present = np.zeros((m, k), dtype=np.bool_)
+        # the sensing's neighbour search, with the env's distances (math.hypot)
+        nb_start, nb_index = neighbour_lists(bodies, p, self._sensing_range, k, hypot=True)
         _observation_rows(p, v, acc, rad, self._kinds, self._world_a_max, self._world_v_max,
                           bodies, self._goals[rows], self._prev_cmd[rows],
-                          max(self.time_limit - state.time, 0.0), self._sensing_range, out,
+                          max(self.time_limit - state.time, 0.0), nb_start, nb_index, out,
                           idx, present)
         if self._cand is not None:
             out[:, self._layout["nao"]] = self._nao_block(bodies, idx, present)

@@ -111,11 +111,14 @@ def neighbour_lists(
     positions: NDArray[np.float64],
     sensing_range: float,
     max_neighbours: int | None = None,
+    hypot: bool = False,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """:func:`neighbours_in_range` for every body of ``bodies`` at once (same lists, same order).
 
     Returns CSR arrays (start (B + 1,), index (E,)): the neighbours of
     bodies[k] are index[start[k]:start[k + 1]], nearest first, ties by index.
+    hypot: distances (m) by ``math.hypot`` (the env's observations) instead of
+    sqrt(dx^2 + dy^2) (what the agents sense); the two can differ in the last bit.
     """
     bodies = np.ascontiguousarray(bodies, dtype=np.int64)
     b = len(bodies)
@@ -123,14 +126,14 @@ def neighbour_lists(
         return np.zeros(b + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
     return _neighbour_lists(bodies, np.ascontiguousarray(positions, dtype=np.float64),
                             float(sensing_range),
-                            -1 if max_neighbours is None else int(max_neighbours))
+                            -1 if max_neighbours is None else int(max_neighbours), bool(hypot))
 
 
 _MAX_CELLS_PER_BODY = 4  # a finer grid than this many cells per body costs more than it saves
 
 
 @njit(cache=True)
-def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
+def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot):
     """:func:`neighbour_lists` compiled: per body the others within range (the body
     itself counts at distance inf), by distance (a stable sort: ties by index), the
     first max_neighbours (-1: all).
@@ -221,7 +224,12 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
             j = near[i]
             dx = positions[j, 0] - mx
             dy = positions[j, 1] - my
-            dj = math.inf if j == me else math.sqrt(dx * dx + dy * dy)
+            if j == me:
+                dj = math.inf
+            elif use_hypot:
+                dj = math.hypot(dx, dy)
+            else:
+                dj = math.sqrt(dx * dx + dy * dy)
             if dj <= sensing_range:
                 d[m] = dj
                 cand[m] = j
