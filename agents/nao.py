@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,6 +87,9 @@ from nao_arena.geometry.walls import wall_discs
 from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
+
+if TYPE_CHECKING:
+    from nao_arena.maps import RobotSpec
 
 _SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
 
@@ -142,7 +145,8 @@ class NAOAgent:
         self._grid_regular = False
         self.reset(None, np.random.default_rng(0))
 
-    def reset(self, spec: Any, rng: np.random.Generator) -> None:
+    def reset(self, spec: RobotSpec | None, rng: np.random.Generator) -> None:
+        """Start an episode: no decision yet, no detour; ``rng`` draws the detours."""
         self.current = np.zeros(2)
         self.last_selection = None
         self.age = 0.0

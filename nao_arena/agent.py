@@ -36,10 +36,10 @@ import importlib
 import importlib.util
 import sys
 from dataclasses import dataclass
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,6 +47,9 @@ from numpy.typing import NDArray
 from nao_arena.predictors import Predictor
 from nao_arena.sensing import Observation
 from nao_arena.watchdog import EpisodeTimeout
+
+if TYPE_CHECKING:
+    from nao_arena.maps import RobotSpec
 
 __all__ = [
     "BUILTIN_AGENTS",
@@ -82,7 +85,7 @@ BUILTIN_AGENTS: dict[str, str] = {
 class Agent(Protocol):
     """Drives one robot: ``reset`` once per episode, ``act`` once per control step."""
 
-    def reset(self, spec: Any, rng: np.random.Generator) -> None: ...
+    def reset(self, spec: RobotSpec, rng: np.random.Generator) -> None: ...
 
     def act(self, obs: Observation) -> NDArray[np.float64]: ...
 
@@ -174,7 +177,7 @@ def _load_from_module(module_name: str, cls: str) -> type:
         raise ValueError(f"agent {module_name}:{cls}: {module_name} defines no {cls!r}") from None
 
 
-def _plugins() -> dict[str, Any]:
+def _plugins() -> dict[str, EntryPoint]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 

@@ -63,10 +63,12 @@ class Neighbours:
 class Observation:
     """One agent's view at one control step.
 
-    time: simulated time (s); dt: control period (s); own state in the world
-    frame; goal (2,) m or None; route (M, 2) waypoints or None; limits
-    a_max (m/s^2) and v_max (m/s); walls: (W, 2, 2) segment end points (m)
-    within range, with their half-thickness ``wall_radius`` (W,) m.
+    time: simulated time (s); dt: control period (s); robot_id: the robot's index
+    (robot order, 0 .. R - 1; its neighbours' ``ids`` are body indices in the
+    world); own state in the world frame; goal (2,) m or None; route (M, 2)
+    waypoints or None; limits a_max (m/s^2) and v_max (m/s); walls: (W, 2, 2)
+    segment end points (m) within range, with their half-thickness
+    ``wall_radius`` (W,) m.
     """
 
     time: float

@@ -165,7 +165,8 @@ class ContactEvent:
 
 @dataclass
 class FaultEvent:
-    """An agent's fault at time (s): the robot index, its name and what went wrong."""
+    """An agent's fault at time (s): the robot's body index in the world (``robot``, the
+    numbering of contacts; not its robot index), its name and what went wrong."""
 
     time: float
     robot: int
@@ -1034,9 +1035,9 @@ class EpisodeStats:
             if math.isnan(self.deadlock_time):
                 self.deadlock_time = t + self.dt
 
-    def record_fault(self, t: float, robot: int, message: str) -> FaultEvent:
-        """Record an agent's fault at time t (s) for robot index ``robot``."""
-        ev = FaultEvent(float(t), int(robot), self.names[robot], str(message))
+    def record_fault(self, t: float, body: int, message: str) -> FaultEvent:
+        """Record an agent's fault at time t (s) for the robot of body index ``body``."""
+        ev = FaultEvent(float(t), int(body), self.names[body], str(message))
         self.faults.append(ev)
         return ev
 
