@@ -71,7 +71,6 @@ import hashlib
 import inspect
 import json
 import math
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -84,10 +83,11 @@ from numpy.typing import NDArray
 
 from nao_arena import __version__
 from nao_arena.arena import Arena, ArenaOptions, StepResult
+from nao_arena.atomic import atomic_write_with
 from nao_arena.maps import MapSpec
 from nao_arena.predictors import PREDICTORS, get_predictor
 from nao_arena.sensing import Observation, SensingBatch
-from nao_arena.stats import ContactEvent, EpisodeSummary, temporary_sibling
+from nao_arena.stats import ContactEvent, EpisodeSummary
 from nao_arena.world import WorldState
 
 __all__ = [
@@ -664,9 +664,8 @@ def write_log(log: EpisodeLog, path: str | Path) -> Path:
     if not own_kv:
         table = table.replace_schema_metadata(kv)
     write_checks, _ = _checksum_options()
-    fd, tmp = temporary_sibling(path, suffix=".tmp.parquet")
-    os.close(fd)
-    try:
+
+    def write(tmp: str) -> None:
         # plain float64 pages compress better with zstd here than byte-stream-split ones
         with pq.ParquetWriter(
                 tmp, table.schema, compression="zstd", compression_level=3,
@@ -675,10 +674,8 @@ def write_log(log: EpisodeLog, path: str | Path) -> Path:
             writer.write_table(table, row_group_size=max(table.num_rows, 1))
             if own_kv:
                 writer.add_key_value_metadata(kv)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+
+    atomic_write_with(path, write, suffix=".tmp.parquet")
     return path
 
 

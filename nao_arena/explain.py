@@ -425,7 +425,7 @@ def write_explanation(log: EpisodeLog, expl: Explanation, path: str | Path) -> P
     """Write the explanation's figure as a PNG, atomically; returns the path."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    from nao_arena.trials import atomic_write_with
+    from nao_arena.atomic import atomic_write_with
 
     path = Path(path)
     fig = explain_figure(log, expl)

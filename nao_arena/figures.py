@@ -30,6 +30,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import FancyArrow, Patch  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
+from nao_arena.atomic import atomic_write_with  # noqa: E402
 from nao_arena.geometry.boundary import (  # noqa: E402
     ObstacleBoundary,
     ao_boundary,
@@ -353,9 +354,10 @@ def write_figures(out_dir: str | os.PathLike, names: list[str] | None = None) ->
             fig.text(0.5, y - 0.01, "\n".join(textwrap.wrap(caption, 100)), ha="center",
                      va="top", fontsize=7.5, color="0.25")
         path = out / f"{name}.png"
-        tmp = out / f".{name}.png.tmp"
-        fig.savefig(tmp, format="png", bbox_inches="tight", pad_inches=0.15)
-        plt.close(fig)
-        os.replace(tmp, path)
+        try:
+            atomic_write_with(path, lambda tmp, fig=fig: fig.savefig(
+                tmp, format="png", bbox_inches="tight", pad_inches=0.15))
+        finally:
+            plt.close(fig)
         written.append(path)
     return written

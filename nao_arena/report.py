@@ -37,8 +37,9 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from nao_arena.atomic import atomic_write_with
 from nao_arena.stats import StatsConfig
-from nao_arena.trials import atomic_write_with, format_table, load_summary
+from nao_arena.trials import format_table, load_summary
 
 __all__ = ["ADJUSTMENT_CAPTION", "REPORT_FILES", "adjustment_rate_ci95", "contact_logs",
            "format_contact_logs", "rate_label", "report_text", "write_report"]

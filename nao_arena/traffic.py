@@ -18,7 +18,9 @@ Undisturbed, a vehicle drives its lane at its cruise speed, so its true
 future centres are ``lane.point_at(s + speed * t)``
 (:func:`future_path`), which the ``known_path`` predictor uses.
 
-This module is pure numpy: it knows nothing of pymunk or of map files.
+This module is pure numpy: it knows nothing of pymunk or of map files
+(:mod:`nao_arena.maps` builds its lanes; :class:`TrafficMap` is what
+:meth:`LaneTraffic.from_map` reads from a loaded map).
 :class:`LaneTraffic` drives all traffic of a map at once.
 """
 
@@ -27,13 +29,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal, Protocol
+from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
-if TYPE_CHECKING:
-    from nao_arena.maps import MapSpec
 
 __all__ = [
     "CircleLane",
@@ -41,6 +40,7 @@ __all__ = [
     "Lane",
     "LaneTraffic",
     "PolylineLane",
+    "TrafficMap",
     "follower_accel",
     "follower_accels",
     "future_path",
@@ -350,6 +350,42 @@ def future_path(lane: Lane, s0: float, speed: float, times: ArrayLike) -> FloatA
     return lane.point_at(s0 + speed * t)
 
 
+class _Body(Protocol):
+    @property
+    def index(self) -> int: ...
+
+    @property
+    def radius(self) -> float: ...
+
+    @property
+    def group(self) -> int: ...
+
+
+class _Group(Protocol):
+    def lane_geometry(self) -> Lane: ...
+
+    def follower_params(self) -> FollowerParams: ...
+
+
+class _Physics(Protocol):
+    @property
+    def dt(self) -> float: ...
+
+
+class TrafficMap(Protocol):
+    """What :meth:`LaneTraffic.from_map` reads from a loaded map
+    (:class:`nao_arena.maps.MapSpec`): its bodies in world order (index, radius in m,
+    traffic group or -1), its traffic groups and the control period ``physics.dt`` (s)."""
+
+    def bodies(self) -> Sequence[_Body]: ...
+
+    @property
+    def traffic(self) -> Sequence[_Group]: ...
+
+    @property
+    def physics(self) -> _Physics: ...
+
+
 @dataclass
 class LaneTraffic:
     """All scripted vehicles of a map, one lane follower each.
@@ -366,7 +402,7 @@ class LaneTraffic:
     dt: float
 
     @classmethod
-    def from_map(cls, spec: MapSpec) -> LaneTraffic:
+    def from_map(cls, spec: TrafficMap) -> LaneTraffic:
         """The followers of every traffic group of a loaded map, in map body order."""
         bodies = spec.bodies()
         radii = np.array([b.radius for b in bodies])

@@ -3,8 +3,9 @@
 Each scenario runs 20 seeds: the seed drives the map's randomness (start
 perturbations, traffic phases) and the agents' generators. The baselines run
 on the same seeds and must collide, so the scenarios are able to fail.
-Measured when last changed (one core): circle_swap_perturbed all 10 NAO robots
-arrive within 22 s in every seed, crossing all 12 within 22 s.
+Measured when last changed (one core): every seed of circle_swap_perturbed ends
+with all 10 NAO robots at their goals at once within 22.1 s, crossing (12) within
+33.4 s; roundabout adjustments per episode 64 (known path), 69 (turn rate), AO 94.
 """
 
 from __future__ import annotations

@@ -399,3 +399,24 @@ def test_a_declared_seed_changes_the_scene(name: str) -> None:
     a, b = _scene(load_map(name, seed=0)), _scene(load_map(name, seed=1))
     assert any(x.shape != y.shape or not np.array_equal(x, y)
                for x, y in zip(a, b, strict=True)), f"{name}: seeds 0 and 1 give one scene"
+
+
+def test_maps_package_parts_use_only_public_names() -> None:
+    """nao_arena.maps is a package (schema, layouts, errors, loader, reference) whose
+    modules import no other module's private names; every exported name resolves."""
+    import ast
+    import importlib
+
+    import nao_arena.maps as maps
+
+    folder = Path(maps.__file__).parent
+    assert {p.stem for p in folder.glob("*.py")} >= {
+        "__init__", "schema", "layouts", "errors", "loader", "reference"}
+    for path in folder.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("nao_arena"):
+                private = [a.name for a in node.names if a.name.startswith("_")]
+                assert not private, f"{path.name} imports {private} from {node.module}"
+    for name in maps.__all__:
+        assert getattr(maps, name) is not None
+    assert importlib.import_module("nao_arena.maps.loader").load_map is maps.load_map

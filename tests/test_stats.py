@@ -9,16 +9,23 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nao_arena.maps import map_from_dict
-from nao_arena.stats import (
-    EpisodeStats,
-    StatsConfig,
-    segment_distances,
-    sweep_pairs,
-    swept_disc_distances,
-)
+from nao_arena.stats import EpisodeStats, StatsConfig, sweep_pairs
+from nao_arena.stats.events import first_disc_touch, first_wall_touch
+from nao_arena.stats.kernel import swept_distances, swept_wall_distances
 from nao_arena.world import World
+
+try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
+    from tests.reference.stats_reference import (
+        point_segment,
+        segment_distances,
+        swept_disc_distances,
+    )
+except ImportError:  # pragma: no cover
+    from reference.stats_reference import point_segment, segment_distances, swept_disc_distances
 
 
 def two(radius: float = 0.5, **kw) -> EpisodeStats:
@@ -288,8 +295,6 @@ def test_broad_phase_scales() -> None:
 
 
 def test_first_wall_touch_time_against_sampling() -> None:
-    from nao_arena.stats import _first_wall_touch  # the closed form, checked directly
-
     rng = np.random.default_rng(4)
     ts = np.linspace(0.0, 1.0, 20001)
     checked = 0
@@ -303,7 +308,7 @@ def test_first_wall_touch_time_against_sampling() -> None:
         inside = np.flatnonzero(dist <= reach)
         if len(inside) == 0:
             continue
-        t, nrm = _first_wall_touch(p0, p1, a, b, reach)
+        t, nrm = first_wall_touch(p0, p1, a, b, reach)
         assert abs(t - ts[inside[0]]) < 1e-4
         assert np.hypot(*nrm) == pytest.approx(1.0)
         checked += 1
@@ -334,6 +339,28 @@ def sweep_pairs_numpy(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.minimum(a, b), np.maximum(a, b)
 
 
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), substeps=st.integers(1, 12),
+       scale=st.sampled_from([1e-3, 1.0, 30.0]))
+def test_swept_distances_equal_the_numpy_reference(seed: int, substeps: int,
+                                                   scale: float) -> None:
+    """The compiled per-substep distances of a new contact's event are the numpy
+    reference's bit for bit (paths with repeated points included)."""
+    rng = np.random.default_rng(seed)
+    path = rng.normal(size=(substeps + 1, 2)) * scale
+    path[rng.random(substeps + 1) < 0.2] = path[0]  # standing still in some substeps
+    a, b = rng.normal(size=(2, 2)) * scale
+    if rng.random() < 0.2:
+        b = a.copy()  # a point-like wall
+    want = swept_disc_distances(path[:-1], path[1:])[0]
+    assert np.array_equal(swept_distances(path), want)
+    ends = np.broadcast_to(np.stack([a, b]), (substeps, 2, 2))
+    want = segment_distances(path[:-1], path[1:], ends[:, 0], ends[:, 1])
+    assert np.array_equal(swept_wall_distances(path, a, b), want)
+    column = np.stack([path, -path], axis=1)[:, 0]  # a strided view, as the recorder passes
+    assert np.array_equal(swept_wall_distances(column, a, b), want)
+
+
 def test_sweep_pairs_same_pairs_and_order_as_numpy() -> None:
     rng = np.random.default_rng(5)
     for n in (0, 1, 2, 30, 300):
@@ -349,19 +376,15 @@ class ReferenceStats:
 
     Pairs are visited in the broad phase's order (by rank of the boxes' lo x in a
     stable sort: first the lower rank, then the higher), so contact events come out
-    in the same order. Uses the module's numpy geometry and event helpers.
+    in the same order. Uses the numpy geometry of tests/reference/stats_reference.py
+    and the event helpers of nao_arena.stats.events.
     """
 
     def __init__(self, radii, kinds, names, walls, dt, config, velocities):
         self.s = EpisodeStats(radii, kinds, names, walls, dt, config, velocities)
 
     def update(self, t, p0, p1, v1, acc, goal, substeps=None):  # noqa: C901, PLR0915
-        from nao_arena.stats import (
-            ContactEvent,
-            _first_disc_touch,
-            _first_wall_touch,
-            _point_segment,
-        )
+        from nao_arena.stats import ContactEvent
 
         s, cfg = self.s, self.s.config
         n, nw, dt = s.n, s.n_walls, s.dt
@@ -463,7 +486,7 @@ class ReferenceStats:
             def make_disc(k):
                 a, b = int(i[k]), int(j[k])
                 q = first_touch(per_substep[:, k], float(reach[k]))
-                tc, nrm = _first_disc_touch(rel[q, k], rel[q + 1, k], float(reach[k]))
+                tc, nrm = first_disc_touch(rel[q, k], rel[q + 1, k], float(reach[k]))
                 return ContactEvent(
                     time=t + (q + tc) / m * dt, a=a, b=b, kind_a=s.kinds[a],
                     kind_b=s.kinds[b], name_a=s.names[a], name_b=s.names[b],
@@ -495,12 +518,12 @@ class ReferenceStats:
             per_substep = np.array([segment_distances(path[k, i], path[k + 1, i], a, b)
                                     for k in range(m)])
             sep = per_substep.min(axis=0) - reach
-            sep_end = _point_segment(p1[i], a, b) - reach
+            sep_end = point_segment(p1[i], a, b) - reach
 
             def make_wall(k):
                 body, wall = int(i[k]), int(w[k])
                 q = first_touch(per_substep[:, k], float(reach[k]))
-                tc, nrm_k = _first_wall_touch(path[q, body], path[q + 1, body], a[k], b[k],
+                tc, nrm_k = first_wall_touch(path[q, body], path[q + 1, body], a[k], b[k],
                                               float(reach[k]))
                 return ContactEvent(
                     time=t + (q + tc) / m * dt, a=body, b=wall, kind_a=s.kinds[body],

@@ -183,3 +183,31 @@ def test_roundabout_lanes_keep_their_spacing_for_30_s() -> None:
     for lane, idx in zip(traffic.lanes, traffic.members, strict=True):
         _, lateral = lane.project(state.positions[idx])
         assert np.max(np.abs(lateral)) < 0.02
+
+
+def test_traffic_does_not_import_maps() -> None:
+    """maps builds lanes from traffic; traffic reads a map only through TrafficMap, so the
+    two modules do not import each other (not even for type checking)."""
+    import ast
+    import inspect
+
+    import nao_arena.traffic as traffic_module
+
+    tree = ast.parse(inspect.getsource(traffic_module))
+    imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    imported |= {a.name for node in ast.walk(tree) if isinstance(node, ast.Import)
+                 for a in node.names}
+    assert not {m for m in imported if m and m.startswith("nao_arena")}
+
+
+def test_lane_traffic_from_any_traffic_map() -> None:
+    """LaneTraffic.from_map needs only what TrafficMap names: a stand-in gives the same."""
+    from types import SimpleNamespace
+
+    spec = load_map("roundabout")
+    stand_in = SimpleNamespace(bodies=spec.bodies, traffic=spec.traffic, physics=spec.physics)
+    a, b = LaneTraffic.from_map(spec), LaneTraffic.from_map(stand_in)
+    np.testing.assert_array_equal(a.indices, b.indices)
+    state = World(spec).state()
+    np.testing.assert_array_equal(a.accelerations(state.positions, state.velocities),
+                                  b.accelerations(state.positions, state.velocities))

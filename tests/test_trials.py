@@ -280,16 +280,16 @@ def test_summary_keys_are_documented_and_the_legend_defines_every_column():
 
 @given(st.integers(1, 10**7), st.integers(0, 10**7))
 def test_percent_of_a_count_is_zero_or_hundred_only_when_it_is(count, extra):
-    text = trials._percent(count / (count + extra))
+    text = trials.table._percent(count / (count + extra))
     assert float(text) > 0.0
     assert (float(text) < 100.0) == (extra > 0)
-    assert (float(trials._percent(extra / (count + extra))) == 0.0) == (extra == 0)
+    assert (float(trials.table._percent(extra / (count + extra))) == 0.0) == (extra == 0)
 
 
 def test_non_zero_numbers_in_the_table_never_read_zero():
-    assert trials._num(0.004, 1) == "0.004" and trials._num(-1e-4, 3) == "-0.0001"
-    assert trials._num(0.0, 3) == "0.000" and trials._num(None, 1) == "-"
-    assert trials._num(2.345, 2) == "2.35"
+    assert trials.table._num(0.004, 1) == "0.004" and trials.table._num(-1e-4, 3) == "-0.0001"
+    assert trials.table._num(0.0, 3) == "0.000" and trials.table._num(None, 1) == "-"
+    assert trials.table._num(2.345, 2) == "2.35"
 
 
 # --------------------------------------------------------------------------- repeats
@@ -456,3 +456,36 @@ def test_trial_config_rejects_non_finite_time_limits():
     for bad in (math.inf, math.nan, 0.0, -1.0):
         with pytest.raises(ValueError, match="time limit"):
             TrialConfig(maps=("crossing",), agents=("goal",), time_limit=bad)
+
+
+def _nao_imports(module: object) -> dict[str, list[str]]:
+    """{imported nao_arena module: names} of a module's source (all import statements)."""
+    import ast
+    import inspect
+
+    out: dict[str, list[str]] = {}
+    for node in ast.walk(ast.parse(inspect.getsource(module))):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("nao_arena"):
+            out.setdefault(node.module, []).extend(a.name for a in node.names)
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith("nao_arena"):
+                    out.setdefault(a.name, [])
+    return out
+
+
+def test_results_and_table_do_not_depend_on_running() -> None:
+    """The results files and the table are built from result records alone: neither
+    imports the runner, the arena or the agents directly; no part imports another's
+    private names."""
+    import importlib
+
+    parts = ["config", "episode", "run", "results", "table"]
+    imports = {p: _nao_imports(importlib.import_module(f"nao_arena.trials.{p}")) for p in parts}
+    for part in ("results", "table"):
+        assert not {"nao_arena.trials.run", "nao_arena.arena", "nao_arena.agent"} & set(
+            imports[part]), part
+    assert imports["table"] == {}
+    for part, found in imports.items():
+        private = [n for names in found.values() for n in names if n.startswith("_")]
+        assert not private, f"trials/{part}.py imports {private}"

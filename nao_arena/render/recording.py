@@ -1,10 +1,10 @@
 """Episode recordings: GIF or MP4 via imageio, written atomically.
 
 :class:`Recorder` collects frames and writes them to a temporary file in
-the destination's folder, which replaces the destination (``os.replace``)
-only when the recording is complete. :func:`record_episode` plays an
-episode of an :class:`~nao_arena.arena.Arena` or of a nao_arena env and
-records it (or shows it in a window).
+the destination's folder, which replaces the destination
+(:func:`nao_arena.atomic.replace_synced`) only when the recording is
+complete. :func:`record_episode` plays an episode of an
+:class:`~nao_arena.arena.Arena` or of a nao_arena env and records it (or shows it in a window).
 
 Frame rate: the video's clock is simulated time. By default fps = 1 / dt
 (one frame per control step); with ``fps`` given, frame k shows the state
@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.atomic import replace_synced, temporary_sibling
 from nao_arena.render.viewer import Viewer, ViewerOptions
-from nao_arena.stats import temporary_sibling
 
 __all__ = ["Recorder", "record_episode"]
 
@@ -79,7 +79,7 @@ class Recorder:
             raise ValueError(f"{self.path}: no frames were recorded")
         self._writer.close()
         self._writer = None
-        os.replace(self._tmp, self.path)
+        replace_synced(self._tmp, self.path)
         return self.path
 
     def abort(self) -> None:

@@ -19,7 +19,6 @@ steps-per-second line, which measures wall-clock speed (a still frame shows
 
 from __future__ import annotations
 
-import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -29,13 +28,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.arena import Arena
+from nao_arena.atomic import atomic_write_with
 from nao_arena.episode_log import STATUSES, EpisodeLog
 from nao_arena.maps import MapSpec, RobotSpec
 from nao_arena.predictors import get_predictor
 from nao_arena.render.recording import Recorder
 from nao_arena.render.viewer import PanelAgent, Viewer, ViewerOptions
 from nao_arena.sensing import Observation, SensingBatch
-from nao_arena.stats import ContactEvent, temporary_sibling
+from nao_arena.stats import ContactEvent
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState
 
@@ -191,14 +191,8 @@ def _check_time(log: EpisodeLog, t: float, what: str) -> None:
 def _write_png(path: Path, frame: NDArray[np.uint8]) -> Path:
     import imageio.v2 as iio
 
-    fd, tmp = temporary_sibling(path, suffix=".tmp.png")
-    os.close(fd)
-    try:
-        iio.imwrite(tmp, frame, format="PNG")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_with(path, lambda tmp: iio.imwrite(tmp, frame, format="PNG"),
+                      suffix=".tmp.png")
     return path
 
 

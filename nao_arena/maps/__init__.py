@@ -1,0 +1,173 @@
+"""Map files: schema, parameters, layout builders and the loader.
+
+A map is one YAML file (shipped maps live in the package
+``nao_arena.maps_data``, the repository's ``maps/`` folder). Units: metres,
+seconds, m/s, m/s^2, kg, radians; all coordinates in the world frame.
+Unknown keys are errors everywhere.
+
+Numbers are finite (``.inf`` and ``.nan`` are errors); an integer is
+accepted where a number is expected, but ``true``/``false`` never are.
+Counts are integers >= 1. These checks apply after parameters are
+substituted, so an override cannot get round them. Bounds that keep a
+map from hanging or exhausting memory: at most :data:`MAX_BODIES` (10000)
+bodies (robots and traffic vehicles) in a map, hence in one layout
+(``n``) or lane (``count``); ``physics.substeps`` and
+``physics.iterations`` at most :data:`MAX_SUBSTEPS` and
+:data:`MAX_ITERATIONS` (1000 each); the ``crowd`` builder's ``max_tries``
+at most :data:`MAX_TRIES` (1000000).
+
+Top level
+---------
+``name`` (str, optional): the map's name (default: the file stem).
+``description`` (str, optional).
+``parameters`` (mapping name -> number, bool or string, optional): tunable
+    values with their defaults. Anywhere else in the file, a value that is
+    exactly the string ``"$name"`` is replaced by the parameter's value
+    (whole values only; ``"$$x"`` stands for the literal string ``"$x"``).
+    ``load_map(name, n=20)`` and the command line (``n=20``, see
+    :func:`parse_overrides`) override declared parameters; the override is
+    converted to the type of the default. The parameter ``seed`` (if
+    declared) seeds the ``numpy.random.Generator`` given to layout builders.
+``bounds``: ``min: [x, y]``, ``max: [x, y]`` (m), the arena's extent; robot
+    starts, goals and route points must lie inside. ``walls: true`` closes
+    the bounds with four segment walls of ``wall_thickness`` (m, default 0.2)
+    centred on the boundary.
+``walls`` (list, optional): static walls, each one of
+    ``{type: segment, a: [x, y], b: [x, y], thickness: t}`` (a segment of
+    thickness t m, default 0.2, i.e. a capsule of radius t/2), or
+    ``{type: polygon, points: [[x, y], ...]}`` (a convex polygon, >= 3 points).
+``robots`` (list, optional): robots placed by hand, each with
+    ``start: [x, y]`` (m), ``goal: [x, y]`` (m) and/or ``route`` (list of
+    waypoints [x, y] m; the goal defaults to the last one), ``velocity``
+    (initial, m/s, default [0, 0]), ``radius`` (m, default 0.3), ``mass``
+    (kg, default 1), ``a_max`` (m/s^2, default 2), ``v_max`` (m/s, default
+    1.5), ``agent`` (default "nao": a built-in or plug-in agent name, checked
+    when the map loads, or ``path/to/file.py:Class`` / ``module:Class``,
+    checked when the agent is loaded), ``predictor`` (default "turn_rate",
+    one of :data:`nao_arena.predictors.PREDICTORS`), ``agent_options``
+    (keyword options of the agent's constructor, e.g. ``{horizon: 5.0}``),
+    ``name`` (default "robot<i>").
+``layouts`` (list, optional): generated robots, each
+    ``{builder: <name>, args: {...}, robot: {...}, name: prefix}``, where
+    ``builder`` names a registered layout builder (:data:`LAYOUTS`),
+    ``args`` are its arguments (below) and ``robot`` holds the shared robot
+    settings (radius, mass, a_max, v_max, agent, predictor). Builders:
+
+    - ``circle_swap``: ``n`` robots (default 10) evenly on a circle of
+      ``radius`` (m, default 8) around ``center`` (default [0, 0]), the first
+      at ``angle`` (rad, default 0); each goes to the antipodal point;
+      ``arc_spacing`` (m, optional) grows the circle so that neighbours are
+      at least that far apart along it: radius max(radius, n arc_spacing /
+      (2 pi)) (radius 10, arc_spacing 2.2: the RVO2/AVO2 rule max(10, 1.1 n / pi));
+      ``perturb`` (m, default 0) displaces each start uniformly within a disc
+      of that radius (seeded).
+    - ``crowd``: ``n`` robots (default 20) with random starts and goals drawn
+      uniformly in the square ``region_min``..``region_max`` (default: the
+      bounds inset by the robot radius + ``min_gap``), at least ``min_gap``
+      (m, default 0.2) apart surface to surface, start and goal at least
+      ``min_travel`` (m, default 0) apart; it gives up after ``max_tries``
+      random draws for the starts, or for the goals (default 100000, at
+      most 1000000).
+    - ``stream``: ``n`` robots in a block ``width`` abreast (default 1),
+      ``spacing`` (m) between centres, the block's front centre at
+      ``origin``, heading along ``direction`` ([dx, dy], normalized); each
+      goal is its start moved ``distance`` (m) along ``direction``;
+      ``perturb`` (m, default 0) displaces each start (and its goal)
+      uniformly within a disc of that radius (seeded).
+``traffic`` (list, optional): scripted vehicles, one group per lane:
+    ``lane``: ``{type: circle, center: [x, y], radius: R, direction: ccw|cw,
+    start_angle: rad}`` or ``{type: polyline, points: [[x, y], ...], closed:
+    bool}``; ``speed`` (cruise, m/s); ``count`` (default 1); ``spacing`` (m of
+    arc length between consecutive vehicles; default: the lane length /
+    count on a closed lane, required on an open lane with count > 1);
+    ``offset`` (m, arc length of vehicle 0, default 0; vehicle k is at
+    offset + k spacing); ``phase_jitter`` (m, default 0: the whole group is
+    shifted along its lane by a uniform draw in [0, phase_jitter) from the
+    map's seeded Generator, after the layouts have drawn theirs); ``radius``
+    (m, default 1), ``mass`` (kg, default 1000), ``a_max`` (m/s^2, default
+    3), ``v_max`` (m/s, default 1.5 speed, must exceed speed), car
+    following: ``time_headway`` (s, default 1), ``min_gap`` (m, default 2),
+    ``name``.
+``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (1..1000,
+    default 10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0,
+    default 0), ``collision_slop`` (m of tolerated overlap, default 0.005),
+    ``iterations`` (solver iterations per physics step, 1..1000, default 10).
+``episode``: ``time_limit`` (s, > 0, default 60), ``goal_tolerance`` (m from
+    the goal at which a robot has arrived, default 0.3).
+``sensing``: ``range`` (m, default 30): robots sense the bodies within it;
+    ``max_neighbours`` (default: no limit), the nearest first.
+
+Body order (the world's, the stats', the agents'): hand-placed robots,
+then layout robots (layout by layout), then traffic (group by group,
+vehicle 0 first).
+
+Errors are :class:`MapError` (a ``ValueError``) naming the file, the field
+path and what was expected, e.g. ``maps/foo.yaml: robots[2].radius:
+expected a positive number, got -1``.
+"""
+
+# The package: schema (the models and limits), layouts (the builders), errors (MapError
+# and its messages), loader (parameters, checks, load_map) and reference (the format as
+# text). Everything is importable from nao_arena.maps.
+
+from nao_arena.maps.errors import MapError
+from nao_arena.maps.layouts import LAYOUTS, LayoutContext, Placement, register_layout
+from nao_arena.maps.loader import available_maps, load_map, map_from_dict, parse_overrides
+from nao_arena.maps.reference import format_reference, sections
+from nao_arena.maps.schema import (
+    MAX_BODIES,
+    MAX_ITERATIONS,
+    MAX_SUBSTEPS,
+    MAX_TRIES,
+    BodySpec,
+    Bounds,
+    CircleLaneSpec,
+    Episode,
+    LayoutSpec,
+    MapFile,
+    MapSpec,
+    Physics,
+    PolygonWall,
+    PolylineLaneSpec,
+    RobotSpec,
+    RobotTemplate,
+    SegmentWall,
+    Sensing,
+    TrafficGroup,
+)
+
+__all__ = [
+    "LAYOUTS",
+    "MAX_BODIES",
+    "MAX_ITERATIONS",
+    "MAX_SUBSTEPS",
+    "MAX_TRIES",
+    "BodySpec",
+    "Bounds",
+    "CircleLaneSpec",
+    "Episode",
+    "LayoutContext",
+    "LayoutSpec",
+    "MapError",
+    "MapFile",
+    "MapSpec",
+    "Physics",
+    "Placement",
+    "PolygonWall",
+    "PolylineLaneSpec",
+    "RobotSpec",
+    "RobotTemplate",
+    "SegmentWall",
+    "Sensing",
+    "TrafficGroup",
+    "available_maps",
+    "format_reference",
+    "load_map",
+    "map_from_dict",
+    "parse_overrides",
+    "register_layout",
+]
+
+# earlier private names, still used by the tests
+_MapFile = MapFile
+_sections = sections

@@ -1,0 +1,411 @@
+"""Loading maps: shipped names and files, parameters and ``$name`` substitution, the
+layouts' expansion, and the checks the schema cannot make alone (agent and predictor
+names, body counts, geometry: inside the bounds, clear of walls, no overlaps)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from pydantic import ValidationError
+
+from nao_arena.maps.errors import MapError, field_error, show_value, validation_error
+from nao_arena.maps.layouts import LAYOUTS, LayoutContext
+from nao_arena.maps.schema import (
+    MAX_BODIES,
+    Bounds,
+    LayoutSpec,
+    MapFile,
+    MapSpec,
+    RobotSpec,
+    RobotTemplate,
+    SegmentWall,
+)
+
+__all__ = ["available_maps", "load_map", "map_from_dict", "parse_overrides"]
+
+
+# --------------------------------------------------------------------------- parameters
+
+
+def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
+    """``["n=20", "seed=3"]`` -> ``{"n": 20, "seed": 3}`` (values parsed as YAML scalars)."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise MapError(f"parameter override {item!r}: expected name=value")
+        try:
+            out[key.strip()] = yaml.safe_load(value) if value.strip() else ""
+        except yaml.YAMLError:
+            out[key.strip()] = value
+    return out
+
+
+def _coerce(file: str, name: str, default: Any, value: Any) -> Any:
+    if isinstance(value, str) and not isinstance(default, str):
+        try:
+            value = yaml.safe_load(value)
+        except yaml.YAMLError:
+            pass
+    path = f"parameters.{name}"
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise field_error(file, path, f"expected true or false, got {show_value(value)}")
+        return value
+    if isinstance(default, int):
+        if isinstance(value, bool) or not (
+            isinstance(value, int) or (isinstance(value, float) and value.is_integer())
+        ):
+            raise field_error(file, path, f"expected an integer, got {show_value(value)}")
+        return int(value)
+    if isinstance(default, float):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise field_error(file, path, f"expected a number, got {show_value(value)}")
+        return float(value)
+    return str(value)
+
+
+def _substitute(file: str, node: Any, params: Mapping[str, Any], path: str) -> Any:
+    if isinstance(node, dict):
+        return {k: _substitute(file, v, params, f"{path}.{k}".lstrip(".")) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_substitute(file, v, params, f"{path}[{i}]") for i, v in enumerate(node)]
+    if isinstance(node, str) and node.startswith("$"):
+        if node.startswith("$$"):
+            return node[1:]
+        name = node[1:]
+        if name not in params:
+            declared = ", ".join(params) or "none"
+            raise field_error(file, path, f"unknown parameter {node!r} (declared: {declared})")
+        return params[name]
+    return node
+
+
+def _parameters(file: str, raw: Any, overrides: Mapping[str, Any]) -> dict[str, Any]:
+    if raw is None:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise field_error(file, "parameters", f"expected a mapping, got {show_value(raw)}")
+    params: dict[str, Any] = {}
+    for k, v in raw.items():
+        if not isinstance(k, str) or not k.isidentifier():
+            raise field_error(file, f"parameters.{k}", "expected an identifier as parameter name")
+        if not isinstance(v, bool | int | float | str):
+            raise field_error(
+                file, f"parameters.{k}", f"expected a number, bool or string, got {show_value(v)}"
+            )
+        params[k] = v
+    for k, v in overrides.items():
+        if k not in params:
+            declared = ", ".join(params) or "none"
+            raise field_error(file, f"parameters.{k}", f"unknown parameter (declared: {declared})")
+        params[k] = _coerce(file, k, params[k], v)
+    return params
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def _point_segment_distance(
+    p: NDArray[np.float64], segs: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Distances (n, W) m from points (n, 2) to segments (W, 2, 2)."""
+    a, b = segs[:, 0], segs[:, 1]
+    ab = b - a
+    ll = np.maximum(np.sum(ab * ab, axis=1), 1e-300)
+    rel = p[:, None, :] - a[None]
+    t = np.clip(np.sum(rel * ab[None], axis=2) / ll, 0.0, 1.0)
+    d = rel - t[..., None] * ab[None]
+    return np.hypot(d[..., 0], d[..., 1])
+
+
+def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray[np.bool_]:
+    e = np.roll(poly, -1, axis=0) - poly
+    rel = p[:, None, :] - poly[None]
+    cross = e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0]
+    return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+
+
+def _wall_clearance(spec: MapSpec, points: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """Per wall (as listed, then bound walls): surface distance (n,) m from points to it."""
+    out = []
+    for w in spec.walls:
+        if isinstance(w, SegmentWall):
+            d = _point_segment_distance(points, np.array([[w.a, w.b]], float))[:, 0]
+            out.append(d - w.thickness / 2)
+        else:
+            poly = np.asarray(w.points, float)
+            edges = np.stack([poly, np.roll(poly, -1, axis=0)], axis=1)
+            d = np.min(_point_segment_distance(points, edges), axis=1)
+            out.append(np.where(_inside_convex(points, poly), -d, d))
+    for a, b in spec.bound_wall_segments():
+        d = _point_segment_distance(points, np.array([[a, b]], float))[:, 0]
+        out.append(d - spec.bounds.wall_thickness / 2)
+    return out
+
+
+def _wall_name(spec: MapSpec, k: int) -> str:
+    return f"walls[{k}]" if k < len(spec.walls) else f"bounds.walls (edge {k - len(spec.walls)})"
+
+
+def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
+    """Starts, goals and routes inside the bounds and clear of walls; no overlapping bodies."""
+    bounds_text = f"inside the bounds {spec.bounds.min}..{spec.bounds.max}"
+    for i, r in enumerate(spec.robots):
+        where = origins[i]
+        if not spec.bounds.contains(np.array(r.start))[0]:
+            raise field_error(file, f"{where}.start",
+                              f"expected a point {bounds_text}, got {r.start}")
+        if not spec.bounds.contains(np.array(r.goal))[0]:
+            raise field_error(file, f"{where}.goal",
+                              f"expected a point {bounds_text}, got {r.goal}")
+        for j, q in enumerate(r.route or []):
+            if not spec.bounds.contains(np.array(q))[0]:
+                raise field_error(file, f"{where}.route[{j}]",
+                                  f"expected a point {bounds_text}, got {q}")
+    bodies = spec.bodies()
+    if not bodies:
+        return
+    starts = np.array([b.start for b in bodies], float)
+    radii = np.array([b.radius for b in bodies])
+
+    first = {}
+    for b in bodies:
+        first.setdefault(b.group, b.index)
+
+    def name(k: int) -> str:
+        b = bodies[k]
+        if b.kind == "robot":
+            return origins[b.robot]
+        return f"traffic[{b.group}] (vehicle {k - first[b.group]})"
+
+    for w, clear in enumerate(_wall_clearance(spec, starts)):
+        bad = np.flatnonzero(clear < radii)
+        if len(bad):
+            k = int(bad[0])
+            field = ".start" if bodies[k].kind == "robot" else ""
+            raise field_error(
+                file, name(k) + field,
+                f"expected a start clear of the walls, but the body (radius {radii[k]:g}) "
+                f"overlaps {_wall_name(spec, w)} (surface distance {clear[k]:.3g} m)",
+            )
+    goals = np.array([r.goal for r in spec.robots], float).reshape(-1, 2)
+    rr = radii[: len(spec.robots)]
+    for w, clear in enumerate(_wall_clearance(spec, goals)):
+        bad = np.flatnonzero(clear < rr)
+        if len(bad):
+            k = int(bad[0])
+            raise field_error(
+                file, f"{origins[k]}.goal",
+                f"expected a goal clear of the walls, but it overlaps {_wall_name(spec, w)}",
+            )
+    # pairwise start overlaps, one row at a time to bound memory
+    for i in range(1, len(bodies)):
+        d = np.hypot(*(starts[:i] - starts[i]).T)
+        bad = np.flatnonzero(d < radii[:i] + radii[i])
+        if len(bad):
+            j = int(bad[0])
+            same_lane = bodies[i].group >= 0 and bodies[i].group == bodies[j].group
+            if same_lane:
+                g = bodies[i].group
+                where = f"traffic[{g}].spacing"
+                what = f"vehicles {j - first[g]} and {i - first[g]} overlap"
+            else:
+                where = name(i) + (".start" if bodies[i].kind == "robot" else "")
+                what = f"it overlaps {name(j)}"
+            raise field_error(
+                file, where,
+                f"expected non-overlapping starts, but {what} "
+                f"(distance {d[j]:.3g} m < {radii[i] + radii[j]:.3g} m)",
+            )
+    for g, grp in enumerate(spec.traffic):
+        lane = grp.lane_geometry()
+        s = grp.arc_positions()
+        if not lane.closed and (np.min(s) < 0 or np.max(s) > lane.length):
+            raise field_error(
+                file, f"traffic[{g}].offset",
+                f"expected all vehicles within the lane's length (0..{lane.length:.4g} m), "
+                f"got arc lengths {np.min(s):.4g}..{np.max(s):.4g} m",
+            )
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def _shipped() -> Any:
+    return resources.files("nao_arena.maps_data")
+
+
+def available_maps() -> list[str]:
+    """Names of the shipped maps, sorted."""
+    return sorted(
+        p.name.removesuffix(".yaml") for p in _shipped().iterdir() if p.name.endswith(".yaml")
+    )
+
+
+def _resolve(source: str | Path) -> tuple[str, str]:
+    """(display name, text) of a map given by name or path."""
+    text_source = str(source)
+    path = Path(source)
+    looks_like_path = isinstance(source, Path) or text_source.endswith((".yaml", ".yml")) or (
+        "/" in text_source
+    )
+    if looks_like_path:
+        if not path.is_file():
+            raise MapError(f"{text_source}: no such map file")
+        return text_source, path.read_text(encoding="utf-8")
+    res = _shipped() / f"{text_source}.yaml"
+    if not res.is_file():
+        raise MapError(
+            f"{text_source}: no such map; expected a file path or one of: "
+            f"{', '.join(available_maps())}"
+        )
+    return f"maps/{text_source}.yaml", res.read_text(encoding="utf-8")
+
+
+def load_map(
+    source: str | Path, rng: np.random.Generator | None = None, **overrides: Any
+) -> MapSpec:
+    """Load and validate a map by shipped name (e.g. "roundabout") or file path.
+
+    overrides: values for the map's declared ``parameters``. rng: the
+    Generator given to layout builders (default: seeded with the map's
+    ``seed`` parameter, or 0). Raises :class:`MapError`.
+    """
+    file, text = _resolve(source)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "(top level)"
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise MapError(f"{file}: {where}: expected valid YAML ({problem})") from None
+    default_name = Path(file).name.removesuffix(".yaml").removesuffix(".yml")
+    return map_from_dict(data, file, rng=rng, default_name=default_name, **overrides)
+
+
+def map_from_dict(
+    data: Any,
+    source: str = "<dict>",
+    rng: np.random.Generator | None = None,
+    default_name: str = "map",
+    **overrides: Any,
+) -> MapSpec:
+    """Validate a map given as plain data (as parsed from YAML); see :func:`load_map`."""
+    file = source
+    if not isinstance(data, dict):
+        raise field_error(file, "(top level)", f"expected a mapping, got {show_value(data)}")
+    params = _parameters(file, data.get("parameters"), overrides)
+    body = {k: v for k, v in data.items() if k != "parameters"}
+    body = _substitute(file, body, params, "")
+    body["parameters"] = params
+    try:
+        mf = MapFile.model_validate(body)
+    except ValidationError as exc:
+        raise validation_error(file, exc, body, MapFile) from None
+    _check_names(file, mf)
+    if rng is None:
+        seed = params.get("seed", 0)
+        rng = np.random.default_rng(seed if isinstance(seed, int) and seed >= 0 else 0)
+    robots = list(mf.robots)
+    origins = [f"robots[{i}]" for i in range(len(robots))]
+    _check_total(file, "robots", len(robots), "the robots placed by hand")
+    for li, lay in enumerate(mf.layouts):
+        robots_l, origins_l = _expand_layout(file, li, lay, mf.bounds, rng, body)
+        robots.extend(robots_l)
+        origins.extend(origins_l)
+        _check_total(file, f"layouts[{li}]", len(robots), "this layout's robots")
+    total = len(robots)
+    for g, grp in enumerate(mf.traffic):
+        total += grp.count
+        _check_total(file, f"traffic[{g}].count", total, "this group's vehicles")
+    named = [
+        r if r.name else r.model_copy(update={"name": f"robot{i}"}) for i, r in enumerate(robots)
+    ]
+    traffic = [
+        g.model_copy(update={"offset": g.offset + float(rng.uniform(0.0, g.phase_jitter))})
+        if g.phase_jitter > 0 else g
+        for g in mf.traffic
+    ]
+    spec = MapSpec(
+        name=mf.name or default_name, description=mf.description, source=file,
+        parameters=params, bounds=mf.bounds, walls=mf.walls, robots=named,
+        traffic=traffic, physics=mf.physics, episode=mf.episode, sensing=mf.sensing,
+    )
+    _check_geometry(file, spec, origins)
+    return spec
+
+
+def _check_names(file: str, mf: MapFile) -> None:
+    """Every robot's and layout template's agent and predictor names a known one.
+
+    Agents given as ``FILE.py:Class`` or ``module:Class`` are checked when loaded.
+    """
+    from nao_arena.agent import BUILTIN_AGENTS, available_agents
+    from nao_arena.predictors import PREDICTORS
+
+    templates: list[tuple[str, RobotTemplate]] = [
+        (f"robots[{i}]", r) for i, r in enumerate(mf.robots)
+    ] + [(f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(mf.layouts)]
+    agents: dict[str, str] | None = None
+    for where, t in templates:
+        if t.agent not in BUILTIN_AGENTS and ":" not in t.agent:
+            agents = available_agents() if agents is None else agents
+            if t.agent not in agents:
+                raise field_error(
+                    file, f"{where}.agent",
+                    f"expected one of {', '.join(agents)}, a path/to/file.py:ClassName or a "
+                    f"package.module:ClassName, got {t.agent!r}",
+                )
+        if t.predictor not in PREDICTORS:
+            raise field_error(
+                file, f"{where}.predictor",
+                f"expected one of {', '.join(PREDICTORS)}, got {t.predictor!r}",
+            )
+
+
+def _check_total(file: str, path: str, total: int, these: str) -> None:
+    """At most :data:`MAX_BODIES` bodies up to and including ``these`` (at path)."""
+    if total > MAX_BODIES:
+        raise field_error(
+            file, path,
+            f"expected at most {MAX_BODIES} bodies (robots and traffic vehicles) in a map, "
+            f"got {total} with {these}",
+        )
+
+
+def _expand_layout(
+    file: str, li: int, lay: LayoutSpec, bounds: Bounds, rng: np.random.Generator, body: Any
+) -> tuple[list[RobotSpec], list[str]]:
+    path = f"layouts[{li}]"
+    if lay.builder not in LAYOUTS:
+        raise field_error(
+            file, f"{path}.builder",
+            f"expected one of {', '.join(sorted(LAYOUTS))}, got {lay.builder!r}",
+        )
+    model, fn = LAYOUTS[lay.builder]
+    try:
+        args = model.model_validate(lay.args)
+    except ValidationError as exc:
+        raise validation_error(file, exc, lay.args, model, prefix=f"{path}.args") from None
+    try:
+        placed = fn(args, LayoutContext(bounds, lay.robot.radius, rng))
+    except ValueError as exc:
+        raise field_error(file, path, str(exc)) from None
+    prefix = lay.name or lay.builder
+    robots = []
+    for k, (start, goal) in enumerate(placed):
+        fields = {**lay.robot.model_dump(), "start": start, "goal": goal, "name": f"{prefix}{k}"}
+        try:
+            robots.append(RobotSpec.model_validate(fields))
+        except ValidationError as exc:
+            raise validation_error(
+                file, exc, fields, RobotSpec, prefix=f"{path} (robot {k})"
+            ) from None
+    return robots, [f"{path} (robot {k})" for k in range(len(robots))]
