@@ -457,12 +457,7 @@ class NAOAgent:
         want = _desired_rows(desired, n)
         out = np.zeros((n, 2))
         status = [""] * n
-        bodies = batch.bodies[rows_a]
-        pos = batch.positions[bodies]
-        vel = batch.velocities[bodies]
-        rad = batch.radii[bodies]
-        a_max = batch.a_max[bodies]
-        v_max = batch.v_max[bodies]
+        pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
         groups: dict[tuple[str, bytes], list[int]] = {}
         for i, ag in enumerate(agents):
             ag.age += batch.dt
@@ -473,12 +468,8 @@ class NAOAgent:
             ag0 = agents[members[0]]
             pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
                                         dtype=np.float64)
-            excursions = path_excursions(pred)
-            for i in members:
-                agents[i]._seen = (batch, int(rows_a[i]), pred, excursions)
-            lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
-                     if ag0._regular_grid() else None)
-            margin = np.array([agents[i].margin for i in members])
+            excursions, lists, margin = _group_view(members, agents, batch, rows_a, pos, rad,
+                                                    pred)
             # the keep test with the desired accelerations as the ones to keep
             every = np.ones(len(members), dtype=bool)
             keep = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
@@ -500,10 +491,7 @@ class NAOAgent:
                         out[i], status[i] = done, _KIND_STATUS[int(decided[0][j])]
                         continue
                 # undecided here: robot by robot
-                idx = batch.neighbour_ids(int(rows_a[i]))
-                path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
-                                          float(rad[i]), batch.walls, batch.wall_radius,
-                                          vel[i], float(a_max[i]), float(v_max[i]))
+                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
                 out[i], status[i] = ag._nearest_on(want[i], vel[i], path, float(a_max[i]),
                                                    float(v_max[i]), batch.dt,
                                                    bool(traffic_near[i]))
@@ -704,18 +692,42 @@ def _traffic_near(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bo
     return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
 
 
+def _own_state(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+    NDArray[np.float64],
+]:
+    """The robots' own state, one row per robot of ``rows_a``: positions (m), velocities
+    (m/s), radii (m), a_max (m/s^2), v_max (m/s)."""
+    bodies = batch.bodies[rows_a]
+    return (batch.positions[bodies], batch.velocities[bodies], batch.radii[bodies],
+            batch.a_max[bodies], batch.v_max[bodies])
+
+
+def _group_view(
+    members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
+    rows_a: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
+    pred: NDArray[np.float64],
+) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], tuple[NDArray[Any], ...] | None,
+           NDArray[np.float64]]:
+    """What the agents ``members`` (one predictor and time grid) decide from, given the
+    predictions ``pred`` of every body: their :func:`path_excursions`, the members'
+    :func:`_obstacle_lists` (None: an irregular time grid) and margins (m). Each member
+    keeps what it saw (:meth:`NAOAgent.last_obstacles`)."""
+    excursions = path_excursions(pred)
+    for i in members:
+        agents[i]._seen = (batch, int(rows_a[i]), pred, excursions)
+    lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
+             if agents[members[0]]._regular_grid() else None)
+    return excursions, lists, np.array([agents[i].margin for i in members])
+
+
 def _act_rows(
     agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64]
 ) -> list[NDArray[np.float64] | Exception]:
     """:meth:`NAOAgent.act_batch` of agents that act as :class:`NAOAgent` does."""
     n = len(rows_a)
     out: list[NDArray[np.float64] | Exception | None] = [None] * n
-    bodies = batch.bodies[rows_a]
-    pos = batch.positions[bodies]
-    vel = batch.velocities[bodies]
-    rad = batch.radii[bodies]
-    a_max = batch.a_max[bodies]
-    v_max = batch.v_max[bodies]
+    pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
     goals = batch.goals[rows_a]
     live = [i for i, ag in enumerate(agents) if ag.replan or ag.last_selection is None]
     if len(live) < n:
@@ -750,13 +762,8 @@ def _act_rows(
             for i in members:
                 out[i] = exc
             continue
-        excursions = path_excursions(pred)
-        for i in members:
-            agents[i]._seen = (batch, int(rows_a[i]), pred, excursions)
-        lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
-                 if ag0._regular_grid() else None)
+        excursions, lists, margin = _group_view(members, agents, batch, rows_a, pos, rad, pred)
         holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
-        margin = np.array([agents[i].margin for i in members])
         status = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
                                vel, rad, v_max, current, desired, a_max, holds, margin)
         decided = (_decide(members, status, agents, pred, excursions, lists, batch.radii,
@@ -775,10 +782,7 @@ def _act_rows(
                         out[i] = done
                         continue
                 # undecided by the compiled calls: robot by robot
-                idx = batch.neighbour_ids(int(rows_a[i]))
-                path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
-                                          float(rad[i]), batch.walls, batch.wall_radius,
-                                          vel[i], float(a_max[i]), float(v_max[i]))
+                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
                 if st == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
                                               float(v_max[i]), path):
                     out[i] = ag.current
