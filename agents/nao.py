@@ -84,7 +84,7 @@ from nao_arena.geometry.kernel import (
 )
 from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
-from nao_arena.obstacles import obstacle_paths
+from nao_arena.obstacles import obstacle_paths, walls_within
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -193,8 +193,7 @@ class NAOAgent:
         """The wall discs in sensing range: centres relative to ``position`` (m), radii
         grown by ``grow`` (m)."""
         wc, wr = _wall_discs(walls, wall_radius, grow)
-        near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
-        return wc[near] - position, wr[near]
+        return walls_within(wc, wr, position, self.sensing_range)
 
     def _relevant_paths(
         self,

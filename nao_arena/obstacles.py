@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
 from nao_arena.geometry.kernel import RADIUS_CUT
 
-__all__ = ["RADIUS_CUT", "obstacle_paths", "within_reach"]
+__all__ = ["RADIUS_CUT", "obstacle_paths", "walls_within", "within_reach"]
 
 
 def within_reach(radii: NDArray[np.float64], rel: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -27,6 +27,16 @@ def within_reach(radii: NDArray[np.float64], rel: NDArray[np.float64]) -> NDArra
     (n, 2) m (the same operations as the compiled keep test)."""
     dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
     return np.minimum(radii, dist * RADIUS_CUT)
+
+
+def walls_within(
+    wall_centres: NDArray[np.float64], wall_radii: NDArray[np.float64],
+    position: NDArray[np.float64], reach: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The wall discs whose centre lies within ``reach`` (m) + their radius of ``position``
+    (2,) m: centres relative to ``position`` (m) and radii (m)."""
+    near = np.hypot(*(wall_centres - position).T) <= reach + wall_radii
+    return wall_centres[near] - position, wall_radii[near]
 
 
 def obstacle_paths(
@@ -51,8 +61,7 @@ def obstacle_paths(
     parts = [rel]
     radii = [within_reach(grown_radii, rel[:, 0]) if cut else grown_radii]
     if wall_centres is not None and wall_radii is not None and len(wall_centres):
-        near = np.hypot(*(wall_centres - position).T) <= wall_reach + wall_radii
-        wall_rel = wall_centres[near] - position
+        wall_rel, wall_r = walls_within(wall_centres, wall_radii, position, wall_reach)
         parts.append(np.repeat(wall_rel[:, None, :], len(times), 1))
-        radii.append(within_reach(wall_radii[near], wall_rel) if cut else wall_radii[near])
+        radii.append(within_reach(wall_r, wall_rel) if cut else wall_r)
     return sampled_path(times, np.concatenate(parts), np.concatenate(radii))
