@@ -169,6 +169,7 @@ def outcome(res: object) -> object:
     return (type(res).__name__, str(res)) if isinstance(res, Exception) else res.tobytes()
 
 
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_robots=st.integers(1, 6),
        odd=st.sampled_from(["", "nan", "inf"]),
