@@ -67,6 +67,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
+from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.geometry import (
     AccelLimits,
@@ -74,14 +75,10 @@ from nao_arena.geometry import (
     repair_acceleration,
     select_acceleration,
 )
-from nao_arena.geometry.decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
-from nao_arena.geometry.kernel import (
-    admissible_kernel,
-    path_excursions,
-    piece_sweep,
-    relevant_sampled_paths,
-    sampled_admissible_batch,
-)
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
+from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
+from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry.selection import Selection
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.obstacles import obstacle_paths, walls_within
@@ -399,8 +396,8 @@ class NAOAgent:
             return True
         ok = np.empty(1, dtype=bool)
         admissible_kernel(
-            v[None].copy(), a[None].copy(), v_max, path.t, path.c, path.w,
-            path.b, path.radius, piece_sweep(path.t, path.w, path.b), 0.0, ok,
+            v[None].copy(), a[None].copy(), v_max, *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
         )
         return bool(ok[0])
 
@@ -647,7 +644,7 @@ def _decide(
     holds: NDArray[np.bool_], margin: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
     """The repairs (of the young adjustments, ``holds``) and selections of the members
-    with status 0, in one compiled call (:func:`~nao_arena.geometry.decide.decide`):
+    with status 0, in one compiled call (:func:`~nao_arena.agents._nao_decide.decide`):
     (kind, accel m/s^2, tested) per member, or None when there are none."""
     todo = np.array([j for j, st in enumerate(status) if st == 0], dtype=np.int64)
     if len(todo) == 0:

@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from nao_arena.geometry import AccelLimits, path_clearance, sampled_path, select_acceleration
-from nao_arena.geometry.kernel import admissible_kernel, piece_sweep
+from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 
 
 def _timeit(fn, min_time: float = 1.0) -> float:
@@ -55,11 +55,11 @@ def main() -> None:
         a = rng.uniform(-3, 3, (k, 2))
         evals = k * n * len(t)
         dt_exact = _timeit(lambda a=a, path=path: path_clearance(a, v, path))
-        sweep = piece_sweep(path.t, path.w, path.b)
+        sweep = piece_sweep(path.t, path.velocity, path.acceleration)
         ok = np.empty(k, dtype=bool)
         vv = np.ascontiguousarray(np.broadcast_to(v, a.shape))
         dt_adm = _timeit(lambda a=a, path=path, sweep=sweep, ok=ok, vv=vv: admissible_kernel(
-            vv, a, np.inf, path.t, path.c, path.w, path.b, path.radius, sweep, 0.0, ok))
+            vv, a, np.inf, *path.arrays, sweep, 0.0, ok))
         dt_np = _timeit(lambda a=a, c=c: numpy_samples_only(a, v, t, c, 1.0))
         print(f"{k:>6} {n:>4} {len(t):>4} {evals / dt_exact:>10.3g} {evals / dt_adm:>11.3g} "
               f"{evals / dt_np:>14.3g} {dt_np / dt_exact:>12.2f}")

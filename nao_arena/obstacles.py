@@ -16,8 +16,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
-from nao_arena.geometry.kernel import RADIUS_CUT
 
 __all__ = ["RADIUS_CUT", "obstacle_paths", "walls_within", "within_reach"]
 

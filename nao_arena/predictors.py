@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -55,21 +56,35 @@ def turn_rate(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]
     that stopped it). The
     path is integrated exactly for the arc on a fine internal grid (8 steps
     per sample interval, midpoint rule), (n, T, 2) m. The integration is
-    compiled (:func:`_arcs`); :func:`_turn_rate_numpy` is the same
-    computation in numpy (same floating-point operations, same results).
+    compiled (:func:`_arcs`).
     """
-    return _turn_rate(times, nb, compiled=True)
-
-
-def _turn_rate_numpy(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]:
-    """:func:`turn_rate` integrated with numpy (the reference), (n, T, 2) m."""
-    return _turn_rate(times, nb, compiled=False)
-
-
-def _turn_rate(times: NDArray[np.float64], nb: Neighbours, compiled: bool) -> NDArray[np.float64]:
-    n = len(nb)
-    if n == 0:
+    if len(nb) == 0:
         return np.zeros((0, len(times), 2))
+    m = turn_rate_motion(times, nb)
+    out = _arcs(
+        np.ascontiguousarray(nb.positions, dtype=np.float64), m.speed, m.omega, m.a_t,
+        m.heading, np.ascontiguousarray(m.mid), np.ascontiguousarray(m.fine), len(times),
+    )
+    return hold_still(out, nb, m.moving)
+
+
+@dataclass(frozen=True)
+class TurnRateMotion:
+    """Per neighbour: speed (m/s), omega (rad/s), a_t (m/s^2), heading (rad), moving
+    (speed above 1e-6 m/s); the fine grid's midpoints ``mid`` (s) and steps ``fine`` (s),
+    8 per sample interval."""
+
+    speed: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    a_t: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    moving: NDArray[np.bool_]
+    mid: NDArray[np.float64]
+    fine: NDArray[np.float64]
+
+
+def turn_rate_motion(times: NDArray[np.float64], nb: Neighbours) -> TurnRateMotion:
+    """The motion :func:`turn_rate` integrates, from the neighbours' observed state."""
     v = nb.velocities
     a = nb.accelerations
     speed = np.hypot(v[:, 0], v[:, 1])
@@ -81,22 +96,15 @@ def _turn_rate(times: NDArray[np.float64], nb: Neighbours, compiled: bool) -> ND
     fine = np.concatenate([[0.0], np.repeat(np.diff(np.concatenate([[0.0], times])) / 8, 8)])
     t_fine = np.cumsum(fine)
     mid = t_fine[:-1] + 0.5 * fine[1:]
-    if compiled:
-        out = _arcs(
-            np.ascontiguousarray(nb.positions, dtype=np.float64), speed, omega, a_t, heading,
-            np.ascontiguousarray(mid), np.ascontiguousarray(fine[1:]), len(times),
-        )
-    else:
-        th = heading[:, None] + omega[:, None] * mid[None]
-        s = np.maximum(speed[:, None] + a_t[:, None] * mid[None], 0.0)
-        step = s[..., None] * np.stack([np.cos(th), np.sin(th)], -1) * fine[None, 1:, None]
-        pos = nb.positions[:, None, :] + np.concatenate(
-            [np.zeros((n, 1, 2)), np.cumsum(step, axis=1)], axis=1
-        )
-        out = pos[:, 8::8][:, : len(times)]
-    # a neighbour at rest (no heading) stays at rest: its observed acceleration, the mean
-    # over the last period, is the braking that stopped it (one that sets off from rest
-    # is already moving when observed)
+    return TurnRateMotion(speed, omega, a_t, heading, moving, mid, fine[1:])
+
+
+def hold_still(out: NDArray[np.float64], nb: Neighbours,
+               moving: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """``out`` (n, T, 2) m with the neighbours at rest held at their positions: a
+    neighbour at rest (no heading) stays at rest, its observed acceleration, the mean over
+    the last period, being the braking that stopped it (one that sets off from rest is
+    already moving when observed)."""
     still = ~moving
     if np.any(still):
         out[still] = nb.positions[still][:, None, :]

@@ -15,7 +15,9 @@ accelerates at a until its speed reaches v_max, at time tau (the positive
 root of |v + a tau| = v_max, or never), and coasts for the rest of the
 period: in substep j the force m a clamp((tau - j h) / h, 0, 1) is applied,
 so that without contacts the velocity after the period is exactly
-v + a min(tau, dt) (up to rounding); see :func:`velocity_after_period`. A
+v + a min(tau, dt) (up to rounding; tests/reference/world_reference.py writes
+this model out in numpy). The saturation time tau is
+:func:`nao_arena.speed_limit.saturation_time`, shared with the planner. A
 body faster than v_max (after a contact) is first slowed to v_max by
 scaling its velocity (never by moving it), and then gains no speed. Speeds
 above v_max left by contacts at the end of a period are scaled back too, so
@@ -55,14 +57,13 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
+from nao_arena.speed_limit import saturation_time, speed_limit_time
 
 __all__ = [
     "World",
     "WorldState",
     "clip_accelerations",
     "speed_limit_time",
-    "substep_weights",
-    "velocity_after_period",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -98,58 +99,6 @@ def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
     return a * scale[:, None]
 
 
-def speed_limit_time(v: ArrayLike, a: ArrayLike, v_max: ArrayLike) -> FloatArray:
-    """Time tau (N,) s at which |v + a tau| reaches v_max: the positive root, inf if never.
-
-    v (N, 2) m/s must satisfy |v| <= v_max (N,) m/s (rounding tolerated);
-    a (N, 2) m/s^2. At |v| = v_max, tau = 0 unless a points backwards
-    (a . v < 0), when tau = -2 a.v / |a|^2.
-    """
-    v = np.asarray(v, dtype=float)
-    a = np.asarray(a, dtype=float)
-    aa = a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1]
-    b = a[:, 0] * v[:, 0] + a[:, 1] * v[:, 1]
-    c = np.minimum(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] - np.asarray(v_max, float) ** 2, 0.0)
-    root = np.sqrt(b * b - aa * c)
-    forward = b + root
-    tau = np.where(
-        b >= 0.0,
-        (0.0 - c) / np.where(forward > 0.0, forward, 1.0),
-        (root - b) / np.where(aa > 0.0, aa, 1.0),
-    )
-    return np.where(aa > 0.0, tau, np.inf)
-
-
-def substep_weights(tau: ArrayLike, dt: float, substeps: int) -> FloatArray:
-    """Fraction (substeps, N) of each substep spent accelerating: clamp((tau - j h)/h, 0, 1)."""
-    h = dt / substeps
-    j = np.arange(substeps, dtype=float)[:, None]
-    return np.clip((np.asarray(tau, float)[None, :] - j * h) / h, 0.0, 1.0)
-
-
-def _scale_to_vmax(v: FloatArray, v_max: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-    speed = np.hypot(v[:, 0], v[:, 1])
-    over = speed > v_max
-    if not np.any(over):
-        return v, over
-    scale = np.where(over, v_max / np.where(over, speed, 1.0), 1.0)
-    return v * scale[:, None], over
-
-
-def velocity_after_period(
-    v: ArrayLike, a: ArrayLike, a_max: ArrayLike, v_max: ArrayLike, dt: float
-) -> FloatArray:
-    """The speed-limit model without contacts: v' + a' min(tau, dt), (N, 2) m/s.
-
-    a' is a (m/s^2) scaled to |a'| <= a_max; v' is v (m/s) scaled to
-    |v'| <= v_max; tau from :func:`speed_limit_time`.
-    """
-    a_c = clip_accelerations(a, a_max)
-    v_c, _ = _scale_to_vmax(np.asarray(v, float), np.asarray(v_max, float))
-    tau = speed_limit_time(v_c, a_c, v_max)
-    return v_c + a_c * np.minimum(tau, dt)[:, None]
-
-
 @njit(cache=True)
 def _plan_period(
     accels: FloatArray, v: FloatArray, a_max: FloatArray, v_max: FloatArray,
@@ -161,8 +110,10 @@ def _plan_period(
     Writes the substep forces (substeps, rows, 2) N (row rows[i] for body i)
     and the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s;
     returns (all commands finite, some start velocity was scaled). Same
-    arithmetic as :func:`clip_accelerations`, :func:`speed_limit_time` and
-    :func:`substep_weights` (bit-identical results; tested).
+    arithmetic as :func:`clip_accelerations` and the numpy model in
+    tests/reference/world_reference.py (bit-identical results; tested); the saturation
+    time is :func:`nao_arena.speed_limit.saturation_time`, the model the planner
+    predicts with.
     """
     n = accels.shape[0]
     substeps = forces.shape[0]
@@ -183,18 +134,7 @@ def _plan_period(
             vx, vy = vx * f, vy * f
             any_over = True
         v_out[i, 0], v_out[i, 1] = vx, vy
-        aa = ax * ax + ay * ay
-        b = ax * vx + ay * vy
-        c = min(vx * vx + vy * vy - v_max[i] * v_max[i], 0.0)
-        if aa > 0.0:
-            root = np.sqrt(b * b - aa * c)
-            forward = b + root
-            if b >= 0.0:
-                tau = (0.0 - c) / (forward if forward > 0.0 else 1.0)
-            else:
-                tau = (root - b) / aa
-        else:
-            tau = np.inf
+        tau = saturation_time(vx, vy, ax, ay, v_max[i])
         fx, fy = masses[i] * ax, masses[i] * ay
         r = rows[i]
         for j in range(substeps):

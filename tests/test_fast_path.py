@@ -17,13 +17,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numba import njit
 
-from nao_arena.agents.nao import AOAgent, NAOAgent
-from nao_arena.arena import Arena, ArenaOptions
-from nao_arena.geometry import selection
-from nao_arena.geometry.clearance import sampled_path
-from nao_arena.geometry.decide import (
+from nao_arena.agents._nao_decide import (
     ADJUSTED,
     DESIRED,
     INFEASIBLE,
@@ -31,249 +26,46 @@ from nao_arena.geometry.decide import (
     UNDECIDED,
     decide,
 )
-from nao_arena.geometry.kernel import (
-    RADIUS_CUT,
-    _capped_disks,
-    _drop_contained,
-    _ok_disc,
-    _outward_normal,
-    _radius_order,
-    admissible_kernel,
-    bisect_disc,
-    clearance_kernel,
+from nao_arena.agents.nao import AOAgent, NAOAgent
+from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.geometry import selection
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.disks import (
+    capped_disks,
+    drop_contained,
     largest_capped_reach,
     nao_disk_samples,
     nao_disks,
     nao_disks_within,
-    nearest_outside_disks,
-    path_excursions,
-    piece_sweep,
-    relevant_obstacles,
-    relevant_sampled_paths,
+    radius_order,
+)
+from nao_arena.geometry._kernel.exact import admissible_kernel, clearance_kernel, piece_sweep
+from nao_arena.geometry._kernel.outside import nearest_outside_disks
+from nao_arena.geometry._kernel.relevance import relevant_obstacles, relevant_sampled_paths
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
+from nao_arena.geometry._kernel.search import (
+    bisect_disc,
+    ok_disc,
+    outward_normal,
     ring_search_disc,
-    sampled_admissible_batch,
     slide_disc,
     try_candidates_disc,
 )
+from nao_arena.geometry.clearance import sampled_path
+from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
-from nao_arena.predictors import _turn_rate_numpy, turn_rate
+from nao_arena.predictors import turn_rate
 from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighbours_in_range
-
-_TWO_PI = 2.0 * math.pi
-
-# ---------------------------------------------------------------- references
-# The kernels as they were before the fast paths (O(M^2) containment filter,
-# exact angles for every circle), compiled without caching.
-
-
-@njit
-def _length(x: float, y: float) -> float:
-    """sqrt(x^2 + y^2), the kernels' vector length (not math.hypot), for the references."""
-    return math.sqrt(x * x + y * y)
-
-
-@njit
-def drop_contained_ref(disks):
-    """The disks (M, 3) that no other disk contains (of identical ones, the first)."""
-    M = disks.shape[0]
-    keep = np.ones(M, dtype=np.bool_)
-    for i in range(M):
-        for j in range(M):
-            if i == j or not keep[j]:
-                continue
-            d = _length(disks[i, 0] - disks[j, 0], disks[i, 1] - disks[j, 1])
-            if d + disks[i, 2] <= disks[j, 2] and (d + disks[i, 2] < disks[j, 2] or j < i):
-                keep[i] = False
-                break
-    return disks[keep]
-
-@njit
-def _free_arc_points_ref(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k):
-    """Append to ``out`` (from row k) the point nearest q of every free arc of the
-    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
-    and, when ``in_limit``, inside the limit disc |a| <= a_max.
-    Returns the new row count, or -1 when the whole circle is covered.
-    """
-    M = circ.shape[0]
-    starts = np.empty(2 * M + 4)
-    ends = np.empty(2 * M + 4)
-    n = 0
-    for j in range(M + 1):
-        if j == M:
-            if not in_limit:
-                continue
-            d = _length(cx, cy)
-            if d + rho <= a_max:
-                continue
-            if d >= rho + a_max or d + a_max <= rho:
-                return -1
-            cosb = (d * d + rho * rho - a_max * a_max) / (2.0 * d * rho)
-            beta = math.acos(min(1.0, max(-1.0, cosb)))
-            # allowed: the arc facing the origin, [alpha - beta, alpha + beta]
-            lo = math.atan2(-cy, -cx) + beta
-            width = _TWO_PI - 2.0 * beta
-        else:
-            if j == skip:
-                continue
-            dx = circ[j, 0] - cx
-            dy = circ[j, 1] - cy
-            rj = circ[j, 2]
-            d = _length(dx, dy)
-            if d + rho <= rj * (1.0 - 1e-12):
-                return -1
-            if d >= rho + rj or d + rj <= rho or d <= 0.0:
-                continue
-            cosb = (d * d + rho * rho - rj * rj) / (2.0 * d * rho)
-            beta = math.acos(min(1.0, max(-1.0, cosb)))
-            lo = math.atan2(dy, dx) - beta
-            width = 2.0 * beta
-        lo = lo % _TWO_PI
-        hi = lo + width
-        if hi > _TWO_PI:
-            starts[n] = lo
-            ends[n] = _TWO_PI
-            n += 1
-            starts[n] = 0.0
-            ends[n] = hi - _TWO_PI
-            n += 1
-        else:
-            starts[n] = lo
-            ends[n] = hi
-            n += 1
-    phi_q = math.atan2(q[1] - cy, q[0] - cx) % _TWO_PI
-    if n == 0:
-        out[k, 0] = cx + rho * math.cos(phi_q)
-        out[k, 1] = cy + rho * math.sin(phi_q)
-        return k + 1
-    order = np.argsort(starts[:n])
-    first_start = starts[order[0]]
-    cur_end = ends[order[0]]
-    for idx in range(1, n + 1):
-        if idx < n:
-            i = order[idx]
-            if starts[i] <= cur_end:
-                cur_end = max(cur_end, ends[i])
-                continue
-            lo = cur_end
-            hi = starts[i]
-            cur_end = ends[i]
-        else:
-            # the gap that wraps from the last covered end round to the first start
-            lo = cur_end
-            hi = first_start + _TWO_PI
-            if hi <= lo:
-                break
-        # nearest point of the free arc [lo, hi] to q: phi_q if inside, else an end
-        ph = phi_q if phi_q >= lo else phi_q + _TWO_PI
-        if ph <= hi:
-            best = ph
-        else:
-            d_lo = ph - hi
-            d_hi = lo + _TWO_PI - ph
-            best = hi if d_lo <= d_hi else lo
-        out[k, 0] = cx + rho * math.cos(best)
-        out[k, 1] = cy + rho * math.sin(best)
-        k += 1
-    return k
-
-
-@njit
-def nearest_outside_disks_ref(q, disks, a_max, max_out):
-    """Points nearest q that lie outside every disk and inside |a| <= a_max.
-
-    The nearest point of the complement of a union of disks (within the limit
-    disc) is q itself or lies on a free arc of one of the circles, the limit
-    circle included. Free arcs come from the angular intervals the other
-    disks cover; on each, the nearest point to q is its radial projection or
-    an end. Circles are visited in order of their distance from q and the
-    search stops once no unvisited circle can beat the ``max_out``-th best
-    candidate. Returns up to ``max_out`` candidates (rows x, y, distance) in
-    increasing distance.
-    """
-    M = disks.shape[0]
-    res = np.full((max_out, 3), math.inf)
-    # q itself, when no disk contains it
-    q_free = q[0] * q[0] + q[1] * q[1] <= a_max * a_max
-    for i in range(M):
-        if (q[0] - disks[i, 0]) ** 2 + (q[1] - disks[i, 1]) ** 2 < disks[i, 2] ** 2:
-            q_free = False
-            break
-    if q_free:
-        res[0, 0] = q[0]
-        res[0, 1] = q[1]
-        res[0, 2] = 0.0
-    lower = np.empty(M + 1)
-    for i in range(M):
-        lower[i] = abs(_length(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
-    lower[M] = abs(_length(q[0], q[1]) - a_max)
-    order = np.argsort(lower)
-    cand = np.empty((2 * M + 8, 2))
-    for i in order:
-        if lower[i] >= res[max_out - 1, 2]:
-            break
-        if i < M:
-            k = _free_arc_points_ref(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
-                                 a_max, cand, 0)
-        else:
-            k = _free_arc_points_ref(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
-        for c in range(max(k, 0)):
-            d = _length(cand[c, 0] - q[0], cand[c, 1] - q[1])
-            if d < res[max_out - 1, 2]:
-                # insert keeping res sorted by distance
-                pos = max_out - 1
-                while pos > 0 and res[pos - 1, 2] > d:
-                    res[pos, 0] = res[pos - 1, 0]
-                    res[pos, 1] = res[pos - 1, 1]
-                    res[pos, 2] = res[pos - 1, 2]
-                    pos -= 1
-                res[pos, 0] = cand[c, 0]
-                res[pos, 1] = cand[c, 1]
-                res[pos, 2] = d
-    found = 0
-    while found < max_out and res[found, 2] < math.inf:
-        found += 1
-    return res[:found].copy()
-
-
-def _bisect_ref(t: _Tester, bad, good, tol, give_up=math.inf):
-    """selection._bisect as a Python loop over ``_Tester.ok1``; it stops once bad is
-    ``give_up`` from where it started."""
-    gap = float(np.hypot(*(good - bad)))
-    start = bad
-    while gap > tol:
-        if (bad[0] - start[0]) ** 2 + (bad[1] - start[1]) ** 2 >= give_up * give_up:
-            return good
-        mid = 0.5 * (bad + good)
-        if t.ok1(mid):
-            good = mid
-        else:
-            bad = mid
-        gap *= 0.5
-    return good
-
-
-def _slide_ref(t: _Tester, a_d, best, limits: AccelLimits, tol):
-    """selection._slide_towards as a Python loop."""
-    dist = float(np.hypot(*(best - a_d)))
-    angle = 0.5
-    while angle > 1e-3 and dist > tol:
-        phi = math.atan2(best[1] - a_d[1], best[0] - a_d[0])
-        moved = False
-        for sgn in (1.0, -1.0):
-            u = np.array([math.cos(phi + sgn * angle), math.sin(phi + sgn * angle)])
-            far = limits.project(a_d + 1.5 * dist * u)
-            if not t.ok1(far):
-                continue
-            p = _bisect_ref(t, a_d, far, tol, dist - tol)
-            d = float(np.hypot(*(p - a_d)))
-            if d < dist - tol:
-                best, dist, moved = p, d, True
-                break
-        if not moved:
-            angle *= 0.5
-    return best
-
+from tests.reference.kernels_reference import (
+    bisect_ref,
+    disk_samples_ref,
+    drop_contained_ref,
+    nearest_outside_disks_ref,
+    repair_ref,
+    slide_ref,
+)
+from tests.reference.predictors_reference import turn_rate_numpy
 
 # ---------------------------------------------------------------- scenes
 
@@ -300,7 +92,7 @@ def _disk_scene(rng: np.random.Generator, crowded: bool):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     reach = float(rng.choice([0.25, 1.0, 4.0]))
-    return nao_disks(v, path.t, path.c, path.w, path.b, path.radius, 0.0, 4, q, reach, 2.0), q
+    return nao_disks(v, *path.arrays, 0.0, 4, q, reach, 2.0), q
 
 
 # ---------------------------------------------------------------- sensing
@@ -384,7 +176,7 @@ def test_compiled_turn_rate_matches_numpy(seed):
     times = (np.linspace(0.0, 3.0, 31) if seed % 2
              else np.sort(rng.uniform(0.0, 5.0, size=int(rng.integers(1, 20)))))
     fast = turn_rate(times, nb)
-    ref = _turn_rate_numpy(times, nb)
+    ref = turn_rate_numpy(times, nb)
     assert fast.shape == ref.shape == (len(nb), len(times), 2)
     np.testing.assert_allclose(fast, ref, rtol=1e-13, atol=1e-12)
 
@@ -418,7 +210,7 @@ def _random_disks(rng: np.random.Generator) -> np.ndarray:
 def test_drop_contained_matches_reference(seed):
     rng = np.random.default_rng(seed)
     disks = _random_disks(rng) if seed % 2 else _disk_scene(rng, True)[0]
-    np.testing.assert_array_equal(_drop_contained(disks), drop_contained_ref(disks))
+    np.testing.assert_array_equal(drop_contained(disks), drop_contained_ref(disks))
 
 
 @pytest.mark.parametrize("seed", range(60))
@@ -445,16 +237,16 @@ def test_nearest_outside_disks_matches_reference(seed):
 
 @pytest.mark.parametrize("seed", range(20))
 def test_capped_disks_are_the_chosen_balls_disks(seed):
-    """_capped_disks hands back the disks of the ball it chose, whether it worked out their
+    """capped_disks hands back the disks of the ball it chose, whether it worked out their
     containment while choosing (a ball over the cap in raw samples) or afterwards."""
     rng = np.random.default_rng(800 + seed)
     n = int(rng.integers(1, 12))
     times = np.linspace(0.0, 2.5, 26)
     path = _straight_paths(rng, n, times, spread=2.0)
-    samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
-                               path.radius, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, rng.normal(size=2),
+                               16.0, 2.0, 16.0, 0.02)
     for cap in (2, 8, 24, 64, 1000):
-        chosen, disks = _capped_disks(samples, _radius_order(samples), 0.0625, 8.0, cap)
+        chosen, disks = capped_disks(samples, radius_order(samples), 0.0625, 8.0, cap)
         assert chosen == largest_capped_reach(samples, 0.0625, 8.0, cap)
         if chosen < 0.0:
             assert disks.shape == (0, 3)
@@ -472,8 +264,7 @@ def test_largest_capped_reach_matches_the_doubling(seed):
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, n, times, spread=2.0)
     q = rng.normal(size=2)
-    samples = nao_disk_samples(rng.normal(size=2), path.t, path.c, path.w, path.b,
-                               path.radius, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
     for cap in (4, 16, 48):
         reach, ref = 0.125, -1.0
         while reach < 8.0:
@@ -492,7 +283,7 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     path = _straight_paths(rng, n, times, spread=3.0)
     v = rng.normal(size=2)
     q = rng.normal(size=2)
-    args = (v, path.t, path.c, path.w, path.b, path.radius, 0.1, 4, q)
+    args = (v, *path.arrays, 0.1, 4, q)
     samples = nao_disk_samples(*args, 8.0, 2.0)
     for reach in (0.125, 0.5, 2.0, 8.0):
         np.testing.assert_array_equal(nao_disks_within(samples, reach),
@@ -510,34 +301,6 @@ def _straight_paths(rng: np.random.Generator, n: int, times: np.ndarray, spread:
                         rng.uniform(*radii, size=n))
 
 
-def _disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
-    """nao_disk_samples without thinning, written out plainly: every sample time of
-    every piece, kept when its disk meets the ball B(q, reach) and the limit disc."""
-    rows = []
-    t_all, S = path.t, path.c.shape[1]
-    for n in range(path.c.shape[0]):
-        rr = path.radius[n] + margin
-        for j in range(S):
-            t0, t1 = t_all[j], t_all[j + 1]
-            k = max(n_sub, min(256, math.ceil(per_second * (t1 - t0))))
-            times = [t0 + (t1 - t0) * i / k for i in range(k)]
-            if j == 0:
-                times = [t1 * 2.0 ** (i - 9) * 2.0 / k for i in range(8)] + times
-            if j == S - 1:
-                times.append(t1)
-            for t in times:
-                if t <= 0.0:
-                    continue
-                dt = t - t0
-                c = path.c[n, j] + path.w[n, j] * dt + 0.5 * path.b[n, j] * dt * dt
-                m = (c - v * t) * 2.0 / (t * t)
-                rho = rr * 2.0 / (t * t)
-                dq = math.hypot(*(m - q))
-                if dq <= rho + reach and math.hypot(*m) <= rho + a_max:
-                    rows.append((m[0], m[1], rho, dq))
-    return np.array(rows).reshape(-1, 4)
-
-
 @pytest.mark.parametrize("seed", range(60))
 def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     """Far obstacles and pieces out of reach included (whole pieces are skipped when no
@@ -552,9 +315,9 @@ def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     for reach in (0.5, 4.0):
-        got = nao_disk_samples(v, path.t, path.c, path.w, path.b, path.radius, 0.1, 2, q,
+        got = nao_disk_samples(v, *path.arrays, 0.1, 2, q,
                                reach, 2.0, 16.0, 0.0)
-        ref = _disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
+        ref = disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
         assert got.shape == ref.shape
         np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
 
@@ -567,7 +330,7 @@ def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     rng = np.random.default_rng(500 + seed)
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, 1, times, spread=3.0)
-    args = (rng.normal(size=2), path.t, path.c, path.w, path.b, path.radius, 0.1, 2,
+    args = (rng.normal(size=2), *path.arrays, 0.1, 2,
             np.zeros(2), 8.0, 2.0, 16.0)
     full = nao_disk_samples(*args)
     thin = 0.02
@@ -637,11 +400,9 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
         radii = np.minimum(radii, np.sqrt(x0 * x0 + y0 * y0) * (1.0 - 1e-9))
         path = sampled_path(times, centres, radii)
         ok = np.empty(1, dtype=bool)
-        admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], path.t, path.c,
-                          path.w, path.b, path.radius, piece_sweep(path.t, path.w, path.b),
-                          0.0, ok)
+        admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], *path.arrays,
+                          piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok)
         assert out[k] == int(ok[0]), k
-
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -720,15 +481,15 @@ def test_compiled_bisect_and_slide_match_python_loops(seed):
     good = grid[ok][0]
     bad = grid[~ok][0]
     p = t.path
-    args = (limits.a_max, t.v, t.v_max, p.t, p.c, p.w, p.b, p.radius, t.sweep, t.margin)
+    args = (limits.a_max, t.v, t.v_max, *p.arrays, t.sweep, t.margin)
     before = t.count
-    ref = _bisect_ref(t, bad, good, 1e-3)
+    ref = bisect_ref(t, bad, good, 1e-3)
     ref_count = t.count - before
     x, y, count = bisect_disc(bad, good, 1e-3, *args)
     np.testing.assert_array_equal([x, y], ref)
     assert count == ref_count
     before = t.count
-    ref = _slide_ref(t, bad, ref, limits, 1e-3)
+    ref = slide_ref(t, bad, ref, limits, 1e-3)
     ref_count = t.count - before
     x, y, count = slide_disc(bad, np.array([x, y]), 1e-3, *args)
     np.testing.assert_array_equal([x, y], ref)
@@ -904,37 +665,23 @@ def test_compiled_rings_match_the_python_rings(seed):
     for _ in range(10):
         a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
         found, x, y, _ = ring_search_disc(
-            a_d, radii, selection._unit_rings(8, 16), 1e-3, 2.0, t.v, t.v_max, p.t, p.c,
-            p.w, p.b, p.radius, t.sweep, 0.0)
+            a_d, radii, selection._unit_rings(8, 16), 1e-3, 2.0, t.v, t.v_max, *p.arrays,
+            t.sweep, 0.0)
         cands = selection._ring_candidates(a_d, radii, 16, t.limits)
         ok = t.ok(cands).reshape(8, 16)
         ref = None
         for i in range(8):
             if ok[i].any():
                 good = cands[i * 16:(i + 1) * 16][ok[i]]
-                start = _bisect_ref(t, a_d, good[int(np.argmin(np.hypot(*(good - a_d).T)))],
+                start = bisect_ref(t, a_d, good[int(np.argmin(np.hypot(*(good - a_d).T)))],
                                     1e-3)
-                ref = _slide_ref(t, a_d, start, t.limits, 1e-3)
+                ref = slide_ref(t, a_d, start, t.limits, 1e-3)
                 break
         assert found == (ref is not None)
         if ref is not None:
             found_any += 1
             np.testing.assert_array_equal([x, y], ref)
     assert found_any
-
-
-def _repair_ref(t: _Tester, prev, want):
-    """repair_acceleration as numpy and a Python loop: rings around prev, projected onto
-    the limit disc, nearest ``want`` first, the first admissible one."""
-    cand = np.concatenate([prev + t.limits.a_max * r * selection._REPAIR_UNIT
-                           for r in selection._REPAIR_STEPS])
-    cand = t.limits.project(cand)
-    cand = cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]),
-                           kind="stable")]
-    for a in cand:
-        if t.ok1(a):
-            return a
-    return None
 
 
 @pytest.mark.parametrize("seed", range(40))
@@ -947,7 +694,7 @@ def test_compiled_repair_matches_the_python_loop(seed):
         prev = t.limits.project(grid[~ok][k % (~ok).sum()] + rng.normal(size=2) * 0.05)
         want = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
         got = repair_acceleration(prev, want, t.v, t.path, t.limits, v_max=t.v_max)
-        ref = _repair_ref(t, prev, want)
+        ref = repair_ref(t, prev, want)
         if ref is None:
             assert got is None
         else:
@@ -982,11 +729,10 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
                        np.sqrt(centres[:, 0, 0] * centres[:, 0, 0]
                                + centres[:, 0, 1] * centres[:, 0, 1]) * RADIUS_CUT)
     full = sampled_path(times, centres.reshape(-1, len(times), 2), all_r)
-    keep = relevant_obstacles(velocity, a_max, v_max, full.t, full.c, full.w, full.b,
-                              full.radius, 0.0)
+    keep = relevant_obstacles(velocity, a_max, v_max, *full.arrays, 0.0)
     np.testing.assert_array_equal(c, full.c[keep])
-    np.testing.assert_array_equal(w, full.w[keep])
-    np.testing.assert_array_equal(b, full.b[keep])
+    np.testing.assert_array_equal(w, full.velocity[keep])
+    np.testing.assert_array_equal(b, full.acceleration[keep])
     np.testing.assert_array_equal(rad, full.radius[keep])
     if n:
         bad = pred.copy()
@@ -1025,26 +771,26 @@ def test_compiled_selection_matches_the_python_steps(seed):
         a_d = (grid[~ok][k % (~ok).sum()] if k % 2 else
                t.limits.project(rng.uniform(-2.5, 2.5, size=2)))
         status, x, y, _ = selection.select_disc(
-            a_d, t.v, 2.0, t.v_max, p.t, p.c, p.w, p.b, p.radius, 0.0, 1e-3, radii,
+            a_d, t.v, 2.0, t.v_max, *p.arrays, 0.0, 1e-3, radii,
             selection._unit_rings(8, 16), selection._MAX_DISKS, selection._DISKS_PER_PIECE,
             selection._DISKS_PER_SECOND, selection._SLIVER_DEPTH * 2.0)
         ref = selection._search_boxed(t, a_d, radii, 16, t.limits, 1e-3)
         statuses.add(status)
         if ref is None:
-            assert status == 2
+            assert status == Outcome.INFEASIBLE
         else:
-            assert selection._STATUS[status] == ref[1]
+            assert status.label == ref[1]
             np.testing.assert_array_equal([x, y], ref[0])
-    assert statuses - {0}
+    assert statuses - {Outcome.DESIRED}
 
 
 def test_outward_normal_points_away_from_the_circles_through_the_point():
     # two unit circles centred at (-0.6, 0) and (0.6, 0) meet at (0, 0.8): away from both
     # is straight up; a point on one circle only gets that circle's normal; off all: none
     disks = np.array([[-0.6, 0.0, 1.0], [0.6, 0.0, 1.0], [5.0, 5.0, 0.5]])
-    np.testing.assert_allclose(_outward_normal(0.0, 0.8, disks), (0.0, 1.0), atol=1e-12)
-    np.testing.assert_allclose(_outward_normal(-1.6, 0.0, disks), (-1.0, 0.0), atol=1e-12)
-    assert _outward_normal(3.0, 3.0, disks) == (0.0, 0.0)
+    np.testing.assert_allclose(outward_normal(0.0, 0.8, disks), (0.0, 1.0), atol=1e-12)
+    np.testing.assert_allclose(outward_normal(-1.6, 0.0, disks), (-1.0, 0.0), atol=1e-12)
+    assert outward_normal(3.0, 3.0, disks) == (0.0, 0.0)
 
 
 def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
@@ -1057,13 +803,13 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
         p = t.path
         for _ in range(3):
             a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-            samples = nao_disk_samples(t.v, p.t, p.c, p.w, p.b, p.radius, 0.0, 2, a_d, 8.0,
+            samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0,
                                        2.0, 16.0, 0.02)
             disks = nao_disks_within(samples, 8.0)
             cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
             for k in range(len(cands)):
-                args = (cands[k:k + 1], 0, 8.0, a_d, 1e-3, 2.0, t.v, t.v_max, p.t, p.c, p.w,
-                        p.b, p.radius, t.sweep, 0.0)
+                args = (cands[k:k + 1], 0, 8.0, a_d, 1e-3, 2.0, t.v, t.v_max, *p.arrays,
+                        t.sweep, 0.0)
                 found, x, y, _, _ = try_candidates_disc(*args, disks)
                 ray_only = try_candidates_disc(*args, np.zeros((0, 3)))[0]
                 assert found or not ray_only
@@ -1075,7 +821,7 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
 
 @pytest.mark.parametrize("seed", range(20))
 def test_exact_test_answer_does_not_depend_on_its_hint(seed):
-    """_ok_disc tests the (obstacle, piece) that last rejected first: whatever the hint
+    """ok_disc tests the (obstacle, piece) that last rejected first: whatever the hint
     (none, random, the one a nearby candidate left), the answer is admissible_kernel's."""
     for attempt in range(20):  # a scene with both admissible and colliding accelerations
         t, rng = _tester(1000 * seed + attempt)
@@ -1093,8 +839,8 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
     for a, want in zip(cands, ref, strict=True):
         for hint in (np.full(2, -1, dtype=np.int64), carried,
                      np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64)):
-            ok, tested = _ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, p.t, p.c, p.w,
-                                  p.b, p.radius, t.sweep, 0.0, buf, res, hint)
+            ok, tested = ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, *p.arrays, t.sweep,
+                                 0.0, buf, res, hint)
             assert ok == want and tested == 1
 
 

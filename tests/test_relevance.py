@@ -1,4 +1,4 @@
-"""Verification of ``nao_arena.geometry.kernel.relevant_obstacles``.
+"""Verification of ``nao_arena.geometry._kernel.relevance.relevant_obstacles``.
 
 The mask promises: an obstacle left out of it cannot be brought within
 radius + margin (m) over the horizon by any constant acceleration |a| <= a_max,
@@ -24,8 +24,8 @@ from hypothesis import HealthCheck, example, given, note, settings, target
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.relevance import relevant_obstacles
 from nao_arena.geometry.clearance import sampled_path
-from nao_arena.geometry.kernel import relevant_obstacles
 
 try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
     from tests.forward_sim import Polyline, Robot, screened_min_distance, simulate
@@ -57,8 +57,8 @@ class Case:
     def mask(self) -> NDArray[np.bool_]:
         path = sampled_path(self.times, self.centers, self.radius)
         return relevant_obstacles(np.ascontiguousarray(self.v, dtype=np.float64),
-                                  float(self.a_max), float(self.v_max), path.t, path.c,
-                                  path.w, path.b, path.radius, float(self.margin))
+                                  float(self.a_max), float(self.v_max), *path.arrays,
+                                  float(self.margin))
 
     def accelerations(self) -> FloatArray:
         """The rim circle, random interior points of the disc and a = 0."""
@@ -229,6 +229,5 @@ def test_zero_length_horizon_without_speed_limit_keeps_an_overlapping_obstacle()
     # t = [0, 0]: no time to move; an obstacle already overlapping stays relevant
     path = sampled_path([0.0], np.array([[0.1, 0.0]]), np.array([0.5]))
     for v_max in (math.inf, 2.0):
-        mask = relevant_obstacles(np.zeros(2), 1.0, v_max, path.t, path.c, path.w, path.b,
-                                  path.radius, 0.0)
+        mask = relevant_obstacles(np.zeros(2), 1.0, v_max, *path.arrays, 0.0)
         assert mask.tolist() == [True]

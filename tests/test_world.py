@@ -14,12 +14,8 @@ import pytest
 from nao_arena.maps import MapSpec, available_maps, load_map, map_from_dict
 from nao_arena.stats import EpisodeStats
 from nao_arena.traffic import LaneTraffic
-from nao_arena.world import (
-    World,
-    speed_limit_time,
-    substep_weights,
-    velocity_after_period,
-)
+from nao_arena.world import World, speed_limit_time
+from tests.reference.world_reference import substep_weights, velocity_after_period
 
 # Tolerances stated: limits hold to 1e-9 relative; the period model to 1e-12 m/s.
 LIMIT_RTOL = 1e-9
@@ -347,13 +343,8 @@ def test_shipped_map_runs_200_steps(name: str) -> None:
 @pytest.mark.parametrize("seed", range(20))
 def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
     """The fused kernel of World.step gives exactly the numpy helpers' forces and velocities."""
-    from nao_arena.world import (
-        _plan_period,
-        _scale_to_vmax,
-        clip_accelerations,
-        speed_limit_time,
-        substep_weights,
-    )
+    from nao_arena.world import _plan_period, clip_accelerations
+    from tests.reference.world_reference import scale_to_vmax
 
     rng = np.random.default_rng(seed)
     n, substeps, dt = int(rng.integers(1, 30)), int(rng.integers(1, 12)), 0.1
@@ -368,7 +359,7 @@ def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
     forces = np.full((substeps, n + 2, 2), np.nan)
     v_out = np.empty((n, 2))
     finite, over = _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)
-    v_ref, over_ref = _scale_to_vmax(v, v_max)
+    v_ref, over_ref = scale_to_vmax(v, v_max)
     a_ref = clip_accelerations(a, a_max)
     w = substep_weights(speed_limit_time(v_ref, a_ref, v_max), dt, substeps)
     assert finite and over == bool(np.any(over_ref))

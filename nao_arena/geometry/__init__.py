@@ -25,6 +25,7 @@ from nao_arena.geometry.clearance import (
     sampled_path,
     vo_clearance,
 )
+from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import (
     AccelLimits,
     Selection,
@@ -36,6 +37,7 @@ __all__ = [
     "AccelLimits",
     "Clearance",
     "ObstacleBoundary",
+    "Outcome",
     "PiecewisePath",
     "Selection",
     "ao_boundary",

@@ -178,7 +178,7 @@ def _horizon_arc(
 def _centre_at(path: PiecewisePath, t: float) -> NDArray[np.float64]:
     j = int(np.clip(np.searchsorted(path.t, t, side="right") - 1, 0, len(path.t) - 2))
     dt = t - path.t[j]
-    return path.c[0, j] + path.w[0, j] * dt + 0.5 * path.b[0, j] * dt * dt
+    return path.c[0, j] + path.velocity[0, j] * dt + 0.5 * path.acceleration[0, j] * dt * dt
 
 
 def ao_boundary(
@@ -307,8 +307,8 @@ def _disk_centres(path: PiecewisePath, v: NDArray[np.float64], ts: NDArray[np.fl
     """Disk centres m(t), their derivative m'(t) and the obstacle velocity c'(t) at ts."""
     j = np.clip(np.searchsorted(path.t, ts, side="right") - 1, 0, len(path.t) - 2)
     dt = (ts - path.t[j])[:, None]
-    c = path.c[0, j] + path.w[0, j] * dt + 0.5 * path.b[0, j] * dt**2
-    cd = path.w[0, j] + path.b[0, j] * dt
+    c = path.c[0, j] + path.velocity[0, j] * dt + 0.5 * path.acceleration[0, j] * dt**2
+    cd = path.velocity[0, j] + path.acceleration[0, j] * dt
     tt = ts[:, None]
     m = 2.0 * (c - v * tt) / tt**2
     dm = 2.0 * (cd - v) / tt**2 - 4.0 * (c - v * tt) / tt**3

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.geometry.kernel import clearance_kernel
+from nao_arena.geometry._kernel.exact import clearance_kernel
 
 __all__ = [
     "Clearance",
@@ -42,16 +42,22 @@ class PiecewisePath:
     """Obstacle paths as quadratic pieces on a common time grid.
 
     t: (S + 1,) piece boundaries (s), t[0] = 0, increasing; t[-1] may be inf.
-    c, w, b: (N, S, 2) centre (m, robot-relative), velocity (m/s) and
-    acceleration (m/s^2) of each obstacle at the start of each piece.
+    c, velocity, acceleration: (N, S, 2) centre (m, robot-relative), velocity (m/s)
+    and acceleration (m/s^2) of each obstacle at the start of each piece.
     radius: (N,) combined radius (m).
     """
 
     t: NDArray[np.float64]
     c: NDArray[np.float64]
-    w: NDArray[np.float64]
-    b: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
     radius: NDArray[np.float64]
+
+    @property
+    def arrays(self) -> tuple[NDArray[np.float64], ...]:
+        """(t, c, velocity, acceleration, radius): the path as the compiled kernels take it
+        (their arguments seg_t, seg_c, seg_w, seg_b, radius)."""
+        return self.t, self.c, self.velocity, self.acceleration, self.radius
 
     @property
     def n_obstacles(self) -> int:
@@ -140,8 +146,8 @@ def sampled_path(times: ArrayLike, centers: ArrayLike, radius: ArrayLike) -> Pie
     return PiecewisePath(
         t=np.ascontiguousarray(t),
         c=np.ascontiguousarray(c[:, :-1]),
-        w=np.ascontiguousarray(w),
-        b=np.zeros_like(w),
+        velocity=np.ascontiguousarray(w),
+        acceleration=np.zeros_like(w),
         radius=_radius_array(radius, n),
     )
 
@@ -167,8 +173,8 @@ def ao_path(
     return PiecewisePath(
         t=np.array([0.0, float(horizon)]),
         c=np.ascontiguousarray(p[:, None, :]),
-        w=np.ascontiguousarray(vel[:, None, :]),
-        b=np.ascontiguousarray(acc[:, None, :]),
+        velocity=np.ascontiguousarray(vel[:, None, :]),
+        acceleration=np.ascontiguousarray(acc[:, None, :]),
         radius=_radius_array(radius, n),
     )
 
@@ -202,7 +208,7 @@ def path_clearance(
     tmin = np.empty((k, n))
     tfirst = np.empty((k, n))
     clearance_kernel(
-        cand_v, a, float(v_max), path.t, path.c, path.w, path.b, path.radius, clear, tmin, tfirst
+        cand_v, a, float(v_max), *path.arrays, clear, tmin, tfirst
     )
     if single_a:
         clear, tmin, tfirst = clear[0], tmin[0], tfirst[0]

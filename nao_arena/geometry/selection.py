@@ -34,24 +34,25 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.geometry.clearance import PiecewisePath, path_clearance
-from nao_arena.geometry.kernel import (
-    _capped_disks,
-    _outward_normal,
-    _radius_order,
-    admissible_kernel,
-    bisect_disc,
-    latest_contact_kernel,
+from nao_arena.geometry._kernel.disks import (
+    capped_disks,
     nao_disk_samples,
     nao_disks_within,
-    nearest_outside_disks,
-    piece_sweep,
-    relevant_obstacles,
+    radius_order,
+)
+from nao_arena.geometry._kernel.exact import admissible_kernel, latest_contact_kernel, piece_sweep
+from nao_arena.geometry._kernel.outside import nearest_outside_disks
+from nao_arena.geometry._kernel.relevance import relevant_obstacles
+from nao_arena.geometry._kernel.search import (
+    bisect_disc,
+    outward_normal,
     repair_disc,
     select_disc,
     slide_disc,
     try_candidates_disc,
 )
+from nao_arena.geometry.clearance import PiecewisePath, path_clearance
+from nao_arena.geometry.outcome import Outcome
 
 __all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
 
@@ -156,7 +157,8 @@ class AccelLimits:
 class Selection:
     """Result of :func:`select_acceleration`.
 
-    accel: chosen acceleration (2,) m/s^2. status: "desired" (the desired
+    accel: chosen acceleration (2,) m/s^2. status: the :attr:`Outcome.label
+    <nao_arena.geometry.outcome.Outcome.label>` "desired" (the desired
     acceleration was admissible), "adjusted" (nearest admissible one) or
     "infeasible" (nothing admissible found: the candidate that postpones
     contact longest). clearance: its exact clearance (m) to the obstacles
@@ -174,7 +176,7 @@ class Selection:
 
     @property
     def feasible(self) -> bool:
-        return self.status != "infeasible"
+        return self.status != Outcome.INFEASIBLE.label
 
 
 class _Tester:
@@ -189,21 +191,20 @@ class _Tester:
         v_max: float,
     ) -> None:
         keep = relevant_obstacles(
-            v, limits.a_max, v_max, path.t, path.c, path.w, path.b, path.radius, margin
+            v, limits.a_max, v_max, *path.arrays, margin
         )
-        if keep.all() and all(a.flags.c_contiguous for a in (path.c, path.w, path.b,
-                                                              path.radius)):
+        if keep.all() and all(a.flags.c_contiguous for a in path.arrays[1:]):
             self.path = path  # already only the relevant obstacles (agents filter first)
         else:
             idx = np.flatnonzero(keep)
             self.path = PiecewisePath(
                 path.t,
                 np.ascontiguousarray(path.c[idx]),
-                np.ascontiguousarray(path.w[idx]),
-                np.ascontiguousarray(path.b[idx]),
+                np.ascontiguousarray(path.velocity[idx]),
+                np.ascontiguousarray(path.acceleration[idx]),
                 np.ascontiguousarray(path.radius[idx]),
             )
-        self.sweep = piece_sweep(self.path.t, self.path.w, self.path.b)
+        self.sweep = piece_sweep(self.path.t, self.path.velocity, self.path.acceleration)
         self.v = v
         self.limits = limits
         self.margin = margin
@@ -228,7 +229,7 @@ class _Tester:
         p = self.path
         admissible_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, cand.shape)), cand, self.v_max,
-            p.t, p.c, p.w, p.b, p.radius, self.sweep, self.margin, res,
+            *p.arrays, self.sweep, self.margin, res,
         )
         self.count += len(idx)
         out[idx] = res
@@ -242,7 +243,7 @@ class _Tester:
         p = self.path
         latest_contact_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, a.shape)), a, self.v_max,
-            p.t, p.c, p.w, p.b, p.radius, self.sweep, out,
+            *p.arrays, self.sweep, out,
         )
         return out
 
@@ -263,7 +264,7 @@ class _Tester:
         self._one[0, 0] = x
         self._one[0, 1] = y
         p = self.path
-        admissible_kernel(self._v1, self._one, self.v_max, p.t, p.c, p.w, p.b, p.radius,
+        admissible_kernel(self._v1, self._one, self.v_max, *p.arrays,
                           self.sweep, self.margin, self._res1)
         return bool(self._res1[0])
 
@@ -331,7 +332,7 @@ def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol
         p = t.path
         gx, gy, count = bisect_disc(
             np.asarray(bad, dtype=np.float64), np.asarray(good, dtype=np.float64), tol,
-            t.limits.a_max, t.v, t.v_max, p.t, p.c, p.w, p.b, p.radius, t.sweep, t.margin,
+            t.limits.a_max, t.v, t.v_max, *p.arrays, t.sweep, t.margin,
         )
         t.count += count
         return np.array([gx, gy])
@@ -389,15 +390,15 @@ def select_acceleration(
         # steps 1-3 below, compiled for the limit disc
         status, x, y, count = select_disc(
             a_d, v_arr, limits.a_max, float(v_max), np.ascontiguousarray(path.t),
-            np.ascontiguousarray(path.c), np.ascontiguousarray(path.w),
-            np.ascontiguousarray(path.b), np.ascontiguousarray(path.radius), float(margin), tol,
-            radii, _unit_rings(rings, ring_points), _MAX_DISKS, _DISKS_PER_PIECE,
-            _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
-        found = a_d if status == 0 else np.array([x, y])
-        if status < 2 and not with_clearance:
-            return Selection(found, _STATUS[status], None, math.inf, count)
-        if status == 2 and fallback is not None and not with_clearance:
-            return Selection(_projected_fallback(fallback, limits), "infeasible", None,
+            np.ascontiguousarray(path.c), np.ascontiguousarray(path.velocity),
+            np.ascontiguousarray(path.acceleration), np.ascontiguousarray(path.radius),
+            float(margin), tol, radii, _unit_rings(rings, ring_points), _MAX_DISKS,
+            _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
+        found = a_d if status == Outcome.DESIRED else np.array([x, y])
+        if status != Outcome.INFEASIBLE and not with_clearance:
+            return Selection(found, Outcome(status).label, None, math.inf, count)
+        if status == Outcome.INFEASIBLE and fallback is not None and not with_clearance:
+            return Selection(_projected_fallback(fallback, limits), _INFEASIBLE, None,
                              math.inf, count)
     tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
 
@@ -409,13 +410,13 @@ def select_acceleration(
         res = path_clearance(a, v_arr, tester.path, v_max=v_max)
         clear = float(np.min(res.clearance)) if res.clearance.size else math.inf
         first = float(np.min(res.time_of_first_contact)) if res.clearance.size else math.inf
-        return Selection(a, status, clear, first if status == "infeasible" else math.inf,
+        return Selection(a, status, clear, first if status == _INFEASIBLE else math.inf,
                          tester.count)
 
     if limits.box_lo is None:
         tester.count = count
-        if status < 2:
-            return done(found, _STATUS[status])
+        if status != Outcome.INFEASIBLE:
+            return done(found, Outcome(status).label)
     else:
         found = _search_boxed(tester, a_d, radii, ring_points, limits, tol)
         if found is not None:
@@ -424,13 +425,13 @@ def select_acceleration(
     # 4. nothing admissible: the caller's fallback, or postpone contact as long as
     #    possible, then least penetration
     if fallback is not None:
-        return done(_projected_fallback(fallback, limits), "infeasible")
+        return done(_projected_fallback(fallback, limits), _INFEASIBLE)
     cand = np.ascontiguousarray(np.concatenate(
         [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]))
-    return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), "infeasible")
+    return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), _INFEASIBLE)
 
 
-_STATUS = ("desired", "adjusted")
+_INFEASIBLE = Outcome.INFEASIBLE.label
 
 
 def _projected_fallback(fallback: ArrayLike, limits: AccelLimits) -> NDArray[np.float64]:
@@ -446,13 +447,13 @@ def _search_boxed(
     """Steps 1-3 of :func:`select_acceleration` (what :func:`select_disc` does for the
     limit disc) in Python, for box limits: (acceleration, status) or None."""
     if tester.ok1(a_d):
-        return a_d, "desired"
+        return a_d, Outcome.DESIRED.label
 
     # 1. exact nearest point outside the sampled disks of the NAO union, in a small
     #    ball around the desired acceleration, then in the largest within the disk cap
     best = _nearest_by_disks(tester, a_d, tol)
     if best is not None:
-        return best, "adjusted"
+        return best, Outcome.ADJUSTED.label
 
     # 2. speed saturation, very crowded scenes: the nearest admissible candidate on
     #    rings of growing radius (all tested in one call; the innermost ring with an
@@ -465,12 +466,12 @@ def _search_boxed(
             good = cand[ring_ok[i]]
             dist = np.hypot(*(good - a_d).T)
             start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
-            return _slide_towards(tester, a_d, start, limits, tol), "adjusted"
+            return _slide_towards(tester, a_d, start, limits, tol), Outcome.ADJUSTED.label
 
     # 3. before giving up: the disk search without its size cap (small pockets)
     best = _nearest_by_disks(tester, a_d, tol, max_disks=None)
     if best is not None:
-        return best, "adjusted"
+        return best, Outcome.ADJUSTED.label
     return None
 
 
@@ -508,7 +509,7 @@ def repair_acceleration(
         found, x, y, _ = repair_disc(
             prev, want, limits.a_max, _REPAIR_STEPS, _REPAIR_UNIT, v_arr, float(v_max),
             np.ascontiguousarray(path.t), np.ascontiguousarray(path.c),
-            np.ascontiguousarray(path.w), np.ascontiguousarray(path.b),
+            np.ascontiguousarray(path.velocity), np.ascontiguousarray(path.acceleration),
             np.ascontiguousarray(path.radius))
         return np.array([x, y]) if found else None
     tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
@@ -535,7 +536,7 @@ def _slide_towards(
         p = tester.path
         x, y, count = slide_disc(
             np.asarray(a_d, dtype=np.float64), np.asarray(best, dtype=np.float64), tol,
-            limits.a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b, p.radius, tester.sweep,
+            limits.a_max, tester.v, tester.v_max, *p.arrays, tester.sweep,
             tester.margin,
         )
         tester.count += count
@@ -633,7 +634,7 @@ def _nearest_by_disks(
     while last < limit:
         last *= 2.0
     samples = nao_disk_samples(
-        tester.v, p.t, p.c, p.w, p.b, p.radius, tester.margin, _DISKS_PER_PIECE,
+        tester.v, *p.arrays, tester.margin, _DISKS_PER_PIECE,
         a_d, last, a_max, _DISKS_PER_SECOND, _SLIVER_DEPTH * a_max,
     )
     if max_disks is None:
@@ -641,7 +642,7 @@ def _nearest_by_disks(
     # Ball by ball, every ball's candidates within a smaller ball are that ball's
     # (nearest first, the same points) and fail again, so the largest ball within
     # the disk cap alone decides as a doubling from the smallest would.
-    chosen, disks = _capped_disks(samples, _radius_order(samples), 0.5 * reach,
+    chosen, disks = capped_disks(samples, radius_order(samples), 0.5 * reach,
                                   max(limit, reach), max_disks)
     if chosen < 0.0:
         return None
@@ -661,8 +662,8 @@ def _try_ball(
     if tester.limits.box_lo is None:
         # the loop below, compiled
         found, x, y, count, _ = try_candidates_disc(
-            cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, p.t, p.c, p.w, p.b,
-            p.radius, tester.sweep, tester.margin, disks)
+            cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, *p.arrays, tester.sweep,
+            tester.margin, disks)
         tester.count += count
         return np.array([x, y]) if found else None
     for x, y, dist in cands:
@@ -672,7 +673,7 @@ def _try_ball(
         if tester.ok1(point):
             return point
         directions = [(point - a_d) / dist] if dist > 0.0 else []
-        normal = np.array(_outward_normal(x, y, disks))
+        normal = np.array(outward_normal(x, y, disks))
         if np.any(normal != 0.0):
             directions.append(normal)
         for u in directions:

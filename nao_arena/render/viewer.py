@@ -63,8 +63,8 @@ import pygame  # noqa: E402
 
 from nao_arena.agent import PanelAgent, ShowsPanel  # noqa: E402
 from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
+from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance  # noqa: E402
-from nao_arena.geometry.kernel import relevant_obstacles  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
 from nao_arena.obstacles import obstacle_paths  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
@@ -706,12 +706,12 @@ class Viewer:
         best = np.zeros(g * g)
         shown = 0
         if path.n_obstacles:
-            keep = relevant_obstacles(obs.velocity, ext * math.sqrt(2), obs.v_max, path.t,
-                                      path.c, path.w, path.b, path.radius, 0.0)
+            keep = relevant_obstacles(obs.velocity, ext * math.sqrt(2), obs.v_max, *path.arrays,
+                                      0.0)
             idx = np.flatnonzero(keep)
             if len(idx):
                 shown += len(idx)
-                sub = PiecewisePath(path.t, path.c[idx], path.w[idx], path.b[idx],
+                sub = PiecewisePath(path.t, path.c[idx], path.velocity[idx], path.acceleration[idx],
                                     path.radius[idx])
                 clear = path_clearance(grid, obs.velocity, sub, v_max=obs.v_max).clearance
                 owner = np.argmin(clear, axis=1)

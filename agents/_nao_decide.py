@@ -1,8 +1,8 @@
-"""Many robots' re-selections in one compiled call.
+"""The ``nao`` agent's policy for many robots' re-selections, in one compiled call.
 
 :func:`decide_batch` is what the ``nao`` agent does, robot by robot, for the
 robots whose current acceleration it cannot keep: build the obstacle paths it
-needs (:func:`~nao_arena.geometry.kernel.relevant_sampled_paths`), repair a
+needs (:func:`~nao_arena.geometry._kernel.relevance.relevant_sampled_paths`), repair a
 young adjustment locally (:func:`~nao_arena.geometry.selection.repair_acceleration`)
 and otherwise select in full
 (:func:`~nao_arena.geometry.selection.select_acceleration`, limit disc,
@@ -19,13 +19,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.geometry.kernel import (
-    _onto_disc,
-    piece_sweep,
-    relevant_sampled_paths,
-    repair_relevant,
-    select_relevant,
-)
+from nao_arena.geometry._kernel.exact import piece_sweep
+from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
+from nao_arena.geometry._kernel.search import onto_disc, repair_relevant, select_relevant
+from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import (
     _DISKS_PER_PIECE,
     _DISKS_PER_SECOND,
@@ -42,12 +39,12 @@ from nao_arena.geometry.selection import (
 __all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "decide",
            "decide_batch"]
 
-# outcome codes of decide_batch
-UNDECIDED = -1  # non-finite input or paths: the caller decides (and reports)
-REPAIRED = 1  # a nearby admissible acceleration (the adjustment keeps its age)
-DESIRED = 2  # the desired acceleration is admissible
-ADJUSTED = 3  # the admissible acceleration nearest the desired one
-INFEASIBLE = 4  # nothing admissible found: the caller's fallback
+# the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
+UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
+REPAIRED = Outcome.REPAIRED  # a nearby admissible acceleration (the adjustment keeps its age)
+DESIRED = Outcome.DESIRED  # the desired acceleration is admissible
+ADJUSTED = Outcome.ADJUSTED  # the admissible acceleration nearest the desired one
+INFEASIBLE = Outcome.INFEASIBLE  # nothing admissible found: the caller's fallback
 
 
 @njit(cache=True)
@@ -62,20 +59,20 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
     and the static discs wall_index[wall_start[k]:wall_start[k + 1]] of wall_c (m,
     world frame, radii wall_r m, already grown); position pos[k] (m), velocity
     vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s). excursion,
-    finite_path: :func:`~nao_arena.geometry.kernel.path_excursions` of ``pred``.
+    finite_path: :func:`~nao_arena.geometry._kernel.sampled.path_excursions` of ``pred``.
     When repair[k], the current acceleration current[k] is first repaired towards
     desired[k] (m/s^2). Selection parameters: ring_radii[k] (m/s^2), unit_rings,
     max_disks, n_sub, per_second, sliver_depth (fraction of a_max), as
     :func:`~nao_arena.geometry.selection.select_acceleration` passes them.
 
-    Writes kind[k] (the codes above), accel[k] (m/s^2, for REPAIRED, DESIRED,
-    ADJUSTED) and tested[k] (candidates tested by the selection).
+    Writes kind[k] (an :class:`~nao_arena.geometry.outcome.Outcome`), accel[k] (m/s^2,
+    for REPAIRED, DESIRED, ADJUSTED) and tested[k] (candidates tested by the selection).
     """
     for k in rows:
         vx = vel[k, 0]
         vy = vel[k, 1]
         if not (math.isfinite(vx) and math.isfinite(vy)):
-            kind[k] = UNDECIDED
+            kind[k] = Outcome.UNDECIDED
             continue
         px = pos[k, 0]
         py = pos[k, 1]
@@ -92,7 +89,7 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             wall_rel, wall_rr, vel[k], a_max[k], v_max[k], excursion,
             finite_path)
         if not finite:
-            kind[k] = UNDECIDED
+            kind[k] = Outcome.UNDECIDED
             continue
         # the obstacles kept are those the selection and the repair keep (relevant for
         # a_max, margin 0): they are used as they are
@@ -106,12 +103,12 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
                                                  repair_unit, vel[k], v_max[k], times, c, w, b,
                                                  rad, sweep)
                 if found:
-                    kind[k] = REPAIRED
+                    kind[k] = Outcome.REPAIRED
                     accel[k, 0] = x
                     accel[k, 1] = y
                     continue
         # select_acceleration: the desired acceleration projected onto the limit disc
-        dx, dy = _onto_disc(desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
+        dx, dy = onto_disc(desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
                             desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0, a_max[k])
         a_d = np.empty(2)
         a_d[0] = dx
@@ -121,16 +118,16 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, sweep, 0.0, tol, ring_radii[k],
             unit_rings, max_disks, n_sub, per_second, sliver_depth * a_max[k])
         tested[k] = count
-        if status == 0:
-            kind[k] = DESIRED
+        if status == Outcome.DESIRED:
+            kind[k] = Outcome.DESIRED
             accel[k, 0] = dx
             accel[k, 1] = dy
-        elif status == 1:
-            kind[k] = ADJUSTED
+        elif status == Outcome.ADJUSTED:
+            kind[k] = Outcome.ADJUSTED
             accel[k, 0] = x
             accel[k, 1] = y
         else:
-            kind[k] = INFEASIBLE
+            kind[k] = Outcome.INFEASIBLE
 
 
 def decide(
@@ -148,7 +145,7 @@ def decide(
     (kind UNDECIDED for the robots not in ``rows``)."""
     nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
     n = len(a_max)
-    kind = np.full(n, UNDECIDED, dtype=np.int64)
+    kind = np.full(n, Outcome.UNDECIDED, dtype=np.int64)
     accel = np.zeros((n, 2))
     tested = np.zeros(n, dtype=np.int64)
     radii = np.array([_ring_radii(float(a), _RINGS) for a in a_max]).reshape(n, _RINGS)

@@ -1,0 +1,125 @@
+"""Batched admissibility: one acceleration per robot against sampled obstacle paths
+(neighbours' predicted centres and walls), all robots in one compiled call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from nao_arena.geometry._kernel.exact import candidate_setup, fill_sweep, robot_state, scan_obstacle
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_pieces, static_pieces
+from nao_arena.geometry.borrow import borrowed
+
+
+@njit(cache=True, error_model="numpy")
+def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
+                             wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
+                             excursion, finite_path, out):
+    """Admissibility of one acceleration per robot against sampled obstacle paths.
+
+    For each robot k of ``rows``: its obstacles are the bodies
+    nb_index[nb_start[k]:nb_start[k + 1]] with world-frame centres pred[body]
+    (T, 2) m at ``times`` (s, times[0] = 0, T >= 2), radii nb_radius[body] +
+    radius[k] + margin[k] (m), then the static discs wall_index[...] of
+    wall_c (m) with radii wall_r (m). The paths are built exactly as
+    :func:`~nao_arena.geometry.clearance.sampled_path` builds them from the
+    robot-relative centres (a radius larger than the distance at t = 0 is cut to
+    that distance times 1 - 1e-9), and acc[k] (m/s^2) is tested as
+    :func:`admissible_kernel` tests it (velocity vel[k] m/s, speed limit
+    v_max[k] m/s, margin 0). excursion, finite_path: :func:`path_excursions` of
+    ``pred``. out[k] = 1 admissible, 0 not, -1 non-finite centres (left to the
+    caller).
+    """
+    S = times.shape[0] - 1
+    most = 0  # the most obstacles a robot has: the scratch rows
+    for k in rows:
+        most = max(most, nb_start[k + 1] - nb_start[k] + wall_start[k + 1] - wall_start[k])
+    _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r, wall_start,
+                     wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
+                     finite_path, out, np.empty(most, dtype=np.int64), np.empty(most),
+                     np.empty((most, S, 2)), np.empty((most, S, 2)), np.zeros((most, S, 2)),
+                     np.empty((most, S)), np.empty(3), np.empty(3))
+
+
+@njit(cache=True, error_model="numpy")
+def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r, wall_start,
+                     wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
+                     finite_path, out, keep, keep_r, c, w, b, sweep, buf, res):
+    """:func:`sampled_admissible_batch` with its scratch arrays given (rows enough for
+    every robot's obstacles; b zero). Arrays borrowed here."""
+    times, pred = borrowed(times), borrowed(pred)
+    nb_start, nb_index = borrowed(nb_start), borrowed(nb_index)
+    nb_radius, wall_c, wall_r = borrowed(nb_radius), borrowed(wall_c), borrowed(wall_r)
+    wall_start, wall_index, rows = borrowed(wall_start), borrowed(wall_index), borrowed(rows)
+    pos, vel, acc, v_max = borrowed(pos), borrowed(vel), borrowed(acc), borrowed(v_max)
+    radius, margin, excursion = borrowed(radius), borrowed(margin), borrowed(excursion)
+    finite_path, out = borrowed(finite_path), borrowed(out)
+    keep, keep_r = borrowed(keep), borrowed(keep_r)
+    c, w, b, sweep = borrowed(c), borrowed(w), borrowed(b), borrowed(sweep)
+    buf, res = borrowed(buf), borrowed(res)
+    horizon = times[-1]
+    for k in rows:
+        n_nb = nb_start[k + 1] - nb_start[k]
+        n_w = wall_start[k + 1] - wall_start[k]
+        ax = acc[k, 0]
+        ay = acc[k, 1]
+        vx, vy, tau, bound = candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
+        px = pos[k, 0]
+        py = pos[k, 1]
+        # skip the obstacles that stay far: |x(t)| <= bound t for the robot (and it stays
+        # within bound * horizon / 2 of where it is halfway), and a sampled path stays
+        # within its largest sample excursion from its start
+        travel = bound * horizon
+        _, _, _, _, mx, my = robot_state(vx, vy, ax, ay, tau, 0.5 * horizon)
+        half = 0.5 * travel
+        n = 0
+        finite = True
+        for i in range(n_nb + n_w):
+            if i < n_nb:
+                body = nb_index[nb_start[k] + i]
+                x0 = pred[body, 0, 0] - px
+                y0 = pred[body, 0, 1] - py
+                r = min(nb_radius[body] + radius[k] + margin[k],
+                        math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
+                if not finite_path[body]:
+                    finite = False
+                    break
+                ex = excursion[body]
+            else:
+                d = wall_index[wall_start[k] + i - n_nb]
+                x0 = wall_c[d, 0] - px
+                y0 = wall_c[d, 1] - py
+                r = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
+                ex = 0.0
+            gap = max(math.sqrt(x0 * x0 + y0 * y0) - travel,
+                      math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half) - ex
+            if gap > (r + 1e-9) * (1.0 + 1e-9):
+                continue
+            keep[n] = i
+            keep_r[n] = r
+            n += 1
+        if not finite:
+            out[k] = -1
+            continue
+        if n == 0:
+            out[k] = 1
+            continue
+        for q in range(n):
+            i = keep[q]
+            if i < n_nb:
+                moving_pieces(pred, nb_index[nb_start[k] + i], px, py, times, c, w, q)
+            else:
+                d = wall_index[wall_start[k] + i - n_nb]
+                static_pieces(wall_c[d, 0] - px, wall_c[d, 1] - py, times, c, w, q)
+        fill_sweep(times, w, b, n, sweep)
+        ok = 1
+        for q in range(n):
+            scan_obstacle(vx, vy, ax, ay, tau, bound, times, c, w, b, sweep, q, keep_r[q], 0.0,
+                          False, buf, res)
+            if res[0] < (keep_r[q] + 0.0) ** 2:
+                ok = 0
+                break
+        out[k] = ok

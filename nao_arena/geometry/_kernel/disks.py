@@ -1,0 +1,296 @@
+"""The disk picture: the NAO union near a query point, as sampled disks in
+acceleration space (m/s^2), with containment filtering and the choice of the
+largest ball whose disks stay within a cap.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from nao_arena.geometry.borrow import borrowed
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def vector_norm(x, y):
+    """sqrt(x^2 + y^2), without math.hypot's care for overflow (several times faster;
+    the values here are accelerations and distances of ordinary size)."""
+    return math.sqrt(x * x + y * y)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _farther(x, y, lim):
+    """math.hypot(x, y) > lim, without the hypot unless the answer is close."""
+    d2 = x * x + y * y
+    l2 = lim * lim
+    if d2 > l2 * (1.0 + 1e-9):
+        return True
+    if d2 < l2 * (1.0 - 1e-9):
+        return False
+    return math.hypot(x, y) > lim
+
+
+@njit(cache=True, error_model="numpy")
+def _samples_in_piece(t0, t1, n_sub, per_second):
+    if not math.isfinite(t1):
+        return 12
+    return max(n_sub, min(256, int(math.ceil(per_second * (t1 - t0)))))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _put(out, row, x, y, rho, dq):
+    """Write the disk (x, y, rho, dq) into out[row]; returns the next row."""
+    out[row, 0] = x
+    out[row, 1] = y
+    out[row, 2] = rho
+    out[row, 3] = dq
+    return row + 1
+
+
+@njit(cache=True, error_model="numpy")
+def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+                     per_second=16.0, thin=0.0):
+    """The sampled disks of :func:`nao_disks` before containment is filtered:
+    (M, 4) rows (m_x, m_y, rho, distance of m from q), m/s^2 — for
+    :func:`nao_disks_within`, which gives nao_disks for any smaller reach.
+
+    Sampled disks of the NAO union near q, in acceleration space (m/s^2).
+
+    A constant acceleration a collides with an obstacle at time t iff
+    |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
+    (no speed saturation). Samples every piece at max(n_sub, per_second * h)
+    times (and the first piece also geometrically towards t = 0), grows r by
+    ``margin`` and keeps the disks that intersect both the ball B(q, reach)
+    and the limit disc |a| <= a_max.
+
+    thin (m/s^2): when > 0, a disk is left out while its centre lies within
+    sqrt(8 thin rho) of the obstacle's last kept disk (whose radius is at least
+    rho): two kept disks that far apart leave a sliver at most about ``thin``
+    deep. The obstacle's last disk before a gap (a disk outside the ball or the
+    limit disc) and at the end of the horizon is always kept.
+    """
+    N = seg_c.shape[0]
+    S = seg_c.shape[1]
+    total = 0
+    for j in range(S):
+        total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
+    out = np.empty((N * total, 4))
+    return out[:_fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q,
+                                   reach, a_max, per_second, thin, out)]
+
+
+@njit(cache=True, error_model="numpy")
+def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+                       per_second, thin, out):
+    """:func:`nao_disk_samples` into the rows of ``out``; returns how many it wrote.
+    Arrays borrowed here."""
+    v, seg_t, seg_c, seg_w = borrowed(v), borrowed(seg_t), borrowed(seg_c), borrowed(seg_w)
+    seg_b, radius, q, out = borrowed(seg_b), borrowed(radius), borrowed(q), borrowed(out)
+    N = seg_c.shape[0]
+    S = seg_c.shape[1]
+    cnt = 0
+    for n in range(N):
+        rr = radius[n] + margin
+        last = -1  # row of the obstacle's last kept disk; -1: none (or a gap since)
+        pend = False  # a disk was thinned out after it
+        px = 0.0
+        py = 0.0
+        prho = 0.0
+        pdq = 0.0
+        for j in range(S):
+            t0 = seg_t[j]
+            t1 = seg_t[j + 1]
+            if math.isfinite(t1):
+                # a piece that no acceleration within a_max reaches: every sample of it
+                # lies outside the limit disc (|c(t) - v t| > rr + a_max t^2 / 2), which
+                # ends a run of disks (as the test below does for each sample)
+                h = t1 - t0
+                dx0 = seg_c[n, j, 0] - v[0] * t0
+                dy0 = seg_c[n, j, 1] - v[1] * t0
+                far = (rr + 0.5 * a_max * t1 * t1
+                       + vector_norm(seg_w[n, j, 0] - v[0], seg_w[n, j, 1] - v[1]) * h
+                       + 0.5 * vector_norm(seg_b[n, j, 0], seg_b[n, j, 1]) * h * h) * (1.0 + 1e-6)
+                if dx0 * dx0 + dy0 * dy0 > far * far:
+                    if pend:
+                        cnt = _put(out, cnt, px, py, prho, pdq)
+                        pend = False
+                    last = -1
+                    continue
+            k = _samples_in_piece(t0, t1, n_sub, per_second)
+            head = 8 if (j == 0 and math.isfinite(t1)) else 0
+            tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
+            for i in range(k + head + tail):
+                if not math.isfinite(t1):
+                    t = max(t0, 1e-3) * 2.0 ** (i + 1)
+                elif i < head:
+                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / k
+                elif i == k + head:
+                    t = t1
+                else:
+                    t = t0 + (t1 - t0) * (i - head) / k
+                if t * t <= 0.0 or not math.isfinite(2.0 / (t * t)):
+                    continue
+                dt = t - t0
+                cx = seg_c[n, j, 0] + seg_w[n, j, 0] * dt + 0.5 * seg_b[n, j, 0] * dt * dt
+                cy = seg_c[n, j, 1] + seg_w[n, j, 1] * dt + 0.5 * seg_b[n, j, 1] * dt * dt
+                inv = 2.0 / (t * t)
+                mx = (cx - v[0] * t) * inv
+                my = (cy - v[1] * t) * inv
+                rho = rr * inv
+                if (_farther(mx - q[0], my - q[1], rho + reach)
+                        or _farther(mx, my, rho + a_max)):
+                    if pend:
+                        cnt = _put(out, cnt, px, py, prho, pdq)
+                        pend = False
+                    last = -1
+                    continue
+                dq = vector_norm(mx - q[0], my - q[1])
+                if thin > 0.0 and last >= 0:
+                    ex = mx - out[last, 0]
+                    ey = my - out[last, 1]
+                    if ex * ex + ey * ey <= 8.0 * thin * rho:
+                        pend = True
+                        px = mx
+                        py = my
+                        prho = rho
+                        pdq = dq
+                        continue
+                pend = False
+                last = cnt
+                cnt = _put(out, cnt, mx, my, rho, dq)
+        if pend:
+            cnt = _put(out, cnt, px, py, prho, pdq)
+    return cnt
+
+
+@njit(cache=True, error_model="numpy")
+def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
+              per_second=16.0):
+    """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
+
+    A constant acceleration a collides with an obstacle at time t iff
+    |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
+    (no speed saturation). Samples every piece at max(n_sub, per_second * h)
+    times (and the first piece also geometrically towards t = 0), grows r by
+    ``margin`` and keeps the disks that intersect both the ball B(q, reach)
+    and the limit disc |a| <= a_max; disks inside another are dropped.
+    Returns (M, 3) rows (m_x, m_y, rho).
+    """
+    return drop_contained(np.ascontiguousarray(nao_disk_samples(
+        v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second,
+    )[:, :3]))
+
+
+@njit(cache=True, error_model="numpy")
+def nao_disks_within(samples, reach):
+    """:func:`nao_disks` for ``reach`` (m/s^2) from the samples of
+    :func:`nao_disk_samples` taken with a reach at least as large."""
+    return disks_within(samples, radius_order(samples), reach)
+
+
+@njit(cache=True, error_model="numpy")
+def radius_order(rows):
+    """Rows (disks or samples) largest radius first, equal radii in row order (a stable
+    sort): the visiting order of :func:`_uncontained_in`, for any subset of the rows."""
+    return np.argsort(-rows[:, 2], kind="mergesort")
+
+
+@njit(cache=True, error_model="numpy")
+def disks_within(samples, order, reach):
+    """:func:`nao_disks_within` with the samples' :func:`radius_order` given."""
+    keep, _ = _uncontained_in(samples, order, reach, samples.shape[0])
+    return np.ascontiguousarray(samples[keep][:, :3])
+
+
+@njit(cache=True, error_model="numpy")
+def largest_capped_reach(samples, reach, limit, max_disks):
+    """Double ``reach`` (m/s^2) while below ``limit``: the last doubled reach whose
+    :func:`nao_disks_within` holds at most ``max_disks`` disks, stopping at the first
+    that holds more; -1.0 when there is none."""
+    return capped_disks(samples, radius_order(samples), reach, limit, max_disks)[0]
+
+
+@njit(cache=True, error_model="numpy")
+def capped_disks(samples, order, reach, limit, max_disks):
+    """:func:`largest_capped_reach` and its :func:`nao_disks_within` (empty when there
+    is none), from the samples' :func:`radius_order`. Containment is only worked out
+    for a ball whose samples alone exceed the cap (and for the chosen one)."""
+    M = samples.shape[0]
+    chosen = -1.0
+    chosen_keep = np.zeros(M, dtype=np.bool_)
+    known = False  # chosen_keep holds the chosen ball's disks
+    while reach < limit:
+        reach *= 2.0
+        raw = 0
+        for i in range(M):
+            if not (samples[i, 3] > samples[i, 2] + reach):
+                raw += 1
+        if raw > max_disks:
+            keep, n_kept = _uncontained_in(samples, order, reach, max_disks)
+            if n_kept > max_disks:
+                break
+            chosen_keep = keep  # the visit ran to the end: the whole mask
+            known = True
+        else:
+            known = False
+        chosen = reach
+    if chosen < 0.0:
+        return chosen, np.empty((0, 3))
+    if not known:
+        chosen_keep, _ = _uncontained_in(samples, order, chosen, M)
+    return chosen, np.ascontiguousarray(samples[chosen_keep][:, :3])
+
+
+@njit(cache=True, error_model="numpy")
+def drop_contained(disks):
+    """The disks (M, 3) that no other disk contains (of identical ones, the first).
+
+    Only a disk at least as large can contain another, and containment is
+    transitive, so the disks are visited largest first and each is tested
+    against the disks kept so far only (few, typically), not against all M.
+    """
+    keep, _ = _uncontained_in(disks, radius_order(disks), math.inf, disks.shape[0])
+    return disks[keep]
+
+
+@njit(cache=True, error_model="numpy")
+def _uncontained_in(rows, order, reach, stop_after):
+    """:func:`drop_contained`'s mask (over ``rows``) and count of kept disks, among the
+    rows: disks (M, 3), or samples (M, 4) of which only those within ``reach`` (m/s^2)
+    take part; visited in ``order`` (:func:`radius_order`). The visit stops as soon as
+    more than ``stop_after`` are kept (the mask is then partial)."""
+    M = rows.shape[0]
+    sampled = rows.shape[1] > 3
+    keep = np.zeros(M, dtype=np.bool_)
+    kept = np.empty(M, dtype=np.int64)
+    n_kept = 0
+    for oi in range(M):
+        i = order[oi]
+        if sampled and rows[i, 3] > rows[i, 2] + reach:
+            continue
+        xi = rows[i, 0]
+        yi = rows[i, 1]
+        ri = rows[i, 2]
+        inside = False
+        for kk in range(n_kept):
+            j = kept[kk]
+            rj = rows[j, 2]
+            dx = rows[j, 0] - xi
+            dy = rows[j, 1] - yi
+            lim = rj - ri + 1e-9 * rj
+            # cheap reject: clearly further apart than rj - ri (the exact test would fail)
+            if rj < ri or dx * dx + dy * dy > lim * lim:
+                continue
+            d = vector_norm(xi - rows[j, 0], yi - rows[j, 1])
+            if d + ri <= rj and (d + ri < rj or j < i):
+                inside = True
+                break
+        if not inside:
+            keep[i] = True
+            kept[n_kept] = i
+            n_kept += 1
+            if n_kept > stop_after:
+                break
+    return keep, n_kept

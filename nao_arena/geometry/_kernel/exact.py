@@ -1,0 +1,313 @@
+"""Exact clearance of constant-acceleration candidates against piecewise paths.
+
+Frame: the robot starts at the origin at t = 0. Robot path (the model the world
+implements): x(t) = v t + a t^2 / 2 until the speed |v + a t| reaches v_max
+(time tau), then constant velocity. A robot already above v_max starts from its
+velocity scaled down to v_max. Obstacles follow piecewise-quadratic paths
+(times seg_t (S+1,) s; per obstacle and piece the start centre seg_c m,
+velocity seg_w m/s and acceleration seg_b m/s^2); the minimum distance on each
+piece comes from :func:`~nao_arena.geometry._kernel.quartic.piece_minimum`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
+from nao_arena.speed_limit import saturation_time
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def robot_state(vx, vy, ax, ay, tau, ta):
+    """Robot (acceleration, velocity, position) at time ta under the saturation model."""
+    if ta < tau:
+        return (
+            ax, ay, vx + ax * ta, vy + ay * ta,
+            vx * ta + 0.5 * ax * ta * ta, vy * ta + 0.5 * ay * ta * ta,
+        )
+    wx = vx + ax * tau
+    wy = vy + ay * tau
+    return (
+        0.0, 0.0, wx, wy,
+        vx * tau + 0.5 * ax * tau * tau + wx * (ta - tau),
+        vy * tau + 0.5 * ay * tau * tau + wy * (ta - tau),
+    )
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def scan_obstacle(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+                  thresh, want_first, buf, out):
+    """Scan obstacle n over all pieces for one robot candidate.
+
+    With a finite ``thresh`` (m) the scan only decides whether the clearance
+    falls below it: it prunes pieces that cannot come that close and returns
+    at the first that does (out[0] is then some distance below thresh + r) with that
+    piece's index (else -1). Otherwise out = (min squared distance, its time, first contact
+    time), and it returns -1.
+    """
+    S = seg_c.shape[1]
+    r2 = r * r
+    best = math.inf
+    best_t = 0.0
+    first = math.inf
+    decide = math.isfinite(thresh)
+    reach = r + thresh if decide else 0.0
+    reach2 = reach * reach
+    for j in range(S):
+        t0 = seg_t[j]
+        t1 = seg_t[j + 1]
+        if decide and piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c,
+                                         sweep, n, j, reach):
+            continue
+        ta = t0
+        while ta < t1:
+            tb = min(t1, tau) if ta < tau else t1
+            Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w,
+                                               seg_b, n, j)
+            hp = tb - ta
+            skip = False
+            if math.isfinite(hp) and not decide:
+                lb = (
+                    math.sqrt(Cx * Cx + Cy * Cy)
+                    - math.sqrt(Bx * Bx + By * By) * hp
+                    - math.sqrt(Ax * Ax + Ay * Ay) * hp * hp
+                )
+                if lb > 0.0:
+                    lb2 = lb * lb
+                    if lb2 >= best and (lb2 > r2 or first < math.inf):
+                        skip = True
+            end = end_dist2(Ax, Ay, Bx, By, Cx, Cy, hp) if decide else math.inf
+            if end < reach2:
+                # an end of the sub-piece is already that close: no minimum needed
+                out[0] = end
+                out[1] = ta
+                out[2] = first
+                return j
+            if not skip:
+                piece_minimum(Ax, Ay, Bx, By, Cx, Cy, hp, r2, want_first and first == math.inf, buf)
+                if buf[0] < best:
+                    best = buf[0]
+                    best_t = ta + buf[1]
+                if want_first and first == math.inf and buf[2] < math.inf:
+                    first = ta + buf[2]
+                if decide and best < reach2:
+                    out[0] = best
+                    out[1] = best_t
+                    out[2] = first
+                    return j
+            ta = tb
+    if best == math.inf and not decide:
+        # an empty horizon [0, 0]: just the distance at the start
+        best = seg_c[n, 0, 0] ** 2 + seg_c[n, 0, 1] ** 2
+        if want_first and best <= r2:
+            first = 0.0
+    out[0] = best
+    out[1] = best_t
+    out[2] = first
+    return -1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, reach):
+    """Cheap prune: whether robot and obstacle n are so far apart at the start of piece j
+    (finite) that they cannot come within ``reach`` (m) during it: the robot moves at most
+    speed_bound (m/s) times the piece's length, the obstacle at most sweep[n, j] (m)."""
+    h = seg_t[j + 1] - seg_t[j]
+    if not math.isfinite(h):
+        return False
+    rax, ray, rvx, rvy, rpx, rpy = robot_state(vx, vy, ax, ay, tau, seg_t[j])
+    cx = rpx - seg_c[n, j, 0]
+    cy = rpy - seg_c[n, j, 1]
+    bound = (reach + sweep[n, j] + speed_bound * h) * (1.0 + 1e-9)
+    return cx * cx + cy * cy > bound * bound
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
+    """Robot minus obstacle n from time ta within piece j (which starts at t0), as
+    A s^2 + B s + C (s = time since ta): (Ax, Ay, Bx, By, Cx, Cy)."""
+    rax, ray, rvx, rvy, rpx, rpy = robot_state(vx, vy, ax, ay, tau, ta)
+    dt0 = ta - t0
+    obx = seg_b[n, j, 0]
+    oby = seg_b[n, j, 1]
+    return (0.5 * (rax - obx), 0.5 * (ray - oby),
+            rvx - (seg_w[n, j, 0] + obx * dt0), rvy - (seg_w[n, j, 1] + oby * dt0),
+            rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
+            rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
+    """Whether the candidate (as in :func:`scan_obstacle`) comes closer than sqrt(reach2) (m) to
+    obstacle n during piece j: the test :func:`scan_obstacle` makes there, without its prune."""
+    t0 = seg_t[j]
+    t1 = seg_t[j + 1]
+    ta = t0
+    while ta < t1:
+        tb = min(t1, tau) if ta < tau else t1
+        Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b,
+                                           n, j)
+        if end_dist2(Ax, Ay, Bx, By, Cx, Cy, tb - ta) < reach2:
+            return True
+        piece_minimum(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, False, buf)
+        if buf[0] < reach2:
+            return True
+        ta = tb
+    return False
+
+
+@njit(cache=True, error_model="numpy")
+def candidate_setup(vx, vy, ax, ay, v_max, horizon):
+    """Speed-clamped initial velocity, saturation time and a bound on the speed (m/s)."""
+    spd = math.sqrt(vx * vx + vy * vy)
+    if spd > v_max:
+        vx *= v_max / spd
+        vy *= v_max / spd
+        spd = v_max
+    tau = saturation_time(vx, vy, ax, ay, v_max)
+    amag = math.sqrt(ax * ax + ay * ay)
+    # |v + a t| is convex in t, so up to tau it stays below max(|v|, v_max) = v_max
+    bound = min(spd + amag * min(tau, horizon), v_max * (1.0 + 1e-9))
+    return vx, vy, tau, bound
+
+
+@njit(cache=True, error_model="numpy")
+def piece_sweep(seg_t, seg_w, seg_b):
+    """(N, S) bound on how far each obstacle moves within each piece (m)."""
+    out = np.empty((seg_w.shape[0], seg_w.shape[1]))
+    fill_sweep(seg_t, seg_w, seg_b, seg_w.shape[0], out)
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def fill_sweep(seg_t, seg_w, seg_b, rows, out):
+    """:func:`piece_sweep` of the first ``rows`` obstacles, into out[:rows]."""
+    for n in range(rows):
+        for j in range(seg_w.shape[1]):
+            h = seg_t[j + 1] - seg_t[j]
+            w = math.sqrt(seg_w[n, j, 0] ** 2 + seg_w[n, j, 1] ** 2)
+            b = math.sqrt(seg_b[n, j, 0] ** 2 + seg_b[n, j, 1] ** 2)
+            out[n, j] = w * h + 0.5 * b * h * h
+
+
+@njit(cache=True, error_model="numpy")
+def clearance_kernel(
+    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, out_clear, out_tmin, out_tfirst,
+):
+    """Exact clearance for K candidates x N obstacles.
+
+    cand_v, cand_a: (K, 2) initial velocity (m/s) and constant acceleration
+    (m/s^2) of the robot per candidate. seg_t: (S + 1,) piece boundaries (s),
+    seg_t[0] = 0, last may be inf. seg_c, seg_w, seg_b: (N, S, 2) obstacle
+    centre (m, relative to the robot's start), velocity and acceleration at
+    the start of each piece. radius: (N,) combined radius (m).
+    Outputs (K, N): clearance (m), time of closest approach (s), time of
+    first contact (s, inf if none).
+    """
+    K = cand_a.shape[0]
+    N = seg_c.shape[0]
+    sweep = np.zeros((N, seg_c.shape[1]))
+    buf = np.empty(3)
+    out = np.empty(3)
+    for k in range(K):
+        vx, vy, tau, bound = candidate_setup(
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+        )
+        for n in range(N):
+            scan_obstacle(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w,
+                          seg_b, sweep, n, radius[n], math.inf, True, buf, out)
+            out_clear[k, n] = math.sqrt(out[0]) - radius[n]
+            out_tmin[k, n] = out[1]
+            out_tfirst[k, n] = out[2]
+
+
+@njit(cache=True, error_model="numpy")
+def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
+                      out_ok):
+    """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle.
+
+    Prunes pieces with a conservative distance bound and stops at the first
+    violation, so it is much cheaper than the exact clearance.
+    """
+    K = cand_a.shape[0]
+    N = seg_c.shape[0]
+    buf = np.empty(3)
+    out = np.empty(3)
+    for k in range(K):
+        vx, vy, tau, bound = candidate_setup(
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+        )
+        ok = True
+        for n in range(N):
+            scan_obstacle(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w,
+                          seg_b, sweep, n, radius[n], margin, False, buf, out)
+            if out[0] < (radius[n] + margin) ** 2:
+                ok = False
+                break
+        out_ok[k] = ok
+
+
+@njit(cache=True, error_model="numpy")
+def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+                   t_stop, buf):
+    """First time (s) the robot comes within r of obstacle n, if before t_stop; else inf."""
+    S = seg_c.shape[1]
+    r2 = r * r
+    for j in range(S):
+        t0 = seg_t[j]
+        if t0 >= t_stop:
+            break
+        t1 = seg_t[j + 1]
+        if piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, r):
+            continue
+        ta = t0
+        while ta < t1:
+            tb = min(t1, tau) if ta < tau else t1
+            rax, ray, rvx, rvy, rpx, rpy = robot_state(vx, vy, ax, ay, tau, ta)
+            dt0 = ta - t0
+            obx = seg_b[n, j, 0]
+            oby = seg_b[n, j, 1]
+            piece_minimum(
+                0.5 * (rax - obx), 0.5 * (ray - oby),
+                rvx - (seg_w[n, j, 0] + obx * dt0), rvy - (seg_w[n, j, 1] + oby * dt0),
+                rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
+                rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0),
+                tb - ta, r2, True, buf,
+            )
+            if buf[2] < math.inf:
+                return ta + buf[2]
+            ta = tb
+    return math.inf
+
+
+@njit(cache=True, error_model="numpy")
+def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                          out_first):
+    """Earliest first contact (s) over all obstacles per candidate, for picking the latest.
+
+    A candidate's scan stops as soon as its earliest contact falls below the
+    best (latest) found so far among earlier candidates; its entry is then
+    an upper bound below that best (it cannot win), not the exact value.
+    """
+    K = cand_a.shape[0]
+    N = seg_c.shape[0]
+    buf = np.empty(3)
+    best = -math.inf
+    for k in range(K):
+        vx, vy, tau, bound = candidate_setup(
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+        )
+        tf = math.inf
+        for n in range(N):
+            f = _first_contact(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c,
+                               seg_w, seg_b, sweep, n, radius[n], tf, buf)
+            if f < tf:
+                tf = f
+            if tf < best:
+                break
+        out_first[k] = tf
+        if tf > best:
+            best = tf

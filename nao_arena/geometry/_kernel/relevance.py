@@ -1,0 +1,223 @@
+"""Relevance pruning: which obstacles a robot could reach at all within the horizon.
+
+An obstacle is kept when some acceleration |a| <= a_max (speed capped at
+v_max) could bring the robot within its combined radius plus a margin (m) on
+some piece; the others cannot affect admissibility and are dropped before the
+exact tests.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from nao_arena.geometry._kernel.exact import piece_sweep
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_piece, static_pieces
+from nao_arena.geometry.borrow import borrowed
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
+    """Whether obstacle n (combined radius r, m) is within reach: see
+    :func:`relevant_obstacles` (v already clamped to v_max)."""
+    for j in range(seg_c.shape[1]):
+        if _piece_relevant(seg_c[n, j, 0], seg_c[n, j, 1], seg_w[n, j, 0], seg_w[n, j, 1],
+                           seg_b[n, j, 0], seg_b[n, j, 1], seg_t[j], seg_t[j + 1], vx, vy, a_max,
+                           v_max, r):
+            return True
+    return False
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
+    """Whether the robot (velocity v m/s, limits a_max, v_max) could come within r (m) of
+    an obstacle during the piece [t0, t1] s that starts at (cx, cy) m with velocity
+    (wx, wy) m/s and acceleration (bx, by) m/s^2: |x(t) - v t| <= a_max t^2 / 2 and
+    |x(t)| <= v_max t must both allow it (see :func:`relevant_obstacles`). A piece of
+    infinite length always may. Branch-free, so loops over pieces vectorise."""
+    h = t1 - t0
+    dx = cx - vx * t0
+    dy = cy - vy * t0
+    bb = math.sqrt(bx ** 2 + by ** 2)
+    reach = r + 0.5 * a_max * t1 * t1 + math.sqrt((wx - vx) ** 2 + (wy - vy) ** 2) * h \
+        + 0.5 * bb * h * h
+    own = r + v_max * t1 + math.sqrt(wx ** 2 + wy ** 2) * h + 0.5 * bb * h * h
+    near = not (dx * dx + dy * dy > reach * reach)
+    close = cx * cx + cy * cy <= own * own
+    return (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _clamped(v, v_max):
+    vx = v[0]
+    vy = v[1]
+    spd = math.sqrt(vx * vx + vy * vy)
+    if spd > v_max:
+        vx *= v_max / spd
+        vy *= v_max / spd
+    return vx, vy
+
+
+@njit(cache=True, error_model="numpy")
+def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
+    """(N,) mask of obstacles that some acceleration with |a| <= a_max could come within
+    radius + margin (m) of over the horizon.
+
+    Uses |x(t) - v t| <= a_max t^2 / 2, which also holds under speed
+    saturation, and |x(t)| <= v_max t (the speed never exceeds v_max); v is
+    first clamped to v_max. Obstacles outside the mask can be dropped from
+    any selection with those limits.
+    """
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius = borrowed(radius)
+    N = seg_c.shape[0]
+    vx, vy = _clamped(v, v_max)
+    out = np.zeros(N, dtype=np.bool_)
+    for n in range(N):
+        out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n,
+                           radius[n] + margin)
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max, r):
+    """:func:`moving_pieces` into row ``row``, and whether one of those pieces is relevant
+    (:func:`_piece_relevant`, radius r m: what :func:`_relevant` answers), in one pass with
+    no early exit (the compiler vectorises it; most obstacles tested are not relevant)."""
+    if math.isfinite(v_max) and math.isfinite(times[0]) and math.isfinite(times[-1]):
+        # first a cheap proof that no piece passes the v_max test: |w| h <= |dx| + |dy|
+        # (no division, no square root); the factor covers the rounding of the exact test
+        maybe = False
+        for j in range(times.shape[0] - 1):
+            x0 = pred[body, j, 0] - px
+            y0 = pred[body, j, 1] - py
+            dx = pred[body, j + 1, 0] - px - x0
+            dy = pred[body, j + 1, 1] - py - y0
+            own = (r + v_max * times[j + 1] + abs(dx) + abs(dy)) * (1.0 + 1e-9) + 1e-12
+            maybe = maybe | (x0 * x0 + y0 * y0 <= own * own)
+        if not maybe:
+            return False
+    hit = False
+    for j in range(times.shape[0] - 1):
+        x0, y0, wx, wy = moving_piece(pred, body, px, py, times, c, w, row, j)
+        hit = hit | _piece_relevant(x0, y0, wx, wy, 0.0, 0.0, times[j], times[j + 1], vx, vy,
+                                    a_max, v_max, r)
+    return hit
+
+
+@njit(cache=True, error_model="numpy")
+def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
+                           a_max, v_max, excursion, finite_path):
+    """The pieces :func:`~nao_arena.geometry.clearance.sampled_path` builds, of the
+    obstacles :func:`relevant_obstacles` keeps (margin 0), in one pass.
+
+    Obstacles: the bodies ``idx`` with world-frame centres pred[body] (T, 2) m at
+    ``times`` (s; times[0] = 0, increasing, T >= 2) and radii nb_radius[body] + grow
+    (m), then static discs at wall_rel (robot-relative, m) with radii wall_r (m); every
+    radius cut to just under the obstacle's current distance (RADIUS_CUT). Centres
+    are taken relative to ``position`` (m). Robot: velocity v (m/s), limits a_max,
+    v_max. excursion, finite_path: :func:`path_excursions` of ``pred``.
+    Returns (c, w, b, radius, finite): the pieces' start centres, velocities
+    and accelerations (zero) (n, T - 1, 2) and radii (n,) of the kept obstacles in
+    input order; finite is
+    False (and nothing is kept) when a neighbour's centres are not all finite.
+    """
+    S = times.shape[0] - 1
+    total = idx.shape[0] + wall_rel.shape[0]
+    c = np.empty((total, S, 2))
+    w = np.empty((total, S, 2))
+    b = np.zeros((total, S, 2))
+    rad = np.empty(total)
+    n = _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
+                             a_max, v_max, excursion, finite_path, c, w, b, rad)
+    if n < 0:
+        return c[:0], w[:0], b[:0], rad[:0], False
+    return c[:n], w[:n], b[:n], rad[:n], True
+
+
+@njit(cache=True, error_model="numpy")
+def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v, a_max,
+                         v_max, excursion, finite_path, c, w, b, rad):
+    """:func:`relevant_sampled_paths` into c, w, b, rad (rows for every obstacle given):
+    returns how many rows it kept, -1 when a neighbour's centres are not all finite.
+    Arrays borrowed here."""
+    times, pred, idx, position = borrowed(times), borrowed(pred), borrowed(idx), borrowed(position)
+    nb_radius, wall_rel = borrowed(nb_radius), borrowed(wall_rel)
+    wall_r, v = borrowed(wall_r), borrowed(v)
+    excursion, finite_path = borrowed(excursion), borrowed(finite_path)
+    c, w, b, rad = borrowed(c), borrowed(w), borrowed(b), borrowed(rad)
+    n_nb = idx.shape[0]
+    total = n_nb + wall_rel.shape[0]
+    for i in range(n_nb):
+        if not finite_path[idx[i]]:
+            return -1
+    vx, vy = _clamped(v, v_max)
+    px = position[0]
+    py = position[1]
+    # |x(t)| <= v_max t: an obstacle that stays farther than v_max times the horizon
+    # (plus its radius) is dropped before its pieces are built
+    travel = v_max * times[-1]
+    n = 0
+    for i in range(total):
+        if i < n_nb:
+            body = idx[i]
+            x0 = pred[body, 0, 0] - px
+            y0 = pred[body, 0, 1] - py
+            r = nb_radius[body] + grow
+            dist = math.sqrt(x0 * x0 + y0 * y0)
+            r = min(r, dist * RADIUS_CUT)
+            if math.isfinite(travel):
+                ex = excursion[body]
+                # every piece starts within ex of the first centre and moves at most 2 ex
+                if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
+                    continue
+            rad[n] = r
+            if _moving_relevant(pred, body, px, py, times, c, w, n, vx, vy, a_max, v_max, r):
+                n += 1
+        else:
+            d = i - n_nb
+            x0 = wall_rel[d, 0]
+            y0 = wall_rel[d, 1]
+            dist = math.sqrt(x0 * x0 + y0 * y0)
+            r = min(wall_r[d], dist * RADIUS_CUT)
+            if dist > (r + travel) * (1.0 + 1e-9) + 1e-12:
+                continue
+            static_pieces(x0, y0, times, c, w, n)
+            rad[n] = r
+            if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
+                n += 1
+    return n
+
+
+@njit(cache=True, error_model="numpy")
+def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
+    """The obstacles :func:`relevant_obstacles` keeps, as contiguous arrays (the inputs
+    themselves when all are kept), and their :func:`piece_sweep`:
+    (c, w, b, radius, sweep)."""
+    keep = relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
+    n = 0
+    for i in range(keep.shape[0]):
+        if keep[i]:
+            n += 1
+    if n == keep.shape[0]:
+        c = np.ascontiguousarray(seg_c)
+        w = np.ascontiguousarray(seg_w)
+        b = np.ascontiguousarray(seg_b)
+        r = np.ascontiguousarray(radius)
+    else:
+        S = seg_c.shape[1]
+        c = np.empty((n, S, 2))
+        w = np.empty((n, S, 2))
+        b = np.empty((n, S, 2))
+        r = np.empty(n)
+        k = 0
+        for i in range(keep.shape[0]):
+            if keep[i]:
+                c[k] = seg_c[i]
+                w[k] = seg_w[i]
+                b[k] = seg_b[i]
+                r[k] = radius[i]
+                k += 1
+    return c, w, b, r, piece_sweep(seg_t, w, b)
