@@ -80,8 +80,7 @@ from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
 from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry.selection import Selection
-from nao_arena.geometry.walls import wall_discs
-from nao_arena.obstacles import obstacle_paths, walls_within
+from nao_arena.obstacles import NO_WALLS, obstacle_paths, wall_discs_memo, walls_within
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -189,7 +188,7 @@ class NAOAgent:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The wall discs in sensing range: centres relative to ``position`` (m), radii
         grown by ``grow`` (m)."""
-        wc, wr = _wall_discs(walls, wall_radius, grow)
+        wc, wr = wall_discs_memo(walls, wall_radius, grow)
         return walls_within(wc, wr, position, self.sensing_range)
 
     def _relevant_paths(
@@ -217,14 +216,14 @@ class NAOAgent:
         if not (self._regular_grid() and math.isfinite(velocity[0])
                 and math.isfinite(velocity[1])):
             grow = radius + self.margin
-            wc, wr = _wall_discs(walls, wall_radius, grow) if len(walls) else _NO_WALLS
+            wc, wr = wall_discs_memo(walls, wall_radius, grow)
             return obstacle_paths(times, predicted[idx], nb_radii[idx] + grow, position, wc, wr,
                                   self.sensing_range)
         grow = radius + self.margin
         if len(walls):
             wall_rel, wall_r = self._near_walls(walls, wall_radius, grow, position)
         else:
-            wall_rel, wall_r = _NO_WALLS
+            wall_rel, wall_r = NO_WALLS
         c, w, b, rad, finite = relevant_sampled_paths(
             times, predicted, idx, position, nb_radii, grow, np.ascontiguousarray(wall_rel),
             np.ascontiguousarray(wall_r), velocity, float(a_max) * (1.0 + 1e-9), float(v_max),
@@ -527,25 +526,6 @@ def _limits(a_max: float) -> AccelLimits:
     return lim
 
 
-_NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
-_WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
-
-
-def _wall_discs(
-    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`wall_discs` (centres m, radii m), memoised: walls do not move."""
-    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
-           float(grow))
-    hit = _WALL_CACHE.get(key)
-    if hit is None:
-        if len(_WALL_CACHE) > 64:
-            _WALL_CACHE.clear()
-        hit = wall_discs(walls, wall_radius, grow)
-        _WALL_CACHE[key] = hit
-    return hit
-
-
 def _obstacle_lists(
     members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
     rows: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
@@ -576,7 +556,7 @@ def _obstacle_lists(
     which: list[NDArray[np.int64]] = []
     offset = 0
     for g in dict.fromkeys(grow.tolist()):
-        wc, wr = _wall_discs(batch.walls, batch.wall_radius, g)
+        wc, wr = wall_discs_memo(batch.walls, batch.wall_radius, g)
         sel = np.flatnonzero(grow == g)
         p = pos[m[sel]]
         near = np.hypot(wc[None, :, 0] - p[:, 0, None], wc[None, :, 1] - p[:, 1, None]) <= (

@@ -18,8 +18,10 @@ from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
+from nao_arena.geometry.walls import wall_discs
 
-__all__ = ["RADIUS_CUT", "obstacle_paths", "walls_within", "within_reach"]
+__all__ = ["NO_WALLS", "RADIUS_CUT", "obstacle_paths", "wall_discs_memo", "walls_within",
+           "within_reach"]
 
 
 def within_reach(radii: NDArray[np.float64], rel: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -27,6 +29,32 @@ def within_reach(radii: NDArray[np.float64], rel: NDArray[np.float64]) -> NDArra
     (n, 2) m (the same operations as the compiled keep test)."""
     dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
     return np.minimum(radii, dist * RADIUS_CUT)
+
+
+NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
+"""No wall discs: centres (0, 2) m and radii (0,) m (shared: do not write into them)."""
+_WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+
+def wall_discs_memo(
+    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`~nao_arena.geometry.walls.wall_discs` of the segments ``walls`` (W, 2, 2) m
+    (half-thickness ``wall_radius`` (W,) m) grown by ``grow`` (m): centres (M, 2) m and
+    radii (M,) m, contiguous, memoised (walls do not move; the results are shared, do
+    not write into them)."""
+    if not len(walls):
+        return NO_WALLS
+    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
+           float(grow))
+    hit = _WALL_CACHE.get(key)
+    if hit is None:
+        if len(_WALL_CACHE) > 64:
+            _WALL_CACHE.clear()
+        wc, wr = wall_discs(walls, wall_radius, grow)
+        hit = _WALL_CACHE[key] = (np.ascontiguousarray(wc, dtype=np.float64),
+                                  np.ascontiguousarray(wr, dtype=np.float64))
+    return hit
 
 
 def walls_within(
