@@ -3,31 +3,113 @@ Nonlinear Acceleration Obstacle (NAO).
 
 Units everywhere: metres, seconds, m/s, m/s^2; angles in radians.
 
-``nao_arena.parallel_env(map="roundabout", ...)`` is the PettingZoo parallel
-env and ``nao_arena.env(...)`` its AEC version (see
-:mod:`nao_arena.environment`); both are imported on first use, so that
-``import nao_arena`` stays light. The package exports only the names in
-``__all__``.
+The front door: the names in ``__all__``, each imported from its module on
+first use, so that ``import nao_arena`` stays light (no pymunk, numba,
+pettingzoo or pygame until a name needs them)::
+
+    from nao_arena import Arena, load_map
+    summary = Arena(load_map("circle_swap", n=4)).run(seed=0)
+
+- :class:`Arena`, :class:`ArenaOptions`: the control loop (:mod:`nao_arena.arena`);
+- :func:`load_map`, :func:`available_maps`: map files (:mod:`nao_arena.maps`);
+- :func:`parallel_env`, :func:`env`: the PettingZoo envs (:mod:`nao_arena.environment`);
+- :class:`Agent`, :class:`Observation`: the agent protocol and what an agent
+  senses (:mod:`nao_arena.agent`, :mod:`nao_arena.sensing`);
+- the geometry functions and :class:`AccelLimits` (:mod:`nao_arena.geometry`).
 """
 
-from typing import Any as _Any
+from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__", "env", "parallel_env"]
+if TYPE_CHECKING:
+    from nao_arena.agent import Agent
+    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.environment import env, parallel_env
+    from nao_arena.geometry import (
+        AccelLimits,
+        ao_boundary,
+        ao_boundary_paper,
+        ao_clearance,
+        ao_path,
+        bao_boundary,
+        nao_boundary,
+        nao_clearance,
+        nao_query,
+        path_boundary,
+        path_clearance,
+        repair_acceleration,
+        sampled_path,
+        select_acceleration,
+        vo_clearance,
+        vo_cone,
+    )
+    from nao_arena.maps import available_maps, load_map
+    from nao_arena.sensing import Observation
+
+del TYPE_CHECKING
+
+__all__ = [
+    "AccelLimits",
+    "Agent",
+    "Arena",
+    "ArenaOptions",
+    "Observation",
+    "__version__",
+    "ao_boundary",
+    "ao_boundary_paper",
+    "ao_clearance",
+    "ao_path",
+    "available_maps",
+    "bao_boundary",
+    "env",
+    "load_map",
+    "nao_boundary",
+    "nao_clearance",
+    "nao_query",
+    "parallel_env",
+    "path_boundary",
+    "path_clearance",
+    "repair_acceleration",
+    "sampled_path",
+    "select_acceleration",
+    "vo_clearance",
+    "vo_cone",
+]
+
+_GEOMETRY = (
+    "AccelLimits", "ao_boundary", "ao_boundary_paper", "ao_clearance", "ao_path",
+    "bao_boundary", "nao_boundary", "nao_clearance", "nao_query", "path_boundary",
+    "path_clearance", "repair_acceleration", "sampled_path", "select_acceleration",
+    "vo_clearance", "vo_cone",
+)
+
+_EXPORTS: dict[str, str] = {
+    "Agent": "nao_arena.agent",
+    "Arena": "nao_arena.arena",
+    "ArenaOptions": "nao_arena.arena",
+    "Observation": "nao_arena.sensing",
+    "available_maps": "nao_arena.maps",
+    "env": "nao_arena.environment",
+    "load_map": "nao_arena.maps",
+    "parallel_env": "nao_arena.environment",
+    **dict.fromkeys(_GEOMETRY, "nao_arena.geometry"),
+}
+"""Public name -> the module that defines it (imported on first use)."""
 
 
-def parallel_env(map: str = "roundabout", render_mode: str | None = None,  # noqa: A002
-                 **kwargs: _Any) -> _Any:
-    """The map's PettingZoo ParallelEnv (see :func:`nao_arena.environment.parallel_env`)."""
-    from nao_arena.environment import parallel_env as make
+def __getattr__(name: str) -> object:
+    """Import an exported name from its module on first use (then it is a global)."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nao_arena' has no attribute {name!r}")
+    from importlib import import_module
 
-    return make(map, render_mode=render_mode, **kwargs)
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
 
 
-def env(map: str = "roundabout", render_mode: str | None = None,  # noqa: A002
-        **kwargs: _Any) -> _Any:
-    """The map's PettingZoo AECEnv (see :func:`nao_arena.environment.env`)."""
-    from nao_arena.environment import env as make
-
-    return make(map, render_mode=render_mode, **kwargs)
+def __dir__() -> list[str]:
+    """The exported names and the module's dunder attributes (not its submodules)."""
+    return sorted({*__all__, *(n for n in globals() if n.startswith("__"))})

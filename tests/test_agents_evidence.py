@@ -34,6 +34,7 @@ def run(map_name: str, seed: int, options: ArenaOptions | None = None, **params)
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("map_name", ["circle_swap_perturbed", "crossing"])
 def test_nao_robots_never_collide_and_all_arrive(map_name):
     results = [run(map_name, seed) for seed in SEEDS]
@@ -43,12 +44,14 @@ def test_nao_robots_never_collide_and_all_arrive(map_name):
         assert r["time"] < r["time_limit"], r
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("map_name", ["circle_swap_perturbed", "crossing"])
 def test_goal_seeking_without_avoidance_collides_on_the_same_seeds(map_name):
     collided = [run(map_name, seed, agent="goal")["collisions"] > 0 for seed in SEEDS]
     assert all(collided)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("predictor", ["known_path", "turn_rate"])
 def test_nao_crosses_the_roundabout_without_collision(predictor):
     results = [run("roundabout", seed, predictor=predictor) for seed in SEEDS]
@@ -72,6 +75,7 @@ OPEN_LOOP = ArenaOptions(
 )
 
 
+@pytest.mark.slow
 def test_one_constant_acceleration_crosses_the_roundabout_with_nao_not_with_ao():
     """The paper's claim: one acceleration chosen outside the NAOs (known circular
     paths) crosses 30 circling vehicles; chosen outside the AOs it collides."""
@@ -81,6 +85,7 @@ def test_one_constant_acceleration_crosses_the_roundabout_with_nao_not_with_ao()
     assert sum(c > 0 for c in ao) >= 10
 
 
+@pytest.mark.slow
 def test_nao_adjusts_its_acceleration_less_often_than_ao_in_the_roundabout():
     """The paper's second claim, with re-planning every control step: both stay
     collision-free here, NAO with fewer acceleration adjustments."""
@@ -89,6 +94,7 @@ def test_nao_adjusts_its_acceleration_less_often_than_ao_in_the_roundabout():
     assert np.mean(nao) < np.mean(ao)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [4, 6, 10, 30])
 def test_symmetric_swaps_neither_collide_nor_deadlock(n):
     """Exactly symmetric circle swaps (no perturbation): every robot aims through the

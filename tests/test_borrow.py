@@ -10,6 +10,7 @@ import sys
 import textwrap
 
 import numpy as np
+import pytest
 from numba import njit
 
 from nao_arena.geometry.borrow import borrowed
@@ -32,6 +33,7 @@ def test_borrowed_view_is_the_same_array() -> None:
         assert sys.getrefcount(arr) == before
 
 
+@pytest.mark.installed
 def test_kernels_do_not_leak(tmp_path) -> None:
     """Sixty steps of a 12-robot NAO arena (keep tests, repairs, selections) in a fresh
     process with the runtime's allocation counters on: as many arrays are freed as

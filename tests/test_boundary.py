@@ -364,6 +364,7 @@ def assert_grazing(case, b: ObstacleBoundary, n: int = 30) -> None:
         assert exact >= 0.8, (f"only {exact:.0%} of boundary points graze to 1e-9 r", case)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(ao_cases())
 def test_ao_boundary_points_graze(case: AOCase) -> None:
@@ -373,6 +374,7 @@ def test_ao_boundary_points_graze(case: AOCase) -> None:
     assert_grazing(case, paper, n=15)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(nao_cases())
 def test_nao_boundary_points_graze(case: NAOCase) -> None:
@@ -452,6 +454,7 @@ def side_check(case, b: ObstacleBoundary, n: int = 20) -> tuple[int, int, int]:
     return tested, separated, toward
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(ao_cases(finite=True), nao_cases()))
 def test_boundary_separates_inside_from_outside(case) -> None:
@@ -516,6 +519,7 @@ def completeness_distances(case, n: int) -> tuple[FloatArray, FloatArray, float]
     return mids, dist_to_polylines(mids, *all_polylines(case.boundary())), float(h)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "case", [*COMPLETENESS_CASES, TIP_CASE],
     ids=[*(f"{type(c).__name__}-{i}" for i, c in enumerate(COMPLETENESS_CASES)), "tip-bug"],
@@ -534,6 +538,7 @@ def test_boundary_is_complete(case) -> None:
 HEAD_ON_NAO = NAOCase((0.0, 0.0), [0.0, 1.0], [[1.3, 0.0], [0.3, 0.0]], 1.0, 3.0, "line")
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(ao_cases(finite=True), nao_cases()))
 def test_boundary_is_complete_random(case) -> None:
@@ -568,6 +573,7 @@ def test_head_on_tip_is_on_the_boundary(which: str) -> None:
 # ------------------------------------------------------------------ 4. limits from the paper
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "p,r,a_b",
     [
@@ -619,6 +625,7 @@ def hausdorff_to_polylines(pa: FloatArray, ba: ObstacleBoundary, pb: FloatArray,
     )
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @given(floats(0.3, 1.0), floats(0.3, 5.0), floats(-math.pi, math.pi), vec(1.5), vec(1.5),
        floats(1.0, 5.0), st.integers(2, 12))
@@ -638,6 +645,7 @@ def test_ao_of_constant_velocity_obstacle_equals_nao_of_straight_path(
     assert hausdorff_to_polylines(pa, ao, pn, nao) <= 2e-2 * extent
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None)
 @given(ao_cases())
 def test_ao_envelope_and_paper_construction_agree(case: AOCase) -> None:

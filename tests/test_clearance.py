@@ -308,6 +308,7 @@ HEAD_ON_NAN = head_on(0.3 / 0.7, 0.3, 0.5)
 HEAD_ON_IMPRECISE = head_on((7 / 12) / (2 / 3), 7 / 12, 0.0)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(scenarios(saturate=False))
 @example(HEAD_ON_NAN)
@@ -330,6 +331,7 @@ SATURATED_NAN = Scenario(
 )
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(scenarios(saturate=True))
 @example(SATURATED_NAN)
@@ -368,6 +370,7 @@ def test_speed_limit_includes_clamping_and_deceleration(
 # --------------------------------------------------------------------------- property 4 (AO)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(
     v=vectors(3.0),
@@ -553,6 +556,7 @@ def sampled_paths(draw: st.DrawFn) -> tuple[FloatArray, FloatArray]:
     return times, draw(trajectories(times))[1]
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(
     velocities=st.lists(vectors(4.0), min_size=1, max_size=4).map(np.array),
@@ -908,6 +912,7 @@ def test_output_shapes() -> None:
     assert vo_clearance(accels, times, many, 0.5).shape == (5, 4)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(sc=scenarios())
 def test_batched_equals_per_obstacle_and_per_candidate(sc: Scenario) -> None:

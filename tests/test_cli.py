@@ -59,6 +59,7 @@ def test_run_errors(capsys, monkeypatch):
     assert "rendering is not available" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_trial_then_report(capsys, tmp_path):
     out = tmp_path / "results"
     code = main(["trial", "--map", "circle_swap_perturbed", "--agent", "goal,nao",
@@ -116,6 +117,8 @@ def _parent_pid(pid: str) -> int | None:
         return None
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals and /proc")
 def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
     """SIGTERM ends a running trial like Ctrl-C: exit 130, no worker left running."""

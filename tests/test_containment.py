@@ -357,6 +357,8 @@ def test_run_stops_a_stuck_agent(tmp_path, capsys, cls):
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 @needs_alarm
 def test_trial_with_two_workers_records_stuck_episodes_and_finishes(tmp_path, capsys):
     file = plugin(tmp_path, "loops", LOOPS)

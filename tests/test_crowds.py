@@ -41,6 +41,7 @@ def _episode(name: str, n: int, seed: int, agent: str = "nao"):
     return arena, summary
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "n", "seed"), CASES)
 def test_nao_robots_all_reach_their_goals_at_once_without_contact(name, n, seed):
     arena, summary = _episode(name, n, seed)
@@ -50,6 +51,7 @@ def test_nao_robots_all_reach_their_goals_at_once_without_contact(name, n, seed)
     assert all(r.final_goal_distance <= 0.1 for r in summary.robots)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "n", "seed"),
                          [("dense_swap", 10, 0), ("dense_swap_perturbed", 10, 0),
                           ("crossing_streams", 20, 0), ("crossing_streams_perturbed", 20, 0)])

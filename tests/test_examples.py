@@ -78,6 +78,8 @@ def test_readme_points_to_every_example():
 # --------------------------------------------------------------------------- examples
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 def test_custom_agent_script(tmp_path):
     out = _script("custom_agent.py", "--map", "crossing", "--set", "n=2",
                   "--time-limit", "3", cwd=tmp_path)
@@ -102,6 +104,7 @@ def _map_commands() -> list[list[str]]:
     return [shlex.split(line)[1:] for line in lines]
 
 
+@pytest.mark.slow
 def test_my_map_and_its_commands(tmp_path, capsys):
     spec = load_map(EXAMPLES / "my_map.yaml")
     assert spec.n_robots == 7 and sum(g.count for g in spec.traffic) == 3
@@ -121,6 +124,8 @@ def test_my_map_and_its_commands(tmp_path, capsys):
     assert json.loads((tmp_path / "pillar" / "summary.json").read_text())[0]["robots"] == 3
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 def test_compare_agents_script(tmp_path):
     out_dir = tmp_path / "compare"
     out = _script("compare_agents.py", "--map", "crossing", "--episodes", "1", "--set", "n=2",
@@ -135,6 +140,8 @@ def test_compare_agents_script(tmp_path):
         assert (out_dir / name).read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 def test_record_gif_script_headless(tmp_path):
     path = tmp_path / "run.gif"
     out = _script("record_gif.py", "--map", "circle_swap", "--set", "n=3", "--seconds", "1",

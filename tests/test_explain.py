@@ -95,6 +95,7 @@ def test_explain_a_wall_contact(tmp_path):
                                 f"{event.time:.2f} s: bumper (goal) and wall {event.b} touched")
 
 
+@pytest.mark.slow
 def test_cli_lists_explains_and_draws(goal_crowd, tmp_path, capsys):
     summary, log = goal_crowd
     path = str(log.path)

@@ -206,6 +206,7 @@ def _random_disks(rng: np.random.Generator) -> np.ndarray:
     return d
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(40))
 def test_drop_contained_matches_reference(seed):
     rng = np.random.default_rng(seed)
@@ -213,6 +214,7 @@ def test_drop_contained_matches_reference(seed):
     np.testing.assert_array_equal(drop_contained(disks), drop_contained_ref(disks))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(60))
 def test_nearest_outside_disks_matches_reference(seed):
     rng = np.random.default_rng(100 + seed)
@@ -235,6 +237,7 @@ def test_nearest_outside_disks_matches_reference(seed):
                 nearest_outside_disks(q, disks, 2.0, max_out, math.inf, 0.999 * ref[0, 2]), ref)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(20))
 def test_capped_disks_are_the_chosen_balls_disks(seed):
     """capped_disks hands back the disks of the ball it chose, whether it worked out their
@@ -374,6 +377,7 @@ def _batch_scene(seed: int):
             v_max, margin)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(25))
 def test_batched_admissibility_matches_admissible_kernel(seed):
     (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
@@ -526,6 +530,7 @@ def _trajectory(map_name: str, episode: int, steps: int, per_robot: bool,
     return np.array(rows)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("map_name", "agent", "params"),
     [
@@ -619,6 +624,7 @@ def test_act_batch_defers_to_an_overridden_act():
 # ---------------------------------------------------------------- disk candidates
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(40))
 def test_compiled_candidate_loop_matches_the_python_loop(seed):
     """_nearest_by_disks confirms its candidates in a compiled loop for the limit disc;
@@ -844,6 +850,7 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
             assert ok == want and tested == 1
 
 
+@pytest.mark.slow
 def test_decide_leaves_non_finite_robots_to_the_caller():
     (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
      margin) = _batch_scene(2)

@@ -86,6 +86,7 @@ def test_nao_paths_boundary_styles_follow_the_grazing_side(nao_paths):
     assert {"-", "--"} <= styles
 
 
+@pytest.mark.slow
 def test_ao_trajectories_legend_names_both_colours():
     fig, ax, caption = _draw("ao_trajectories")
     try:
@@ -103,6 +104,7 @@ def test_ao_trajectories_legend_names_both_colours():
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_every_figure_has_a_legend_and_a_caption():
     for name in FIGURES:
         fig, ax, caption = _draw(name)

@@ -342,6 +342,7 @@ def test_time_limit_from_a_parameter_is_finite_and_positive(value: float) -> Non
     assert msg.startswith(f"t.yaml: {path}: expected a "), msg
 
 
+@pytest.mark.slow
 def test_bounds_at_their_caps_load() -> None:
     data = _replaced(EVERY_NUMBER, "physics.substeps", 1000)
     data = _replaced(data, "physics.iterations", 1000)

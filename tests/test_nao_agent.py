@@ -39,6 +39,7 @@ def agent(**options) -> NAOAgent:
     return ag
 
 
+@pytest.mark.slow
 def test_a_young_adjustment_is_kept_while_admissible_then_reselected():
     obs = observation()
     held = agent()

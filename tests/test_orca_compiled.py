@@ -162,6 +162,7 @@ def scenes(draw) -> tuple[SensingBatch, list[int], list[dict]]:
     return batch, rows, options
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(scenes())
 def test_act_batch_and_act_match_the_reference_on_random_scenes(scene):
@@ -200,6 +201,7 @@ def observations(draw) -> Observation:
     )
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(observations(), orca_options())
 def test_act_matches_the_reference_on_hand_made_observations(obs, options):
@@ -276,12 +278,14 @@ def _episode_rows(map_name: str, seed: int) -> tuple[Arena, int]:
     return arena, steps
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("map_name", "seed"), [("crossing", 3), ("circle_swap_perturbed", 1)])
 def test_whole_episodes_command_what_the_reference_commands_at_every_step(map_name, seed):
     arena, steps = _episode_rows(map_name, seed)
     assert steps > 50 and all(r.reached_goal for r in arena.summary().robots)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not BIT_FOR_BIT, reason="numpy's dot rounds otherwise on this machine")
 @pytest.mark.parametrize(("map_name", "seed"), [("crossing", 0), ("circle_swap_perturbed", 4)])
 def test_whole_episodes_follow_the_reference_trajectory_to_the_bit(map_name, seed):

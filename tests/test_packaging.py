@@ -25,18 +25,24 @@ def test_every_subpackage_is_listed_in_pyproject():
 
 def test_import_exports_only_its_api():
     """``import nao_arena`` defines __all__ and no other public name (no `Any`, `annotations`)."""
+    import os
     import subprocess
     import sys
 
+    from conftest import REGISTERED
+
     code = ("import json, nao_arena; print(json.dumps([nao_arena.__all__, "
             "[n for n in dir(nao_arena) if not n.startswith('_')]]))")
+    # from tests/: the installed package, or (plain checkout) the repository's
+    env = dict(os.environ, PYTHONPATH=str(ROOT)) if REGISTERED else None
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True, cwd=ROOT / "tests")
+                          check=True, cwd=ROOT / "tests", env=env)
     exported, public = json.loads(proc.stdout)
-    assert exported == ["__version__", "env", "parallel_env"]
-    assert public == ["env", "parallel_env"]
+    assert "__version__" in exported and "Arena" in exported  # the list: test_front_door.py
+    assert public == sorted(n for n in exported if not n.startswith("_"))
 
 
+@pytest.mark.installed
 def test_version_has_one_source():
     """pyproject takes the version from nao_arena.__version__; the installed metadata agrees."""
     from importlib.metadata import version
@@ -57,3 +63,86 @@ def test_license_is_an_spdx_string():
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert config["project"]["license"] == "MIT"
     assert "setuptools>=77" in config["build-system"]["requires"]
+
+
+@pytest.mark.slow
+def test_a_plain_install_has_every_file(tmp_path):
+    """``pip install .`` (not editable) ships every sub-package, the mapped folders
+    (agents/ as nao_arena.agents, maps/*.yaml as nao_arena.maps_data) and the py.typed marker."""
+    import shutil
+    import subprocess
+    import sys
+
+    # a copy of the sources: setuptools would reuse a stale build/ folder of the checkout
+    source = tmp_path / "source"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(
+        ".*", "build", "dist", "*.egg-info", "__pycache__", "results", "figures"))
+    target = tmp_path / "site"
+    proc = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "--quiet", "--target",
+         str(target), str(source)], capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    installed = target / "nao_arena"
+    assert (installed / "py.typed").is_file()
+    packages = {init.parent.relative_to(ROOT / "nao_arena").as_posix()
+                for init in (ROOT / "nao_arena").rglob("__init__.py")}
+    for package in packages:
+        assert (installed / package / "__init__.py").is_file(), package
+    agents = {p.name for p in (ROOT / "agents").glob("*.py")}
+    assert {p.name for p in (installed / "agents").glob("*.py")} == agents
+    maps = {p.name for p in (ROOT / "maps").glob("*.yaml")}
+    assert {p.name for p in (installed / "maps_data").glob("*.yaml")} == maps
+
+
+def plain_python(tmp_path: Path) -> Path:
+    """A Python that has this one's dependencies but not nao_arena: a fresh virtual
+    environment whose .pth file lists this interpreter's site-packages folders (folders
+    listed there are on sys.path, but their own .pth files, e.g. an editable install's,
+    are not run)."""
+    import site
+    import subprocess
+    import sys
+    import venv
+
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(with_pip=False).create(env_dir)
+    python = env_dir / ("Scripts/python.exe" if sys.platform == "win32" else "bin/python")
+    proc = subprocess.run([str(python), "-c", "import site; print(site.getsitepackages()[0])"],
+                          capture_output=True, text=True, check=True)
+    folders = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
+    folders += [p for p in site.getsitepackages() if p not in folders]
+    (Path(proc.stdout.strip()) / "dependencies.pth").write_text("\n".join(folders) + "\n")
+    return python
+
+
+@pytest.mark.slow
+def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
+    """``python -m pytest`` from the repository without installing nao_arena: tests/conftest.py
+    registers agents/ and maps/ as nao_arena.agents and nao_arena.maps_data, and skips the
+    tests marked ``installed``."""
+    import os
+    import subprocess
+
+    python = plain_python(tmp_path)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    plain = subprocess.run([str(python), "-c", "import nao_arena.agents"], cwd=ROOT, env=env,
+                           capture_output=True, text=True, check=False)
+    assert "No module named 'nao_arena.agents'" in plain.stderr  # not installed there
+    proc = subprocess.run(
+        [str(python), "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",
+         "tests/test_front_door.py", "tests/test_borrow.py"],
+        cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    # the one test marked `installed` (it starts a Python process) skips, and says why
+    assert " passed, 1 skipped" in proc.stdout, proc.stdout[-3000:]
+    assert "test_borrow.py:" in proc.stdout and "needs nao_arena installed" in proc.stdout
+
+
+def test_conftest_maps_the_folders_as_pyproject_does():
+    from conftest import MAPPED
+
+    tomllib = pytest.importorskip("tomllib")
+    mapping = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-dir"]
+    assert {name: ROOT / folder for name, folder in mapping.items()
+            if name != "nao_arena"} == MAPPED

@@ -155,6 +155,7 @@ def cases(draw: st.DrawFn) -> Case:
 # ------------------------------------------------------------------ tests
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(cases())
 def test_left_out_obstacles_are_unreachable(case: Case) -> None:

@@ -16,6 +16,7 @@ from nao_arena.maps import load_map  # noqa: E402
 from nao_arena.render import FRAME_SIZE, Recorder, Viewer, record_episode  # noqa: E402
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["roundabout", "two_lane_road", "corridor"])
 def test_rgb_array_frames(name):
     e = parallel_env(name, render_mode="rgb_array", time_limit=2.0, map_params={})

@@ -205,6 +205,7 @@ def check_nearest(scene: Scene, a: FloatArray | None) -> str:
     return "previous" if np.array_equal(a, scene.previous) else "moved"
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(scenes())
 def test_repair_is_the_nearest_admissible_candidate(scene: Scene) -> None:
@@ -245,6 +246,7 @@ def test_boxed_in_returns_none() -> None:
     assert scene.repair() is None
 
 
+@pytest.mark.slow
 def test_closing_ring_returns_none() -> None:
     """Obstacles closing in from all sides: no ring candidate survives."""
     times = np.linspace(0.0, 2.0, 9)

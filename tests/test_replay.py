@@ -72,6 +72,7 @@ def test_replayed_frames_equal_the_live_frames(scene, tmp_path, monkeypatch):
         assert red > 20  # the flashed contact is in the compared frames
 
 
+@pytest.mark.slow
 def test_a_frame_reached_by_a_jump_is_the_live_frame(tmp_path, monkeypatch):
     """After a jump (back and forth) the trails are rebuilt from the logged rows: pixel for
     pixel the live frame (headless frames carry no wall-clock line)."""
@@ -95,6 +96,7 @@ def test_the_decision_view_shows_the_next_command(tmp_path, monkeypatch):
         arena.seek(log.n_steps - 1, decision=True)
 
 
+@pytest.mark.slow
 def test_cli_writes_a_frame_and_a_video(tmp_path, monkeypatch, capsys):
     live, log = live_frames("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 1,
                             tmp_path, monkeypatch)

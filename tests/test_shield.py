@@ -366,6 +366,7 @@ COPIES = {"pickle": lambda x: pickle.loads(pickle.dumps(x)),
           "deepcopy": copy.deepcopy}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("how", COPIES)
 def test_copies_mid_episode_continue_bit_for_bit(how):
     e = NAOShield(parallel_env("crossing", time_limit=8.0))

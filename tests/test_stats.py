@@ -77,6 +77,7 @@ def test_segment_distance_against_sampling() -> None:
                              np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]]))[0] == 0.0
 
 
+@pytest.mark.slow
 def test_sweep_pairs_equals_brute_force() -> None:
     rng = np.random.default_rng(2)
     for n in (0, 1, 2, 50, 400):
@@ -580,6 +581,7 @@ def substep_paths(frames: np.ndarray, substeps: int, seed: int) -> np.ndarray:
     return p0 + (p1 - p0) * f + bend + kink * tent
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("substeps", [None, 10])
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_update_equals_numpy_reference(seed: int, substeps: int | None) -> None:

@@ -98,6 +98,7 @@ def test_follower_brakes_behind_a_slow_leader() -> None:
     assert near[0] < -1.0
 
 
+@pytest.mark.slow
 def test_fast_lane_never_rear_ends_a_slow_one_in_the_world() -> None:
     """Two groups on one straight lane: fast cars catch up with a slow car and queue."""
     spec = map_from_dict({

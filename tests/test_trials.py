@@ -122,6 +122,8 @@ def test_files_and_summary(one_worker):
     assert "circle_swap_perturbed" in format_table(summary)
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 def test_same_results_with_two_workers(one_worker, tmp_path):
     out1, summary1 = one_worker
     result = run_trial(small(tmp_path, workers=2, csv=True), progress=None)

@@ -107,6 +107,8 @@ def test_backend_settings_are_checked(tmp_path, capsys):
     assert "invalid choice" in capsys.readouterr().err
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 def test_local_backend_does_not_import_ray(tmp_path):
     code = (
         "import sys\n"

@@ -186,6 +186,7 @@ def test_headless_frames_carry_no_wall_clock(monkeypatch, step):
     assert not any("real time" in t or "steps/s" in t for t in viewer.info.texts)
 
 
+@pytest.mark.slow
 def test_recordings_do_not_depend_on_the_wall_clock(monkeypatch, tmp_path):
     frames = []
     for k, step in enumerate((0.001, 3.0)):

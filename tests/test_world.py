@@ -283,6 +283,8 @@ def test_same_commands_give_identical_arrays() -> None:
     assert np.array_equal(p1, p2) and np.array_equal(v1, v2)
 
 
+@pytest.mark.installed
+@pytest.mark.slow
 def test_bit_identical_across_processes_and_hash_seeds() -> None:
     here = hashlib.sha256()
     for name in ("roundabout", "crowd"):
@@ -374,6 +376,7 @@ def _resident_mib() -> float:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc (Linux)")
 def test_resets_do_not_leak_memory() -> None:
     """3000 resets and steps of one world, and 1000 worlds built, grow the resident memory
