@@ -257,6 +257,7 @@ def test_last_obstacles_and_admissible_report_what_act_tested():
     assert not ag.admissible(obs, np.array([0.0, 2.5]))  # beyond a_max
 
 
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_robots=st.integers(1, 6),
        odd=st.sampled_from(["", "nan", "inf"]), v_pref=st.sampled_from([None, 0.8, 3.0]))
