@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.sensing import Observation
+from nao_arena.agent import PanelAgent
+from nao_arena.sensing import Observation, SensingBatch
 
 APPROACH_GAIN = 1.0  # 1/s: the target speed near the goal, per metre to go (see below)
 
@@ -21,46 +23,81 @@ def goal_target(obs: Observation) -> NDArray[np.float64] | None:
     return None
 
 
+def goal_seeking_accels(
+    targets: NDArray[np.float64], positions: NDArray[np.float64],
+    velocities: NDArray[np.float64], a_max: NDArray[np.float64],
+    speed_cap: NDArray[np.float64], heading_offset: Sequence[float] | None = None,
+    time_constant: float | NDArray[np.float64] = 0.5, braking: float = 0.5,
+    approach_gain: float = APPROACH_GAIN,
+    has_target: NDArray[np.bool_] | None = None,
+) -> NDArray[np.float64]:
+    """Acceleration (n, 2) m/s^2 that tracks a velocity toward each robot's target.
+
+    Per row: target point (m), position (m), velocity (m/s), a_max (m/s^2), speed cap
+    (m/s), heading offset (rad, counter-clockwise positive; None: none) and time
+    constant (s; one for all rows or one per row); rows where
+    ``has_target`` is False (default: every row has one) track standing still.
+
+    Target velocity: towards the target (turned by the heading offset) at
+    min(cap, sqrt(2 b d + (b tau)^2) - b tau, k d) at distance d (m), with b =
+    ``braking`` * a_max and tau = ``time_constant``: the speed from which the robot,
+    lagging tau behind its target, stops at the goal braking at b; k =
+    ``approach_gain`` (1/s): close to the goal the speed falls linearly with the
+    distance (well damped: k tau = 1/2), so that the robot settles on the goal instead
+    of overshooting or chattering around it. The acceleration closes the velocity
+    error in tau s and is scaled to |a| <= a_max.
+    """
+    to_goal = targets - positions
+    dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
+    still = dist < 1e-9
+    if has_target is not None:
+        still |= ~has_target
+    lag = braking * a_max * time_constant
+    # min(cap, stopping speed, k d), the first of equals (Python's min, also with NaN)
+    stop = np.sqrt(2.0 * braking * a_max * dist + lag * lag) - lag
+    speed = np.where(stop < speed_cap, stop, speed_cap)
+    near = approach_gain * dist
+    speed = np.where(near < speed, near, speed)
+    if np.any(still):  # standing still: no direction (and no division by 0)
+        dist = np.where(still, 1.0, dist)
+        speed[still] = 0.0
+    v_target = to_goal / dist[:, None] * speed[:, None]
+    if np.any(still):
+        v_target[still] = 0.0
+    if heading_offset is not None:
+        for i in np.flatnonzero(~still).tolist():
+            turn = heading_offset[i]
+            if turn:
+                c, s_ = np.cos(turn), np.sin(turn)
+                vt = v_target[i].copy()
+                v_target[i] = (c * vt[0] - s_ * vt[1], s_ * vt[0] + c * vt[1])
+    tau = np.asarray(time_constant, dtype=np.float64)
+    acc = (v_target - velocities) / (tau[:, None] if tau.ndim else tau)
+    norm = np.hypot(acc[:, 0], acc[:, 1])
+    over = norm > a_max
+    if np.any(over):
+        acc[over] *= (a_max[over] / norm[over])[:, None]
+    return acc
+
+
 def goal_seeking_accel(
     obs: Observation, v_pref: float | None = None, time_constant: float = 0.5,
     braking: float = 0.5, heading_offset: float = 0.0, approach_gain: float = APPROACH_GAIN,
 ) -> NDArray[np.float64]:
-    """Acceleration (m/s^2) that tracks a velocity toward the goal.
-
-    Target velocity: towards the goal (turned by ``heading_offset`` rad,
-    counter-clockwise positive) at min(v_pref, sqrt(2 b d + (b tau)^2) - b tau,
-    k d) at distance d (m), with b = ``braking`` * a_max and tau =
-    ``time_constant``: the speed from which the robot, lagging tau behind its
-    target, stops at the goal braking at b; k = ``approach_gain`` (1/s): close
-    to the goal the speed falls linearly with the distance (well damped:
-    k tau = 1/2), so that the robot settles on the goal instead of overshooting
-    or chattering around it. The acceleration closes the velocity error in
-    tau s and is scaled to |a| <= a_max.
-    """
+    """:func:`goal_seeking_accels` of one robot (2,) m/s^2: toward its
+    :func:`goal_target` (none: stand still) at speeds up to min(v_pref, v_max) m/s."""
     target = goal_target(obs)
     speed_cap = obs.v_max if v_pref is None else min(v_pref, obs.v_max)
-    if target is None:
-        v_target = np.zeros(2)
-    else:
-        to_goal = target - obs.position
-        dist = float(np.hypot(*to_goal))
-        if dist < 1e-9:
-            v_target = np.zeros(2)
-        else:
-            lag = braking * obs.a_max * time_constant
-            speed = min(speed_cap,
-                        float(np.sqrt(2.0 * braking * obs.a_max * dist + lag * lag)) - lag,
-                        approach_gain * dist)
-            v_target = to_goal / dist * speed
-            if heading_offset:
-                c, s_ = np.cos(heading_offset), np.sin(heading_offset)
-                v_target = np.array([c * v_target[0] - s_ * v_target[1],
-                                     s_ * v_target[0] + c * v_target[1]])
-    acc = (v_target - obs.velocity) / time_constant
-    norm = float(np.hypot(*acc))
-    if norm > obs.a_max:
-        acc *= obs.a_max / norm
-    return acc
+    return goal_seeking_accels(
+        _NO_TARGET if target is None else np.asarray(target, dtype=np.float64)[None],
+        obs.position[None], obs.velocity[None], np.array([obs.a_max], dtype=np.float64),
+        np.array([speed_cap], dtype=np.float64),
+        (heading_offset,) if heading_offset else None, time_constant, braking,
+        approach_gain, _NONE if target is None else None)[0]
+
+
+_NO_TARGET = np.zeros((1, 2))
+_NONE = np.zeros(1, dtype=bool)
 
 
 class GoalAgent:
@@ -75,3 +112,35 @@ class GoalAgent:
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         return goal_seeking_accel(obs, self.v_pref, self.time_constant)
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent: its v_pref."""
+        return PanelAgent(v_pref=self.v_pref)
+
+    @classmethod
+    def act_batch(
+        cls, agents: Sequence[GoalAgent], batch: SensingBatch, rows: Sequence[int]
+    ) -> list[NDArray[np.float64] | Exception]:
+        """:meth:`act` of every robot ``rows`` of ``batch`` at once (agent i drives robot
+        rows[i]): the accelerations (m/s^2), one per row. A subclass that overrides
+        ``act`` gets its ``act`` called robot by robot."""
+        rows_a = np.asarray(rows, dtype=np.int64)
+        if any(type(ag).act is not GoalAgent.act for ag in agents):
+            return [_act_one(ag, batch, k) for ag, k in zip(agents, rows_a.tolist(), strict=True)]
+        bodies = batch.bodies[rows_a]
+        v_max = batch.v_max[bodies]
+        cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
+                        for ag, v in zip(agents, v_max.tolist(), strict=True)])
+        tau = np.array([ag.time_constant for ag in agents], dtype=np.float64)
+        acc = goal_seeking_accels(batch.goals[rows_a], batch.positions[bodies],
+                                  batch.velocities[bodies], batch.a_max[bodies], cap,
+                                  time_constant=tau)
+        return list(acc)
+
+
+def _act_one(agent: GoalAgent, batch: SensingBatch, k: int) -> NDArray[np.float64] | Exception:
+    """``agent.act`` of robot k of ``batch``, or the exception it raised."""
+    try:
+        return agent.act(batch.observation(k))
+    except Exception as exc:  # noqa: BLE001 - the agent's failure
+        return exc

@@ -43,10 +43,14 @@ collision-free for the world's real dynamics over the horizon (up to the
 physics integration error, covered by the margin).
 ``ao`` is the same agent with constant-acceleration predictions (the AO).
 
-In the arena the agents of one class act together (:meth:`NAOAgent.act_batch`,
-the same results as :meth:`NAOAgent.act` robot by robot): predictions once
-per step for all bodies, goal seeking vectorised, the keep test (1.) in one
-compiled call; only the robots that must re-select run the selection.
+The agents of one class act together (:meth:`NAOAgent.act_batch`):
+predictions once per step for all bodies, goal seeking vectorised, the keep
+test (1.), the repairs and the selections in compiled calls; :meth:`NAOAgent.act`
+is ``act_batch`` for the one-robot batch of its observation. A subclass
+customises the agent through its options (as :class:`AOAgent` does) or by
+overriding ``act``, which ``act_batch`` then calls robot by robot.
+:meth:`NAOAgent.last_obstacles` and :meth:`NAOAgent.last_decision` report
+what the last step tested and decided.
 
 :meth:`NAOAgent.nearest_admissible` (and its batch form) is the selection on
 its own, for an acceleration chosen by something else: the safety shield of
@@ -57,28 +61,31 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agent import PanelAgent
 from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
-from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_accel
+from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.geometry import (
     AccelLimits,
     PiecewisePath,
     repair_acceleration,
-    sampled_path,
     select_acceleration,
 )
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
 from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
-from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
+from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry.selection import Selection
-from nao_arena.geometry.walls import wall_discs
+from nao_arena.obstacles import NO_WALLS, obstacle_paths, wall_discs_memo, walls_within
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
+
+if TYPE_CHECKING:
+    from nao_arena.maps import RobotSpec
 
 _SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
 
@@ -134,7 +141,8 @@ class NAOAgent:
         self._grid_regular = False
         self.reset(None, np.random.default_rng(0))
 
-    def reset(self, spec: Any, rng: np.random.Generator) -> None:
+    def reset(self, spec: RobotSpec | None, rng: np.random.Generator) -> None:
+        """Start an episode: no decision yet, no detour; ``rng`` draws the detours."""
         self.current = np.zeros(2)
         self.last_selection = None
         self.age = 0.0
@@ -144,6 +152,9 @@ class NAOAgent:
         self.detour = 0.0
         self.detour_turns = 0
         self.settling = False
+        # what the last step saw: (batch, robot row, predictions, their excursions)
+        self._seen: tuple[SensingBatch, int, NDArray[np.float64],
+                          tuple[NDArray[np.float64], NDArray[np.bool_]]] | None = None
 
     def last_decision(self) -> tuple[Selection | None, NDArray[np.float64], float]:
         """What the agent keeps of its decisions, read-only: its last full selection (None
@@ -151,45 +162,6 @@ class NAOAgent:
         current acceleration (2,) m/s^2 (kept, repaired or selected) and its detour (rad,
         <= 0: the goal direction is turned right by -detour, see the module docstring)."""
         return self.last_selection, np.array(self.current, dtype=np.float64), float(self.detour)
-
-    def _update_detour(self, obs: Observation) -> None:
-        """Track crawling away from the goal; start or end a detour to the right."""
-        speed = float(np.hypot(*obs.velocity))
-        far = obs.goal is not None and float(np.hypot(*(obs.goal - obs.position))) > 4 * obs.radius
-        self._detour_step(far, speed < 0.25 * obs.v_max, obs.dt)
-
-    def obstacle_paths(self, obs: Observation) -> PiecewisePath:
-        """Every neighbour's predicted path and every wall disc in range, robot-relative
-        (m): the whole picture, for display and analysis (the agent itself keeps only
-        the obstacles some acceleration within a_max can reach)."""
-        nb = obs.neighbours
-        predicted = self.predict(self.times, nb) if len(nb) else None
-        return self._paths(predicted, nb.radii, obs.position, obs.radius, obs.walls,
-                           obs.wall_radius)
-
-    def _paths(
-        self,
-        predicted: NDArray[np.float64] | None,
-        nb_radii: NDArray[np.float64],
-        position: NDArray[np.float64],
-        radius: float,
-        walls: NDArray[np.float64],
-        wall_radius: NDArray[np.float64],
-    ) -> PiecewisePath:
-        """Sampled paths of the neighbours' predicted centres (n, T, 2) m (world frame,
-        None: no neighbours) and of the wall discs in range, relative to ``position``,
-        grown by the robot's radius and the margin (m)."""
-        grow = radius + self.margin
-        centres = [predicted - position] if predicted is not None else []
-        radii = ([_within_reach(nb_radii + grow, centres[0][:, 0])]
-                 if predicted is not None else [])
-        if len(walls):
-            rel, wr = self._near_walls(walls, wall_radius, grow, position)
-            centres.append(np.repeat(rel[:, None, :], len(self.times), 1))
-            radii.append(_within_reach(wr, rel))
-        if not centres:
-            return sampled_path(self.times, np.zeros((0, len(self.times), 2)), np.zeros(0))
-        return sampled_path(self.times, np.concatenate(centres), np.concatenate(radii))
 
     def _regular_grid(self) -> bool:
         """Whether the time grid starts at 0 and increases (what the compiled paths
@@ -216,9 +188,8 @@ class NAOAgent:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The wall discs in sensing range: centres relative to ``position`` (m), radii
         grown by ``grow`` (m)."""
-        wc, wr = _wall_discs(walls, wall_radius, grow)
-        near = np.hypot(*(wc - position).T) <= self.sensing_range + wr
-        return wc[near] - position, wr[near]
+        wc, wr = wall_discs_memo(walls, wall_radius, grow)
+        return walls_within(wc, wr, position, self.sensing_range)
 
     def _relevant_paths(
         self,
@@ -234,21 +205,25 @@ class NAOAgent:
         a_max: float,
         v_max: float,
     ) -> PiecewisePath:
-        """:meth:`_paths` of the neighbours predicted[idx] (radii nb_radii[idx]) and walls,
-        without the obstacles that no acceleration within a_max (m/s^2) can reach
-        (velocity m/s, speed limit v_max m/s): what every selection drops first
-        (:func:`relevant_obstacles`), built in one compiled pass. excursions:
-        :func:`path_excursions` of ``predicted`` (shared by the robots of a step)."""
+        """:func:`~nao_arena.obstacles.obstacle_paths` of the neighbours predicted[idx]
+        (radii nb_radii[idx]) and the wall discs in sensing range, without the obstacles
+        that no acceleration within a_max (m/s^2) can reach (velocity m/s, speed limit
+        v_max m/s): what every selection drops first (:func:`relevant_obstacles`), built
+        in one compiled pass (where the time grid is regular and the velocity finite).
+        excursions: :func:`path_excursions` of ``predicted`` (shared by the robots of a
+        step)."""
         times = self.times
         if not (self._regular_grid() and math.isfinite(velocity[0])
                 and math.isfinite(velocity[1])):
-            return self._paths(predicted[idx] if len(idx) else None, nb_radii[idx], position,
-                               radius, walls, wall_radius)
+            grow = radius + self.margin
+            wc, wr = wall_discs_memo(walls, wall_radius, grow)
+            return obstacle_paths(times, predicted[idx], nb_radii[idx] + grow, position, wc, wr,
+                                  self.sensing_range)
         grow = radius + self.margin
         if len(walls):
             wall_rel, wall_r = self._near_walls(walls, wall_radius, grow, position)
         else:
-            wall_rel, wall_r = _NO_WALLS
+            wall_rel, wall_r = NO_WALLS
         c, w, b, rad, finite = relevant_sampled_paths(
             times, predicted, idx, position, nb_radii, grow, np.ascontiguousarray(wall_rel),
             np.ascontiguousarray(wall_r), velocity, float(a_max) * (1.0 + 1e-9), float(v_max),
@@ -256,18 +231,6 @@ class NAOAgent:
         if not finite:
             raise ValueError("centers: expected finite values")
         return PiecewisePath(times, c, w, b, rad)
-
-    def _admissible(self, a: NDArray[np.float64], obs: Observation, path: PiecewisePath) -> bool:
-        if float(np.hypot(*a)) > obs.a_max * (1 + 1e-9):
-            return False
-        if path.n_obstacles == 0:
-            return True
-        ok = np.empty(1, dtype=bool)
-        admissible_kernel(
-            obs.velocity[None].copy(), a[None].copy(), obs.v_max, *path.arrays,
-            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
-        )
-        return bool(ok[0])
 
     def _select(
         self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
@@ -326,143 +289,82 @@ class NAOAgent:
         return 0.0 if self.settling else self.keep_band
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
-        if not self.replan and self.last_selection is not None:
-            return self.current
-        self._update_detour(obs)
-        self.settling = (obs.goal is not None
-                         and float(np.hypot(*(obs.goal - obs.position))) <= self.goal_zone)
-        self.age += obs.dt
-        desired = goal_seeking_accel(obs, self.v_pref, heading_offset=self.detour)
-        path = self._observed_path(obs)
-        if (
-            (float(np.hypot(*(self.current - desired))) <= self._band()
-             or self._holds_adjustment())
-            and self._admissible(self.current, obs, path)
-        ):
-            return self.current
-        fixed = self._repair(desired, obs.velocity, path, obs.a_max, obs.v_max)
-        if fixed is not None:
-            return fixed
-        traffic = "traffic" in obs.neighbours.kinds
-        return self._select(desired, obs.velocity, path, obs.a_max, obs.v_max, obs.dt,
-                            traffic)
-
-    def _observed_path(self, obs: Observation) -> PiecewisePath:
-        """:meth:`_relevant_paths` of everything ``obs`` senses: its neighbours' predicted
-        paths and the walls, robot-relative (m)."""
-        nb = obs.neighbours
-        predicted = (np.ascontiguousarray(self.predict(self.times, nb), dtype=np.float64)
-                     if len(nb) else np.zeros((0, len(self.times), 2)))
-        return self._relevant_paths(predicted, path_excursions(predicted), np.arange(len(nb)),
-                                    np.asarray(nb.radii, float),
-                                    obs.position, obs.radius, obs.walls, obs.wall_radius,
-                                    obs.velocity, obs.a_max, obs.v_max)
+        """The robot's acceleration (m/s^2): :meth:`act_batch` for the one-robot batch of
+        ``obs`` (:meth:`SensingBatch.of_observation`); raises what that reports."""
+        out = _act_rows([self], SensingBatch.of_observation(obs), np.zeros(1, dtype=np.int64))
+        if isinstance(out[0], Exception):
+            raise out[0]
+        return out[0]
 
     @classmethod
     def act_batch(
         cls, agents: Sequence[NAOAgent], batch: SensingBatch, rows: Sequence[int]
     ) -> list[NDArray[np.float64] | Exception]:
-        """:meth:`act` for many robots at once, from the bulk arrays (same results).
+        """The accelerations (m/s^2) of the robots ``rows`` of ``batch`` (agent i drives
+        robot rows[i]), one per row, or the exception that robot's step raised.
 
         Predictions are made once per step for all bodies (per predictor and
         time grid) and indexed per robot; goal seeking is vectorised; whether
         the current accelerations stay admissible is decided in one compiled
-        call; only the robots that must re-select run the full selection.
-        Returns one acceleration (m/s^2) or exception per row.
+        call, and so are the repairs and selections of the others; only what
+        that leaves undecided (non-finite input, an irregular time grid, no
+        admissible acceleration with ``infeasible="latest_contact"``) runs
+        robot by robot. A subclass that overrides :meth:`act` gets its own
+        ``act`` called robot by robot (the one hook besides the options).
         """
-        n = len(rows)
-        out: list[NDArray[np.float64] | Exception | None] = [None] * n
         rows_a = np.asarray(rows, dtype=np.int64)
-        bodies = batch.bodies[rows_a]
-        pos = batch.positions[bodies]
-        vel = batch.velocities[bodies]
-        rad = batch.radii[bodies]
-        a_max = batch.a_max[bodies]
-        v_max = batch.v_max[bodies]
-        goals = batch.goals[rows_a]
-        own = [i for i, ag in enumerate(agents) if not _batchable(type(ag))]
+        out: list[NDArray[np.float64] | Exception | None] = [None] * len(rows_a)
+        own = [i for i, ag in enumerate(agents) if type(ag).act is not NAOAgent.act]
         for i in own:
-            # a subclass with its own act / paths / keep test acts robot by robot
             try:
                 out[i] = agents[i].act(batch.observation(int(rows_a[i])))
             except Exception as exc:  # noqa: BLE001 - the agent's failure
                 out[i] = exc
-        live = [i for i, ag in enumerate(agents)
-                if (ag.replan or ag.last_selection is None) and out[i] is None]
-        for i, ag in enumerate(agents):
-            if out[i] is None and not (ag.replan or ag.last_selection is None):
-                out[i] = ag.current
-        if not live:
-            return out  # type: ignore[return-value]
-        # liveness bookkeeping, as _update_detour
-        speed = np.hypot(vel[:, 0], vel[:, 1])
-        to_goal = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1])
-        far_l = (to_goal > 4 * rad).tolist()
-        to_goal_l = to_goal.tolist()
-        crawling = (speed < 0.25 * v_max).tolist()
-        for i in live:
-            agents[i]._detour_step(far_l[i], crawling[i], batch.dt)
-            agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
-            agents[i].age += batch.dt
-        desired = _goal_seeking_batch(agents, batch, rows_a, pos, vel, a_max, v_max, goals)
-        # predictions: once per (predictor, time grid) for every body
-        groups: dict[tuple[str, bytes], list[int]] = {}
-        for i in live:
-            groups.setdefault(agents[i]._grid_key(), []).append(i)
-        traffic_near = _traffic_near(batch, rows_a)
-        current = np.array([ag.current for ag in agents]).reshape(n, 2)
-        for members in groups.values():
-            ag0 = agents[members[0]]
-            try:
-                pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
-                                            dtype=np.float64)
-            except Exception as exc:  # noqa: BLE001 - the agents' failure
-                for i in members:
-                    out[i] = exc
-                continue
-            excursions = path_excursions(pred)
-            lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
-                     if ag0._regular_grid() else None)
-            holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
-            margin = np.array([agents[i].margin for i in members])
-            status = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
-                                   vel, rad, v_max, current, desired, a_max, holds, margin)
-            decided = (_decide(members, status, agents, pred, excursions, lists, batch.radii,
-                               pos, vel, rad, a_max, v_max, current, desired, holds, margin)
-                       if lists is not None else None)
-            for j, (i, st) in enumerate(zip(members, status, strict=True)):
-                ag = agents[i]
-                if st == 1:
-                    out[i] = ag.current
-                    continue
-                k = int(rows_a[i])
-                try:
-                    if decided is not None and st == 0:
-                        done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
-                                              batch.dt, bool(traffic_near[i]))
-                        if done is not None:
-                            out[i] = done
-                            continue
-                    idx = batch.neighbour_ids(k)
-                    path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
-                                              float(rad[i]),
-                                              batch.walls, batch.wall_radius, vel[i],
-                                              float(a_max[i]), float(v_max[i]))
-                    if st == 2 and ag._admissible_arrays(current[i], vel[i], float(a_max[i]),
-                                                         float(v_max[i]), path):
-                        out[i] = ag.current
-                        continue
-                    fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]),
-                                       float(v_max[i]))
-                    if fixed is not None:
-                        out[i] = fixed
-                        continue
-                    traffic = bool(np.any(batch.kinds[idx] == "traffic"))
-                    out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
-                                        float(v_max[i]), batch.dt, traffic)
-                except Exception as exc:  # noqa: BLE001 - the agent's failure
-                    out[i] = exc
+        if not own:
+            return _act_rows(agents, batch, rows_a)
+        rest = [i for i in range(len(rows_a)) if out[i] is None]
+        if rest:
+            done = _act_rows([agents[i] for i in rest], batch, rows_a[rest])
+            for i, res in zip(rest, done, strict=True):
+                out[i] = res
         return out  # type: ignore[return-value]
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent (its time grid,
+        predictor, margin, v_pref, detour and the status of its last selection)."""
+        sel = self.last_selection
+        return PanelAgent(times=self.times, predict=self.predict, margin=self.margin,
+                          v_pref=self.v_pref, detour=float(self.detour),
+                          status=None if sel is None else sel.status)
+
+    def last_obstacles(self) -> PiecewisePath | None:
+        """The obstacles of the agent's last step (None before its first): its
+        neighbours' predicted paths and the wall discs in range, robot-relative (m),
+        grown by its radius and margin, without those no acceleration within a_max could
+        reach: what its keep test, repair and selection tested."""
+        return None if self._seen is None else self._paths_of(*self._seen)
+
+    def admissible(self, obs: Observation, accel: NDArray[np.float64]) -> bool:
+        """Whether ``accel`` (2,) m/s^2 is within a_max and keeps the robot of ``obs`` clear
+        of every obstacle the agent would see there (its keep test; changes nothing)."""
+        batch = SensingBatch.of_observation(obs)
+        pred = np.ascontiguousarray(self.predict(self.times, batch.everyone()),
+                                    dtype=np.float64)
+        path = self._paths_of(batch, 0, pred, path_excursions(pred))
+        return self._admissible(np.asarray(accel, dtype=np.float64), batch.velocities[0],
+                                obs.a_max, obs.v_max, path)
+
+    def _paths_of(
+        self, batch: SensingBatch, k: int, pred: NDArray[np.float64],
+        excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    ) -> PiecewisePath:
+        """:meth:`_relevant_paths` of robot k of ``batch`` (predictions ``pred`` of every
+        body, with their :func:`path_excursions`)."""
+        body = int(batch.bodies[k])
+        return self._relevant_paths(pred, excursions, batch.neighbour_ids(k), batch.radii,
+                                    batch.positions[body], float(batch.radii[body]),
+                                    batch.walls, batch.wall_radius, batch.velocities[body],
+                                    float(batch.a_max[body]), float(batch.v_max[body]))
 
     def _detour_step(self, far: bool, crawling: bool, dt: float) -> None:
         """:meth:`_update_detour` from precomputed tests (far from the goal, below v_max / 4)."""
@@ -481,11 +383,12 @@ class NAOAgent:
             self.detour = 0.0
             self.detour_turns = 0
 
-    def _admissible_arrays(
+    def _admissible(
         self, a: NDArray[np.float64], v: NDArray[np.float64], a_max: float, v_max: float,
         path: PiecewisePath,
     ) -> bool:
-        """:meth:`_admissible` from arrays: a (m/s^2), v (m/s), limits a_max, v_max."""
+        """Whether acceleration a (m/s^2) is within a_max and keeps the robot (velocity v m/s,
+        speed limit v_max m/s) clear of every obstacle of ``path`` over the horizon."""
         if float(np.hypot(*a)) > a_max * (1 + 1e-9):
             return False
         if path.n_obstacles == 0:
@@ -512,11 +415,10 @@ class NAOAgent:
         admissible one) or "infeasible" (nothing admissible: the fallback of
         ``infeasible``). Call once per control step: it ages the current adjustment
         (``reselect_after``) and the result becomes the current acceleration."""
-        want = _desired_rows(desired, 1)[0]
-        self.age += obs.dt
-        path = self._observed_path(obs)
-        return self._nearest_on(want, obs.velocity, path, obs.a_max, obs.v_max, obs.dt,
-                                "traffic" in obs.neighbours.kinds)
+        want = _desired_rows(desired, 1)
+        out, status = NAOAgent.nearest_admissible_batch(
+            [self], SensingBatch.of_observation(obs), [0], want)
+        return out[0], status[0]
 
     def _nearest_on(
         self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
@@ -525,7 +427,7 @@ class NAOAgent:
         """:meth:`nearest_admissible` on the robot's obstacle paths ``path`` (velocity m/s,
         limits a_max m/s^2 and v_max m/s, control period dt s; traffic: whether traffic is
         among the neighbours)."""
-        if self._admissible_arrays(desired, velocity, a_max, v_max, path):
+        if self._admissible(desired, velocity, a_max, v_max, path):
             self.current = desired.copy()
             return self.current, "kept"
         fixed = self._repair(desired, velocity, path, a_max, v_max)
@@ -550,32 +452,19 @@ class NAOAgent:
         want = _desired_rows(desired, n)
         out = np.zeros((n, 2))
         status = [""] * n
-        bodies = batch.bodies[rows_a]
-        pos = batch.positions[bodies]
-        vel = batch.velocities[bodies]
-        rad = batch.radii[bodies]
-        a_max = batch.a_max[bodies]
-        v_max = batch.v_max[bodies]
+        pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
         groups: dict[tuple[str, bytes], list[int]] = {}
         for i, ag in enumerate(agents):
-            if _batchable(type(ag)):
-                ag.age += batch.dt
-                groups.setdefault(ag._grid_key(), []).append(i)
-            else:
-                out[i], status[i] = ag.nearest_admissible(batch.observation(int(rows_a[i])),
-                                                          want[i])
-        if not groups:
-            return out, status
+            ag.age += batch.dt
+            groups.setdefault(ag._grid_key(), []).append(i)
         traffic_near = _traffic_near(batch, rows_a)
         previous = np.array([ag.current for ag in agents], dtype=np.float64).reshape(n, 2)
         for members in groups.values():
             ag0 = agents[members[0]]
             pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
                                         dtype=np.float64)
-            excursions = path_excursions(pred)
-            lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
-                     if ag0._regular_grid() else None)
-            margin = np.array([agents[i].margin for i in members])
+            excursions, lists, margin = _group_view(members, agents, batch, rows_a, pos, rad,
+                                                    pred)
             # the keep test with the desired accelerations as the ones to keep
             every = np.ones(len(members), dtype=bool)
             keep = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
@@ -597,10 +486,7 @@ class NAOAgent:
                         out[i], status[i] = done, _KIND_STATUS[int(decided[0][j])]
                         continue
                 # undecided here: robot by robot
-                idx = batch.neighbour_ids(int(rows_a[i]))
-                path = ag._relevant_paths(pred, excursions, idx, batch.radii, pos[i],
-                                          float(rad[i]), batch.walls, batch.wall_radius,
-                                          vel[i], float(a_max[i]), float(v_max[i]))
+                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
                 out[i], status[i] = ag._nearest_on(want[i], vel[i], path, float(a_max[i]),
                                                    float(v_max[i]), batch.dt,
                                                    bool(traffic_near[i]))
@@ -627,17 +513,6 @@ _KIND_STATUS = {REPAIRED: "repaired", DESIRED: "kept", ADJUSTED: "adjusted",
                 INFEASIBLE: "infeasible"}
 
 
-def _within_reach(
-    radii: NDArray[np.float64], rel: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Grown radii (m) cut to just under the current distances of the centres ``rel``
-    (n, 2) m: an obstacle already inside its margin (or touching) keeps the robot from
-    closing in further but lets it move away, instead of making every acceleration
-    inadmissible. The same operations as the compiled keep test."""
-    dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
-    return np.minimum(radii, dist * RADIUS_CUT)
-
-
 _LIMITS: dict[float, AccelLimits] = {}
 
 
@@ -649,81 +524,6 @@ def _limits(a_max: float) -> AccelLimits:
             _LIMITS.clear()
         lim = _LIMITS[a_max] = AccelLimits(a_max)
     return lim
-
-
-_BATCHABLE: dict[type, bool] = {}
-
-
-def _batchable(cls: type) -> bool:
-    """Whether :meth:`NAOAgent.act_batch` computes what ``cls.act`` computes (no override
-    of the per-robot steps it reimplements); memoised per class."""
-    known = _BATCHABLE.get(cls)
-    if known is None:
-        known = _BATCHABLE[cls] = _overrides_nothing(cls)
-    return known
-
-
-def _overrides_nothing(cls: type) -> bool:
-    return all(getattr(cls, name) is getattr(NAOAgent, name)
-               for name in ("act", "obstacle_paths", "_admissible", "_update_detour",
-                            "_select", "_paths", "_relevant_paths", "_near_walls",
-                            "_regular_grid", "_holds_adjustment", "_band", "_repair",
-                            "_fallback", "_commit", "_observed_path", "nearest_admissible",
-                            "_nearest_on"))
-
-
-_NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
-_WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
-
-
-def _wall_discs(
-    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`wall_discs` (centres m, radii m), memoised: walls do not move."""
-    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
-           float(grow))
-    hit = _WALL_CACHE.get(key)
-    if hit is None:
-        if len(_WALL_CACHE) > 64:
-            _WALL_CACHE.clear()
-        hit = wall_discs(walls, wall_radius, grow)
-        _WALL_CACHE[key] = hit
-    return hit
-
-
-def _goal_seeking_batch(
-    agents: Sequence[NAOAgent], batch: SensingBatch, rows: NDArray[np.int64],
-    pos: NDArray[np.float64], vel: NDArray[np.float64], a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64], goals: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """:func:`goal_seeking_accel` (default time constant and braking) per row, (n, 2) m/s^2,
-    with the same floating-point operations; rows it does not cover (no finite goal)
-    go through the function itself."""
-    cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
-                    for ag, v in zip(agents, v_max.tolist(), strict=True)])
-    to_goal = goals - pos
-    dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lag = 0.5 * a_max * 0.5
-        speed = np.minimum(np.minimum(cap, np.sqrt(2.0 * 0.5 * a_max * dist + lag * lag) - lag),
-                           APPROACH_GAIN * dist)
-        v_target = to_goal / dist[:, None] * speed[:, None]
-    still = dist < 1e-9
-    v_target[still] = 0.0
-    for i, (ag, at_goal) in enumerate(zip(agents, still.tolist(), strict=True)):
-        if ag.detour and not at_goal:
-            c, s_ = np.cos(ag.detour), np.sin(ag.detour)
-            vt = v_target[i].copy()
-            v_target[i] = (c * vt[0] - s_ * vt[1], s_ * vt[0] + c * vt[1])
-    acc = (v_target - vel) / 0.5
-    norm = np.hypot(acc[:, 0], acc[:, 1])
-    over = norm > a_max
-    acc[over] *= (a_max[over] / norm[over])[:, None]
-    bad = ~np.isfinite(dist)
-    for i in np.flatnonzero(bad):
-        acc[i] = goal_seeking_accel(batch.observation(int(rows[i])), agents[i].v_pref,
-                                    heading_offset=agents[i].detour)
-    return acc
 
 
 def _obstacle_lists(
@@ -756,7 +556,7 @@ def _obstacle_lists(
     which: list[NDArray[np.int64]] = []
     offset = 0
     for g in dict.fromkeys(grow.tolist()):
-        wc, wr = _wall_discs(batch.walls, batch.wall_radius, g)
+        wc, wr = wall_discs_memo(batch.walls, batch.wall_radius, g)
         sel = np.flatnonzero(grow == g)
         p = pos[m[sel]]
         near = np.hypot(wc[None, :, 0] - p[:, 0, None], wc[None, :, 1] - p[:, 1, None]) <= (
@@ -824,7 +624,7 @@ def _decide(
     holds: NDArray[np.bool_], margin: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
     """The repairs (of the young adjustments, ``holds``) and selections of the members
-    with status 0, in one compiled call (:func:`~nao_arena.geometry.decide.decide`):
+    with status 0, in one compiled call (:func:`~nao_arena.agents._nao_decide.decide`):
     (kind, accel m/s^2, tested) per member, or None when there are none."""
     todo = np.array([j for j, st in enumerate(status) if st == 0], dtype=np.int64)
     if len(todo) == 0:
@@ -866,6 +666,138 @@ def _traffic_near(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bo
         return np.zeros(len(rows), dtype=bool)
     seen = np.concatenate([[0], np.cumsum(is_traffic[batch.nb_index])])
     return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
+
+
+def _own_state(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+    NDArray[np.float64],
+]:
+    """The robots' own state, one row per robot of ``rows_a``: positions (m), velocities
+    (m/s), radii (m), a_max (m/s^2), v_max (m/s)."""
+    bodies = batch.bodies[rows_a]
+    return (batch.positions[bodies], batch.velocities[bodies], batch.radii[bodies],
+            batch.a_max[bodies], batch.v_max[bodies])
+
+
+def _group_view(
+    members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
+    rows_a: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
+    pred: NDArray[np.float64],
+) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], tuple[NDArray[Any], ...] | None,
+           NDArray[np.float64]]:
+    """What the agents ``members`` (one predictor and time grid) decide from, given the
+    predictions ``pred`` of every body: their :func:`path_excursions`, the members'
+    :func:`_obstacle_lists` (None: an irregular time grid) and margins (m). Each member
+    keeps what it saw (:meth:`NAOAgent.last_obstacles`)."""
+    excursions = path_excursions(pred)
+    for i in members:
+        agents[i]._seen = (batch, int(rows_a[i]), pred, excursions)
+    lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
+             if agents[members[0]]._regular_grid() else None)
+    return excursions, lists, np.array([agents[i].margin for i in members])
+
+
+def _act_rows(
+    agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64]
+) -> list[NDArray[np.float64] | Exception]:
+    """:meth:`NAOAgent.act_batch` of agents that act as :class:`NAOAgent` does."""
+    n = len(rows_a)
+    out: list[NDArray[np.float64] | Exception | None] = [None] * n
+    pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
+    goals = batch.goals[rows_a]
+    live = [i for i, ag in enumerate(agents) if ag.replan or ag.last_selection is None]
+    if len(live) < n:
+        for i, ag in enumerate(agents):
+            if not (ag.replan or ag.last_selection is None):
+                out[i] = ag.current  # the open-loop hold
+        if not live:
+            return out  # type: ignore[return-value]
+    # liveness bookkeeping: crawling away from the goal starts a detour
+    speed = np.hypot(vel[:, 0], vel[:, 1])
+    to_goal = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1])
+    far_l = (to_goal > 4 * rad).tolist()
+    to_goal_l = to_goal.tolist()
+    crawling = (speed < 0.25 * v_max).tolist()
+    for i in live:
+        agents[i]._detour_step(far_l[i], crawling[i], batch.dt)
+        agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
+        agents[i].age += batch.dt
+    desired = _desired(agents, batch, rows_a, goals, pos, vel, a_max, v_max)
+    # predictions: once per (predictor, time grid) for every body
+    groups: dict[tuple[str, bytes], list[int]] = {}
+    for i in live:
+        groups.setdefault(agents[i]._grid_key(), []).append(i)
+    traffic_near = _traffic_near(batch, rows_a)
+    current = np.array([ag.current for ag in agents]).reshape(n, 2)
+    for members in groups.values():
+        ag0 = agents[members[0]]
+        try:
+            pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
+                                        dtype=np.float64)
+        except Exception as exc:  # noqa: BLE001 - the agents' failure
+            for i in members:
+                out[i] = exc
+            continue
+        excursions, lists, margin = _group_view(members, agents, batch, rows_a, pos, rad, pred)
+        holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
+        status = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
+                               vel, rad, v_max, current, desired, a_max, holds, margin)
+        decided = (_decide(members, status, agents, pred, excursions, lists, batch.radii,
+                           pos, vel, rad, a_max, v_max, current, desired, holds, margin)
+                   if lists is not None else None)
+        for j, (i, st) in enumerate(zip(members, status, strict=True)):
+            ag = agents[i]
+            if st == 1:
+                out[i] = ag.current
+                continue
+            try:
+                if decided is not None and st == 0:
+                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
+                                          batch.dt, bool(traffic_near[i]))
+                    if done is not None:
+                        out[i] = done
+                        continue
+                # undecided by the compiled calls: robot by robot
+                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
+                if st == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
+                                              float(v_max[i]), path):
+                    out[i] = ag.current
+                    continue
+                fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]),
+                                   float(v_max[i]))
+                if fixed is not None:
+                    out[i] = fixed
+                    continue
+                out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
+                                    float(v_max[i]), batch.dt, bool(traffic_near[i]))
+            except Exception as exc:  # noqa: BLE001 - the agent's failure
+                out[i] = exc
+    return out  # type: ignore[return-value]
+
+
+def _desired(
+    agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64],
+    goals: NDArray[np.float64], pos: NDArray[np.float64], vel: NDArray[np.float64],
+    a_max: NDArray[np.float64], v_max: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The goal-seeking accelerations (n, 2) m/s^2 (:func:`goal_seeking_accels`, turned by
+    each agent's detour) toward the robots' goals; a robot without a finite goal heads
+    for its route's last waypoint, or stands still without one."""
+    targets = goals
+    has_target = None
+    lost = ~np.all(np.isfinite(goals), axis=1)
+    if np.any(lost):
+        targets = goals.copy()
+        has_target = ~lost
+        for i in np.flatnonzero(lost).tolist():
+            route = batch.routes[int(rows_a[i])]
+            if route is not None and len(route):
+                targets[i] = route[-1]
+                has_target[i] = True
+    cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
+                    for ag, v in zip(agents, v_max.tolist(), strict=True)])
+    return goal_seeking_accels(targets, pos, vel, a_max, cap, [ag.detour for ag in agents],
+                               has_target=has_target)
 
 
 class AOAgent(NAOAgent):

@@ -35,8 +35,9 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
+from nao_arena.agent import PanelAgent
 from nao_arena.agents.goal import goal_target
-from nao_arena.geometry.walls import wall_discs
+from nao_arena.obstacles import NO_WALLS, wall_discs_memo
 from nao_arena.sensing import Observation, SensingBatch
 
 __all__ = ["ORCAAgent", "orca_accelerations"]
@@ -406,39 +407,16 @@ def _number(name: str, value: Any, low: float, strict: bool, unit: str) -> float
     return x
 
 
-_NO_WALLS = (np.zeros((0, 2)), np.zeros(0))
-_WALL_CACHE: dict[tuple[bytes, bytes, float], tuple[NDArray[np.float64],
-                                                     NDArray[np.float64]]] = {}
-
-
-def _wall_discs(
-    walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`wall_discs` (centres (M, 2) m, radii (M,) m), memoised: walls do not move."""
-    if not len(walls):
-        return _NO_WALLS
-    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
-           float(grow))
-    hit = _WALL_CACHE.get(key)
-    if hit is None:
-        if len(_WALL_CACHE) > 64:
-            _WALL_CACHE.clear()
-        wc, wr = wall_discs(walls, wall_radius, grow)
-        hit = _WALL_CACHE[key] = (np.ascontiguousarray(wc, dtype=np.float64),
-                                  np.ascontiguousarray(wr, dtype=np.float64))
-    return hit
-
-
 def _wall_sets(
     walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     """The wall discs per grown radius (m) the rows have: centres, radii, set starts and
     each row's set (-1: no walls)."""
     if not len(walls):
-        return (_NO_WALLS[0], _NO_WALLS[1], np.zeros(1, dtype=np.int64),
+        return (NO_WALLS[0], NO_WALLS[1], np.zeros(1, dtype=np.int64),
                 np.full(len(grow), -1, dtype=np.int64))
     values = list(dict.fromkeys(grow.tolist()))
-    parts = [_wall_discs(walls, wall_radius, g) for g in values]
+    parts = [wall_discs_memo(walls, wall_radius, g) for g in values]
     start = np.zeros(len(parts) + 1, dtype=np.int64)
     np.cumsum([len(r) for _, r in parts], out=start[1:])
     which = {g: s for s, g in enumerate(values)}
@@ -485,6 +463,10 @@ class ORCAAgent:
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
         """Stateless."""
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent: margin and v_pref."""
+        return PanelAgent(margin=float(self.margin), v_pref=self.v_pref)
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         """The ORCA acceleration (m/s^2) of the robot ``obs`` describes."""

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agent import PanelAgent
 from nao_arena.agents._obstacles import observed_discs, preferred_velocity, track_velocity
 from nao_arena.geometry import vo_clearance
 from nao_arena.sensing import Observation
@@ -46,6 +47,10 @@ class VOAgent:
         ang = 2 * np.pi * np.arange(self.angles) / self.angles
         grid = (r[:, None, None] * np.stack([np.cos(ang), np.sin(ang)], -1)[None]).reshape(-1, 2)
         return np.concatenate([pref[None], obs.velocity[None], np.zeros((1, 2)), grid])
+
+    def panel(self) -> PanelAgent:
+        """What the viewer's acceleration panel shows of this agent: margin and v_pref."""
+        return PanelAgent(margin=float(self.margin), v_pref=self.v_pref)
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         pref = preferred_velocity(obs, self.v_pref)

@@ -36,16 +36,20 @@ import importlib
 import importlib.util
 import sys
 from dataclasses import dataclass
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.predictors import Predictor
 from nao_arena.sensing import Observation
 from nao_arena.watchdog import EpisodeTimeout
+
+if TYPE_CHECKING:
+    from nao_arena.maps import RobotSpec
 
 __all__ = [
     "BUILTIN_AGENTS",
@@ -53,6 +57,8 @@ __all__ = [
     "Agent",
     "AgentError",
     "AgentFault",
+    "PanelAgent",
+    "ShowsPanel",
     "available_agents",
     "describe",
     "load_agent",
@@ -79,9 +85,32 @@ BUILTIN_AGENTS: dict[str, str] = {
 class Agent(Protocol):
     """Drives one robot: ``reset`` once per episode, ``act`` once per control step."""
 
-    def reset(self, spec: Any, rng: np.random.Generator) -> None: ...
+    def reset(self, spec: RobotSpec, rng: np.random.Generator) -> None: ...
 
     def act(self, obs: Observation) -> NDArray[np.float64]: ...
+
+
+@dataclass(frozen=True)
+class PanelAgent:
+    """What the viewer's acceleration panel shows of a robot's agent: its time grid (s)
+    and predictor (None: turn-rate predictions over 3 s), safety margin (m), preferred
+    speed (m/s; None: v_max), detour (rad; its goal direction is turned by it) and the
+    status of its last full selection (None: it reports none)."""
+
+    times: NDArray[np.float64] | None = None
+    predict: Predictor | None = None
+    margin: float = 0.0
+    v_pref: float | None = None
+    detour: float = 0.0
+    status: str | None = None
+
+
+@runtime_checkable
+class ShowsPanel(Protocol):
+    """An agent that tells the viewer's acceleration panel how it plans (agents without
+    ``panel`` are shown with the defaults of :class:`PanelAgent`)."""
+
+    def panel(self) -> PanelAgent: ...
 
 
 @dataclass(frozen=True)
@@ -148,7 +177,7 @@ def _load_from_module(module_name: str, cls: str) -> type:
         raise ValueError(f"agent {module_name}:{cls}: {module_name} defines no {cls!r}") from None
 
 
-def _plugins() -> dict[str, Any]:
+def _plugins() -> dict[str, EntryPoint]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 

@@ -147,7 +147,7 @@ class Arena:
         self.options = options or ArenaOptions()
         self.world = World(spec)
         self.traffic = LaneTraffic.from_map(spec)
-        self.robot_ids = self.world.robot_indices
+        self.robot_ids = self.world.robot_indices  # body index of robot k (robot order)
         self.robots = list(spec.robots)
         self.agent_names = [self.options.agent or r.agent for r in self.robots]
         # what agents sense is read-only (see SensingBatch): goals, routes, walls, times

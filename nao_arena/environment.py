@@ -137,11 +137,12 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, ArenaOptions, StepResult
-from nao_arena.geometry.clearance import path_clearance, sampled_path
+from nao_arena.geometry.clearance import path_clearance
 from nao_arena.geometry.walls import wall_discs
 from nao_arena.maps import MapSpec, load_map
+from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
-from nao_arena.sensing import Neighbours
+from nao_arena.sensing import Neighbours, neighbour_lists
 from nao_arena.world import clip_accelerations
 
 __all__ = [
@@ -273,18 +274,18 @@ def _observation_rows(
     p: NDArray[np.float64], v: NDArray[np.float64], acc: NDArray[np.float64],
     rad: NDArray[np.float64], is_traffic: NDArray[np.float64], a_max: NDArray[np.float64],
     v_max: NDArray[np.float64], bodies: NDArray[np.int64], goals: NDArray[np.float64],
-    prev_cmd: NDArray[np.float64], time_left: float, sensing_range: float,
-    out: NDArray[np.float64], idx: NDArray[np.int64], present: NDArray[np.bool_],
+    prev_cmd: NDArray[np.float64], time_left: float, nb_start: NDArray[np.int64],
+    nb_index: NDArray[np.int64], out: NDArray[np.float64], idx: NDArray[np.int64],
+    present: NDArray[np.bool_],
 ) -> None:
     """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
-    (goals (m, 2) m, last commands (m, 2) m/s^2), with the K = idx.shape[1] nearest bodies
-    within ``sensing_range`` (m), nearest first, ties by body index (absent rows stay zero);
-    ``idx`` / ``present`` (m, K) get the neighbours' body indices and the row mask."""
-    n = p.shape[0]
+    (goals (m, 2) m, last commands (m, 2) m/s^2) with the first K = idx.shape[1]
+    neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
+    (:func:`~nao_arena.sensing.neighbour_lists`: nearest first; the robot itself, listed
+    last with an infinite range, is skipped; absent rows stay zero); ``idx`` /
+    ``present`` (m, K) get the neighbours' body indices and the row mask."""
     k = idx.shape[1]
     n_own = 16
-    best_d = np.empty(max(k, 1))
-    best_j = np.empty(max(k, 1), dtype=np.int64)
     for i in range(bodies.shape[0]):
         b = bodies[i]
         o = out[i]
@@ -304,27 +305,11 @@ def _observation_rows(
         o[13] = goals[i, 0]
         o[14] = goals[i, 1]
         o[15] = time_left
-        found = 0
-        for j in range(n if k > 0 else 0):
-            if j == b:
+        r = 0
+        for e in range(nb_start[i], nb_start[i + 1]):
+            j = nb_index[e]
+            if j == b or r == k:
                 continue
-            d = np.hypot(p[j, 0] - p[b, 0], p[j, 1] - p[b, 1])
-            if not d <= sensing_range:
-                continue
-            if found == k and d >= best_d[k - 1]:
-                continue  # on a tie the lower index, already listed, stays
-            # insertion into the sorted list (strict <: equal distances keep index order)
-            pos = found if found < k else k - 1
-            while pos > 0 and d < best_d[pos - 1]:
-                best_d[pos] = best_d[pos - 1]
-                best_j[pos] = best_j[pos - 1]
-                pos -= 1
-            best_d[pos] = d
-            best_j[pos] = j
-            if found < k:
-                found += 1
-        for r in range(found):
-            j = best_j[r]
             idx[i, r] = j
             present[i, r] = True
             c = n_own + 9 * r
@@ -337,6 +322,7 @@ def _observation_rows(
             o[c + 6] = acc[j, 1]
             o[c + 7] = rad[j]
             o[c + 8] = is_traffic[j]
+            r += 1
 
 
 _REAL_KINDS = frozenset("iuf")
@@ -802,9 +788,11 @@ class NaoArenaParallelEnv(ParallelEnv):
         k = self._k
         idx = np.zeros((m, k), dtype=np.int64)
         present = np.zeros((m, k), dtype=np.bool_)
+        # the sensing's neighbour search, with the env's distances (math.hypot)
+        nb_start, nb_index = neighbour_lists(bodies, p, self._sensing_range, k, hypot=True)
         _observation_rows(p, v, acc, rad, self._kinds, self._world_a_max, self._world_v_max,
                           bodies, self._goals[rows], self._prev_cmd[rows],
-                          max(self.time_limit - state.time, 0.0), self._sensing_range, out,
+                          max(self.time_limit - state.time, 0.0), nb_start, nb_index, out,
                           idx, present)
         if self._cand is not None:
             out[:, self._layout["nao"]] = self._nao_block(bodies, idx, present)
@@ -834,24 +822,18 @@ class NaoArenaParallelEnv(ParallelEnv):
         counts = present.sum(axis=1)
         starts = np.concatenate([[0], np.cumsum(counts)])
         out = np.full((len(bodies), len(self._cand)), opts.nao_clip)
+        h = opts.nao_horizon
         for i, b in enumerate(bodies.tolist()):
-            pos = state.positions[b]
             r_own = float(state.radii[b])
-            centres = [predicted[starts[i]:starts[i + 1]] - pos]
-            radii = [state.radii[flat[starts[i]:starts[i + 1]]] + r_own + opts.nao_margin]
             a_max, v_max = float(world.a_max[b]), float(world.v_max[b])
-            if self._walls is not None:
-                wc, wr = self._walls[r_own]
-                h = opts.nao_horizon
-                reach = v_max * h + 0.5 * a_max * h * h
-                near = np.hypot(*(wc - pos).T) <= reach + wr
-                if np.any(near):
-                    centres.append(np.repeat((wc[near] - pos)[:, None, :], len(times), 1))
-                    radii.append(wr[near])
-            c = np.concatenate(centres)
-            if not len(c):
+            wc, wr = self._walls[r_own] if self._walls is not None else (None, None)
+            # the agent's obstacles, without its radius cut: the walls within reach
+            path = obstacle_paths(
+                times, predicted[starts[i]:starts[i + 1]],
+                state.radii[flat[starts[i]:starts[i + 1]]] + r_own + opts.nao_margin,
+                state.positions[b], wc, wr, v_max * h + 0.5 * a_max * h * h, cut=False)
+            if path.n_obstacles == 0:
                 continue
-            path = sampled_path(times, c, np.concatenate(radii))
             clear = path_clearance(self._cand * a_max, state.velocities[b], path, v_max=v_max)
             out[i] = np.min(clear.clearance, axis=1)
         return np.clip(out, -opts.nao_clip, opts.nao_clip)

@@ -63,10 +63,12 @@ class Neighbours:
 class Observation:
     """One agent's view at one control step.
 
-    time: simulated time (s); dt: control period (s); own state in the world
-    frame; goal (2,) m or None; route (M, 2) waypoints or None; limits
-    a_max (m/s^2) and v_max (m/s); walls: (W, 2, 2) segment end points (m)
-    within range, with their half-thickness ``wall_radius`` (W,) m.
+    time: simulated time (s); dt: control period (s); robot_id: the robot's index
+    (robot order, 0 .. R - 1; its neighbours' ``ids`` are body indices in the
+    world); own state in the world frame; goal (2,) m or None; route (M, 2)
+    waypoints or None; limits a_max (m/s^2) and v_max (m/s); walls: (W, 2, 2)
+    segment end points (m) within range, with their half-thickness
+    ``wall_radius`` (W,) m.
     """
 
     time: float
@@ -111,11 +113,14 @@ def neighbour_lists(
     positions: NDArray[np.float64],
     sensing_range: float,
     max_neighbours: int | None = None,
+    hypot: bool = False,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """:func:`neighbours_in_range` for every body of ``bodies`` at once (same lists, same order).
 
     Returns CSR arrays (start (B + 1,), index (E,)): the neighbours of
     bodies[k] are index[start[k]:start[k + 1]], nearest first, ties by index.
+    hypot: distances (m) by ``math.hypot`` (the env's observations) instead of
+    sqrt(dx^2 + dy^2) (what the agents sense); the two can differ in the last bit.
     """
     bodies = np.ascontiguousarray(bodies, dtype=np.int64)
     b = len(bodies)
@@ -123,14 +128,14 @@ def neighbour_lists(
         return np.zeros(b + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
     return _neighbour_lists(bodies, np.ascontiguousarray(positions, dtype=np.float64),
                             float(sensing_range),
-                            -1 if max_neighbours is None else int(max_neighbours))
+                            -1 if max_neighbours is None else int(max_neighbours), bool(hypot))
 
 
 _MAX_CELLS_PER_BODY = 4  # a finer grid than this many cells per body costs more than it saves
 
 
 @njit(cache=True)
-def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
+def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot):
     """:func:`neighbour_lists` compiled: per body the others within range (the body
     itself counts at distance inf), by distance (a stable sort: ties by index), the
     first max_neighbours (-1: all).
@@ -221,7 +226,12 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours):
             j = near[i]
             dx = positions[j, 0] - mx
             dy = positions[j, 1] - my
-            dj = math.inf if j == me else math.sqrt(dx * dx + dy * dy)
+            if j == me:
+                dj = math.inf
+            elif use_hypot:
+                dj = math.hypot(dx, dy)
+            else:
+                dj = math.sqrt(dx * dx + dy * dy)
             if dj <= sensing_range:
                 d[m] = dj
                 cand[m] = j
@@ -352,6 +362,41 @@ class SensingBatch:
             if value is not None and value.flags.writeable:
                 setattr(self, name, read_only(value))
         self.routes = ReadOnlyRoutes.of(self.routes)
+
+    @classmethod
+    def of_observation(cls, obs: Observation) -> SensingBatch:
+        """The one-robot batch of ``obs``: body 0 is the robot (robot 0), bodies 1 .. n its
+        neighbours in their order (what it does not know of them, a_max and v_max, NaN);
+        a goal of None is NaN; the robot senses every neighbour and the walls of ``obs``."""
+        nb = obs.neighbours
+        n = len(nb)
+
+        def own_first(own: object, rows: object, width: tuple[int, ...]) -> NDArray[np.float64]:
+            return np.concatenate([np.asarray(own, dtype=np.float64).reshape((1, *width)),
+                                   np.asarray(rows, dtype=np.float64).reshape((n, *width))])
+
+        unknown = np.full(n, np.nan)
+        t = nb.known_paths.shape[1:] if nb.known_paths is not None else ()
+        return cls(
+            time=obs.time, dt=obs.dt,
+            positions=own_first(obs.position, nb.positions, (2,)),
+            velocities=own_first(obs.velocity, nb.velocities, (2,)),
+            accelerations=own_first(obs.acceleration, nb.accelerations, (2,)),
+            radii=own_first(obs.radius, nb.radii, ()),
+            a_max=own_first(obs.a_max, unknown, ()), v_max=own_first(obs.v_max, unknown, ()),
+            kinds=np.array(("robot", *nb.kinds)),
+            plans=None if nb.plans is None else own_first(np.full(2, np.nan), nb.plans, (2,)),
+            known_paths=(None if nb.known_paths is None
+                         else own_first(np.full(t, np.nan), nb.known_paths, t)),
+            path_times=np.asarray(nb.path_times, dtype=np.float64),
+            bodies=np.zeros(1, dtype=np.int64),
+            goals=(np.full((1, 2), np.nan) if obs.goal is None
+                   else np.asarray(obs.goal, dtype=np.float64).reshape(1, 2)),
+            routes=(obs.route,), walls=np.asarray(obs.walls, dtype=np.float64),
+            wall_radius=np.asarray(obs.wall_radius, dtype=np.float64),
+            nb_start=np.array([0, n], dtype=np.int64),
+            nb_index=np.arange(1, n + 1, dtype=np.int64),
+        )
 
     def neighbour_ids(self, k: int) -> NDArray[np.int64]:
         """Body indices robot k senses, nearest first."""

@@ -3,6 +3,7 @@ observation layout, actions, rewards, terminations and infos."""
 
 from __future__ import annotations
 
+import math
 import warnings
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from nao_arena.environment import (
 )
 from nao_arena.geometry import nao_clearance
 from nao_arena.maps import MapError, available_maps, load_map
+from nao_arena.sensing import neighbour_lists
 
 SMALL = {"circle_swap": {"n": 4}, "circle_swap_perturbed": {"n": 4}, "crowd": {"n": 4},
          "corridor": {"n": 2}, "crossing": {"n": 2}, "dense_swap": {"n": 4},
@@ -325,12 +327,17 @@ def _neighbour_rows_reference(p, v, acc, rad, kinds, bodies, rng_m, k):
 
 @pytest.mark.parametrize("seed", range(30))
 def test_neighbour_kernel_matches_sorting(seed):
+    """The env's neighbour rows come from the sensing's search (neighbour_lists with
+    math.hypot distances): the K nearest within range, ties by index, never the robot
+    itself (also with an infinite range, where the search lists it last)."""
     from nao_arena.environment import OWN_FEATURES, _observation_rows
 
     rng = np.random.default_rng(seed)
     n = int(rng.integers(2, 40))
-    # integer grid positions: many equal distances, to check the tie order
-    p = rng.integers(-4, 5, (n, 2)).astype(float)
+    # integer grid positions: many equal distances, to check the tie order; else
+    # random ones, where math.hypot and sqrt(dx^2 + dy^2) differ in the last bit
+    p = (rng.integers(-4, 5, (n, 2)).astype(float) if seed % 2
+         else rng.uniform(-4.0, 4.0, (n, 2)))
     v, acc = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
     rad, kinds = rng.uniform(0.1, 1.0, n), (rng.random(n) < 0.5).astype(float)
     a_max, v_max = rng.uniform(1, 3, n), rng.uniform(1, 3, n)
@@ -338,12 +345,15 @@ def test_neighbour_kernel_matches_sorting(seed):
     m = len(bodies)
     goals, cmd = rng.normal(size=(m, 2)), rng.normal(size=(m, 2))
     k, rng_m = min(int(rng.integers(1, 8)), n - 1), float(rng.uniform(1.0, 8.0))
+    if seed % 5 == 0:
+        rng_m = math.inf
     n_own = len(OWN_FEATURES)
     out = np.zeros((m, n_own + 9 * k + 3))
     idx = np.zeros((m, k), dtype=np.int64)
     present = np.zeros((m, k), dtype=bool)
-    _observation_rows(p, v, acc, rad, kinds, a_max, v_max, bodies, goals, cmd, 7.5, rng_m, out,
-                      idx, present)
+    start, index = neighbour_lists(bodies, p, rng_m, k, hypot=True)
+    _observation_rows(p, v, acc, rad, kinds, a_max, v_max, bodies, goals, cmd, 7.5, start,
+                      index, out, idx, present)
     ref_out, ref_idx, ref_present = _neighbour_rows_reference(p, v, acc, rad, kinds, bodies,
                                                               rng_m, k)
     np.testing.assert_array_equal(present, ref_present)

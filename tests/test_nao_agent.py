@@ -1,7 +1,7 @@
 """The NAO agent's rules, one robot at a time (``act``): holding and repairing an
 avoidance adjustment, what it does when nothing is admissible, neighbours already
-inside the margin, escalating detours. (``act_batch`` is checked against ``act`` in
-test_fast_path.py.)"""
+inside the margin, escalating detours; ``act`` is ``act_batch`` for the one-robot batch
+of an observation (whole episodes: test_fast_path.py)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,14 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from nao_arena.agents.goal import GoalAgent, goal_seeking_accel
 from nao_arena.agents.nao import NAOAgent
 from nao_arena.geometry import AccelLimits, repair_acceleration
-from nao_arena.sensing import Neighbours, Observation
+from nao_arena.obstacles import RADIUS_CUT, obstacle_paths
+from nao_arena.sensing import Neighbours, Observation, SensingBatch, neighbour_lists
 
 
 def observation(pos=(0.0, 0.0), vel=(1.0, 0.0), goal=(10.0, 0.0), nb_pos=(3.0, 0.0),
@@ -62,11 +66,11 @@ def test_a_young_adjustment_that_becomes_inadmissible_is_repaired_locally():
     first = ag.act(obs)
     sel = ag.last_selection
     assert sel.status == "adjusted"
-    path = ag.obstacle_paths(obs)
+    path = ag.last_obstacles()
     # just past the boundary, towards the neighbour straight ahead: inadmissible
     bad = next(b for b in (first + s * (np.array([2.0, 0.0]) - first)
                            for s in np.linspace(0.01, 1.0, 100))
-               if not ag._admissible(b, obs, path))
+               if not ag.admissible(obs, b))
     ag.current = bad
     desired = agent().act(observation(nb_pos=(50.0, 50.0)))
     expected = repair_acceleration(ag.current, desired, obs.velocity, path, AccelLimits(2.0),
@@ -75,7 +79,7 @@ def test_a_young_adjustment_that_becomes_inadmissible_is_repaired_locally():
     got = ag.act(obs)
     np.testing.assert_array_equal(got, expected)
     assert ag.last_selection is sel and ag.age == pytest.approx(0.1)  # not a new selection
-    assert ag._admissible(got, obs, path)
+    assert ag.admissible(obs, got)
 
 
 def head_on(kind: str) -> Observation:
@@ -133,3 +137,152 @@ def test_detours_turn_further_the_longer_a_robot_crawls():
     for _ in range(2):  # 1.1 s: moved freely for detour_after
         ag._detour_step(far=True, crawling=False, dt=0.1)
     assert ag.detour == 0.0 and ag.detour_turns == 0
+
+
+# ---------------------------------------------------------------- one robot is a batch of one
+
+
+def random_batch(rng: np.random.Generator, n_robots: int, odd: str) -> SensingBatch:
+    """A step of n_robots robots and two traffic cars in a walled 8 m box; ``odd``:
+    "" (nothing), "nan" (a car's velocity unknown) or "inf" (robot 1 infinitely fast)."""
+    n = n_robots + 2
+    pos = rng.uniform(-3.0, 3.0, (n, 2))
+    vel = rng.uniform(-1.2, 1.2, (n, 2))
+    if odd == "nan":
+        vel[n_robots, 0] = np.nan
+    if odd == "inf" and n_robots > 1:
+        vel[1] = (np.inf, 0.0)
+    bodies = np.arange(n_robots, dtype=np.int64)
+    start, index = neighbour_lists(bodies, pos, 4.0)
+    walls = np.array([[[-4.0, -4.0], [4.0, -4.0]], [[4.0, -4.0], [4.0, 4.0]]])
+    return SensingBatch(
+        time=0.0, dt=0.1, positions=pos, velocities=vel,
+        accelerations=rng.uniform(-1.0, 1.0, (n, 2)), radii=rng.uniform(0.2, 0.4, n),
+        a_max=np.full(n, 2.0), v_max=np.full(n, 1.5),
+        kinds=np.array(["robot"] * n_robots + ["traffic"] * 2), plans=None, known_paths=None,
+        path_times=np.zeros(0), bodies=bodies, goals=rng.uniform(-6.0, 6.0, (n_robots, 2)),
+        routes=(None,) * n_robots, walls=walls, wall_radius=np.full(2, 0.05),
+        nb_start=start, nb_index=index,
+    )
+
+
+def outcome(res: object) -> object:
+    return (type(res).__name__, str(res)) if isinstance(res, Exception) else res.tobytes()
+
+
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_robots=st.integers(1, 6),
+       odd=st.sampled_from(["", "nan", "inf"]),
+       infeasible=st.sampled_from(["auto", "latest_contact"]), samples=st.sampled_from([None, 4]))
+def test_act_on_an_observation_is_act_batch_on_the_arenas_batch(seed, n_robots, odd, infeasible,
+                                                               samples):
+    """act (the one-robot batch of an observation) and act_batch (every robot of the
+    arena's batch) decide alike, step after step: accelerations, failures, selections,
+    detours and the obstacles tested, also for non-finite input and with no braking."""
+    rng = np.random.default_rng(seed)
+    options = {"infeasible": infeasible, "samples": samples, "margin": 0.3}
+    together = [NAOAgent(**options) for _ in range(n_robots)]
+    alone = [NAOAgent(**options) for _ in range(n_robots)]
+    for k in range(n_robots):
+        together[k].reset(None, np.random.default_rng(k))
+        alone[k].reset(None, np.random.default_rng(k))
+    for _ in range(4):
+        batch = random_batch(rng, n_robots, odd)
+        got = NAOAgent.act_batch(together, batch, range(n_robots))
+        for k in range(n_robots):
+            try:
+                one = alone[k].act(batch.observation(k))
+            except Exception as exc:  # noqa: BLE001 - compared with act_batch's
+                one = exc
+            assert outcome(got[k]) == outcome(one)
+            a, b = together[k], alone[k]
+            assert (a.last_selection is None) == (b.last_selection is None)
+            if a.last_selection is not None:
+                assert a.last_selection.status == b.last_selection.status
+            np.testing.assert_array_equal(a.last_decision()[1], b.last_decision()[1])
+            assert a.detour == b.detour
+            if not isinstance(one, Exception):
+                pa, pb = a.last_obstacles(), b.last_obstacles()
+                np.testing.assert_array_equal(pa.c, pb.c)
+                np.testing.assert_array_equal(pa.radius, pb.radius)
+
+
+def test_the_one_robot_batch_gives_back_the_observation():
+    obs = observation(goal=(4.0, 1.0))
+    batch = SensingBatch.of_observation(obs)
+    again = batch.observation(0)
+    for name in ("position", "velocity", "acceleration", "goal", "walls", "wall_radius"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(obs, name))
+    assert (again.radius, again.a_max, again.v_max) == (obs.radius, obs.a_max, obs.v_max)
+    for name in ("positions", "velocities", "accelerations", "radii"):
+        np.testing.assert_array_equal(getattr(again.neighbours, name),
+                                      getattr(obs.neighbours, name))
+    assert again.neighbours.kinds == obs.neighbours.kinds
+    no_goal = SensingBatch.of_observation(observation(goal=(0.0, 0.0)).__class__(
+        **{**obs.__dict__, "goal": None}))
+    assert np.all(np.isnan(no_goal.goals))
+
+
+class Cautious(NAOAgent):
+    """Overrides act (the hook act_batch honours) and calls the inherited one."""
+
+    def act(self, obs: Observation) -> np.ndarray:
+        return 0.5 * super().act(obs)
+
+
+def test_a_subclass_act_is_what_act_batch_runs_and_may_call_the_inherited_act():
+    rng = np.random.default_rng(3)
+    batch = random_batch(rng, 3, "")
+    plain = [NAOAgent() for _ in range(3)]
+    cautious = [Cautious() for _ in range(3)]
+    for k in range(3):
+        plain[k].reset(None, np.random.default_rng(k))
+        cautious[k].reset(None, np.random.default_rng(k))
+    got = Cautious.act_batch(cautious, batch, [0, 1, 2])
+    want = NAOAgent.act_batch(plain, batch, [0, 1, 2])
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, 0.5 * w)
+
+
+def test_last_obstacles_and_admissible_report_what_act_tested():
+    ag = agent()
+    assert ag.last_obstacles() is None
+    obs = observation()
+    a = ag.act(obs)
+    path = ag.last_obstacles()
+    assert path is not None and path.n_obstacles == 1  # the neighbour ahead
+    np.testing.assert_allclose(path.c[0, 0], [3.0, 0.0])
+    assert ag.admissible(obs, a) and not ag.admissible(obs, np.array([2.0, 0.0]))
+    assert not ag.admissible(obs, np.array([0.0, 2.5]))  # beyond a_max
+
+
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_robots=st.integers(1, 6),
+       odd=st.sampled_from(["", "nan", "inf"]), v_pref=st.sampled_from([None, 0.8, 3.0]))
+def test_goal_seeking_in_bulk_is_goal_seeking_robot_by_robot(seed, n_robots, odd, v_pref):
+    """GoalAgent.act_batch and NAO's goal seeking (goal_seeking_accels) compute what
+    goal_seeking_accel computes for each robot, bit for bit (also for non-finite input)."""
+    batch = random_batch(np.random.default_rng(seed), n_robots, odd)
+    agents = [GoalAgent(v_pref=v_pref, time_constant=0.3 + 0.1 * k) for k in range(n_robots)]
+    got = GoalAgent.act_batch(agents, batch, range(n_robots))
+    for k in range(n_robots):
+        want = goal_seeking_accel(batch.observation(k), v_pref, 0.3 + 0.1 * k)
+        np.testing.assert_array_equal(got[k], want)
+
+
+def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach():
+    times = np.linspace(0.0, 1.0, 3)
+    centres = np.array([[[1.5, 1.0]] * 3, [[5.0, 1.0]] * 3])  # world frame, at rest
+    position = np.array([1.0, 1.0])
+    walls_c = np.array([[1.0, 3.0], [1.0, 9.0]])  # 2 m and 8 m away
+    walls_r = np.array([0.5, 0.5])
+    cut = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls_c, walls_r,
+                         wall_reach=4.0)
+    np.testing.assert_array_equal(cut.radius, [0.5 * RADIUS_CUT, 0.75, 0.5])  # one wall
+    np.testing.assert_array_equal(cut.c[:, 0], [[0.5, 0.0], [4.0, 0.0], [0.0, 2.0]])
+    whole = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls_c, walls_r,
+                           cut=False)
+    np.testing.assert_array_equal(whole.radius, [0.75, 0.75, 0.5, 0.5])
+    assert obstacle_paths(times, np.zeros((0, 3, 2)), np.zeros(0), position).n_obstacles == 0

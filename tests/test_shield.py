@@ -159,10 +159,10 @@ def test_an_inadmissible_action_becomes_the_nao_agents_selection(tmp_path):
     ref = NAOAgent(predictor="turn_rate")  # the map's (and the nao agent's) default
     obs = batch.observation(0)
     desired = np.array([2.0, 0.0])  # full acceleration at a robot 4 m ahead
-    assert not ref._admissible(desired, obs, ref._observed_path(obs))
+    assert not ref.admissible(obs, desired)
     expected, status = ref.nearest_admissible(obs, desired)
     assert status == "adjusted"
-    assert ref._admissible(expected, obs, ref._observed_path(obs))
+    assert ref.admissible(obs, expected)
     *_, infos = e.step({"left": np.array([1.0, 0.0]), "right": np.zeros(2)})
     shield = infos["left"]["shield"]
     assert shield["status"] == "adjusted" and shield["intervened"] is True
@@ -254,7 +254,7 @@ def test_selected_accelerations_are_admissible_or_the_fallback(seed, n, steps):
                 i = base.possible_agents.index(a)
                 obs = batch.observation(base.controlled_robots[i])
                 ag = refs[i]
-                assert ag._admissible(shield["applied"], obs, ag._observed_path(obs))
+                assert ag.admissible(obs, shield["applied"])
             assert np.hypot(*shield["applied"]) <= 2.0 * (1 + 1e-9)
         if not e.agents:
             break

@@ -7,6 +7,7 @@ import os
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
+import dataclasses  # noqa: E402
 import itertools  # noqa: E402
 import re  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -21,6 +22,7 @@ from hypothesis.extra.numpy import arrays  # noqa: E402
 
 from nao_arena.arena import Arena  # noqa: E402
 from nao_arena.maps import load_map  # noqa: E402
+from nao_arena.obstacles import RADIUS_CUT  # noqa: E402
 from nao_arena.render import Viewer, record_episode  # noqa: E402
 from nao_arena.render import viewer as viewer_module  # noqa: E402
 from nao_arena.render.viewer import (  # noqa: E402
@@ -29,10 +31,13 @@ from nao_arena.render.viewer import (  # noqa: E402
     _WALL_REGION,
     KEYS,
     EdgeRun,
+    PanelAgent,
     _mix,
     _trail_colour,
     edge_runs,
+    panel_agent,
 )
+from nao_arena.sensing import Neighbours, Observation  # noqa: E402
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -259,3 +264,52 @@ def test_scale_label_sits_on_a_light_box(crowd):
     box = frame[y + 1:y + h - 1, x + 1:x + w - 1].astype(float)
     assert np.median(box.mean(axis=-1)) > 200
     assert any(re.fullmatch(r"[0-9.]+ m", t) for t in viewer.info.texts)
+
+
+def _close_neighbour(arena: Arena) -> Observation:
+    """Robot 0 of ``arena`` with one neighbour 0.05 m away (surfaces), inside the margin."""
+    obs = arena.observations()[0]
+    nb = Neighbours(ids=np.array([1]), kinds=("robot",),
+                    positions=(obs.position + [0.65, 0.0])[None],
+                    velocities=np.zeros((1, 2)), accelerations=np.zeros((1, 2)),
+                    radii=np.array([0.3]))
+    return dataclasses.replace(obs, radius=0.3, velocity=np.zeros(2), neighbours=nb,
+                               walls=np.zeros((0, 2, 2)), wall_radius=np.zeros(0))
+
+
+def test_the_panel_sees_a_neighbour_inside_the_margin_as_the_agent_does():
+    """The panel's obstacles are the agent's (nao_arena.obstacles): a neighbour already
+    inside the margin counts with just under its distance (RADIUS_CUT), not with its
+    grown radius, which would leave no admissible acceleration on the panel."""
+    arena = _arena("circle_swap", 0, n=2, radius=5.0, lo=-8.0, hi=8.0)
+    obs = _close_neighbour(arena)
+    _, _, path, _ = Viewer()._predictions(arena, 0, obs)
+    assert path.radius[0] == pytest.approx(0.65 * RADIUS_CUT) and path.radius[0] < 0.75
+    agent = arena.agents[0]
+    agent.act(obs)
+    np.testing.assert_array_equal(path.radius, agent.last_obstacles().radius)
+
+
+class _Quiet:
+    margin = 0.5  # an attribute, not a panel(): the panel ignores it
+
+    def reset(self, spec, rng):
+        pass
+
+    def act(self, obs):
+        return np.zeros(2)
+
+
+class _Shown(_Quiet):
+    def panel(self) -> PanelAgent:
+        return PanelAgent(margin=0.25, v_pref=0.5, status="adjusted")
+
+
+def test_the_panel_reads_what_an_agent_reports_through_panel():
+    arena = _arena("circle_swap", 1, n=3, radius=5.0, lo=-8.0, hi=8.0)
+    assert panel_agent(arena, 0) == arena.agents[0].panel()
+    assert panel_agent(arena, 0).status == arena.agents[0].last_selection.status
+    arena.agents[1:] = [_Quiet(), _Shown()]
+    assert panel_agent(arena, 1) == PanelAgent()
+    assert panel_agent(arena, 2) == PanelAgent(margin=0.25, v_pref=0.5, status="adjusted")
+    Viewer().draw(arena, selected=2)

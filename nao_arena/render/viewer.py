@@ -51,9 +51,9 @@ import math
 import os
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -61,20 +61,27 @@ from numpy.typing import NDArray
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
+from nao_arena.agent import PanelAgent, ShowsPanel  # noqa: E402
 from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
 from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
-from nao_arena.geometry.clearance import (  # noqa: E402
-    PiecewisePath,
-    path_clearance,
-    sampled_path,
-)
+from nao_arena.geometry.clearance import PiecewisePath, path_clearance  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
+from nao_arena.obstacles import obstacle_paths  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
+from nao_arena.sensing import Observation  # noqa: E402
 from nao_arena.traffic import CircleLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
 
+if TYPE_CHECKING:
+    from typing import TypeAlias
+
+    from nao_arena.arena import Arena
+    from nao_arena.render.replay import ReplayArena
+
+    ShownArena: TypeAlias = Arena | ReplayArena  # a live arena or a recorded episode
+
 __all__ = ["AGENT_COLOURS", "FRAME_SIZE", "KEYS", "EdgeRun", "FrameInfo", "LegendEntry",
-           "PanelAgent", "Viewer", "ViewerOptions", "edge_runs", "panel_agent"]
+           "PanelAgent", "PanelSource", "Viewer", "ViewerOptions", "edge_runs", "panel_agent"]
 
 FRAME_SIZE: tuple[int, int] = (1200, 800)
 """Default frame size (width, height) px."""
@@ -169,35 +176,22 @@ class ViewerOptions:
     predicted_paths: bool = True
 
 
-@dataclass(frozen=True)
-class PanelAgent:
-    """What the acceleration panel reads of a robot's agent: its time grid (s) and
-    predictor (None: turn-rate predictions over 3 s), safety margin (m), preferred speed
-    (m/s; None: v_max), detour (rad; its goal direction is turned by it) and the status
-    of its last full selection (None: it reports none)."""
+@runtime_checkable
+class PanelSource(Protocol):
+    """An arena that answers itself what the panel shows of each robot's agent (a replay,
+    which has no agents)."""
 
-    times: NDArray[np.float64] | None = None
-    predict: Callable[..., NDArray[np.float64]] | None = None
-    margin: float = 0.0
-    v_pref: float | None = None
-    detour: float = 0.0
-    status: str | None = None
+    def panel_agent(self, k: int) -> PanelAgent: ...
 
 
-def panel_agent(arena: Any, k: int) -> PanelAgent:
+def panel_agent(arena: Arena | PanelSource, k: int) -> PanelAgent:
     """What the panel shows of robot k's agent: ``arena.panel_agent(k)`` where the arena
-    answers it itself (a replay, which has no agents), else the agent's attributes."""
-    own = getattr(arena, "panel_agent", None)
-    if callable(own):
-        return own(k)
+    answers it itself (:class:`PanelSource`), else the agent's ``panel()``
+    (:class:`~nao_arena.agent.ShowsPanel`; the defaults for an agent without one)."""
+    if isinstance(arena, PanelSource):
+        return arena.panel_agent(k)
     agent = arena.agents[k] if k < len(arena.agents) else None
-    sel = getattr(agent, "last_selection", None)
-    return PanelAgent(
-        times=getattr(agent, "times", None), predict=getattr(agent, "predict", None),
-        margin=float(getattr(agent, "margin", 0.0)), v_pref=getattr(agent, "v_pref", None),
-        detour=float(getattr(agent, "detour", 0.0)),
-        status=None if sel is None else sel.status,
-    )
+    return agent.panel() if isinstance(agent, ShowsPanel) else PanelAgent()
 
 
 def _agent_colour(name: str) -> Colour:
@@ -305,7 +299,7 @@ class Viewer:
 
     def draw(
         self,
-        arena: Any,
+        arena: ShownArena,
         selected: int = 0,
         controlled: Sequence[int] = (),
         result: Any = None,
@@ -347,7 +341,7 @@ class Viewer:
         that jumps to another time)."""
         self._episode_key = None
 
-    def track(self, arena: Any) -> None:
+    def track(self, arena: ShownArena) -> None:
         """Take in the arena's current state without drawing it (trails, contact flashes)."""
         self._track(arena)
 
@@ -364,7 +358,7 @@ class Viewer:
             elif event.key == pygame.K_h or getattr(event, "unicode", "") == "?":
                 self.show_keys = not self.show_keys
 
-    def _track(self, arena: Any) -> None:
+    def _track(self, arena: ShownArena) -> None:
         """Trails, contact flashes and the step rate, reset on a new episode."""
         state = arena.state
         key = (id(arena), id(arena.stats))
@@ -398,7 +392,7 @@ class Viewer:
 
     # ------------------------------------------------------------------ world view
 
-    def _transform(self, arena: Any, selected: int, view: pygame.Rect) -> tuple[float, ...]:
+    def _transform(self, arena: ShownArena, selected: int, view: pygame.Rect) -> tuple[float, ...]:
         """(scale px/m, x0, y0) of the world -> pixel map x_px = (x - x0) s, y_px = (y0 - y) s."""
         (bx0, by0), (bx1, by1) = arena.spec.bounds.min, arena.spec.bounds.max
         bw, bh = bx1 - bx0, by1 - by0
@@ -437,8 +431,8 @@ class Viewer:
         q = self._px(tr, p)
         return int(round(q[0])), int(round(q[1]))
 
-    def _draw_world(self, arena: Any, tr: tuple[float, ...], selected: int,
-                    controlled: set[int], obs: Any) -> None:
+    def _draw_world(self, arena: ShownArena, tr: tuple[float, ...], selected: int,
+                    controlled: set[int], obs: Observation | None) -> None:
         surf = self.surface
         s = tr[0]
         state = arena.state
@@ -588,13 +582,13 @@ class Viewer:
         for p in q:
             pygame.draw.circle(self.surface, colour, p.tolist(), width / 2)
 
-    def _robot_colours(self, arena: Any, controlled: set[int]) -> list[Colour]:
+    def _robot_colours(self, arena: ShownArena, controlled: set[int]) -> list[Colour]:
         return [AGENT_COLOURS["controlled"] if k in controlled else _agent_colour(name)
                 for k, name in enumerate(arena.agent_names)]
 
     # ------------------------------------------------------------------ predictions
 
-    def _predictions(self, arena: Any, selected: int, obs: Any) -> tuple[
+    def _predictions(self, arena: ShownArena, selected: int, obs: Observation) -> tuple[
         NDArray[np.float64], NDArray[np.float64], PiecewisePath,
         tuple[NDArray[np.float64], NDArray[np.float64]] | None,
     ]:
@@ -609,7 +603,8 @@ class Viewer:
             predict = get_predictor("turn_rate")
         grow = obs.radius + agent.margin
         centres = predict(times, nb) if len(nb) else np.zeros((0, len(times), 2))
-        path = sampled_path(times, centres - obs.position, nb.radii + grow)
+        # the neighbours as the agent sees them (its radius cut included)
+        path = obstacle_paths(times, centres, nb.radii + grow, obs.position)
         walls = None
         if len(obs.walls):
             h = float(times[-1])
@@ -620,8 +615,8 @@ class Viewer:
                 walls = (segs[near], obs.wall_radius[near] + grow)
         return times, centres, path, walls
 
-    def _draw_predictions(self, arena: Any, tr: tuple[float, ...], selected: int,
-                          obs: Any) -> None:
+    def _draw_predictions(self, arena: ShownArena, tr: tuple[float, ...], selected: int,
+                          obs: Observation) -> None:
         times, centres, _, _ = self._predictions(arena, selected, obs)
         self._horizon = float(times[-1])
         surf = self.surface
@@ -653,8 +648,8 @@ class Viewer:
             return "H or ?: show keys"
         return "  ".join(f"{k}: {what}" for k, what in KEYS[:2]) + f"  {KEYS[2][0]}: hide"
 
-    def _draw_panel(self, arena: Any, panel: pygame.Rect, selected: int,
-                    controlled: set[int], obs: Any) -> None:
+    def _draw_panel(self, arena: ShownArena, panel: pygame.Rect, selected: int,
+                    controlled: set[int], obs: Observation | None) -> None:
         x = panel.left + 14
         state = arena.state
         stats = arena.stats
@@ -696,8 +691,8 @@ class Viewer:
         self._draw_legend(rows, (x, plot.bottom + 64), col_w)
         self.info.legend = entries
 
-    def _draw_accel_space(self, arena: Any, plot: pygame.Rect, selected: int,
-                          controlled: set[int], obs: Any) -> None:
+    def _draw_accel_space(self, arena: ShownArena, plot: pygame.Rect, selected: int,
+                          controlled: set[int], obs: Observation) -> None:
         surf = self.surface
         ext = self.options.panel_extent * obs.a_max
         g = self.options.panel_grid
@@ -853,7 +848,9 @@ class Viewer:
 
     # ------------------------------------------------------------------ legend
 
-    def legend_entries(self, arena: Any, controlled: Sequence[int] = ()) -> list[LegendEntry]:
+    def legend_entries(
+        self, arena: ShownArena, controlled: Sequence[int] = ()
+    ) -> list[LegendEntry]:
         """The legend of a frame of ``arena``: every kind of robot, then each symbol of the
         world view (section ``world``) and of the acceleration panel (``panel``)."""
         entries = []

@@ -217,9 +217,9 @@ class EpisodeStats:
             if math.isnan(self.deadlock_time):
                 self.deadlock_time = t + self.dt
 
-    def record_fault(self, t: float, robot: int, message: str) -> FaultEvent:
-        """Record an agent's fault at time t (s) for robot index ``robot``."""
-        ev = FaultEvent(float(t), int(robot), self.names[robot], str(message))
+    def record_fault(self, t: float, body: int, message: str) -> FaultEvent:
+        """Record an agent's fault at time t (s) for the robot of body index ``body``."""
+        ev = FaultEvent(float(t), int(body), self.names[body], str(message))
         self.faults.append(ev)
         return ev
 

@@ -85,7 +85,8 @@ class ContactEvent:
 
 @dataclass
 class FaultEvent:
-    """An agent's fault at time (s): the robot index, its name and what went wrong."""
+    """An agent's fault at time (s): the robot's body index in the world (``robot``, the
+    numbering of contacts; not its robot index), its name and what went wrong."""
 
     time: float
     robot: int
