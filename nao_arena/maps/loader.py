@@ -27,7 +27,8 @@ from nao_arena.maps.schema import (
     SegmentWall,
 )
 
-__all__ = ["available_maps", "load_map", "map_from_dict", "parse_overrides"]
+__all__ = ["available_maps", "load_map", "map_from_dict", "parse_overrides",
+           "point_segment_distances"]
 
 
 # --------------------------------------------------------------------------- parameters
@@ -112,18 +113,6 @@ def _parameters(file: str, raw: Any, overrides: Mapping[str, Any]) -> dict[str, 
 # --------------------------------------------------------------------------- checks
 
 
-def _point_segment_distance(
-    p: NDArray[np.float64], segs: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Distances (n, W) m from points (n, 2) to segments (W, 2, 2)."""
-    a, b = segs[:, 0], segs[:, 1]
-    ab = b - a
-    ll = np.maximum(np.sum(ab * ab, axis=1), 1e-300)
-    rel = p[:, None, :] - a[None]
-    t = np.clip(np.sum(rel * ab[None], axis=2) / ll, 0.0, 1.0)
-    d = rel - t[..., None] * ab[None]
-    return np.hypot(d[..., 0], d[..., 1])
-
 
 def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray[np.bool_]:
     e = np.roll(poly, -1, axis=0) - poly
@@ -132,20 +121,33 @@ def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
 
 
+
+def point_segment_distances(
+    points: NDArray[np.float64], segments: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Distances (n, W) m from points (n, 2) m to segments (W, 2, 2) m (also used by the viewer)."""
+    a, b = segments[:, 0], segments[:, 1]
+    ab = b - a
+    ll = np.maximum(np.sum(ab * ab, axis=1), 1e-300)
+    rel = points[:, None, :] - a[None]
+    t = np.clip(np.sum(rel * ab[None], axis=2) / ll, 0.0, 1.0)
+    d = rel - t[..., None] * ab[None]
+    return np.hypot(d[..., 0], d[..., 1])
+
 def _wall_clearance(spec: MapSpec, points: NDArray[np.float64]) -> list[NDArray[np.float64]]:
     """Per wall (as listed, then bound walls): surface distance (n,) m from points to it."""
     out = []
     for w in spec.walls:
         if isinstance(w, SegmentWall):
-            d = _point_segment_distance(points, np.array([[w.a, w.b]], float))[:, 0]
+            d = point_segment_distances(points, np.array([[w.a, w.b]], float))[:, 0]
             out.append(d - w.thickness / 2)
         else:
             poly = np.asarray(w.points, float)
             edges = np.stack([poly, np.roll(poly, -1, axis=0)], axis=1)
-            d = np.min(_point_segment_distance(points, edges), axis=1)
+            d = np.min(point_segment_distances(points, edges), axis=1)
             out.append(np.where(_inside_convex(points, poly), -d, d))
     for a, b in spec.bound_wall_segments():
-        d = _point_segment_distance(points, np.array([[a, b]], float))[:, 0]
+        d = point_segment_distances(points, np.array([[a, b]], float))[:, 0]
         out.append(d - spec.bounds.wall_thickness / 2)
     return out
 

@@ -66,6 +66,7 @@ from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
 from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
+from nao_arena.maps.loader import point_segment_distances  # noqa: E402
 from nao_arena.obstacles import obstacle_paths  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.sensing import Observation  # noqa: E402
@@ -218,16 +219,6 @@ def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float
     extra = np.maximum(times[None, :] - tau[:, None], 0.0)[..., None]
     return x + v_sat[:, None, :] * extra
 
-
-def _segment_distance(p: NDArray[np.float64], segs: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distances (n, W) m from points (n, 2) to segments (W, 2, 2)."""
-    a, b = segs[:, 0], segs[:, 1]
-    ab = b - a
-    ll = np.maximum(np.sum(ab * ab, axis=1), 1e-300)
-    rel = p[:, None, :] - a[None]
-    t = np.clip(np.sum(rel * ab[None], axis=2) / ll, 0.0, 1.0)
-    d = rel - t[..., None] * ab[None]
-    return np.hypot(d[..., 0], d[..., 1])
 
 
 def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
@@ -610,7 +601,8 @@ class Viewer:
             h = float(times[-1])
             reach = obs.v_max * h + 0.5 * obs.a_max * h * h
             segs = obs.walls - obs.position
-            near = _segment_distance(np.zeros((1, 2)), segs)[0] <= reach + obs.wall_radius + grow
+            near = (point_segment_distances(np.zeros((1, 2)), segs)[0]
+                    <= reach + obs.wall_radius + grow)
             if np.any(near):
                 walls = (segs[near], obs.wall_radius[near] + grow)
         return times, centres, path, walls
@@ -723,7 +715,7 @@ class Viewer:
             pts = own.reshape(-1, 2)
             wall_clear = np.full(len(grid), np.inf)
             for seg, grown in zip(walls[0], walls[1], strict=True):
-                d = _segment_distance(pts, seg[None])[:, 0].reshape(len(grid), len(times))
+                d = point_segment_distances(pts, seg[None])[:, 0].reshape(len(grid), len(times))
                 wall_clear = np.minimum(wall_clear, np.min(d, axis=1) - grown)
             lab[(wall_clear < 0) & (wall_clear < best)] = -2
             shown += len(walls[1])
