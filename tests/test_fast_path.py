@@ -17,6 +17,15 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from reference.kernels_reference import (
+    bisect_ref,
+    disk_samples_ref,
+    drop_contained_ref,
+    nearest_outside_disks_ref,
+    repair_ref,
+    slide_ref,
+)
+from reference.predictors_reference import turn_rate_numpy
 
 from nao_arena.agents._nao_decide import (
     ADJUSTED,
@@ -57,15 +66,6 @@ from nao_arena.geometry.selection import AccelLimits, _Tester, repair_accelerati
 from nao_arena.maps import load_map
 from nao_arena.predictors import turn_rate
 from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighbours_in_range
-from tests.reference.kernels_reference import (
-    bisect_ref,
-    disk_samples_ref,
-    drop_contained_ref,
-    nearest_outside_disks_ref,
-    repair_ref,
-    slide_ref,
-)
-from tests.reference.predictors_reference import turn_rate_numpy
 
 # ---------------------------------------------------------------- scenes
 

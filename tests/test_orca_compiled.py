@@ -23,16 +23,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from reference import orca_reference as ref  # tests/reference (tests/ is on sys.path)
 
 from nao_arena.agents.orca import ORCAAgent, _dot, orca_accelerations
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.maps import load_map
 from nao_arena.sensing import Neighbours, Observation, SensingBatch
-
-try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
-    from tests.reference import orca_reference as ref
-except ImportError:  # pragma: no cover
-    from reference import orca_reference as ref
 
 REFERENCE_FILE = Path(__file__).parent / "reference" / "orca_reference.py"
 

@@ -11,21 +11,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from reference.stats_reference import point_segment, segment_distances, swept_disc_distances
 
 from nao_arena.maps import map_from_dict
 from nao_arena.stats import EpisodeStats, StatsConfig, sweep_pairs
 from nao_arena.stats.events import first_disc_touch, first_wall_touch
 from nao_arena.stats.kernel import swept_distances, swept_wall_distances
 from nao_arena.world import World
-
-try:  # tests/ as a rootdir-relative package or as a plain directory on sys.path
-    from tests.reference.stats_reference import (
-        point_segment,
-        segment_distances,
-        swept_disc_distances,
-    )
-except ImportError:  # pragma: no cover
-    from reference.stats_reference import point_segment, segment_distances, swept_disc_distances
 
 
 def two(radius: float = 0.5, **kw) -> EpisodeStats:

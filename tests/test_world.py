@@ -10,12 +10,12 @@ import textwrap
 
 import numpy as np
 import pytest
+from reference.world_reference import substep_weights, velocity_after_period
 
 from nao_arena.maps import MapSpec, available_maps, load_map, map_from_dict
 from nao_arena.stats import EpisodeStats
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, speed_limit_time
-from tests.reference.world_reference import substep_weights, velocity_after_period
 
 # Tolerances stated: limits hold to 1e-9 relative; the period model to 1e-12 m/s.
 LIMIT_RTOL = 1e-9
@@ -345,8 +345,9 @@ def test_shipped_map_runs_200_steps(name: str) -> None:
 @pytest.mark.parametrize("seed", range(20))
 def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
     """The fused kernel of World.step gives exactly the numpy helpers' forces and velocities."""
+    from reference.world_reference import scale_to_vmax
+
     from nao_arena.world import _plan_period, clip_accelerations
-    from tests.reference.world_reference import scale_to_vmax
 
     rng = np.random.default_rng(seed)
     n, substeps, dt = int(rng.integers(1, 30)), int(rng.integers(1, 12)), 0.1
