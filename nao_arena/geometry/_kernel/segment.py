@@ -24,6 +24,10 @@ smallest of
   distance between the swept straight piece and the segment.
 
 A degenerate segment (p == q) is a point: only its caps count.
+
+Not yet used by the agents, so not listed in :data:`nao_arena.cli.KERNEL_MODULES` (the
+modules every episode compiles): listed before an episode compiles it, its cache would
+stay cold and the first-run compilation note would show on every trial.
 """
 
 from __future__ import annotations
