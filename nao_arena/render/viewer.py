@@ -710,13 +710,8 @@ class Viewer:
                 best = clear[np.arange(len(grid)), owner]
                 lab[best < 0] = idx[owner[best < 0]]
         if walls is not None:
-            times = np.linspace(0.0, float(path.t[-1]), 41)
-            own = _own_paths(obs.velocity, grid, obs.v_max, times)
-            pts = own.reshape(-1, 2)
-            wall_clear = np.full(len(grid), np.inf)
-            for seg, grown in zip(walls[0], walls[1], strict=True):
-                d = point_segment_distances(pts, seg[None])[:, 0].reshape(len(grid), len(times))
-                wall_clear = np.minimum(wall_clear, np.min(d, axis=1) - grown)
+            wall_clear = self._wall_clearance(grid, obs.velocity, obs.v_max, float(path.t[-1]),
+                                              walls)
             lab[(wall_clear < 0) & (wall_clear < best)] = -2
             shown += len(walls[1])
         hit = lab != -1
@@ -759,6 +754,36 @@ class Viewer:
         if selected not in controlled and agent.status is not None:
             status = f"last selection: {agent.status}; " + status
         self._text(status, (plot.left - 40, plot.bottom + 42), self._small, (70, 70, 70))
+
+    @staticmethod
+    def _wall_clearance(grid: NDArray[np.float64], velocity: NDArray[np.float64], v_max: float,
+                        horizon: float, walls: tuple[NDArray[np.float64], NDArray[np.float64]],
+                        ) -> NDArray[np.float64]:
+        """Per panel acceleration (G, 2) m/s^2: the least clearance (G,) m of the robot's own
+        path (sampled at 41 times over ``horizon`` s) to the walls (robot-relative segments
+        (W, 2, 2) m, grown half-thicknesses (W,) m). Exact where negative; elsewhere a value
+        >= 0 (inf where no wall comes within reach), as only the sign matters.
+
+        A wall is measured only against the accelerations whose sampled path comes within
+        its bounding box grown by its half-thickness (any other is farther from it than
+        that); those are measured with the same arithmetic as all of them would be."""
+        times = np.linspace(0.0, horizon, 41)
+        own = _own_paths(velocity, grid, v_max, times)
+        lo = own.min(axis=1)  # (G, 2) bounding box of each sampled path
+        hi = own.max(axis=1)
+        wall_clear = np.full(len(grid), np.inf)
+        for seg, grown in zip(walls[0], walls[1], strict=True):
+            # slack so that rounding never drops a point within `grown` of the segment
+            r = grown + 1e-9 * (1.0 + abs(grown))
+            box_lo = seg.min(axis=0) - r
+            box_hi = seg.max(axis=0) + r
+            near = np.flatnonzero(np.all((hi >= box_lo) & (lo <= box_hi), axis=1))
+            if not len(near):
+                continue
+            d = point_segment_distances(own[near].reshape(-1, 2), seg[None])[:, 0]
+            d = d.reshape(len(near), len(times))
+            wall_clear[near] = np.minimum(wall_clear[near], np.min(d, axis=1) - grown)
+        return wall_clear
 
     @staticmethod
     def _region_colours() -> NDArray[np.uint8]:
