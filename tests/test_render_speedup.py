@@ -9,15 +9,17 @@ import os
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
 import numpy as np  # noqa: E402
+import pygame  # noqa: E402
 import pytest  # noqa: E402
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
+from reference.viewer_reference import _own_paths as own_paths_reference  # noqa: E402
 from reference.viewer_reference import wall_clearance_reference  # noqa: E402
 
 from nao_arena.arena import Arena  # noqa: E402
 from nao_arena.maps import load_map  # noqa: E402
 from nao_arena.render import Viewer  # noqa: E402
-from nao_arena.render.viewer import _WALL_REGION  # noqa: E402
+from nao_arena.render.viewer import _WALL_REGION, _own_paths  # noqa: E402
 
 
 class ReferenceViewer(Viewer):
@@ -40,6 +42,8 @@ def test_frames_with_walls_are_pixel_identical_to_the_reference(name):
             frame = viewer.draw(arena, selected=selected)
             expected = reference.draw(arena, selected=selected)
             assert np.array_equal(frame, expected), (name, frame_no, selected)
+            surface = pygame.surfarray.array3d(viewer.surface).transpose(1, 0, 2)
+            assert np.array_equal(frame, surface) and frame.flags.writeable
             panel = frame[:, frame.shape[0]:]
             wall_region_seen += int(np.all(panel == _WALL_REGION, axis=-1).sum() > 0)
     assert wall_region_seen > 0  # the walls' region was drawn, so it was compared
@@ -69,3 +73,18 @@ def test_wall_clearance_is_exact_where_negative(velocity, v_max, a_max, segs, gr
     assert np.array_equal(got < 0, inside)
     assert np.array_equal(got[inside], want[inside])  # bit for bit where it is drawn
     assert np.all(got[~inside] >= 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    velocity=st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0)),
+    v_max=st.floats(0.1, 3.0),
+    accels=st.lists(st.tuples(st.floats(-4.0, 4.0), st.floats(-4.0, 4.0)), min_size=1,
+                    max_size=8),
+    horizon=st.floats(0.1, 6.0),
+)
+def test_own_paths_are_bit_identical_to_the_reference(velocity, v_max, accels, horizon):
+    times = np.linspace(0.0, horizon, 31)
+    v, a = np.array(velocity), np.array(accels, dtype=float)
+    assert np.array_equal(_own_paths(v, a, v_max, times),
+                          own_paths_reference(v, a, v_max, times))

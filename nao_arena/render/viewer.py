@@ -207,18 +207,53 @@ def _mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
     return tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
 
 
+def _own_paths_xy(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
+                  times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Displacements under constant accelerations (K, 2), speed saturating at v_max (the
+    world's model, see :func:`nao_arena.world.speed_limit_time`): x and y (K, T) m, each
+    contiguous (one component at a time, with the arithmetic of :func:`_own_paths`)."""
+    vv = np.broadcast_to(v, accels.shape)
+    tau = speed_limit_time(vv, accels, np.full(len(accels), v_max))
+    t = np.minimum(times[None, :], tau[:, None])
+    v_sat = v + accels * np.where(np.isfinite(tau), tau, 0.0)[:, None]
+    extra = np.maximum(times[None, :] - tau[:, None], 0.0)
+    half = 0.5 * accels
+    out = []
+    for c in (0, 1):
+        x = v[c] * t
+        tail = half[:, c, None] * t
+        tail *= t
+        x += tail
+        tail = v_sat[:, c, None] * extra
+        x += tail
+        out.append(x)
+    return out[0], out[1]
+
+
 def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
                times: NDArray[np.float64]) -> NDArray[np.float64]:
     """Displacements (K, T, 2) m under constant accelerations (K, 2), speed saturating at
     v_max (the world's model, see :func:`nao_arena.world.speed_limit_time`)."""
-    vv = np.broadcast_to(v, accels.shape)
-    tau = speed_limit_time(vv, accels, np.full(len(accels), v_max))
-    t = np.minimum(times[None, :], tau[:, None])[..., None]
-    x = v * t + 0.5 * accels[:, None, :] * t * t
-    v_sat = v + accels * np.where(np.isfinite(tau), tau, 0.0)[:, None]
-    extra = np.maximum(times[None, :] - tau[:, None], 0.0)[..., None]
-    return x + v_sat[:, None, :] * extra
+    return np.stack(_own_paths_xy(v, accels, v_max, times), axis=-1)
 
+
+def _segment_distances_xy(xs: NDArray[np.float64], ys: NDArray[np.float64],
+                          seg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distances m from the points (xs, ys) m (any equal shapes) to the segment (2, 2) m:
+    :func:`nao_arena.maps.loader.point_segment_distances` one component at a time, with
+    the same arithmetic (so the same results)."""
+    (ax, ay), (bx, by) = seg
+    abx, aby = bx - ax, by - ay
+    ll = max(abx * abx + aby * aby, 1e-300)
+    relx = xs - ax
+    rely = ys - ay
+    t = relx * abx
+    t += rely * aby
+    t /= ll
+    np.clip(t, 0.0, 1.0, out=t)
+    dx = relx - t * abx
+    dy = rely - t * aby
+    return np.hypot(dx, dy)
 
 
 def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
@@ -325,7 +360,8 @@ class Viewer:
         if self._window is not None:
             self._window.blit(surf, (0, 0))
             pygame.display.flip()
-        return np.ascontiguousarray(pygame.surfarray.array3d(surf).transpose(1, 0, 2))
+        rgb = bytearray(pygame.image.tobytes(surf, "RGB"))  # writable, rows top to bottom
+        return np.frombuffer(rgb, dtype=np.uint8).reshape(h, w, 3)
 
     def forget(self) -> None:
         """Drop the trails and contact flashes: the next draw starts afresh (a replay
@@ -768,9 +804,9 @@ class Viewer:
         its bounding box grown by its half-thickness (any other is farther from it than
         that); those are measured with the same arithmetic as all of them would be."""
         times = np.linspace(0.0, horizon, 41)
-        own = _own_paths(velocity, grid, v_max, times)
-        lo = own.min(axis=1)  # (G, 2) bounding box of each sampled path
-        hi = own.max(axis=1)
+        xs, ys = _own_paths_xy(velocity, grid, v_max, times)
+        lo = np.stack([xs.min(axis=1), ys.min(axis=1)], axis=1)  # (G, 2) box of each path
+        hi = np.stack([xs.max(axis=1), ys.max(axis=1)], axis=1)
         wall_clear = np.full(len(grid), np.inf)
         for seg, grown in zip(walls[0], walls[1], strict=True):
             # slack so that rounding never drops a point within `grown` of the segment
@@ -780,8 +816,7 @@ class Viewer:
             near = np.flatnonzero(np.all((hi >= box_lo) & (lo <= box_hi), axis=1))
             if not len(near):
                 continue
-            d = point_segment_distances(own[near].reshape(-1, 2), seg[None])[:, 0]
-            d = d.reshape(len(near), len(times))
+            d = _segment_distances_xy(xs[near], ys[near], seg)
             wall_clear[near] = np.minimum(wall_clear[near], np.min(d, axis=1) - grown)
         return wall_clear
 
