@@ -207,18 +207,53 @@ def _mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
     return tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
 
 
+def _own_paths_xy(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
+                  times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Displacements under constant accelerations (K, 2), speed saturating at v_max (the
+    world's model, see :func:`nao_arena.world.speed_limit_time`): x and y (K, T) m, each
+    contiguous (one component at a time, with the arithmetic of :func:`_own_paths`)."""
+    vv = np.broadcast_to(v, accels.shape)
+    tau = speed_limit_time(vv, accels, np.full(len(accels), v_max))
+    t = np.minimum(times[None, :], tau[:, None])
+    v_sat = v + accels * np.where(np.isfinite(tau), tau, 0.0)[:, None]
+    extra = np.maximum(times[None, :] - tau[:, None], 0.0)
+    half = 0.5 * accels
+    out = []
+    for c in (0, 1):
+        x = v[c] * t
+        tail = half[:, c, None] * t
+        tail *= t
+        x += tail
+        tail = v_sat[:, c, None] * extra
+        x += tail
+        out.append(x)
+    return out[0], out[1]
+
+
 def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
                times: NDArray[np.float64]) -> NDArray[np.float64]:
     """Displacements (K, T, 2) m under constant accelerations (K, 2), speed saturating at
     v_max (the world's model, see :func:`nao_arena.world.speed_limit_time`)."""
-    vv = np.broadcast_to(v, accels.shape)
-    tau = speed_limit_time(vv, accels, np.full(len(accels), v_max))
-    t = np.minimum(times[None, :], tau[:, None])[..., None]
-    x = v * t + 0.5 * accels[:, None, :] * t * t
-    v_sat = v + accels * np.where(np.isfinite(tau), tau, 0.0)[:, None]
-    extra = np.maximum(times[None, :] - tau[:, None], 0.0)[..., None]
-    return x + v_sat[:, None, :] * extra
+    return np.stack(_own_paths_xy(v, accels, v_max, times), axis=-1)
 
+
+def _segment_distances_xy(xs: NDArray[np.float64], ys: NDArray[np.float64],
+                          seg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distances m from the points (xs, ys) m (any equal shapes) to the segment (2, 2) m:
+    :func:`nao_arena.maps.loader.point_segment_distances` one component at a time, with
+    the same arithmetic (so the same results)."""
+    (ax, ay), (bx, by) = seg
+    abx, aby = bx - ax, by - ay
+    ll = max(abx * abx + aby * aby, 1e-300)
+    relx = xs - ax
+    rely = ys - ay
+    t = relx * abx
+    t += rely * aby
+    t /= ll
+    np.clip(t, 0.0, 1.0, out=t)
+    dx = relx - t * abx
+    dy = rely - t * aby
+    return np.hypot(dx, dy)
 
 
 def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
@@ -325,7 +360,8 @@ class Viewer:
         if self._window is not None:
             self._window.blit(surf, (0, 0))
             pygame.display.flip()
-        return np.ascontiguousarray(pygame.surfarray.array3d(surf).transpose(1, 0, 2))
+        rgb = bytearray(pygame.image.tobytes(surf, "RGB"))  # writable, rows top to bottom
+        return np.frombuffer(rgb, dtype=np.uint8).reshape(h, w, 3)
 
     def forget(self) -> None:
         """Drop the trails and contact flashes: the next draw starts afresh (a replay
@@ -710,13 +746,8 @@ class Viewer:
                 best = clear[np.arange(len(grid)), owner]
                 lab[best < 0] = idx[owner[best < 0]]
         if walls is not None:
-            times = np.linspace(0.0, float(path.t[-1]), 41)
-            own = _own_paths(obs.velocity, grid, obs.v_max, times)
-            pts = own.reshape(-1, 2)
-            wall_clear = np.full(len(grid), np.inf)
-            for seg, grown in zip(walls[0], walls[1], strict=True):
-                d = point_segment_distances(pts, seg[None])[:, 0].reshape(len(grid), len(times))
-                wall_clear = np.minimum(wall_clear, np.min(d, axis=1) - grown)
+            wall_clear = self._wall_clearance(grid, obs.velocity, obs.v_max, float(path.t[-1]),
+                                              walls)
             lab[(wall_clear < 0) & (wall_clear < best)] = -2
             shown += len(walls[1])
         hit = lab != -1
@@ -759,6 +790,35 @@ class Viewer:
         if selected not in controlled and agent.status is not None:
             status = f"last selection: {agent.status}; " + status
         self._text(status, (plot.left - 40, plot.bottom + 42), self._small, (70, 70, 70))
+
+    @staticmethod
+    def _wall_clearance(grid: NDArray[np.float64], velocity: NDArray[np.float64], v_max: float,
+                        horizon: float, walls: tuple[NDArray[np.float64], NDArray[np.float64]],
+                        ) -> NDArray[np.float64]:
+        """Per panel acceleration (G, 2) m/s^2: the least clearance (G,) m of the robot's own
+        path (sampled at 41 times over ``horizon`` s) to the walls (robot-relative segments
+        (W, 2, 2) m, grown half-thicknesses (W,) m). Exact where negative; elsewhere a value
+        >= 0 (inf where no wall comes within reach), as only the sign matters.
+
+        A wall is measured only against the accelerations whose sampled path comes within
+        its bounding box grown by its half-thickness (any other is farther from it than
+        that); those are measured with the same arithmetic as all of them would be."""
+        times = np.linspace(0.0, horizon, 41)
+        xs, ys = _own_paths_xy(velocity, grid, v_max, times)
+        lo = np.stack([xs.min(axis=1), ys.min(axis=1)], axis=1)  # (G, 2) box of each path
+        hi = np.stack([xs.max(axis=1), ys.max(axis=1)], axis=1)
+        wall_clear = np.full(len(grid), np.inf)
+        for seg, grown in zip(walls[0], walls[1], strict=True):
+            # slack so that rounding never drops a point within `grown` of the segment
+            r = grown + 1e-9 * (1.0 + abs(grown))
+            box_lo = seg.min(axis=0) - r
+            box_hi = seg.max(axis=0) + r
+            near = np.flatnonzero(np.all((hi >= box_lo) & (lo <= box_hi), axis=1))
+            if not len(near):
+                continue
+            d = _segment_distances_xy(xs[near], ys[near], seg)
+            wall_clear[near] = np.minimum(wall_clear[near], np.min(d, axis=1) - grown)
+        return wall_clear
 
     @staticmethod
     def _region_colours() -> NDArray[np.uint8]:
