@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import supersuit as ss
 import yaml
+from bitwise import same  # tests/bitwise.py
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
 
 from nao_arena.environment import (
@@ -52,20 +53,6 @@ def _cloudpickle(x):
 
 
 COPIES = {"pickle": _pickle, "cloudpickle": _cloudpickle, "deepcopy": copy.deepcopy}
-
-
-def same(x, y) -> bool:
-    """Equal to the bit (floats and arrays by their bytes), recursively."""
-    if isinstance(x, dict):
-        return type(y) is dict and x.keys() == y.keys() and all(same(x[k], y[k]) for k in x)
-    if isinstance(x, list | tuple):
-        return len(x) == len(y) and all(same(a, b) for a, b in zip(x, y, strict=True))
-    if isinstance(x, np.ndarray):
-        return (isinstance(y, np.ndarray) and x.dtype == y.dtype and x.shape == y.shape
-                and x.tobytes() == y.tobytes())
-    if isinstance(x, float):
-        return isinstance(y, float) and np.float64(x).tobytes() == np.float64(y).tobytes()
-    return type(x) is type(y) and x == y
 
 
 def _summary(e) -> str:

@@ -28,7 +28,7 @@ from nao_arena.maps.schema import (
 )
 
 __all__ = ["available_maps", "load_map", "map_from_dict", "parse_overrides",
-           "point_segment_distances"]
+           "point_segment_distances", "segment_distances_xy"]
 
 
 # --------------------------------------------------------------------------- parameters
@@ -121,18 +121,35 @@ def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
 
 
+def segment_distances_xy(xs: NDArray[np.float64], ys: NDArray[np.float64],
+                         segment: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distances m from the points (xs, ys) m (any equal shapes) to one segment (2, 2) m,
+    one coordinate at a time (contiguous arrays: the viewer's panel grids)."""
+    (ax, ay), (bx, by) = segment
+    abx, aby = bx - ax, by - ay
+    ll = max(abx * abx + aby * aby, 1e-300)
+    relx = xs - ax
+    rely = ys - ay
+    t = relx * abx
+    t += rely * aby
+    t /= ll
+    np.clip(t, 0.0, 1.0, out=t)
+    dx = relx - t * abx
+    dy = rely - t * aby
+    return np.hypot(dx, dy)
+
 
 def point_segment_distances(
     points: NDArray[np.float64], segments: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """Distances (n, W) m from points (n, 2) m to segments (W, 2, 2) m (also used by the viewer)."""
-    a, b = segments[:, 0], segments[:, 1]
-    ab = b - a
-    ll = np.maximum(np.sum(ab * ab, axis=1), 1e-300)
-    rel = points[:, None, :] - a[None]
-    t = np.clip(np.sum(rel * ab[None], axis=2) / ll, 0.0, 1.0)
-    d = rel - t[..., None] * ab[None]
-    return np.hypot(d[..., 0], d[..., 1])
+    """Distances (n, W) m from points (n, 2) m to segments (W, 2, 2) m."""
+    points = np.asarray(points, dtype=float)
+    xs, ys = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    out = np.empty((len(points), len(segments)))
+    for k, segment in enumerate(np.asarray(segments, dtype=float)):
+        out[:, k] = segment_distances_xy(xs, ys, segment)
+    return out
+
 
 def _wall_clearance(spec: MapSpec, points: NDArray[np.float64]) -> list[NDArray[np.float64]]:
     """Per wall (as listed, then bound walls): surface distance (n,) m from points to it."""

@@ -66,7 +66,7 @@ from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
 from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
-from nao_arena.maps.loader import point_segment_distances  # noqa: E402
+from nao_arena.maps.loader import point_segment_distances, segment_distances_xy  # noqa: E402
 from nao_arena.obstacles import obstacle_paths  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.sensing import Observation  # noqa: E402
@@ -235,25 +235,6 @@ def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float
     """Displacements (K, T, 2) m under constant accelerations (K, 2), speed saturating at
     v_max (the world's model, see :func:`nao_arena.world.speed_limit_time`)."""
     return np.stack(_own_paths_xy(v, accels, v_max, times), axis=-1)
-
-
-def _segment_distances_xy(xs: NDArray[np.float64], ys: NDArray[np.float64],
-                          seg: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distances m from the points (xs, ys) m (any equal shapes) to the segment (2, 2) m:
-    :func:`nao_arena.maps.loader.point_segment_distances` one component at a time, with
-    the same arithmetic (so the same results)."""
-    (ax, ay), (bx, by) = seg
-    abx, aby = bx - ax, by - ay
-    ll = max(abx * abx + aby * aby, 1e-300)
-    relx = xs - ax
-    rely = ys - ay
-    t = relx * abx
-    t += rely * aby
-    t /= ll
-    np.clip(t, 0.0, 1.0, out=t)
-    dx = relx - t * abx
-    dy = rely - t * aby
-    return np.hypot(dx, dy)
 
 
 def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
@@ -816,7 +797,7 @@ class Viewer:
             near = np.flatnonzero(np.all((hi >= box_lo) & (lo <= box_hi), axis=1))
             if not len(near):
                 continue
-            d = _segment_distances_xy(xs[near], ys[near], seg)
+            d = segment_distances_xy(xs[near], ys[near], seg)
             wall_clear[near] = np.minimum(wall_clear[near], np.min(d, axis=1) - grown)
         return wall_clear
 
