@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
 from nao_arena.geometry._kernel.search import onto_disc, repair_relevant, select_relevant
+from nao_arena.geometry._kernel.segment import nearby_walls, relevant_walls
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import (
     _DISKS_PER_PIECE,
@@ -48,17 +49,18 @@ INFEASIBLE = Outcome.INFEASIBLE  # nothing admissible found: the caller's fallba
 
 
 @njit(cache=True)
-def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_radius, wall_c,
-                 wall_r, wall_start, wall_index, rows, pos, vel, grow, a_max, v_max, repair,
+def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_radius, wall_seg,
+                 wall_half, wall_start, wall_index, rows, pos, vel, grow, a_max, v_max, repair,
                  current, desired, ring_radii, unit_rings, repair_steps, repair_unit,
                  max_disks, n_sub, per_second, sliver_depth, kind, accel, tested):
     """Re-select for the robots ``rows`` (indices into the per-robot arrays).
 
     Robot k sees the bodies nb_index[nb_start[k]:nb_start[k + 1]] (world-frame
     centres pred[body] (T, 2) m at ``times`` s, radii nb_radius[body] + grow[k] m)
-    and the static discs wall_index[wall_start[k]:wall_start[k + 1]] of wall_c (m,
-    world frame, radii wall_r m, already grown); position pos[k] (m), velocity
-    vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s). excursion,
+    and the walls wall_index[wall_start[k]:wall_start[k + 1]] of wall_seg ((M, 2, 2) m,
+    world frame; radii wall_half (m) + grow[k], cut as
+    :func:`~nao_arena.geometry._kernel.segment.nearby_walls` cuts them); position pos[k]
+    (m), velocity vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s). excursion,
     finite_path: :func:`~nao_arena.geometry._kernel.sampled.path_excursions` of ``pred``.
     When repair[k], the current acceleration current[k] is first repaired towards
     desired[k] (m/s^2). Selection parameters: ring_radii[k] (m/s^2), unit_rings,
@@ -74,20 +76,13 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
         if not (math.isfinite(vx) and math.isfinite(vy)):
             kind[k] = Outcome.UNDECIDED
             continue
-        px = pos[k, 0]
-        py = pos[k, 1]
-        n_w = wall_start[k + 1] - wall_start[k]
-        wall_rel = np.empty((n_w, 2))
-        wall_rr = np.empty(n_w)
-        for i in range(n_w):
-            d = wall_index[wall_start[k] + i]
-            wall_rel[i, 0] = wall_c[d, 0] - px
-            wall_rel[i, 1] = wall_c[d, 1] - py
-            wall_rr[i] = wall_r[d]
         c, w, b, rad, finite = relevant_sampled_paths(
             times, pred, nb_index[nb_start[k]:nb_start[k + 1]], pos[k], nb_radius, grow[k],
-            wall_rel, wall_rr, vel[k], a_max[k], v_max[k], excursion,
-            finite_path)
+            vel[k], a_max[k], v_max[k], excursion, finite_path)
+        walls, wall_r = nearby_walls(wall_seg, wall_half,
+                                     wall_index[wall_start[k]:wall_start[k + 1]],
+                                     pos[k], grow[k], math.inf, True)
+        walls, wall_r = relevant_walls(vel[k], a_max[k], v_max[k], times[-1], walls, wall_r, 0.0)
         if not finite:
             kind[k] = Outcome.UNDECIDED
             continue
@@ -101,7 +96,7 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
                     and math.isfinite(want[1])):
                 found, x, y, _ = repair_relevant(prev, want, a_max[k], repair_steps,
                                                  repair_unit, vel[k], v_max[k], times, c, w, b,
-                                                 rad, sweep)
+                                                 rad, walls, wall_r, sweep)
                 if found:
                     kind[k] = Outcome.REPAIRED
                     accel[k, 0] = x
@@ -115,8 +110,8 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
         a_d[1] = dy
         tol = max(1e-3, 1e-9 * max(a_max[k], 1.0))
         status, x, y, count = select_relevant(
-            a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, sweep, 0.0, tol, ring_radii[k],
-            unit_rings, max_disks, n_sub, per_second, sliver_depth * a_max[k])
+            a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, walls, wall_r, sweep, 0.0, tol,
+            ring_radii[k], unit_rings, max_disks, n_sub, per_second, sliver_depth * a_max[k])
         tested[k] = count
         if status == Outcome.DESIRED:
             kind[k] = Outcome.DESIRED
@@ -140,10 +135,10 @@ def decide(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
     """:func:`decide_batch` with the settings :func:`~nao_arena.geometry.select_acceleration`
     and :func:`~nao_arena.geometry.repair_acceleration` use by default. lists: the CSR
-    obstacle lists (nb_start, nb_index, wall_c, wall_r, wall_start, wall_index); per-robot
+    obstacle lists (nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index); per-robot
     arrays as in :func:`decide_batch`. Returns (kind, accel m/s^2, tested) per robot
     (kind UNDECIDED for the robots not in ``rows``)."""
-    nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
+    nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
     n = len(a_max)
     kind = np.full(n, Outcome.UNDECIDED, dtype=np.int64)
     accel = np.zeros((n, 2))
@@ -151,7 +146,7 @@ def decide(
     radii = np.array([_ring_radii(float(a), _RINGS) for a in a_max]).reshape(n, _RINGS)
     decide_batch(
         np.ascontiguousarray(times, dtype=np.float64), pred, excursions[0], excursions[1],
-        nb_start, nb_index, np.ascontiguousarray(nb_radius), wall_c, wall_r, wall_start,
+        nb_start, nb_index, np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,
         wall_index, rows, np.ascontiguousarray(pos), np.ascontiguousarray(vel),
         np.ascontiguousarray(grow), np.ascontiguousarray(a_max), np.ascontiguousarray(v_max),
         repair, np.ascontiguousarray(current), np.ascontiguousarray(desired), radii,

@@ -2,7 +2,7 @@
 
 Each step the agent predicts its neighbours' centres over the horizon
 (predictor option), builds their NAOs (grown by both radii and a safety
-margin, walls as chains of static discs), and
+margin; walls as exact static segments), and
 
 1. keeps its current acceleration while that stays admissible and either
    lies within ``keep_band`` (m/s^2) of the desired one or is an avoidance
@@ -79,8 +79,10 @@ from nao_arena.geometry._kernel.batch import sampled_admissible_batch
 from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
 from nao_arena.geometry._kernel.sampled import path_excursions
+from nao_arena.geometry._kernel.segment import relevant_walls
 from nao_arena.geometry.selection import Selection
-from nao_arena.obstacles import NO_WALLS, obstacle_paths, wall_discs_memo, walls_within
+from nao_arena.maps.loader import point_segment_distances
+from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -182,15 +184,6 @@ class NAOAgent:
             self._key_times = self.times
         return self._key
 
-    def _near_walls(
-        self, walls: NDArray[np.float64], wall_radius: NDArray[np.float64], grow: float,
-        position: NDArray[np.float64],
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The wall discs in sensing range: centres relative to ``position`` (m), radii
-        grown by ``grow`` (m)."""
-        wc, wr = wall_discs_memo(walls, wall_radius, grow)
-        return walls_within(wc, wr, position, self.sensing_range)
-
     def _relevant_paths(
         self,
         predicted: NDArray[np.float64],
@@ -206,31 +199,28 @@ class NAOAgent:
         v_max: float,
     ) -> PiecewisePath:
         """:func:`~nao_arena.obstacles.obstacle_paths` of the neighbours predicted[idx]
-        (radii nb_radii[idx]) and the wall discs in sensing range, without the obstacles
+        (radii nb_radii[idx]) and the walls in sensing range, without the obstacles
         that no acceleration within a_max (m/s^2) can reach (velocity m/s, speed limit
         v_max m/s): what every selection drops first (:func:`relevant_obstacles`), built
         in one compiled pass (where the time grid is regular and the velocity finite).
         excursions: :func:`path_excursions` of ``predicted`` (shared by the robots of a
         step)."""
         times = self.times
+        grow = radius + self.margin
         if not (self._regular_grid() and math.isfinite(velocity[0])
                 and math.isfinite(velocity[1])):
-            grow = radius + self.margin
-            wc, wr = wall_discs_memo(walls, wall_radius, grow)
-            return obstacle_paths(times, predicted[idx], nb_radii[idx] + grow, position, wc, wr,
-                                  self.sensing_range)
-        grow = radius + self.margin
-        if len(walls):
-            wall_rel, wall_r = self._near_walls(walls, wall_radius, grow, position)
-        else:
-            wall_rel, wall_r = NO_WALLS
+            return obstacle_paths(times, predicted[idx], nb_radii[idx] + grow, position, walls,
+                                  wall_radius + grow, self.sensing_range)
         c, w, b, rad, finite = relevant_sampled_paths(
-            times, predicted, idx, position, nb_radii, grow, np.ascontiguousarray(wall_rel),
-            np.ascontiguousarray(wall_r), velocity, float(a_max) * (1.0 + 1e-9), float(v_max),
-            excursions[0], excursions[1])
+            times, predicted, idx, position, nb_radii, grow, velocity,
+            float(a_max) * (1.0 + 1e-9), float(v_max), excursions[0], excursions[1])
         if not finite:
             raise ValueError("centers: expected finite values")
-        return PiecewisePath(times, c, w, b, rad)
+        wall_rel, wall_r = relative_walls(walls, wall_radius + grow, position,
+                                          self.sensing_range)
+        wall_rel, wall_r = relevant_walls(velocity, float(a_max) * (1.0 + 1e-9), float(v_max),
+                                          float(times[-1]), wall_rel, wall_r, 0.0)
+        return PiecewisePath(times, c, w, b, rad, wall_rel, wall_r)
 
     def _select(
         self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
@@ -532,8 +522,8 @@ def _obstacle_lists(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
            NDArray[np.int64], NDArray[np.int64]]:
     """The obstacles each member sees, as CSR lists (members' order): neighbours
-    (nb_start, nb_index: body indices), then the wall discs in its range (wall_c m,
-    wall_r m grown by the member's radius and margin, wall_start, wall_index)."""
+    (nb_start, nb_index: body indices), then the walls in its range (wall_seg (W, 2, 2) m
+    and wall_half (W,) m: every wall's ends and half-thickness; wall_start, wall_index)."""
     m = np.asarray(members, dtype=np.int64)
     k_rows = rows[m]
     lo = batch.nb_start[k_rows]
@@ -544,35 +534,18 @@ def _obstacle_lists(
     take = np.repeat(lo - nb_start[:-1], counts) + np.arange(nb_start[-1])
     nb_index = batch.nb_index[take].astype(np.int64)
     wall_start = np.zeros(len(m) + 1, dtype=np.int64)
-    if not len(batch.walls):
-        return (nb_start, nb_index, np.zeros((0, 2)), np.zeros(0), wall_start,
-                np.zeros(0, dtype=np.int64))
-    # the wall discs in range, per grown radius (radius + margin) the members have
+    walls = np.ascontiguousarray(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
+    half = np.ascontiguousarray(batch.wall_radius, dtype=np.float64)
+    if not len(walls):
+        return (nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64))
+    # the walls within each member's range: distance <= range + half-thickness + grow
     grow = rad[m] + np.array([agents[i].margin for i in members])
     reach = np.array([agents[i].sensing_range for i in members])
-    wall_c_parts: list[NDArray[np.float64]] = []
-    wall_r_parts: list[NDArray[np.float64]] = []
-    who: list[NDArray[np.int64]] = []
-    which: list[NDArray[np.int64]] = []
-    offset = 0
-    for g in dict.fromkeys(grow.tolist()):
-        wc, wr = wall_discs_memo(batch.walls, batch.wall_radius, g)
-        sel = np.flatnonzero(grow == g)
-        p = pos[m[sel]]
-        near = np.hypot(wc[None, :, 0] - p[:, 0, None], wc[None, :, 1] - p[:, 1, None]) <= (
-            reach[sel, None] + wr[None, :])
-        r_i, w_i = np.nonzero(near)
-        who.append(sel[r_i])
-        which.append(offset + w_i)
-        wall_c_parts.append(wc)
-        wall_r_parts.append(wr)
-        offset += len(wc)
-    member = np.concatenate(who)
-    order = np.argsort(member, kind="stable")
+    dist = point_segment_distances(pos[m], walls)
+    near = dist <= reach[:, None] + half[None, :] + grow[:, None]
+    member, which = np.nonzero(near)
     np.cumsum(np.bincount(member, minlength=len(m)), out=wall_start[1:])
-    return (nb_start, nb_index, np.ascontiguousarray(np.concatenate(wall_c_parts)),
-            np.ascontiguousarray(np.concatenate(wall_r_parts)), wall_start,
-            np.concatenate(which)[order].astype(np.int64))
+    return nb_start, nb_index, walls, half, wall_start, which.astype(np.int64)
 
 
 def _keep_current(
@@ -597,12 +570,12 @@ def _keep_current(
     status = np.where(band & inside, 2, 0)
     if lists is None or not np.any(status == 2):
         return status.tolist()
-    nb_start, nb_index, wall_c, wall_r, wall_start, wall_index = lists
+    nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
     todo = np.flatnonzero(status == 2)
     res = np.zeros(len(m), dtype=np.int64)
     sampled_admissible_batch(
         np.ascontiguousarray(times, dtype=np.float64), pred, nb_start, nb_index,
-        np.ascontiguousarray(nb_radius), wall_c, wall_r, wall_start,
+        np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,
         wall_index, todo, np.ascontiguousarray(pos[m]),
         np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
         np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]), margin,

@@ -138,7 +138,6 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, ArenaOptions, StepResult
 from nao_arena.geometry.clearance import path_clearance
-from nao_arena.geometry.walls import wall_discs
 from nao_arena.maps import MapSpec, load_map
 from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
@@ -432,11 +431,8 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._k = max(k, 0)
         self._walls = None
         if self.options.nao_features and self.options.nao_walls and len(self.arena.walls):
-            grow = {float(r) for r in world.radii[world.robot_indices]}
-            self._walls = {
-                g: wall_discs(self.arena.walls, self.arena.wall_radius, g + self.options.nao_margin)
-                for g in grow
-            }
+            self._walls = (np.ascontiguousarray(self.arena.walls, dtype=np.float64),
+                           np.ascontiguousarray(self.arena.wall_radius, dtype=np.float64))
 
     @staticmethod
     def _resolve_controlled(
@@ -826,12 +822,14 @@ class NaoArenaParallelEnv(ParallelEnv):
         for i, b in enumerate(bodies.tolist()):
             r_own = float(state.radii[b])
             a_max, v_max = float(world.a_max[b]), float(world.v_max[b])
-            wc, wr = self._walls[r_own] if self._walls is not None else (None, None)
+            grow = r_own + opts.nao_margin
+            walls, half = self._walls if self._walls is not None else (None, None)
             # the agent's obstacles, without its radius cut: the walls within reach
             path = obstacle_paths(
                 times, predicted[starts[i]:starts[i + 1]],
-                state.radii[flat[starts[i]:starts[i + 1]]] + r_own + opts.nao_margin,
-                state.positions[b], wc, wr, v_max * h + 0.5 * a_max * h * h, cut=False)
+                state.radii[flat[starts[i]:starts[i + 1]]] + grow,
+                state.positions[b], walls, None if half is None else half + grow,
+                v_max * h + 0.5 * a_max * h * h, cut=False)
             if path.n_obstacles == 0:
                 continue
             clear = path_clearance(self._cand * a_max, state.velocities[b], path, v_max=v_max)

@@ -2,11 +2,15 @@
 the viewer's acceleration panel all build it.
 
 Robot-relative (m): each neighbour's predicted centres over the time grid with its radius
-grown by the robot's own radius and a margin, then the wall discs (static, already grown,
-see :func:`nao_arena.geometry.walls.wall_discs`) within reach. With ``cut`` an obstacle
-already closer than its grown radius (inside the margin, or touching) counts with just
-under its current distance (``RADIUS_CUT``): the robot may not close in further but may
-move away, instead of finding every acceleration inadmissible.
+grown by the robot's own radius and a margin, and the walls within reach as exact static
+segments (their half-thickness grown alike; :mod:`nao_arena.geometry._kernel.segment`).
+With ``cut`` an obstacle or wall already closer than its grown radius (inside the margin,
+or touching) counts with just under its current distance (``RADIUS_CUT``): the robot may
+not close in further but may move away, instead of finding every acceleration
+inadmissible.
+
+The velocity-space baselines (``vo``, ``orca``) see walls as chains of discs instead
+(:func:`wall_discs_memo`), the obstacle model those methods take.
 """
 
 from __future__ import annotations
@@ -17,10 +21,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT
+from nao_arena.geometry._kernel.segment import nearby_walls
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
 from nao_arena.geometry.walls import wall_discs
 
-__all__ = ["NO_WALLS", "RADIUS_CUT", "obstacle_paths", "wall_discs_memo", "walls_within",
+__all__ = ["NO_WALLS", "RADIUS_CUT", "obstacle_paths", "relative_walls", "wall_discs_memo",
            "within_reach"]
 
 
@@ -57,14 +62,18 @@ def wall_discs_memo(
     return hit
 
 
-def walls_within(
-    wall_centres: NDArray[np.float64], wall_radii: NDArray[np.float64],
-    position: NDArray[np.float64], reach: float,
+def relative_walls(
+    walls: NDArray[np.float64], grown_radii: NDArray[np.float64], position: NDArray[np.float64],
+    reach: float = math.inf, cut: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The wall discs whose centre lies within ``reach`` (m) + their radius of ``position``
-    (2,) m: centres relative to ``position`` (m) and radii (m)."""
-    near = np.hypot(*(wall_centres - position).T) <= reach + wall_radii
-    return wall_centres[near] - position, wall_radii[near]
+    """The walls (W, 2, 2) m (world frame) within ``reach`` (m) + their grown radius
+    ``grown_radii`` (W,) m of ``position`` (2,) m: ends relative to ``position`` (m) and
+    radii (m), cut to just under the current distances with ``cut``."""
+    walls = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 2, 2)
+    return nearby_walls(walls, np.ascontiguousarray(grown_radii, dtype=np.float64),
+                        np.arange(len(walls), dtype=np.int64),
+                        np.ascontiguousarray(position, dtype=np.float64), 0.0, float(reach),
+                        bool(cut))
 
 
 def obstacle_paths(
@@ -72,7 +81,7 @@ def obstacle_paths(
     centres: NDArray[np.float64],
     grown_radii: NDArray[np.float64],
     position: NDArray[np.float64],
-    wall_centres: NDArray[np.float64] | None = None,
+    walls: NDArray[np.float64] | None = None,
     wall_radii: NDArray[np.float64] | None = None,
     wall_reach: float = math.inf,
     cut: bool = True,
@@ -80,16 +89,16 @@ def obstacle_paths(
     """The obstacles of a robot at ``position`` (2,) m over ``times`` (T,) s, robot-relative.
 
     centres: the neighbours' predicted centres (n, T, 2) m, world frame; grown_radii (n,)
-    m: their radii grown by the robot's radius and margin; wall_centres (W, 2) m and
-    wall_radii (W,) m: wall discs (grown alike), of which those whose centre lies within
-    ``wall_reach`` (m) + their radius of ``position`` count, after the neighbours;
-    cut: radii cut to just under the current distances (see the module docstring).
+    m: their radii grown by the robot's radius and margin; walls (W, 2, 2) m (world frame)
+    with wall_radii (W,) m (half-thickness grown alike), of which those within
+    ``wall_reach`` (m) + their radius of ``position`` count; cut: radii cut to just under
+    the current distances (see the module docstring).
     """
     rel = centres - position
-    parts = [rel]
-    radii = [within_reach(grown_radii, rel[:, 0]) if cut else grown_radii]
-    if wall_centres is not None and wall_radii is not None and len(wall_centres):
-        wall_rel, wall_r = walls_within(wall_centres, wall_radii, position, wall_reach)
-        parts.append(np.repeat(wall_rel[:, None, :], len(times), 1))
-        radii.append(within_reach(wall_r, wall_rel) if cut else wall_r)
-    return sampled_path(times, np.concatenate(parts), np.concatenate(radii))
+    radii = within_reach(grown_radii, rel[:, 0]) if cut else grown_radii
+    path = sampled_path(times, rel, radii)
+    if walls is None or wall_radii is None or not len(walls):
+        return path
+    w_rel, w_rad = relative_walls(walls, wall_radii, position, wall_reach, cut)
+    return PiecewisePath(path.t, path.c, path.velocity, path.acceleration, path.radius,
+                         w_rel, w_rad)

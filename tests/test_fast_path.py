@@ -60,10 +60,11 @@ from nao_arena.geometry._kernel.search import (
     slide_disc,
     try_candidates_disc,
 )
-from nao_arena.geometry.clearance import sampled_path
+from nao_arena.geometry.clearance import PiecewisePath, sampled_path
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
 from nao_arena.maps import load_map
+from nao_arena.maps.loader import point_segment_distances
 from nao_arena.predictors import turn_rate
 from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighbours_in_range
 
@@ -365,8 +366,9 @@ def _batch_scene(seed: int):
     pred = turn_rate(times, nb_all)
     rows = np.arange(n_bodies)
     start, index = neighbour_lists(rows, nb_all.positions, float(rng.uniform(2.0, 10.0)))
-    wall_c = rng.normal(size=(int(rng.integers(0, 8)), 2)) * 4.0
-    wall_r = rng.uniform(0.2, 0.8, size=len(wall_c))
+    wall_a = rng.normal(size=(int(rng.integers(0, 8)), 2)) * 4.0
+    wall_c = np.stack([wall_a, wall_a + rng.normal(size=wall_a.shape) * 3.0], axis=1)
+    wall_r = rng.uniform(0.0, 0.3, size=len(wall_c))
     near = [np.flatnonzero(rng.random(len(wall_c)) < 0.6) for _ in rows]
     wall_start = np.concatenate([[0], np.cumsum([len(x) for x in near])]).astype(np.int64)
     wall_index = (np.concatenate(near) if near else np.zeros(0)).astype(np.int64)
@@ -391,18 +393,20 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
     for k in range(n):
         idx = index[start[k]:start[k + 1]]
         widx = wall_index[wall_start[k]:wall_start[k + 1]]
-        centres = np.concatenate([
-            pred[idx] - pos[k],
-            np.repeat((wall_c[widx] - pos[k])[:, None, :], len(times), 1),
-        ])
-        radii = np.concatenate([rad[idx] + rad[k] + margin[k], wall_r[widx]])
-        if len(radii) == 0:
+        centres = pred[idx] - pos[k]
+        radii = rad[idx] + rad[k] + margin[k]
+        if len(radii) == 0 and len(widx) == 0:
             assert out[k] == 1
             continue
         # documented: a radius beyond the current distance is cut to just under it
         x0, y0 = centres[:, 0, 0], centres[:, 0, 1]
         radii = np.minimum(radii, np.sqrt(x0 * x0 + y0 * y0) * (1.0 - 1e-9))
-        path = sampled_path(times, centres, radii)
+        segs = wall_c[widx] - pos[k]
+        dist = point_segment_distances(np.zeros((1, 2)), segs)[0]
+        w_rad = np.minimum(wall_r[widx] + (rad[k] + margin[k]), dist * (1.0 - 1e-9))
+        moving = sampled_path(times, centres.reshape(-1, len(times), 2), radii)
+        path = PiecewisePath(moving.t, moving.c, moving.velocity, moving.acceleration,
+                             moving.radius, np.ascontiguousarray(segs.reshape(-1, 2, 2)), w_rad)
         ok = np.empty(1, dtype=bool)
         admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], *path.arrays,
                           piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok)
@@ -415,7 +419,7 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
     stop) against clearance_kernel's exact minimum distance (no prune): for margins
     just below and just above each candidate's exact clearance the verdicts are
     admissible and not admissible. Robots start at up to twice v_max (clamped), brake
-    through zero or saturate; obstacles accelerate."""
+    through zero or saturate; obstacles accelerate; three static walls."""
     rng = np.random.default_rng(seed)
     n, s, k = 6, 12, 60
     seg_t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 0.4, size=s))])
@@ -423,12 +427,15 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
     seg_w = rng.normal(size=(n, s, 2))
     seg_b = rng.normal(size=(n, s, 2)) * 0.5
     radius = rng.uniform(0.2, 1.0, size=n)
+    ends = rng.normal(size=(3, 2)) * 8.0
+    walls = np.ascontiguousarray(np.stack([ends, ends + rng.normal(size=(3, 2)) * 2.0], axis=1))
+    wall_r = rng.uniform(0.1, 0.5, size=3)
     v_max = 1.5
     cand_v = rng.normal(size=(k, 2)) * v_max
     cand_a = rng.normal(size=(k, 2)) * 1.5
-    clear = np.empty((k, n))
-    clearance_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, clear,
-                     np.empty((k, n)), np.empty((k, n)))
+    clear = np.empty((k, n + 3))
+    clearance_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
+                     clear, np.empty((k, n + 3)), np.empty((k, n + 3)))
     sweep = piece_sweep(seg_t, seg_w, seg_b)
     ok = np.empty(1, dtype=bool)
     checked = 0
@@ -438,7 +445,7 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
             continue
         for margin, expect in ((least * (1.0 - 1e-6), True), (least * (1.0 + 1e-6), False)):
             admissible_kernel(cand_v[i][None].copy(), cand_a[i][None].copy(), v_max, seg_t,
-                              seg_c, seg_w, seg_b, radius, sweep, margin, ok)
+                              seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, ok)
             assert bool(ok[0]) is expect, (i, margin, least)
         checked += 1
     assert checked >= 5
@@ -721,21 +728,18 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
     radii = rng.uniform(0.2, 0.6, size=n)
     idx = rng.permutation(n)[: int(rng.integers(0, n + 1))].astype(np.int64)
     position, velocity = rng.normal(size=2), rng.normal(size=2)
-    wall_rel = rng.normal(size=(int(rng.integers(0, 5)), 2)) * 5.0
-    wall_r = rng.uniform(0.2, 0.6, size=len(wall_rel))
     grow = 0.45
     a_max, v_max = 2.0, float(rng.choice([1.5, np.inf]))
     c, w, b, rad, finite = relevant_sampled_paths(times, pred, idx, position, radii, grow,
-                                                   wall_rel, wall_r, velocity, a_max, v_max,
+                                                   velocity, a_max, v_max,
                                                    *path_excursions(pred))
     assert finite
-    centres = np.concatenate([pred[idx] - position,
-                              np.repeat(wall_rel[:, None, :], len(times), 1)])
-    all_r = np.minimum(np.concatenate([radii[idx] + grow, wall_r]),
+    centres = pred[idx] - position
+    all_r = np.minimum(radii[idx] + grow,
                        np.sqrt(centres[:, 0, 0] * centres[:, 0, 0]
                                + centres[:, 0, 1] * centres[:, 0, 1]) * RADIUS_CUT)
     full = sampled_path(times, centres.reshape(-1, len(times), 2), all_r)
-    keep = relevant_obstacles(velocity, a_max, v_max, *full.arrays, 0.0)
+    keep = relevant_obstacles(velocity, a_max, v_max, *full.moving_arrays, 0.0)
     np.testing.assert_array_equal(c, full.c[keep])
     np.testing.assert_array_equal(w, full.velocity[keep])
     np.testing.assert_array_equal(b, full.acceleration[keep])
@@ -744,7 +748,7 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
         bad = pred.copy()
         bad[0, 3, 1] = np.nan
         assert not relevant_sampled_paths(times, bad, np.arange(n), position, radii, grow,
-                                          wall_rel, wall_r, velocity, a_max, v_max,
+                                          velocity, a_max, v_max,
                                           *path_excursions(bad))[4]
 
 
@@ -760,7 +764,7 @@ def test_relevant_paths_keep_an_obstacle_at_the_full_speed_reach(delta):
         pred = np.repeat(np.array([[[d, 0.0]]]), len(times), axis=1)
         c, w, b, rad, finite = relevant_sampled_paths(
             times, pred, np.array([0]), np.zeros(2), np.array([radius]), grow,
-            np.zeros((0, 2)), np.zeros(0), np.array([v_max, 0.0]), 2.0, v_max,
+            np.array([v_max, 0.0]), 2.0, v_max,
             *path_excursions(pred))
         assert finite and len(rad) == kept, (d, kept)
 

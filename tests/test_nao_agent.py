@@ -276,13 +276,19 @@ def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach(
     times = np.linspace(0.0, 1.0, 3)
     centres = np.array([[[1.5, 1.0]] * 3, [[5.0, 1.0]] * 3])  # world frame, at rest
     position = np.array([1.0, 1.0])
-    walls_c = np.array([[1.0, 3.0], [1.0, 9.0]])  # 2 m and 8 m away
-    walls_r = np.array([0.5, 0.5])
-    cut = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls_c, walls_r,
+    # segments 0.3 m, 2 m and 8 m away (world frame), grown radii 0.5 m
+    walls = np.array([[[0.0, 1.3], [2.0, 1.3]], [[0.0, 3.0], [2.0, 3.0]],
+                      [[0.0, 9.0], [2.0, 9.0]]])
+    walls_r = np.array([0.5, 0.5, 0.5])
+    cut = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls, walls_r,
                          wall_reach=4.0)
-    np.testing.assert_array_equal(cut.radius, [0.5 * RADIUS_CUT, 0.75, 0.5])  # one wall
-    np.testing.assert_array_equal(cut.c[:, 0], [[0.5, 0.0], [4.0, 0.0], [0.0, 2.0]])
-    whole = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls_c, walls_r,
+    np.testing.assert_array_equal(cut.radius, [0.5 * RADIUS_CUT, 0.75])
+    np.testing.assert_array_equal(cut.c[:, 0], [[0.5, 0.0], [4.0, 0.0]])
+    # the nearest wall cut to just under its distance, the far one beyond reach left out
+    np.testing.assert_allclose(cut.wall_radius, [0.3 * RADIUS_CUT, 0.5], rtol=1e-12)
+    np.testing.assert_array_equal(cut.walls, walls[:2] - position)
+    whole = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls, walls_r,
                            cut=False)
-    np.testing.assert_array_equal(whole.radius, [0.75, 0.75, 0.5, 0.5])
+    np.testing.assert_array_equal(whole.radius, [0.75, 0.75])
+    np.testing.assert_array_equal(whole.wall_radius, [0.5, 0.5, 0.5])
     assert obstacle_paths(times, np.zeros((0, 3, 2)), np.zeros(0), position).n_obstacles == 0

@@ -44,7 +44,7 @@ def test_batched_decision_uses_the_selections_codes() -> None:
     2 meant DESIRED in one and 'nothing admissible' in the other)."""
     times = np.linspace(0.0, 3.0, 7)
     pred = np.zeros((1, 7, 2))
-    lists = (np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 2)),
+    lists = (np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 2, 2)),
              np.zeros(0), np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64))
     kind, accel, _ = decide(times, pred, path_excursions(pred), lists, np.array([0.3]),
                             np.array([0]), np.zeros((1, 2)), np.array([[1.0, 0.0]]),

@@ -57,7 +57,7 @@ class Case:
     def mask(self) -> NDArray[np.bool_]:
         path = sampled_path(self.times, self.centers, self.radius)
         return relevant_obstacles(np.ascontiguousarray(self.v, dtype=np.float64),
-                                  float(self.a_max), float(self.v_max), *path.arrays,
+                                  float(self.a_max), float(self.v_max), *path.moving_arrays,
                                   float(self.margin))
 
     def accelerations(self) -> FloatArray:
@@ -230,5 +230,5 @@ def test_zero_length_horizon_without_speed_limit_keeps_an_overlapping_obstacle()
     # t = [0, 0]: no time to move; an obstacle already overlapping stays relevant
     path = sampled_path([0.0], np.array([[0.1, 0.0]]), np.array([0.5]))
     for v_max in (math.inf, 2.0):
-        mask = relevant_obstacles(np.zeros(2), 1.0, v_max, *path.arrays, 0.0)
+        mask = relevant_obstacles(np.zeros(2), 1.0, v_max, *path.moving_arrays, 0.0)
         assert mask.tolist() == [True]

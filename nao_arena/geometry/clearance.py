@@ -9,6 +9,10 @@ The robot drives x(t) = v t + a t^2 / 2 for a constant acceleration a. With a
 finite ``v_max`` its speed saturates: once |v + a t| = v_max it continues at
 constant velocity (the world enforces exactly this model).
 
+Static walls (segments, exact: :mod:`~nao_arena.geometry._kernel.segment`) ride along
+in a path as ``walls`` (W, 2, 2) robot-relative ends (m) with combined radii
+``wall_radius`` (W,) (m: half-thickness + the robot's radius and margin).
+
 Clearance = min over the horizon of |x(t) - c(t)| - radius. Negative means
 a collision within the horizon. Minima are exact for the stated obstacle
 path model (piecewise-linear interpolation of samples, or constant
@@ -17,7 +21,7 @@ acceleration), not just at the sample times.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,6 +49,8 @@ class PiecewisePath:
     c, velocity, acceleration: (N, S, 2) centre (m, robot-relative), velocity (m/s)
     and acceleration (m/s^2) of each obstacle at the start of each piece.
     radius: (N,) combined radius (m).
+    walls: (W, 2, 2) static segments' ends (m, robot-relative); wall_radius: (W,)
+    their combined radii (m; half-thickness + the robot's radius and margin).
     """
 
     t: NDArray[np.float64]
@@ -52,16 +58,38 @@ class PiecewisePath:
     velocity: NDArray[np.float64]
     acceleration: NDArray[np.float64]
     radius: NDArray[np.float64]
+    walls: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    wall_radius: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self) -> None:
+        if self.walls.ndim != 3 or self.walls.shape[1:] != (2, 2):
+            raise ValueError(f"walls: expected shape (W, 2, 2), got {self.walls.shape}")
+        if self.wall_radius.shape != (self.walls.shape[0],):
+            raise ValueError(f"wall_radius: expected shape ({self.walls.shape[0]},), "
+                             f"got {self.wall_radius.shape}")
 
     @property
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
-        """(t, c, velocity, acceleration, radius): the path as the compiled kernels take it
-        (their arguments seg_t, seg_c, seg_w, seg_b, radius)."""
+        """(t, c, velocity, acceleration, radius, walls, wall_radius): the path as the
+        compiled kernels take it (their arguments seg_t, seg_c, seg_w, seg_b, radius,
+        walls, wall_r)."""
+        return (self.t, self.c, self.velocity, self.acceleration, self.radius, self.walls,
+                self.wall_radius)
+
+    @property
+    def moving_arrays(self) -> tuple[NDArray[np.float64], ...]:
+        """(t, c, velocity, acceleration, radius): the moving obstacles alone, for the
+        kernels that take no walls."""
         return self.t, self.c, self.velocity, self.acceleration, self.radius
 
     @property
     def n_obstacles(self) -> int:
-        return self.c.shape[0]
+        """Moving obstacles and walls."""
+        return self.c.shape[0] + self.walls.shape[0]
+
+    @property
+    def n_walls(self) -> int:
+        return self.walls.shape[0]
 
     @property
     def horizon(self) -> float:
@@ -191,8 +219,8 @@ def path_clearance(
 
     accels: (K, 2) or (2,) m/s^2. v: (2,) robot velocity (m/s), or pass
     ``velocities`` (K, 2) for one initial velocity per candidate. Returns
-    arrays of shape (K, N) (leading/trailing axes dropped for a single
-    acceleration or a single obstacle the way the inputs were given).
+    arrays of shape (K, N + W) (the obstacles, then the walls; leading/trailing axes
+    dropped for a single acceleration or a single obstacle the way the inputs were given).
     """
     a, single_a = _as_vectors(accels, "accels")
     if velocities is None:

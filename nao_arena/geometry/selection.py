@@ -51,6 +51,7 @@ from nao_arena.geometry._kernel.search import (
     slide_disc,
     try_candidates_disc,
 )
+from nao_arena.geometry._kernel.segment import relevant_walls
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.outcome import Outcome
 
@@ -191,9 +192,13 @@ class _Tester:
         v_max: float,
     ) -> None:
         keep = relevant_obstacles(
-            v, limits.a_max, v_max, *path.arrays, margin
+            v, limits.a_max, v_max, *path.moving_arrays, margin
         )
-        if keep.all() and all(a.flags.c_contiguous for a in path.arrays[1:]):
+        walls, wall_r = relevant_walls(v, limits.a_max, v_max, path.horizon,
+                                       np.ascontiguousarray(path.walls),
+                                       np.ascontiguousarray(path.wall_radius), margin)
+        if (keep.all() and len(walls) == path.n_walls
+                and all(a.flags.c_contiguous for a in path.arrays[1:])):
             self.path = path  # already only the relevant obstacles (agents filter first)
         else:
             idx = np.flatnonzero(keep)
@@ -203,6 +208,7 @@ class _Tester:
                 np.ascontiguousarray(path.velocity[idx]),
                 np.ascontiguousarray(path.acceleration[idx]),
                 np.ascontiguousarray(path.radius[idx]),
+                walls, wall_r,
             )
         self.sweep = piece_sweep(self.path.t, self.path.velocity, self.path.acceleration)
         self.v = v
@@ -392,6 +398,7 @@ def select_acceleration(
             a_d, v_arr, limits.a_max, float(v_max), np.ascontiguousarray(path.t),
             np.ascontiguousarray(path.c), np.ascontiguousarray(path.velocity),
             np.ascontiguousarray(path.acceleration), np.ascontiguousarray(path.radius),
+            np.ascontiguousarray(path.walls), np.ascontiguousarray(path.wall_radius),
             float(margin), tol, radii, _unit_rings(rings, ring_points), _MAX_DISKS,
             _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
         found = a_d if status == Outcome.DESIRED else np.array([x, y])
@@ -510,7 +517,8 @@ def repair_acceleration(
             prev, want, limits.a_max, _REPAIR_STEPS, _REPAIR_UNIT, v_arr, float(v_max),
             np.ascontiguousarray(path.t), np.ascontiguousarray(path.c),
             np.ascontiguousarray(path.velocity), np.ascontiguousarray(path.acceleration),
-            np.ascontiguousarray(path.radius))
+            np.ascontiguousarray(path.radius), np.ascontiguousarray(path.walls),
+            np.ascontiguousarray(path.wall_radius))
         return np.array([x, y]) if found else None
     tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
     cand = np.concatenate([prev + limits.a_max * r * _REPAIR_UNIT for r in _REPAIR_STEPS])

@@ -715,8 +715,8 @@ class Viewer:
         best = np.zeros(g * g)
         shown = 0
         if path.n_obstacles:
-            keep = relevant_obstacles(obs.velocity, ext * math.sqrt(2), obs.v_max, *path.arrays,
-                                      0.0)
+            keep = relevant_obstacles(obs.velocity, ext * math.sqrt(2), obs.v_max,
+                                      *path.moving_arrays, 0.0)
             idx = np.flatnonzero(keep)
             if len(idx):
                 shown += len(idx)

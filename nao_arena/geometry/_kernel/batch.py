@@ -10,12 +10,13 @@ import numpy as np
 from numba import njit
 
 from nao_arena.geometry._kernel.exact import candidate_setup, fill_sweep, robot_state, scan_obstacle
-from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_pieces, static_pieces
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_pieces
+from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_within
 from nao_arena.geometry.borrow import borrowed
 
 
 @njit(cache=True, error_model="numpy")
-def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
+def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_half,
                              wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
                              excursion, finite_path, out):
     """Admissibility of one acceleration per robot against sampled obstacle paths.
@@ -23,8 +24,10 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
     For each robot k of ``rows``: its obstacles are the bodies
     nb_index[nb_start[k]:nb_start[k + 1]] with world-frame centres pred[body]
     (T, 2) m at ``times`` (s, times[0] = 0, T >= 2), radii nb_radius[body] +
-    radius[k] + margin[k] (m), then the static discs wall_index[...] of
-    wall_c (m) with radii wall_r (m). The paths are built exactly as
+    radius[k] + margin[k] (m), then the walls wall_index[wall_start[k]:wall_start[k + 1]]
+    of wall_seg ((M, 2, 2) m, world frame) with radii wall_half (m, half-thicknesses) +
+    radius[k] + margin[k], cut alike (see
+    :func:`~nao_arena.geometry._kernel.segment.nearby_walls`). The paths are built exactly as
     :func:`~nao_arena.geometry.clearance.sampled_path` builds them from the
     robot-relative centres (a radius larger than the distance at t = 0 is cut to
     that distance times 1 - 1e-9), and acc[k] (m/s^2) is tested as
@@ -36,8 +39,8 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
     S = times.shape[0] - 1
     most = 0  # the most obstacles a robot has: the scratch rows
     for k in rows:
-        most = max(most, nb_start[k + 1] - nb_start[k] + wall_start[k + 1] - wall_start[k])
-    _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r, wall_start,
+        most = max(most, nb_start[k + 1] - nb_start[k])
+    _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_half, wall_start,
                      wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
                      finite_path, out, np.empty(most, dtype=np.int64), np.empty(most),
                      np.empty((most, S, 2)), np.empty((most, S, 2)), np.zeros((most, S, 2)),
@@ -45,14 +48,14 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_c,
 
 
 @njit(cache=True, error_model="numpy")
-def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r, wall_start,
+def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_half, wall_start,
                      wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
                      finite_path, out, keep, keep_r, c, w, b, sweep, buf, res):
     """:func:`sampled_admissible_batch` with its scratch arrays given (rows enough for
     every robot's obstacles; b zero). Arrays borrowed here."""
     times, pred = borrowed(times), borrowed(pred)
     nb_start, nb_index = borrowed(nb_start), borrowed(nb_index)
-    nb_radius, wall_c, wall_r = borrowed(nb_radius), borrowed(wall_c), borrowed(wall_r)
+    nb_radius, wall_seg, wall_half = borrowed(nb_radius), borrowed(wall_seg), borrowed(wall_half)
     wall_start, wall_index, rows = borrowed(wall_start), borrowed(wall_index), borrowed(rows)
     pos, vel, acc, v_max = borrowed(pos), borrowed(vel), borrowed(acc), borrowed(v_max)
     radius, margin, excursion = borrowed(radius), borrowed(margin), borrowed(excursion)
@@ -77,23 +80,16 @@ def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
         half = 0.5 * travel
         n = 0
         finite = True
-        for i in range(n_nb + n_w):
-            if i < n_nb:
-                body = nb_index[nb_start[k] + i]
-                x0 = pred[body, 0, 0] - px
-                y0 = pred[body, 0, 1] - py
-                r = min(nb_radius[body] + radius[k] + margin[k],
-                        math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
-                if not finite_path[body]:
-                    finite = False
-                    break
-                ex = excursion[body]
-            else:
-                d = wall_index[wall_start[k] + i - n_nb]
-                x0 = wall_c[d, 0] - px
-                y0 = wall_c[d, 1] - py
-                r = min(wall_r[d], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
-                ex = 0.0
+        for i in range(n_nb):
+            body = nb_index[nb_start[k] + i]
+            x0 = pred[body, 0, 0] - px
+            y0 = pred[body, 0, 1] - py
+            r = min(nb_radius[body] + radius[k] + margin[k],
+                    math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
+            if not finite_path[body]:
+                finite = False
+                break
+            ex = excursion[body]
             gap = max(math.sqrt(x0 * x0 + y0 * y0) - travel,
                       math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half) - ex
             if gap > (r + 1e-9) * (1.0 + 1e-9):
@@ -104,18 +100,25 @@ def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_c, wall_r,
         if not finite:
             out[k] = -1
             continue
-        if n == 0:
-            out[k] = 1
+        ok = 1
+        for i in range(n_w):
+            d = wall_index[wall_start[k] + i]
+            ax0 = wall_seg[d, 0, 0] - px
+            ay0 = wall_seg[d, 0, 1] - py
+            bx0 = wall_seg[d, 1, 0] - px
+            by0 = wall_seg[d, 1, 1] - py
+            r = min(wall_half[d] + (radius[k] + margin[k]),
+                    math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT)
+            if segment_within(vx, vy, ax, ay, tau, travel, horizon, ax0, ay0, bx0, by0, r, buf,
+                              res):
+                ok = 0
+                break
+        if ok == 0 or n == 0:
+            out[k] = ok
             continue
         for q in range(n):
-            i = keep[q]
-            if i < n_nb:
-                moving_pieces(pred, nb_index[nb_start[k] + i], px, py, times, c, w, q)
-            else:
-                d = wall_index[wall_start[k] + i - n_nb]
-                static_pieces(wall_c[d, 0] - px, wall_c[d, 1] - py, times, c, w, q)
+            moving_pieces(pred, nb_index[nb_start[k] + keep[q]], px, py, times, c, w, q)
         fill_sweep(times, w, b, n, sweep)
-        ok = 1
         for q in range(n):
             scan_obstacle(vx, vy, ax, ay, tau, bound, times, c, w, b, sweep, q, keep_r[q], 0.0,
                           False, buf, res)

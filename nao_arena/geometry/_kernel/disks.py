@@ -50,8 +50,8 @@ def _put(out, row, x, y, rho, dq):
 
 
 @njit(cache=True, error_model="numpy")
-def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
-                     per_second=16.0, thin=0.0):
+def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_sub, q,
+                     reach, a_max, per_second=16.0, thin=0.0):
     """The sampled disks of :func:`nao_disks` before containment is filtered:
     (M, 4) rows (m_x, m_y, rho, distance of m from q), m/s^2 — for
     :func:`nao_disks_within`, which gives nao_disks for any smaller reach.
@@ -70,15 +70,104 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, re
     rho): two kept disks that far apart leave a sliver at most about ``thin``
     deep. The obstacle's last disk before a gap (a disk outside the ball or the
     limit disc) and at the end of the horizon is always kept.
+
+    Walls (walls (W, 2, 2) m robot-relative, radii wall_r (W,) m): at time t a wall's
+    NAO is the capsule of radius rho(t) around the segment from 2 (p - v t) / t^2 to
+    2 (q - v t) / t^2; its part that meets the ball and the limit disc is covered by
+    disks of radius rho(t) centred on the segment, close enough that the notches
+    between them stay below ``thin`` deep (3 % of rho without thinning), at most 65
+    per sample (then farther apart: deeper notches, which the exact tests of the
+    candidates catch), at the same times as a static obstacle's.
     """
     N = seg_c.shape[0]
     S = seg_c.shape[1]
     total = 0
     for j in range(S):
         total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
-    out = np.empty((N * total, 4))
-    return out[:_fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q,
-                                   reach, a_max, per_second, thin, out)]
+    rows = N * total
+    if walls.shape[0]:
+        rows += _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max,
+                            per_second, thin, np.empty((0, 4)), 0)
+    out = np.empty((rows, 4))
+    cnt = _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach,
+                             a_max, per_second, thin, out)
+    if walls.shape[0]:
+        cnt = _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second,
+                          thin, out, cnt)
+    return out[:cnt]
+
+
+_WALL_DISKS_PER_SAMPLE = 64
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _clip(px, py, dx, dy, cx, cy, big, lo, hi):
+    """[lo, hi] cut to the u where |P + u D - c| <= big (an empty interval: lo > hi)."""
+    dd = dx * dx + dy * dy
+    ex = px - cx
+    ey = py - cy
+    c0 = ex * ex + ey * ey - big * big
+    if dd == 0.0:
+        return (lo, hi) if c0 <= 0.0 else (1.0, 0.0)
+    half_b = dx * ex + dy * ey
+    disc = half_b * half_b - dd * c0
+    if disc < 0.0:
+        return 1.0, 0.0
+    sq = math.sqrt(disc)
+    return max(lo, (-half_b - sq) / dd), min(hi, (-half_b + sq) / dd)
+
+
+@njit(cache=True, error_model="numpy")
+def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out,
+                cnt):
+    """The walls' disks of :func:`nao_disk_samples` into out[cnt:]; returns the new count.
+    With an empty ``out`` it only counts them (from cnt)."""
+    write = out.shape[0] > 0
+    S = seg_t.shape[0] - 1
+    for w in range(walls.shape[0]):
+        rr = wall_r[w] + margin
+        for j in range(S):
+            t0 = seg_t[j]
+            t1 = seg_t[j + 1]
+            k = _samples_in_piece(t0, t1, n_sub, per_second)
+            head = 8 if (j == 0 and math.isfinite(t1)) else 0
+            tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
+            for i in range(k + head + tail):
+                if not math.isfinite(t1):
+                    t = max(t0, 1e-3) * 2.0 ** (i + 1)
+                elif i < head:
+                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / k
+                elif i == k + head:
+                    t = t1
+                else:
+                    t = t0 + (t1 - t0) * (i - head) / k
+                if t * t <= 0.0 or not math.isfinite(2.0 / (t * t)):
+                    continue
+                inv = 2.0 / (t * t)
+                px = (walls[w, 0, 0] - v[0] * t) * inv
+                py = (walls[w, 0, 1] - v[1] * t) * inv
+                dx = (walls[w, 1, 0] - v[0] * t) * inv - px
+                dy = (walls[w, 1, 1] - v[1] * t) * inv - py
+                rho = rr * inv
+                lo, hi = _clip(px, py, dx, dy, q[0], q[1], rho + reach, 0.0, 1.0)
+                if lo > hi:
+                    continue
+                lo, hi = _clip(px, py, dx, dy, 0.0, 0.0, rho + a_max, lo, hi)
+                if lo > hi:
+                    continue
+                length = (hi - lo) * vector_norm(dx, dy)
+                spacing = min(math.sqrt(8.0 * thin * rho) if thin > 0.0 else 0.5 * rho, rho)
+                n = 1 + min(_WALL_DISKS_PER_SAMPLE,
+                            int(math.ceil(length / spacing)) if spacing > 0.0 else 0)
+                if not write:
+                    cnt += n
+                    continue
+                for m in range(n):
+                    u = lo if n == 1 else lo + (hi - lo) * m / (n - 1)
+                    mx = px + u * dx
+                    my = py + u * dy
+                    cnt = _put(out, cnt, mx, my, rho, vector_norm(mx - q[0], my - q[1]))
+    return cnt
 
 
 @njit(cache=True, error_model="numpy")
@@ -166,8 +255,8 @@ def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, 
 
 
 @njit(cache=True, error_model="numpy")
-def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
-              per_second=16.0):
+def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_sub, q, reach,
+              a_max, per_second=16.0):
     """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
 
     A constant acceleration a collides with an obstacle at time t iff
@@ -179,7 +268,8 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_
     Returns (M, 3) rows (m_x, m_y, rho).
     """
     return drop_contained(np.ascontiguousarray(nao_disk_samples(
-        v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second,
+        v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_sub, q, reach, a_max,
+        per_second,
     )[:, :3]))
 
 

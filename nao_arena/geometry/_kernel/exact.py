@@ -17,24 +17,8 @@ import numpy as np
 from numba import njit
 
 from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
-from nao_arena.speed_limit import saturation_time
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def robot_state(vx, vy, ax, ay, tau, ta):
-    """Robot (acceleration, velocity, position) at time ta under the saturation model."""
-    if ta < tau:
-        return (
-            ax, ay, vx + ax * ta, vy + ay * ta,
-            vx * ta + 0.5 * ax * ta * ta, vy * ta + 0.5 * ay * ta * ta,
-        )
-    wx = vx + ax * tau
-    wy = vy + ay * tau
-    return (
-        0.0, 0.0, wx, wy,
-        vx * tau + 0.5 * ax * tau * tau + wx * (ta - tau),
-        vy * tau + 0.5 * ay * tau * tau + wy * (ta - tau),
-    )
+from nao_arena.geometry._kernel.robot_path import candidate_setup, robot_state
+from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wall_violation
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -160,21 +144,6 @@ def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, 
 
 
 @njit(cache=True, error_model="numpy")
-def candidate_setup(vx, vy, ax, ay, v_max, horizon):
-    """Speed-clamped initial velocity, saturation time and a bound on the speed (m/s)."""
-    spd = math.sqrt(vx * vx + vy * vy)
-    if spd > v_max:
-        vx *= v_max / spd
-        vy *= v_max / spd
-        spd = v_max
-    tau = saturation_time(vx, vy, ax, ay, v_max)
-    amag = math.sqrt(ax * ax + ay * ay)
-    # |v + a t| is convex in t, so up to tau it stays below max(|v|, v_max) = v_max
-    bound = min(spd + amag * min(tau, horizon), v_max * (1.0 + 1e-9))
-    return vx, vy, tau, bound
-
-
-@njit(cache=True, error_model="numpy")
 def piece_sweep(seg_t, seg_w, seg_b):
     """(N, S) bound on how far each obstacle moves within each piece (m)."""
     out = np.empty((seg_w.shape[0], seg_w.shape[1]))
@@ -195,26 +164,30 @@ def fill_sweep(seg_t, seg_w, seg_b, rows, out):
 
 @njit(cache=True, error_model="numpy")
 def clearance_kernel(
-    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, out_clear, out_tmin, out_tfirst,
+    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, out_clear,
+    out_tmin, out_tfirst,
 ):
-    """Exact clearance for K candidates x N obstacles.
+    """Exact clearance for K candidates x (N obstacles, then W walls).
 
     cand_v, cand_a: (K, 2) initial velocity (m/s) and constant acceleration
     (m/s^2) of the robot per candidate. seg_t: (S + 1,) piece boundaries (s),
     seg_t[0] = 0, last may be inf. seg_c, seg_w, seg_b: (N, S, 2) obstacle
     centre (m, relative to the robot's start), velocity and acceleration at
-    the start of each piece. radius: (N,) combined radius (m).
-    Outputs (K, N): clearance (m), time of closest approach (s), time of
+    the start of each piece. radius: (N,) combined radius (m). walls: (W, 2, 2)
+    static segments (m, robot-relative ends), wall_r: (W,) their combined radii (m).
+    Outputs (K, N + W): clearance (m), time of closest approach (s), time of
     first contact (s, inf if none).
     """
     K = cand_a.shape[0]
     N = seg_c.shape[0]
+    W = walls.shape[0]
     sweep = np.zeros((N, seg_c.shape[1]))
     buf = np.empty(3)
     out = np.empty(3)
+    horizon = seg_t[-1]
     for k in range(K):
         vx, vy, tau, bound = candidate_setup(
-            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
         for n in range(N):
             scan_obstacle(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w,
@@ -222,12 +195,19 @@ def clearance_kernel(
             out_clear[k, n] = math.sqrt(out[0]) - radius[n]
             out_tmin[k, n] = out[1]
             out_tfirst[k, n] = out[2]
+        for w in range(W):
+            wall_scan(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, horizon, walls[w, 0, 0],
+                      walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1], wall_r[w], True, buf, out)
+            out_clear[k, N + w] = math.sqrt(out[0]) - wall_r[w]
+            out_tmin[k, N + w] = out[1]
+            out_tfirst[k, N + w] = out[2]
 
 
 @njit(cache=True, error_model="numpy")
-def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
-                      out_ok):
-    """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle.
+def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
+                      sweep, margin, out_ok):
+    """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle
+    and wall (walls (W, 2, 2) m, radii wall_r (W,) m, see :func:`clearance_kernel`).
 
     Prunes pieces with a conservative distance bound and stops at the first
     violation, so it is much cheaper than the exact clearance.
@@ -236,9 +216,10 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
     N = seg_c.shape[0]
     buf = np.empty(3)
     out = np.empty(3)
+    horizon = seg_t[-1]
     for k in range(K):
         vx, vy, tau, bound = candidate_setup(
-            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
         ok = True
         for n in range(N):
@@ -247,6 +228,10 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
             if out[0] < (radius[n] + margin) ** 2:
                 ok = False
                 break
+        if ok and walls.shape[0] and wall_violation(
+                vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, horizon, walls, wall_r, margin,
+                -1, buf, out) >= 0:
+            ok = False
         out_ok[k] = ok
 
 
@@ -284,9 +269,10 @@ def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b,
 
 
 @njit(cache=True, error_model="numpy")
-def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-                          out_first):
-    """Earliest first contact (s) over all obstacles per candidate, for picking the latest.
+def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                          wall_r, sweep, out_first):
+    """Earliest first contact (s) over all obstacles and walls per candidate, for picking
+    the latest.
 
     A candidate's scan stops as soon as its earliest contact falls below the
     best (latest) found so far among earlier candidates; its entry is then
@@ -295,10 +281,12 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)
+    out = np.empty(3)
     best = -math.inf
+    horizon = seg_t[-1]
     for k in range(K):
         vx, vy, tau, bound = candidate_setup(
-            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, seg_t[-1]
+            cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
         tf = math.inf
         for n in range(N):
@@ -308,6 +296,11 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
                 tf = f
             if tf < best:
                 break
+        if walls.shape[0] and not tf < best:
+            f = wall_first_contact(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, horizon,
+                                   walls, wall_r, tf, buf, out)
+            if f < tf:
+                tf = f
         out_first[k] = tf
         if tf > best:
             best = tf

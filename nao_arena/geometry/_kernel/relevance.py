@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from nao_arena.geometry._kernel.exact import piece_sweep
-from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_piece, static_pieces
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_piece
 from nao_arena.geometry.borrow import borrowed
 
 
@@ -108,15 +108,15 @@ def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max,
 
 
 @njit(cache=True, error_model="numpy")
-def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
-                           a_max, v_max, excursion, finite_path):
+def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max,
+                           excursion, finite_path):
     """The pieces :func:`~nao_arena.geometry.clearance.sampled_path` builds, of the
     obstacles :func:`relevant_obstacles` keeps (margin 0), in one pass.
 
     Obstacles: the bodies ``idx`` with world-frame centres pred[body] (T, 2) m at
     ``times`` (s; times[0] = 0, increasing, T >= 2) and radii nb_radius[body] + grow
-    (m), then static discs at wall_rel (robot-relative, m) with radii wall_r (m); every
-    radius cut to just under the obstacle's current distance (RADIUS_CUT). Centres
+    (m), every radius cut to just under the obstacle's current distance (RADIUS_CUT)
+    (walls are not paths: see :func:`~nao_arena.geometry._kernel.segment.nearby_walls`). Centres
     are taken relative to ``position`` (m). Robot: velocity v (m/s), limits a_max,
     v_max. excursion, finite_path: :func:`path_excursions` of ``pred``.
     Returns (c, w, b, radius, finite): the pieces' start centres, velocities
@@ -125,31 +125,29 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, wall_rel
     False (and nothing is kept) when a neighbour's centres are not all finite.
     """
     S = times.shape[0] - 1
-    total = idx.shape[0] + wall_rel.shape[0]
+    total = idx.shape[0]
     c = np.empty((total, S, 2))
     w = np.empty((total, S, 2))
     b = np.zeros((total, S, 2))
     rad = np.empty(total)
-    n = _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v,
-                             a_max, v_max, excursion, finite_path, c, w, b, rad)
+    n = _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max,
+                             excursion, finite_path, c, w, b, rad)
     if n < 0:
         return c[:0], w[:0], b[:0], rad[:0], False
     return c[:n], w[:n], b[:n], rad[:n], True
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, wall_r, v, a_max,
-                         v_max, excursion, finite_path, c, w, b, rad):
+def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max, excursion,
+                         finite_path, c, w, b, rad):
     """:func:`relevant_sampled_paths` into c, w, b, rad (rows for every obstacle given):
     returns how many rows it kept, -1 when a neighbour's centres are not all finite.
     Arrays borrowed here."""
     times, pred, idx, position = borrowed(times), borrowed(pred), borrowed(idx), borrowed(position)
-    nb_radius, wall_rel = borrowed(nb_radius), borrowed(wall_rel)
-    wall_r, v = borrowed(wall_r), borrowed(v)
+    nb_radius, v = borrowed(nb_radius), borrowed(v)
     excursion, finite_path = borrowed(excursion), borrowed(finite_path)
     c, w, b, rad = borrowed(c), borrowed(w), borrowed(b), borrowed(rad)
     n_nb = idx.shape[0]
-    total = n_nb + wall_rel.shape[0]
     for i in range(n_nb):
         if not finite_path[idx[i]]:
             return -1
@@ -160,34 +158,21 @@ def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, wall_rel, 
     # (plus its radius) is dropped before its pieces are built
     travel = v_max * times[-1]
     n = 0
-    for i in range(total):
-        if i < n_nb:
-            body = idx[i]
-            x0 = pred[body, 0, 0] - px
-            y0 = pred[body, 0, 1] - py
-            r = nb_radius[body] + grow
-            dist = math.sqrt(x0 * x0 + y0 * y0)
-            r = min(r, dist * RADIUS_CUT)
-            if math.isfinite(travel):
-                ex = excursion[body]
-                # every piece starts within ex of the first centre and moves at most 2 ex
-                if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
-                    continue
-            rad[n] = r
-            if _moving_relevant(pred, body, px, py, times, c, w, n, vx, vy, a_max, v_max, r):
-                n += 1
-        else:
-            d = i - n_nb
-            x0 = wall_rel[d, 0]
-            y0 = wall_rel[d, 1]
-            dist = math.sqrt(x0 * x0 + y0 * y0)
-            r = min(wall_r[d], dist * RADIUS_CUT)
-            if dist > (r + travel) * (1.0 + 1e-9) + 1e-12:
+    for i in range(n_nb):
+        body = idx[i]
+        x0 = pred[body, 0, 0] - px
+        y0 = pred[body, 0, 1] - py
+        r = nb_radius[body] + grow
+        dist = math.sqrt(x0 * x0 + y0 * y0)
+        r = min(r, dist * RADIUS_CUT)
+        if math.isfinite(travel):
+            ex = excursion[body]
+            # every piece starts within ex of the first centre and moves at most 2 ex
+            if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
                 continue
-            static_pieces(x0, y0, times, c, w, n)
-            rad[n] = r
-            if _relevant(vx, vy, a_max, v_max, times, c, w, b, n, r):
-                n += 1
+        rad[n] = r
+        if _moving_relevant(pred, body, px, py, times, c, w, n, vx, vy, a_max, v_max, r):
+            n += 1
     return n
 
 

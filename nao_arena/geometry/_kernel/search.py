@@ -20,28 +20,37 @@ from nao_arena.geometry._kernel.disks import (
 from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan_obstacle
 from nao_arena.geometry._kernel.outside import nearest_outside_disks
 from nao_arena.geometry._kernel.relevance import relevant_subset
+from nao_arena.geometry._kernel.segment import relevant_walls, wall_violation
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.outcome import Outcome
 
 
 @njit(cache=True, error_model="numpy")
-def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
-            buf, res, hint):
+def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
+            sweep, margin, buf, res, hint):
     """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
     returns (admissible, 1 if it was tested against the obstacles (inside the disc)).
+    Obstacles: the N moving ones (seg_*, radius), then the W walls (walls, wall_r; see
+    :func:`~nao_arena.geometry._kernel.segment.wall_violation`).
 
-    hint: (obstacle, piece) that last rejected a candidate (-1: none). That piece is
-    tested first, then that obstacle, then the others (a rejection anywhere is the
-    same answer, so the order does not change it); updated on a rejection.
+    hint: (obstacle, piece) that last rejected a candidate (-1: none; obstacle N + w:
+    wall w). That piece (or wall) is tested first, then that obstacle, then the others (a
+    rejection anywhere is the same answer, so the order does not change it); updated on a
+    rejection.
     """
     if x * x + y * y > a_max * a_max * (1 + 1e-12) + 1e-300:
         return False, 0
     N = seg_c.shape[0]
-    if N == 0:
+    W = walls.shape[0]
+    if N == 0 and W == 0:
         return True, 1
     cvx, cvy, tau, bound = candidate_setup(vx, vy, x, y, v_max, seg_t[-1])
+    if W and N <= hint[0] < N + W:
+        if wall_violation(cvx, cvy, x, y, tau, bound, seg_t[-1], walls, wall_r, margin,
+                          hint[0] - N, buf, res) >= 0:
+            return False, 1
     first = hint[0] if 0 <= hint[0] < N else 0
-    if first == hint[0] and 0 <= hint[1] < seg_c.shape[1]:
+    if N and first == hint[0] and 0 <= hint[1] < seg_c.shape[1]:
         reach = radius[first] + margin
         if piece_within(cvx, cvy, x, y, tau, seg_t, seg_c, seg_w, seg_b, first, hint[1],
                         reach * reach, buf):
@@ -54,18 +63,26 @@ def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, swee
             hint[0] = n
             hint[1] = j
             return False, 1
+    if W:
+        w = wall_violation(cvx, cvy, x, y, tau, bound, seg_t[-1], walls, wall_r, margin, -1,
+                           buf, res)
+        if w >= 0:
+            hint[0] = N + w
+            hint[1] = -1
+            return False, 1
     return True, 1
 
 
 @njit(cache=True, error_model="numpy")
 def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b,
-                 radius, sweep, margin, buf, res, hint, give_up=math.inf):
+                 radius, walls, wall_r, sweep, margin, buf, res, hint, give_up=math.inf):
     """Shrink [b, g] (g admissible) onto the boundary within tol: (gx, gy, tests). When
     b starts at the origin of the caller's distances (the slide's a_d), ``give_up``
     stops the search as soon as b is that far from its start: every point left on the
     segment is farther (the caller then discards the result)."""
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     gap = math.hypot(gx - bx, gy - by)
     ox = bx
@@ -76,8 +93,8 @@ def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
             return gx, gy, count
         mx = 0.5 * (bx + gx)
         my = 0.5 * (by + gy)
-        ok, c = ok_disc(mx, my, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                        sweep, margin, buf, res, hint)
+        ok, c = ok_disc(mx, my, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                        wall_r, sweep, margin, buf, res, hint)
         count += c
         if ok:
             gx = mx
@@ -90,8 +107,8 @@ def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
 
 
 @njit(cache=True, error_model="numpy")
-def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-                margin):
+def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                wall_r, sweep, margin):
     """Shrink the segment [bad, good] (m/s^2; good admissible) onto the NAO boundary
     within tol (m/s^2), with the limit disc |a| <= a_max. Returns (the admissible end
     x, y, how many candidates were tested) — :func:`selection._bisect` compiled."""
@@ -99,32 +116,34 @@ def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, rad
     res = np.empty(3)
     hint = np.full(2, -1, dtype=np.int64)
     return _bisect_disc(bad[0], bad[1], good[0], good[1], tol, a_max, v[0], v[1], v_max,
-                        seg_t, seg_c, seg_w, seg_b, radius, sweep, margin, buf, res, hint)
+                        seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, buf,
+                        res, hint)
 
 
 @njit(cache=True, error_model="numpy")
 def _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                 sweep, margin, buf, res, hint):
+                 walls, wall_r, sweep, margin, buf, res, hint):
     """Push the inadmissible point (x, y) along the unit direction (ux, uy) by tol, 2 tol,
     4 tol, ... below a_max / 4; the first admissible push is bisected back onto the
     boundary within tol. Returns (found, x, y, candidates tested)."""
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     count = 0
     step = tol
     while step < 0.25 * a_max:
         px = x + step * ux
         py = y + step * uy
-        ok, c = ok_disc(px, py, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                        sweep, margin, buf, res, hint)
+        ok, c = ok_disc(px, py, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                        wall_r, sweep, margin, buf, res, hint)
         count += c
         if ok:
             hint[0] = -1
             hint[1] = -1
             gx, gy, c = _bisect_disc(x, y, px, py, tol, a_max, vx, vy, v_max, seg_t,
-                                     seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
-                                     hint)
+                                     seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin,
+                                     buf, res, hint)
             return True, gx, gy, count + c
         step *= 2.0
     return False, 0.0, 0.0, count
@@ -151,7 +170,7 @@ def outward_normal(x, y, disks):
 
 @njit(cache=True, error_model="numpy")
 def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
-                        seg_b, radius, sweep, margin, disks):
+                        seg_b, radius, walls, wall_r, sweep, margin, disks):
     """Confirm disk-picture candidates exactly, nearest first (limit disc |a| <= a_max).
 
     cands: (K, 3) rows (x, y, distance from a_d) m/s^2 in increasing distance, tried
@@ -165,16 +184,17 @@ def try_candidates_disc(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, s
     :func:`selection._nearest_by_disks`'s candidate loop compiled.
     """
     return _try_candidates(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
-                           seg_b, radius, sweep, margin, disks, np.empty(3), np.empty(3),
-                           np.full(2, -1, dtype=np.int64))
+                           seg_b, radius, walls, wall_r, sweep, margin, disks, np.empty(3),
+                           np.empty(3), np.full(2, -1, dtype=np.int64))
 
 
 @njit(cache=True, error_model="numpy")
 def _try_candidates(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                    radius, sweep, margin, disks, buf, res, hint):
+                    radius, walls, wall_r, sweep, margin, disks, buf, res, hint):
     """:func:`try_candidates_disc` with its scratch arrays given (borrowed here)."""
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     cands, a_d, v, disks = borrowed(cands), borrowed(a_d), borrowed(v), borrowed(disks)
     vx = v[0]
@@ -186,23 +206,24 @@ def _try_candidates(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c
         dist = cands[i, 2]
         if dist > reach:
             return False, 0.0, 0.0, count, True
-        ok, c = ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                        sweep, margin, buf, res, hint)
+        ok, c = ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                        wall_r, sweep, margin, buf, res, hint)
         count += c
         if ok:
             return True, x, y, count, False
         if dist > 0.0:
             found, gx, gy, c = _sliver_push(x, y, (x - a_d[0]) / dist, (y - a_d[1]) / dist,
                                             tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
-                                            seg_b, radius, sweep, margin, buf, res, hint)
+                                            seg_b, radius, walls, wall_r, sweep, margin, buf, res,
+                                            hint)
             count += c
             if found:
                 return True, gx, gy, count, False
         ux, uy = outward_normal(x, y, disks)
         if ux != 0.0 or uy != 0.0:
             found, gx, gy, c = _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t,
-                                            seg_c, seg_w, seg_b, radius, sweep, margin, buf,
-                                            res, hint)
+                                            seg_c, seg_w, seg_b, radius, walls, wall_r, sweep,
+                                            margin, buf, res, hint)
             count += c
             if found:
                 return True, gx, gy, count, False
@@ -219,20 +240,21 @@ def onto_disc(x, y, a_max):
 
 @njit(cache=True, error_model="numpy")
 def repair_disc(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                radius):
+                radius, walls, wall_r):
     """:func:`selection.repair_acceleration` compiled for the limit disc: the candidates
     prev + a_max * steps[i] * unit[k] (m/s^2), projected onto |a| <= a_max, tested
     nearest ``want`` first (a stable order) against the relevant obstacles (margin 0);
     returns (found, x, y, candidates tested)."""
     seg_c, seg_w, seg_b, radius, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w,
                                                          seg_b, radius, 0.0)
+    walls, wall_r = relevant_walls(v, a_max, v_max, seg_t[-1], walls, wall_r, 0.0)
     return repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w,
-                           seg_b, radius, sweep)
+                           seg_b, radius, walls, wall_r, sweep)
 
 
 @njit(cache=True, error_model="numpy")
 def repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                    radius, sweep):
+                    radius, walls, wall_r, sweep):
     """:func:`repair_disc` for obstacles that are all relevant (as :func:`relevant_subset`
     keeps them, margin 0), with their :func:`piece_sweep`."""
     K = steps.shape[0] * unit.shape[0]
@@ -248,23 +270,25 @@ def repair_relevant(prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_
             k += 1
     order = np.argsort(dist, kind="mergesort")
     return _first_admissible(cand, order, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                             sweep, 0.0, np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64))
+                             walls, wall_r, sweep, 0.0, np.empty(3), np.empty(3),
+                             np.full(2, -1, dtype=np.int64))
 
 
 @njit(cache=True, error_model="numpy")
-def _first_admissible(cand, order, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-                      margin, buf, res, hint):
+def _first_admissible(cand, order, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                      wall_r, sweep, margin, buf, res, hint):
     """The first admissible row of ``cand`` (K, 2) m/s^2 in ``order``: (found, x, y,
     candidates tested); scratch arrays given (borrowed here)."""
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     cand, order, v = borrowed(cand), borrowed(order), borrowed(v)
     count = 0
     for o in range(order.shape[0]):
         k = order[o]
         ok, c = ok_disc(cand[k, 0], cand[k, 1], a_max, v[0], v[1], v_max, seg_t, seg_c,
-                        seg_w, seg_b, radius, sweep, margin, buf, res, hint)
+                        seg_w, seg_b, radius, walls, wall_r, sweep, margin, buf, res, hint)
         count += c
         if ok:
             return True, cand[k, 0], cand[k, 1], count
@@ -273,23 +297,24 @@ def _first_admissible(cand, order, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, 
 
 @njit(cache=True, error_model="numpy")
 def ring_search_disc(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                     radius, sweep, margin):
+                     radius, walls, wall_r, sweep, margin):
     """The ring fallback of :func:`selection.select_acceleration` compiled for the limit
     disc: rings a_d + radii[i] * unit[i] (m/s^2, projected onto |a| <= a_max), innermost
     first; the admissible candidate of the first ring that has one, nearest a_d, is
     bisected back towards a_d onto the boundary within tol and slid along it
     (:func:`bisect_disc`, :func:`slide_disc`). Returns (found, x, y, candidates tested)."""
     return _ring_search(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                        radius, sweep, margin, np.empty(3), np.empty(3),
+                        radius, walls, wall_r, sweep, margin, np.empty(3), np.empty(3),
                         np.full(2, -1, dtype=np.int64), np.empty((unit.shape[1], 2)))
 
 
 @njit(cache=True, error_model="numpy")
 def _ring_search(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
-                 sweep, margin, buf, res, hint, cand):
+                 walls, wall_r, sweep, margin, buf, res, hint, cand):
     """:func:`ring_search_disc` with its scratch arrays given (borrowed here)."""
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     a_d, radii, unit = borrowed(a_d), borrowed(radii), borrowed(unit)
     v, cand = borrowed(v), borrowed(cand)
@@ -307,41 +332,43 @@ def _ring_search(a_d, radii, unit, tol, a_max, v, v_max, seg_t, seg_c, seg_w, se
             if d >= best_d:
                 continue  # cannot become the nearest admissible one of this ring
             ok, c = ok_disc(x, y, a_max, v[0], v[1], v_max, seg_t, seg_c, seg_w, seg_b,
-                            radius, sweep, margin, buf, res, hint)
+                            radius, walls, wall_r, sweep, margin, buf, res, hint)
             count += c
             if ok:
                 best = k
                 best_d = d
         if best >= 0:
             gx, gy, c = bisect_disc(a_d, cand[best], tol, a_max, v, v_max, seg_t, seg_c,
-                                    seg_w, seg_b, radius, sweep, margin)
+                                    seg_w, seg_b, radius, walls, wall_r, sweep, margin)
             count += c
             start = np.empty(2)
             start[0] = gx
             start[1] = gy
             x, y, c = slide_disc(a_d, start, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
-                                 seg_b, radius, sweep, margin)
+                                 seg_b, radius, walls, wall_r, sweep, margin)
             return True, x, y, count + c
     return False, 0.0, 0.0, count
 
 
 @njit(cache=True, error_model="numpy")
-def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-               margin):
+def slide_disc(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+               wall_r, sweep, margin):
     """Rotate the admissible boundary point ``best`` about a_d (m/s^2) by shrinking angles,
     pulling each admissible probe back onto the boundary, while it gets nearer a_d by
     more than tol (m/s^2). Returns (x, y, candidates tested) —
     :func:`selection._slide_towards` compiled for the limit disc."""
-    return _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-                  margin, np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64))
+    return _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                  wall_r, sweep, margin, np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64))
 
 
 @njit(cache=True, error_model="numpy")
-def _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, margin,
+def _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
+           sweep, margin,
            buf, res, hint):
     """:func:`slide_disc` with its scratch arrays given (borrowed here)."""
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     ax = a_d[0]
     ay = a_d[1]
@@ -370,13 +397,13 @@ def _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, 
                 fx = fx * scale
                 fy = fy * scale
             ok, c = ok_disc(fx, fy, a_max, v[0], v[1], v_max, seg_t, seg_c, seg_w, seg_b,
-                            radius, sweep, margin, buf, res, hint)
+                            radius, walls, wall_r, sweep, margin, buf, res, hint)
             count += c
             if not ok:
                 continue
             px, py, c = _bisect_disc(ax, ay, fx, fy, tol, a_max, v[0], v[1], v_max, seg_t,
-                                     seg_c, seg_w, seg_b, radius, sweep, margin, buf, res,
-                                     hint, dist - tol)
+                                     seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin,
+                                     buf, res, hint, dist - tol)
             count += c
             d = math.hypot(px - ax, py - ay)
             if d < dist - tol:
@@ -392,20 +419,20 @@ def _slide(a_d, best, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, 
 
 @njit(cache=True, error_model="numpy")
 def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
-                   radius, sweep, margin, covered):
+                   radius, walls, wall_r, sweep, margin, covered):
     """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
     whether the disks cover the whole ball). ``covered``: see
     :func:`nearest_outside_disks`."""
     cands = nearest_outside_disks(a_d, disks, a_max, 8, reach, covered)
     found, x, y, count, beyond = try_candidates_disc(
-        cands, 0, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-        margin, disks)
+        cands, 0, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+        wall_r, sweep, margin, disks)
     return found, x, y, count, cands.shape[0] == 0
 
 
 @njit(cache=True, error_model="numpy")
-def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin, tol,
-                ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
+def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
+                margin, tol, ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
     """The search of :func:`selection.select_acceleration` for the limit disc, compiled:
     a_d (the desired acceleration, inside the disc) if admissible, else the disk search
     in the largest ball (radius max(a_max / 16, 4 tol) doubled) within ``max_disks``
@@ -414,20 +441,21 @@ def select_disc(a_d, v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin
     ADJUSTED or INFEASIBLE (nothing admissible found: the caller falls back)."""
     c, w, b, r, sweep = relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius,
                                         margin)
-    return select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
-                           ring_radii, unit_rings, max_disks, n_sub, per_second, thin)
+    walls, wall_r = relevant_walls(v, a_max, v_max, seg_t[-1], walls, wall_r, margin)
+    return select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, walls, wall_r, sweep, margin,
+                           tol, ring_radii, unit_rings, max_disks, n_sub, per_second, thin)
 
 
 @njit(cache=True, error_model="numpy")
-def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol, ring_radii,
-                    unit_rings, max_disks, n_sub, per_second, thin):
+def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, walls, wall_r, sweep, margin, tol,
+                    ring_radii, unit_rings, max_disks, n_sub, per_second, thin):
     """:func:`select_disc` for obstacles that are all relevant (as :func:`relevant_subset`
     keeps them for this margin), with their :func:`piece_sweep` ``sweep``."""
     buf = np.empty(3)
     res = np.empty(3)
     hint = np.full(2, -1, dtype=np.int64)
-    ok, count = ok_disc(a_d[0], a_d[1], a_max, v[0], v[1], v_max, seg_t, c, w, b, r, sweep,
-                        margin, buf, res, hint)
+    ok, count = ok_disc(a_d[0], a_d[1], a_max, v[0], v[1], v_max, seg_t, c, w, b, r, walls,
+                        wall_r, sweep, margin, buf, res, hint)
     if ok:
         return Outcome.DESIRED, a_d[0], a_d[1], count
     reach = max(a_max / 16.0, 4.0 * tol)
@@ -435,7 +463,7 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
     last = reach
     while last < limit:
         last *= 2.0
-    samples = nao_disk_samples(v, seg_t, c, w, b, r, margin, n_sub, a_d, last, a_max,
+    samples = nao_disk_samples(v, seg_t, c, w, b, r, walls, wall_r, margin, n_sub, a_d, last, a_max,
                                per_second, thin)
     order = radius_order(samples)
     # 1. the disk search in the largest ball, doubled from ``reach``, within the cap
@@ -443,7 +471,7 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
     chosen, disks = capped_disks(samples, order, 0.5 * reach, max(limit, reach), max_disks)
     if chosen >= 0.0:
         found, x, y, k, empty = _try_ball_disc(a_d, disks, chosen, tol, a_max, v, v_max,
-                                               seg_t, c, w, b, r, sweep, margin, 0.0)
+                                               seg_t, c, w, b, r, walls, wall_r, sweep, margin, 0.0)
         count += k
         if found:
             return Outcome.ADJUSTED, x, y, count
@@ -451,13 +479,14 @@ def select_relevant(a_d, v, a_max, v_max, seg_t, c, w, b, r, sweep, margin, tol,
             covered = chosen
     # 2. rings of candidates
     found, x, y, k = ring_search_disc(a_d, ring_radii, unit_rings, tol, a_max, v, v_max,
-                                      seg_t, c, w, b, r, sweep, margin)
+                                      seg_t, c, w, b, r, walls, wall_r, sweep, margin)
     count += k
     if found:
         return Outcome.ADJUSTED, x, y, count
     # 3. the disk search without a cap, in the largest ball
     found, x, y, k, _ = _try_ball_disc(a_d, disks_within(samples, order, last), last, tol, a_max,
-                                       v, v_max, seg_t, c, w, b, r, sweep, margin, covered)
+                                       v, v_max, seg_t, c, w, b, r, walls, wall_r, sweep, margin,
+                                       covered)
     count += k
     if found:
         return Outcome.ADJUSTED, x, y, count

@@ -25,9 +25,16 @@ smallest of
 
 A degenerate segment (p == q) is a point: only its caps count.
 
-Not yet used by the agents, so not listed in :data:`nao_arena.cli.KERNEL_MODULES` (the
-modules every episode compiles): listed before an episode compiles it, its cache would
-stay cold and the first-run compilation note would show on every trial.
+The first contact with a grown segment (distance <= r) is the earliest of the caps'
+first contacts and the roots of e(s)^2 = r^2 |q - p|^2 whose foot lies within [p, q]
+(distances to the ends are never below the distance to the segment, and at the first
+contact the distance is exactly r, reached at an end or at an interior foot).
+
+Walls in the selection: ``walls`` (W, 2, 2) robot-relative ends (m) and ``wall_r``
+(W,) their combined radii (m: half-thickness + the robot's radius + its margin, cut
+to just under the current distance like every obstacle's); an acceleration is
+admissible against wall w when its path stays at least wall_r[w] + margin from the
+segment (:func:`wall_violation`).
 """
 
 from __future__ import annotations
@@ -37,101 +44,35 @@ import math
 import numpy as np
 from numba import njit
 
-from nao_arena.geometry._kernel.exact import candidate_setup
 from nao_arena.geometry._kernel.quartic import piece_minimum
+from nao_arena.geometry._kernel.robot_path import candidate_setup
+from nao_arena.geometry._kernel.sampled import RADIUS_CUT
 from nao_arena.geometry.borrow import borrowed
 
 __all__ = [
+    "nearby_walls",
+    "relevant_walls",
     "segment_admissible",
     "segment_min_distance",
     "segments_admissible",
+    "segment_within",
     "segments_min_distance",
+    "wall_first_contact",
+    "wall_scan",
+    "wall_violation",
 ]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _line_candidate(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best):
-    """min(best, squared distance from d(s) to the segment's line) when the foot of d(s)
-    lies within the segment (ux, uy = q - p, ll = |q - p|^2 > 0), else best."""
-    if not math.isfinite(s):
-        return best
-    dx = (ax * s + bx) * s + cx - px
-    dy = (ay * s + by) * s + cy - py
-    along = dx * ux + dy * uy
-    if along < 0.0 or along > ll:
-        return best
-    cross = dx * uy - dy * ux
-    e2 = cross * cross / ll
-    return e2 if e2 < best else best
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _piece_segment_dist2(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, buf):
-    """Minimum over s in [0, h] of the squared distance from A s^2 + B s + C to [p, q] (m^2)."""
-    piece_minimum(ax, ay, bx, by, cx - px, cy - py, h, 0.0, False, buf)
-    best = buf[0]
-    ux = qx - px
-    uy = qy - py
-    ll = ux * ux + uy * uy
-    if ll == 0.0:
-        return best
-    piece_minimum(ax, ay, bx, by, cx - qx, cy - qy, h, 0.0, False, buf)
-    if buf[0] < best:
-        best = buf[0]
-    if best == 0.0:
-        return best
-    # e(s) = ea s^2 + eb s + ec, the distance to the line times |q - p| (signed)
-    ea = ax * uy - ay * ux
-    eb = bx * uy - by * ux
-    ec = (cx - px) * uy - (cy - py) * ux
-    best = _line_candidate(0.0, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best)
-    if math.isfinite(h):
-        best = _line_candidate(h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best)
-    # roots of e within [0, h]
-    if ea == 0.0:
-        if eb != 0.0:
-            s = -ec / eb
-            if 0.0 <= s <= h:
-                best = _line_candidate(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best)
-    else:
-        disc = eb * eb - 4.0 * ea * ec
-        if disc >= 0.0:
-            sq = math.sqrt(disc)
-            qq = -0.5 * (eb + sq) if eb >= 0.0 else -0.5 * (eb - sq)
-            s1 = qq / ea
-            if 0.0 <= s1 <= h:
-                best = _line_candidate(s1, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best)
-            if qq != 0.0:
-                s2 = ec / qq
-                if 0.0 <= s2 <= h:
-                    best = _line_candidate(s2, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll,
-                                           best)
-        # |e| stationary: e' = 0
-        s = -eb / (2.0 * ea)
-        if 0.0 <= s <= h:
-            best = _line_candidate(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best)
-    return best
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf):
+def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
     """Minimum squared distance (m^2) over t in [0, horizon] from the robot's centre (speed
-    already clamped, saturation time tau) to the segment [p, q]."""
-    h1 = min(tau, horizon)
-    best = _piece_segment_dist2(0.5 * ax, 0.5 * ay, vx, vy, 0.0, 0.0, h1, px, py, qx, qy, buf)
-    if tau < horizon and best > 0.0:
-        wx = vx + ax * tau
-        wy = vy + ay * tau
-        cx = vx * tau + 0.5 * ax * tau * tau
-        cy = vy * tau + 0.5 * ay * tau * tau
-        lin = _piece_segment_dist2(0.0, 0.0, wx, wy, cx, cy, horizon - tau, px, py, qx, qy, buf)
-        if lin < best:
-            best = lin
-    return best
+    already clamped, saturation time tau) to the segment [p, q] (:func:`wall_scan`)."""
+    wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, 0.0, False, buf, out)
+    return out[0]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _point_segment_dist2(px, py, qx, qy):
+def point_segment_dist2(px, py, qx, qy):
     """Squared distance (m^2) from the origin to the segment [p, q]."""
     ux = qx - px
     uy = qy - py
@@ -151,8 +92,10 @@ def segment_min_distance(vx: float, vy: float, ax: float, ay: float, v_max: floa
     (velocity (vx, vy) m/s, acceleration (ax, ay) m/s^2, speed limit v_max m/s) to the
     static segment [p, q] (m, robot-relative). 0 when the robot starts on the segment."""
     buf = np.empty(3)
+    out = np.empty(3)
     vx, vy, tau, bound = candidate_setup(vx, vy, ax, ay, v_max, horizon)
-    return math.sqrt(_path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf))
+    return math.sqrt(_path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf,
+                                         out))
 
 
 @njit(cache=True, error_model="numpy")
@@ -168,12 +111,12 @@ def segment_admissible(v: np.ndarray, a: np.ndarray, v_max: float, p: np.ndarray
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf):
+def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf, out):
     """(min over walls of distance - half_thickness (m), its wall index); stops at the first
     wall below ``stop_below`` (m; -inf: never). Prunes walls the robot cannot reach closer than
     the best so far. Arrays borrowed here."""
     v, a, walls = borrowed(v), borrowed(a), borrowed(walls)
-    half_thickness, buf = borrowed(half_thickness), borrowed(buf)
+    half_thickness, buf, out = borrowed(half_thickness), borrowed(buf), borrowed(out)
     vx, vy, tau, bound = candidate_setup(v[0], v[1], a[0], a[1], v_max, horizon)
     reach = bound * horizon  # the path stays within this distance of the origin (m)
     best = math.inf
@@ -184,11 +127,11 @@ def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf)
         qx = walls[w, 1, 0]
         qy = walls[w, 1, 1]
         if index >= 0 and math.isfinite(reach):
-            lower = math.sqrt(_point_segment_dist2(px, py, qx, qy)) - reach - half_thickness[w]
+            lower = math.sqrt(point_segment_dist2(px, py, qx, qy)) - reach - half_thickness[w]
             if lower - 1e-9 * (1.0 + abs(lower)) > best:
                 continue
         d = math.sqrt(_path_segment_dist2(vx, vy, a[0], a[1], tau, horizon, px, py, qx, qy,
-                                          buf)) - half_thickness[w]
+                                          buf, out)) - half_thickness[w]
         if d < best or index < 0:
             best = d
             index = w
@@ -203,8 +146,8 @@ def segments_min_distance(v: np.ndarray, a: np.ndarray, v_max: float, walls: np.
     """Minimum over the walls (W, 2, 2) (m, robot-relative ends) of the exact minimum distance
     from the robot's centre to the wall minus its half_thickness (W,) (m), over t in
     [0, horizon] (s), and the index of that closest wall (-1 and inf when W = 0)."""
-    buf = np.empty(3)
-    return _fill_segments(v, a, v_max, walls, half_thickness, horizon, -math.inf, buf)
+    return _fill_segments(v, a, v_max, walls, half_thickness, horizon, -math.inf,
+                          np.empty(3), np.empty(3))
 
 
 @njit(cache=True, error_model="numpy")
@@ -213,7 +156,286 @@ def segments_admissible(v: np.ndarray, a: np.ndarray, v_max: float, walls: np.nd
                         horizon: float) -> bool:
     """:func:`segment_admissible` against every wall (W, 2, 2) with half_thickness (W,) (m);
     stops at the first wall that is too close."""
-    buf = np.empty(3)
     limit = radius + margin
-    d, index = _fill_segments(v, a, v_max, walls, half_thickness, horizon, limit, buf)
+    d, index = _fill_segments(v, a, v_max, walls, half_thickness, horizon, limit, np.empty(3),
+                              np.empty(3))
     return d > limit
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
+    """(min(best, squared distance from d(s) to the segment's line), its s) when s lies in
+    [0, h] and the foot of d(s) within the segment (ll = |q - p|^2 > 0), else
+    (best, best_s)."""
+    if not (0.0 <= s <= h) or not math.isfinite(s):
+        return best, best_s
+    dx = (ax * s + bx) * s + cx - px
+    dy = (ay * s + by) * s + cy - py
+    along = dx * ux + dy * uy
+    if along < 0.0 or along > ll:
+        return best, best_s
+    cross = dx * uy - dy * ux
+    e2 = cross * cross / ll
+    if e2 < best:
+        return e2, s
+    return best, best_s
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _foot_within(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
+    """Whether the foot of d(s) on the segment's line lies within [p, q]."""
+    dx = (ax * s + bx) * s + cx - px
+    dy = (ay * s + by) * s + cy - py
+    along = dx * ux + dy * uy
+    return 0.0 <= along <= ll
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _roots_within(qa, qb, qc, h):
+    """The roots s in [0, h] of qa s^2 + qb s + qc, smaller first (inf for a missing one)."""
+    s1 = math.inf
+    s2 = math.inf
+    if qa == 0.0:
+        if qb != 0.0:
+            s = -qc / qb
+            if 0.0 <= s <= h:
+                s1 = s
+        return s1, s2
+    disc = qb * qb - 4.0 * qa * qc
+    if disc < 0.0:
+        return s1, s2
+    sq = math.sqrt(disc)
+    qq = -0.5 * (qb + sq) if qb >= 0.0 else -0.5 * (qb - sq)
+    r1 = qq / qa
+    r2 = qc / qq if qq != 0.0 else math.inf
+    if r2 < r1:
+        r1, r2 = r2, r1
+    if 0.0 <= r1 <= h:
+        s1 = r1
+        if 0.0 <= r2 <= h:
+            s2 = r2
+    elif 0.0 <= r2 <= h:
+        s1 = r2
+    return s1, s2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, out):
+    """Over s in [0, h] of d(s) = A s^2 + B s + C and the segment [p, q]: out = (minimum
+    squared distance (m^2), its s, the first s with distance <= r (inf: none; computed when
+    want_first))."""
+    piece_minimum(ax, ay, bx, by, cx - px, cy - py, h, r * r, want_first, buf)
+    best = buf[0]
+    best_s = buf[1]
+    first = buf[2] if want_first else math.inf
+    ux = qx - px
+    uy = qy - py
+    ll = ux * ux + uy * uy
+    if ll > 0.0:
+        piece_minimum(ax, ay, bx, by, cx - qx, cy - qy, h, r * r, want_first, buf)
+        if buf[0] < best:
+            best = buf[0]
+            best_s = buf[1]
+        if want_first and buf[2] < first:
+            first = buf[2]
+        ea = ax * uy - ay * ux
+        eb = bx * uy - by * ux
+        ec = (cx - px) * uy - (cy - py) * ux
+        best, best_s = _line_scan(0.0, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best,
+                                  best_s)
+        if math.isfinite(h):
+            best, best_s = _line_scan(h, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best,
+                                      best_s)
+        if ea == 0.0:
+            if eb != 0.0:
+                best, best_s = _line_scan(-ec / eb, h, ax, ay, bx, by, cx, cy, px, py, ux, uy,
+                                          ll, best, best_s)
+        else:
+            disc = eb * eb - 4.0 * ea * ec
+            if disc >= 0.0:
+                sq = math.sqrt(disc)
+                qq = -0.5 * (eb + sq) if eb >= 0.0 else -0.5 * (eb - sq)
+                best, best_s = _line_scan(qq / ea, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll,
+                                          best, best_s)
+                if qq != 0.0:
+                    best, best_s = _line_scan(ec / qq, h, ax, ay, bx, by, cx, cy, px, py, ux, uy,
+                                              ll, best, best_s)
+            best, best_s = _line_scan(-eb / (2.0 * ea), h, ax, ay, bx, by, cx, cy, px, py, ux,
+                                      uy, ll, best, best_s)
+        if best_s > h:
+            best_s = h
+        if want_first:
+            # e(s)^2 = r^2 ll where the foot is within the segment: e = -r sqrt(ll) and
+            # e = +r sqrt(ll); at s = 0 already within r
+            rl = r * math.sqrt(ll)
+            if ec * ec <= rl * rl and _foot_within(0.0, ax, ay, bx, by, cx, cy, px, py, ux,
+                                                   uy, ll):
+                first = 0.0
+            for sign in (-1.0, 1.0):
+                s1, s2 = _roots_within(ea, eb, ec - sign * rl, min(h, first))
+                if s1 < first and _foot_within(s1, ax, ay, bx, by, cx, cy, px, py, ux, uy,
+                                               ll):
+                    first = s1
+                elif s2 < first and _foot_within(s2, ax, ay, bx, by, cx, cy, px, py, ux,
+                                                 uy, ll):
+                    first = s2
+    out[0] = best
+    out[1] = best_s
+    out[2] = first
+
+
+@njit(cache=True, error_model="numpy")
+def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, out):
+    """The robot's path (speed already clamped, saturation time tau s, see
+    :func:`~nao_arena.geometry._kernel.robot_path.candidate_setup`) against the static
+    segment [p, q] (m, robot-relative) over t in [0, horizon] (s): out = (minimum squared
+    distance (m^2), its time (s), the first time the distance is <= r (s; inf: never, or
+    not computed unless want_first))."""
+    h1 = min(tau, horizon)
+    _piece_scan(0.5 * ax, 0.5 * ay, vx, vy, 0.0, 0.0, h1, px, py, qx, qy, r, want_first, buf,
+                out)
+    if tau < horizon:
+        best = out[0]
+        best_t = out[1]
+        first = out[2]
+        if best > 0.0 or (want_first and first == math.inf):
+            wx = vx + ax * tau
+            wy = vy + ay * tau
+            cx = vx * tau + 0.5 * ax * tau * tau
+            cy = vy * tau + 0.5 * ay * tau * tau
+            _piece_scan(0.0, 0.0, wx, wy, cx, cy, horizon - tau, px, py, qx, qy, r,
+                        want_first and first == math.inf, buf, out)
+            if out[0] < best:
+                best = out[0]
+                best_t = tau + out[1]
+            if want_first and first == math.inf and out[2] < math.inf:
+                first = tau + out[2]
+        out[0] = best
+        out[1] = best_t
+        out[2] = first
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _out_of_reach(px, py, qx, qy, travel, reach):
+    """Cheap prune: the segment stays farther than ``reach`` (m) from every point within
+    ``travel`` (m) of the origin."""
+    if not math.isfinite(travel):
+        return False
+    lower = math.sqrt(point_segment_dist2(px, py, qx, qy)) - travel
+    return lower > reach * (1.0 + 1e-9) + 1e-12
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def segment_within(vx, vy, ax, ay, tau, travel, horizon, px, py, qx, qy, reach, buf, out):
+    """Whether the robot's path (speed clamped, saturation time tau s; it stays within
+    ``travel`` m of the origin) comes closer than ``reach`` (m) to the segment [p, q] (m,
+    robot-relative) within ``horizon`` (s)."""
+    if _out_of_reach(px, py, qx, qy, travel, reach):
+        return False
+    return _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf,
+                               out) < reach * reach
+
+
+@njit(cache=True, error_model="numpy")
+def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, first, buf,
+                   out):
+    """The index of a wall (walls (W, 2, 2) m, robot-relative; radii wall_r (W,) m) that the
+    robot's path (speed clamped, saturation time tau s, speed bound ``bound`` m/s) comes
+    closer to than wall_r + margin (m) within ``horizon`` (s), or -1 when none does.
+    Wall ``first`` (if a valid index) is tested first."""
+    W = walls.shape[0]
+    travel = bound * horizon
+    for i in range(W):
+        if i == 0 and 0 <= first < W:
+            w = first
+        elif 0 <= first < W:
+            w = i - 1 if i <= first else i
+        else:
+            w = i
+        if segment_within(vx, vy, ax, ay, tau, travel, horizon, walls[w, 0, 0], walls[w, 0, 1],
+                          walls[w, 1, 0], walls[w, 1, 1], wall_r[w] + margin, buf, out):
+            return w
+    return -1
+
+
+@njit(cache=True, error_model="numpy")
+def wall_first_contact(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, t_stop, buf, out):
+    """The earliest first contact (s) of the robot's path (as :func:`wall_violation`) with
+    any wall (distance <= wall_r), if before t_stop (s); else inf."""
+    travel = bound * horizon
+    best = math.inf
+    for w in range(walls.shape[0]):
+        px = walls[w, 0, 0]
+        py = walls[w, 0, 1]
+        qx = walls[w, 1, 0]
+        qy = walls[w, 1, 1]
+        if _out_of_reach(px, py, qx, qy, travel, wall_r[w]):
+            continue
+        wall_scan(vx, vy, ax, ay, tau, min(horizon, t_stop, best), px, py, qx, qy, wall_r[w],
+                  True, buf, out)
+        if out[2] < best:
+            best = out[2]
+    return best if best < t_stop else math.inf
+
+
+@njit(cache=True, error_model="numpy")
+def relevant_walls(v, a_max, v_max, horizon, walls, wall_r, margin):
+    """The walls (walls (W, 2, 2) m robot-relative, radii wall_r (W,) m) that some
+    acceleration with |a| <= a_max (m/s^2) could bring the robot (velocity v (2,) m/s,
+    speed limit v_max m/s) within wall_r + margin (m) of within ``horizon`` (s): the robot
+    stays within min(v_max T, |v| T + a_max T^2 / 2) of its start. Returns contiguous
+    (walls, wall_r) of those kept, in input order (the inputs themselves when all are)."""
+    W = walls.shape[0]
+    speed = math.sqrt(v[0] * v[0] + v[1] * v[1])
+    if speed > v_max:
+        speed = v_max
+    travel = min(v_max * horizon, speed * horizon + 0.5 * a_max * horizon * horizon)
+    keep = np.zeros(W, dtype=np.bool_)
+    n = 0
+    for w in range(W):
+        if not _out_of_reach(walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1],
+                             travel, wall_r[w] + margin):
+            keep[w] = True
+            n += 1
+    if n == W:
+        return np.ascontiguousarray(walls), np.ascontiguousarray(wall_r)
+    out_w = np.empty((n, 2, 2))
+    out_r = np.empty(n)
+    k = 0
+    for w in range(W):
+        if keep[w]:
+            out_w[k] = walls[w]
+            out_r[k] = wall_r[w]
+            k += 1
+    return out_w, out_r
+
+
+@njit(cache=True, error_model="numpy")
+def nearby_walls(walls, half_thickness, index, position, grow, reach, cut):
+    """The walls walls[index] ((M, 2, 2) m, world frame) within ``reach`` (m) + their radius
+    of ``position`` (2,) m, relative to it, with radii half_thickness + grow (m), with
+    ``cut`` cut to just under their current distance (RADIUS_CUT: the robot may not close
+    in further but may move away): (walls (W, 2, 2) m, radii (W,) m), in index order."""
+    n = index.shape[0]
+    rel = np.empty((n, 2, 2))
+    rad = np.empty(n)
+    px = position[0]
+    py = position[1]
+    k = 0
+    for i in range(n):
+        w = index[i]
+        ax = walls[w, 0, 0] - px
+        ay = walls[w, 0, 1] - py
+        bx = walls[w, 1, 0] - px
+        by = walls[w, 1, 1] - py
+        r = half_thickness[w] + grow
+        dist = math.sqrt(point_segment_dist2(ax, ay, bx, by))
+        if dist > reach + r:
+            continue
+        rel[k, 0, 0] = ax
+        rel[k, 0, 1] = ay
+        rel[k, 1, 0] = bx
+        rel[k, 1, 1] = by
+        rad[k] = min(r, dist * RADIUS_CUT) if cut else r
+        k += 1
+    return rel[:k], rad[:k]
