@@ -77,7 +77,8 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margi
     disks of radius rho(t) centred on the segment, close enough that the notches
     between them stay below ``thin`` deep (3 % of rho without thinning), at most 65
     per sample (then farther apart: deeper notches, which the exact tests of the
-    candidates catch), at the same times as a static obstacle's.
+    candidates catch), at the same times as a static obstacle's, thinned out in time
+    alike (see :func:`_wall_disks`).
     """
     N = seg_c.shape[0]
     S = seg_c.shape[1]
@@ -117,15 +118,43 @@ def _clip(px, py, dx, dy, cx, cy, big, lo, hi):
     return max(lo, (-half_b - sq) / dd), min(hi, (-half_b + sq) / dd)
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
+    """Disks of radius rho along [a, b] (see :func:`nao_disk_samples`) into out[cnt:] (or
+    only counted when not ``write``); returns the new count."""
+    length = vector_norm(bx - ax, by - ay)
+    spacing = min(math.sqrt(8.0 * thin * rho) if thin > 0.0 else 0.5 * rho, rho)
+    n = 1 + min(_WALL_DISKS_PER_SAMPLE,
+                int(math.ceil(length / spacing)) if spacing > 0.0 else 0)
+    if not write:
+        return cnt + n
+    for m in range(n):
+        u = 0.0 if n == 1 else m / (n - 1)
+        mx = ax + u * (bx - ax)
+        my = ay + u * (by - ay)
+        cnt = _put(out, cnt, mx, my, rho, vector_norm(mx - q[0], my - q[1]))
+    return cnt
+
+
 @njit(cache=True, error_model="numpy")
 def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out,
                 cnt):
     """The walls' disks of :func:`nao_disk_samples` into out[cnt:]; returns the new count.
-    With an empty ``out`` it only counts them (from cnt)."""
+    With an empty ``out`` it only counts them (from cnt).
+
+    Thinning (thin > 0), as for the obstacles' disks: a sample's capsule (its part within
+    the ball and the limit disc) is left out while both its ends lie within
+    sqrt(8 thin rho) of the last kept capsule's and its radius rho is at most that one's
+    (every disk along it is then that close to one of the kept capsule's); the last
+    capsule before a gap and at the end of the horizon is always kept."""
     write = out.shape[0] > 0
     S = seg_t.shape[0] - 1
     for w in range(walls.shape[0]):
         rr = wall_r[w] + margin
+        kept = False  # a capsule is kept and no gap since
+        pend = False  # a capsule was thinned out after it
+        lax = lay = lbx = lby = lrho = 0.0  # the last kept capsule
+        pax = pay = pbx = pby = prho = 0.0  # the last thinned-out one
         for j in range(S):
             t0 = seg_t[j]
             t1 = seg_t[j + 1]
@@ -150,23 +179,32 @@ def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_sec
                 dy = (walls[w, 1, 1] - v[1] * t) * inv - py
                 rho = rr * inv
                 lo, hi = _clip(px, py, dx, dy, q[0], q[1], rho + reach, 0.0, 1.0)
+                if lo <= hi:
+                    lo, hi = _clip(px, py, dx, dy, 0.0, 0.0, rho + a_max, lo, hi)
                 if lo > hi:
+                    # a gap: the capsule meets neither the ball nor the limit disc
+                    if pend:
+                        cnt = _put_capsule(out, cnt, write, pax, pay, pbx, pby, prho, thin, q)
+                        pend = False
+                    kept = False
                     continue
-                lo, hi = _clip(px, py, dx, dy, 0.0, 0.0, rho + a_max, lo, hi)
-                if lo > hi:
-                    continue
-                length = (hi - lo) * vector_norm(dx, dy)
-                spacing = min(math.sqrt(8.0 * thin * rho) if thin > 0.0 else 0.5 * rho, rho)
-                n = 1 + min(_WALL_DISKS_PER_SAMPLE,
-                            int(math.ceil(length / spacing)) if spacing > 0.0 else 0)
-                if not write:
-                    cnt += n
-                    continue
-                for m in range(n):
-                    u = lo if n == 1 else lo + (hi - lo) * m / (n - 1)
-                    mx = px + u * dx
-                    my = py + u * dy
-                    cnt = _put(out, cnt, mx, my, rho, vector_norm(mx - q[0], my - q[1]))
+                ax = px + lo * dx
+                ay = py + lo * dy
+                bx = px + hi * dx
+                by = py + hi * dy
+                if thin > 0.0 and kept and rho <= lrho:
+                    lim = 8.0 * thin * rho
+                    if ((ax - lax) ** 2 + (ay - lay) ** 2 <= lim
+                            and (bx - lbx) ** 2 + (by - lby) ** 2 <= lim):
+                        pend = True
+                        pax, pay, pbx, pby, prho = ax, ay, bx, by, rho
+                        continue
+                pend = False
+                kept = True
+                lax, lay, lbx, lby, lrho = ax, ay, bx, by, rho
+                cnt = _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q)
+        if pend:
+            cnt = _put_capsule(out, cnt, write, pax, pay, pbx, pby, prho, thin, q)
     return cnt
 
 
