@@ -90,9 +90,13 @@ def test_a_selected_acceleration_keeps_every_wall_clear_in_forward_simulation(sc
         return
     _, d = simulated_distances(v, sel.accel, v_max, walls)
     assert np.all(d.min(axis=1) >= radii - 1e-9), (d.min(axis=1), radii)
-    # the exact clearance reported for it agrees with the simulation
+    # the exact clearance reported for it agrees with the simulation (inf: no wall within
+    # reach of any acceleration, none was measured)
     assert sel.clearance is not None
     sim = float(np.min(d.min(axis=1) - radii))
+    if math.isinf(sel.clearance):
+        assert sim > 0.0
+        return
     assert sim - step_error(v, sel.accel) - 1e-9 <= sel.clearance <= sim + 1e-9
 
 
