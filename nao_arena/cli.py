@@ -62,8 +62,8 @@ RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
 COMPILE_NOTE = "compiling geometry kernels (first run only, about a minute) ..."
 KERNEL_MODULES = ("nao_arena.world", "nao_arena.stats", "nao_arena.sensing",
                   *(f"nao_arena.geometry._kernel.{name}" for name in (
-                      "quartic", "exact", "sampled", "relevance", "disks", "outside", "batch",
-                      "search")))
+                      "quartic", "robot_path", "segment", "exact", "sampled", "relevance",
+                      "disks", "outside", "batch", "search")))
 """Modules whose numba kernels every episode (``world``, ``stats``, ``sensing``) or the
 ``nao`` and ``ao`` agents (``geometry._kernel``) compile."""
 
