@@ -277,16 +277,89 @@ def test_labels_at_a_neighbours_boundary_follow_the_exact_clearance(nudge):
     probe = sampled_path(times, centres[None], np.zeros(1))
     dist = path_clearance(grid, v, probe, v_max=1.0).clearance[:, 0]
     k = len(grid) // 3
-    r = float(dist[k])
-    for _ in range(abs(nudge)):
-        r = float(np.nextafter(r, np.inf if nudge > 0 else -np.inf))
-    path = sampled_path(times, centres[None], np.array([r]))
+    path = sampled_path(times, centres[None], np.array([_nudged(float(dist[k]), nudge)]))
     clear = path_clearance(grid, v, path, v_max=1.0).clearance[:, 0]
     assert np.sum(np.abs(clear) < BAND) >= 1  # the probe lies in the band
     t, c, w, b = path.t, path.c, path.velocity, path.acceleration
     lab = panel_labels(grid, v, 1.0, t, c, w, b, path.radius, piece_sweep(t, w, b),
                        np.zeros((0, 2, 2)), np.zeros(0))
     np.testing.assert_array_equal(lab, np.where(clear < 0, 0, -1))
+
+
+def _tie_scene():
+    """A grid, a velocity, a neighbour's path (radius 0: its clearance is the distance) and
+    a wall through the neighbour's way."""
+    times = np.linspace(0.0, 3.0, 31)
+    centres = np.stack([np.linspace(2.0, -1.0, 31), np.linspace(1.0, 0.5, 31)], 1)
+    xs = np.linspace(-1.3, 1.3, 41)
+    gx, gy = np.meshgrid(xs, xs[::-1])
+    grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    walls = (np.array([[[1.0, -1.0], [1.2, 1.5]]]), np.array([0.4]))
+    return times, centres, np.array([0.3, -0.1]), grid, walls
+
+
+def _nudged(x: float, ulps: int) -> float:
+    for _ in range(abs(ulps)):
+        x = float(np.nextafter(x, np.inf if ulps > 0 else -np.inf))
+    return x
+
+
+@pytest.mark.parametrize("nudge", [-2, -1, 0, 1, 2])
+def test_labels_where_neighbour_and_wall_tie_follow_the_exact_comparison(nudge):
+    """A neighbour's radius set so that its clearance equals the walls' at some grid
+    accelerations, give or take a few ulps: the walls show exactly where their clearance is
+    negative and below the neighbour's."""
+    times, centres, v, grid, walls = _tie_scene()
+    dist = path_clearance(grid, v, sampled_path(times, centres[None], np.zeros(1)),
+                          v_max=1.0).clearance[:, 0]
+    wall = wall_clearance_exact(grid, v, 1.0, 3.0, walls)
+    k = int(np.argmin(np.where(wall < -0.05, np.abs(dist - wall - 0.6), np.inf)))
+    path = sampled_path(times, centres[None], np.array([_nudged(float(dist[k] - wall[k]), nudge)]))
+    clear = path_clearance(grid, v, path, v_max=1.0).clearance[:, 0]
+    assert np.sum(np.abs(clear - wall) < BAND) >= 1  # a tie within the band
+    obs = SimpleNamespace(velocity=v, v_max=1.0)
+    lab, _ = Viewer._panel_labels(grid, obs, path, walls, 10.0)
+    want, _ = panel_labels_reference(grid, obs, path, walls, 10.0)
+    np.testing.assert_array_equal(lab, want)
+    assert np.any(lab == -2) and np.any(lab == 0)
+
+
+@pytest.mark.parametrize("nudge", [-2, -1, 0, 1, 2])
+@pytest.mark.parametrize("swap", [False, True])
+def test_labels_where_two_neighbours_tie_follow_the_exact_comparison(nudge, swap):
+    """A second neighbour's radius set so that its clearance equals the first's at some
+    grid accelerations (or a few ulps off): the label is the first least by index, as
+    numpy's argmin over all clearances has it."""
+    times, centres, v, grid, _ = _tie_scene()
+    other = centres[::-1] * [1.0, -1.0] + [0.5, 0.8]
+    both = np.array([other, centres] if swap else [centres, other])
+    dist = path_clearance(grid, v, sampled_path(times, both, np.zeros(2)),
+                          v_max=1.0).clearance
+    r0 = 0.6
+    k = int(np.argmin(np.where(dist[:, 0] < r0 - 0.05, np.abs(dist[:, 1] - dist[:, 0]),
+                               np.inf)))
+    r1 = _nudged(float(dist[k, 1] - (dist[k, 0] - r0)), nudge)
+    path = sampled_path(times, both, np.array([r0, r1]))
+    clear = path_clearance(grid, v, path, v_max=1.0).clearance
+    assert np.sum((np.abs(clear[:, 0] - clear[:, 1]) < BAND) & (clear[:, 0] < 0)) >= 1
+    obs = SimpleNamespace(velocity=v, v_max=1.0)
+    lab, _ = Viewer._panel_labels(grid, obs, path, None, 10.0)
+    want, _ = panel_labels_reference(grid, obs, path, None, 10.0)
+    np.testing.assert_array_equal(lab, want)
+    assert np.any(lab == 0) and np.any(lab == 1)
+
+
+def test_twin_neighbours_show_the_first():
+    """Two neighbours on the same path with the same radius tie everywhere: the first shows
+    (numpy's argmin), behind a third that lies wholly elsewhere."""
+    times, centres, v, grid, _ = _tie_scene()
+    far = centres * [-1.0, -1.0]
+    path = sampled_path(times, np.array([far, centres, centres]), np.array([0.5, 0.7, 0.7]))
+    obs = SimpleNamespace(velocity=v, v_max=1.0)
+    lab, _ = Viewer._panel_labels(grid, obs, path, None, 10.0)
+    want, _ = panel_labels_reference(grid, obs, path, None, 10.0)
+    np.testing.assert_array_equal(lab, want)
+    assert np.any(lab == 1) and not np.any(lab == 2)
 
 
 def test_an_empty_horizon_is_decided_by_the_exact_clearance():

@@ -12,13 +12,15 @@ negative; -2 the walls when the least wall clearance (exact distance of the path
 the segment, :func:`~nao_arena.geometry._kernel.segment.segment_min_distance`, minus
 the grown half-thickness) is negative and below the neighbours' least clearance.
 
-Speed: the exact clearance of a neighbour is needed only where the label depends on
-its value. A decision scan first settles, per neighbour, whether the path comes
-within its radius + :data:`BAND` (no: clearance >= 0 for sure) and, if so, within
-its radius - :data:`BAND` (yes: clearance < 0 for sure); only accelerations that
-collide with two or more neighbours, or with a neighbour and a wall, or that fall in
-that band of a neighbour, get the exact clearances. A wall is measured only where the
-path's bounding box meets the wall's box grown by its half-thickness.
+Speed: a neighbour's exact clearance is computed only where the label depends on its
+value. Decision scans (:func:`_below`, the admissibility scan of
+:func:`~nao_arena.geometry._kernel.exact.scan_obstacle`, which prunes pieces and stops at
+the first close one) settle whether a clearance lies below a level (0, a wall's
+clearance, the least so far) by more than :data:`BAND` either way; only where two
+obstacles' clearances come within BAND of each other or of 0, or where two neighbours
+may both be the least, are exact clearances computed. Neighbours far from the robot's
+path over every window of :data:`WINDOW` pieces are skipped first. A wall is measured
+only where the path's bounding box meets the wall's box grown by its half-thickness.
 """
 
 from __future__ import annotations
@@ -28,18 +30,24 @@ import math
 import numpy as np
 from numba import njit
 
-from nao_arena.geometry._kernel.exact import candidate_setup, scan_obstacle
+from nao_arena.geometry._kernel.exact import candidate_setup, robot_state, scan_obstacle
 from nao_arena.geometry._kernel.segment import segment_min_distance
 from nao_arena.geometry.borrow import borrowed
 
 __all__ = ["BAND", "panel_labels", "wall_clearances"]
 
 BAND = 1e-6
-"""Half-width (m) of the band around a neighbour's radius where the decision scan leaves
-the answer to the exact clearance: far wider than the rounding of either."""
+"""Half-width (m) of the band around a level where the decision scans leave the comparison
+to the exact clearance: far wider than the rounding of either."""
+
+WINDOW = 8
+"""Pieces per time window of the coarse prune: a neighbour is skipped at once where, in every
+window, robot and neighbour stay farther apart than its radius + BAND."""
 
 FREE = -1
 WALLS = -2
+NO, YES, UNSURE = 0, 1, 2
+"""Answers of :func:`_below`."""
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -95,6 +103,43 @@ def _walls_least(vx, vy, ax, ay, v_max, horizon, walls, grown, boxes, stop_below
 
 
 @njit(cache=True, error_model="numpy")
+def _windows(seg_t, seg_c, sweep):
+    """Per neighbour and window of :data:`WINDOW` pieces (N, ceil(S / WINDOW)): how far (m)
+    the neighbour moves from its centre at the window's start within the window (the sum of
+    its pieces' sweeps), inf for a window of infinite length."""
+    N, S = sweep.shape
+    out = np.zeros((N, (S + WINDOW - 1) // WINDOW))
+    for n in range(N):
+        for j in range(S):
+            if math.isfinite(seg_t[j + 1] - seg_t[j]):
+                out[n, j // WINDOW] += sweep[n, j]
+            else:
+                out[n, j // WINDOW] = math.inf
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _out_of_reach(vx, vy, ax, ay, tau, bound, seg_t, seg_c, windows, n, reach):
+    """Whether robot (speed at most bound m/s) and neighbour n stay farther apart than reach
+    (m) in every window: their distance at the window's start less what both move within
+    it (a cheap sound prune before the scan, which checks piece by piece)."""
+    S = seg_c.shape[1]
+    for i in range(windows.shape[1]):
+        j0 = i * WINDOW
+        j1 = min(j0 + WINDOW, S)
+        h = seg_t[j1] - seg_t[j0]
+        if not math.isfinite(h) or not math.isfinite(windows[n, i]):
+            return False
+        rax, ray, rvx, rvy, rpx, rpy = robot_state(vx, vy, ax, ay, tau, seg_t[j0])
+        dx = rpx - seg_c[n, j0, 0]
+        dy = rpy - seg_c[n, j0, 1]
+        limit = (reach + windows[n, i] + bound * h) * (1.0 + 1e-9)
+        if not dx * dx + dy * dy > limit * limit:
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
 def _wall_boxes(walls, grown):
     """Per wall (W, 2, 2) m: its box grown by grown (W,) m and a little slack (W, 4)."""
     boxes = np.empty((walls.shape[0], 4))
@@ -124,6 +169,39 @@ def wall_clearances(grid: np.ndarray, v: np.ndarray, v_max: float, horizon: floa
     return out
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, windows, n, r, level,
+           buf, out):
+    """Whether neighbour n's exact clearance (radius r m) is below ``level`` (m) for the
+    candidate (as :func:`~nao_arena.geometry._kernel.exact.scan_obstacle` takes it):
+    :data:`YES`, :data:`NO`, or :data:`UNSURE` where it may lie within :data:`BAND` of
+    level. out[0] then holds a squared distance (m^2) the path reaches (NO: unset)."""
+    outer = r + level + BAND
+    if not outer > 0.0:
+        return NO  # the clearance is at least -r
+    if _out_of_reach(vx, vy, ax, ay, tau, bound, seg_t, seg_c, windows, n, outer):
+        return NO
+    if scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+                     level + BAND, False, buf, out) < 0:
+        return NO  # never within r + level + BAND
+    inner = r + level - BAND
+    if inner > 0.0:
+        if out[0] < inner * inner:
+            return YES
+        if scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+                         level - BAND, False, buf, out) >= 0:
+            return YES  # within r + level - BAND
+    return UNSURE
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, buf, out):
+    """Neighbour n's exact clearance (m), as :func:`clearance_kernel` computes it."""
+    scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
+                  math.inf, True, buf, out)
+    return math.sqrt(out[0]) - r
+
+
 @njit(cache=True, error_model="numpy")
 def panel_labels(grid: np.ndarray, v: np.ndarray, v_max: float, seg_t: np.ndarray,
                  seg_c: np.ndarray, seg_w: np.ndarray, seg_b: np.ndarray, radius: np.ndarray,
@@ -135,22 +213,33 @@ def panel_labels(grid: np.ndarray, v: np.ndarray, v_max: float, seg_t: np.ndarra
     speed limit v_max m/s. Walls (W, 2, 2) m robot-relative with grown half-thicknesses
     (W,) m, over the horizon seg_t[-1] s (W = 0: none)."""
     labels = np.empty(grid.shape[0], dtype=np.int64)
-    _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, walls, grown,
-                 _wall_boxes(walls, grown), np.empty(seg_c.shape[0], dtype=np.int64),
+    N = seg_c.shape[0]
+    _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
+                 _windows(seg_t, seg_c, sweep), walls, grown, _wall_boxes(walls, grown),
+                 np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64), np.empty(N),
                  np.empty(3), np.empty(3), labels)
     return labels
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, walls, grown, boxes,
-                 hit, buf, out, labels):
-    """:func:`panel_labels` into labels, with its scratch arrays (hit (N,) ints, buf and
-    out (3,)). Arrays borrowed here."""
+def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, windows, walls,
+                 grown, boxes, cand, state, upper, buf, out, labels):
+    """:func:`panel_labels` into labels, with the neighbours' :func:`_windows`, the walls'
+    boxes and scratch arrays (cand, state (N,) ints, upper (N,), buf and out (3,)). Arrays
+    borrowed here.
+
+    Per acceleration: the candidates are the neighbours whose clearance may be negative
+    (:func:`_below` level 0), with an upper bound on it; where a wall's clearance W is
+    negative, only those that may lie below W (else the walls win). One sure candidate
+    left is the label; otherwise the exact clearance of the likeliest least, then of each
+    other candidate that may lie below the least so far."""
     grid, v, seg_t, seg_c = borrowed(grid), borrowed(v), borrowed(seg_t), borrowed(seg_c)
     seg_w, seg_b, radius, sweep = borrowed(seg_w), borrowed(seg_b), borrowed(radius), \
         borrowed(sweep)
-    walls, grown, boxes = borrowed(walls), borrowed(grown), borrowed(boxes)
-    hit, buf, out, labels = borrowed(hit), borrowed(buf), borrowed(out), borrowed(labels)
+    windows, walls, grown, boxes = borrowed(windows), borrowed(walls), borrowed(grown), \
+        borrowed(boxes)
+    cand, state, upper = borrowed(cand), borrowed(state), borrowed(upper)
+    buf, out, labels = borrowed(buf), borrowed(out), borrowed(labels)
     N = seg_c.shape[0]
     horizon = seg_t[-1]
     degenerate = not (horizon > seg_t[0])  # an empty horizon: the exact clearance decides
@@ -158,42 +247,62 @@ def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, wall
         ax = grid[k, 0]
         ay = grid[k, 1]
         vx, vy, tau, bound = candidate_setup(v[0], v[1], ax, ay, v_max, horizon)
-        n_hit = 0
-        n_sure = 0
+        m = 0
         for n in range(N):
-            r = radius[n]
-            if not degenerate and scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c,
-                                                seg_w, seg_b, sweep, n, r, BAND, False, buf,
-                                                out) < 0:
-                continue  # never within r + BAND: clearance >= 0
-            hit[n_hit] = n
-            n_hit += 1
-            inner = r - BAND
-            if degenerate or inner <= 0.0:
-                continue
-            if out[0] < inner * inner or scan_obstacle(
-                    vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, -BAND,
-                    False, buf, out) >= 0:
-                n_sure += 1  # within r - BAND: clearance < 0
+            s = UNSURE
+            if not degenerate:
+                s = _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep,
+                           windows, n, radius[n], 0.0, buf, out)
+            if s != NO:
+                cand[m] = n
+                state[m] = s
+                upper[m] = math.sqrt(out[0]) - radius[n] if s != UNSURE else 0.0
+                m += 1
         wall = math.inf
         if walls.shape[0]:
             wall = _walls_least(v[0], v[1], ax, ay, v_max, horizon, walls, grown, boxes,
-                                -math.inf if n_hit else 0.0)
-        if n_hit == 0:
+                                -math.inf if m else 0.0)
+        if m and wall < 0.0:
+            # only a neighbour at or below the walls' clearance can show
+            kept = 0
+            for i in range(m):
+                n = cand[i]
+                s = UNSURE
+                if not degenerate:
+                    s = _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep,
+                               windows, n, radius[n], wall, buf, out)
+                if s != NO:
+                    cand[kept] = n
+                    state[kept] = s
+                    upper[kept] = upper[i]
+                    kept += 1
+            m = kept
+        if m == 0:
             labels[k] = WALLS if wall < 0.0 else FREE
             continue
-        if n_hit == 1 and n_sure == 1 and not wall < 0.0:
-            labels[k] = hit[0]
+        if m == 1 and state[0] == YES:
+            labels[k] = cand[0]  # below 0 and below the walls, the only one
             continue
-        # the exact clearances, as clearance_kernel computes them, and their first least
-        best = math.inf
-        owner = FREE
-        for i in range(n_hit):
-            n = hit[i]
-            scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n,
-                          radius[n], math.inf, True, buf, out)
-            c = math.sqrt(out[0]) - radius[n]
-            if c < best or owner == FREE:
+        # exact clearances (first least, as numpy's argmin over all neighbours): the
+        # likeliest least first, then the others that may lie below the least so far
+        first = 0
+        for i in range(1, m):
+            if upper[i] < upper[first]:
+                first = i
+        owner = cand[first]
+        best = _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, owner,
+                      radius[owner], buf, out)
+        for i in range(m):
+            n = cand[i]
+            if i == first:
+                continue
+            if not degenerate and _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w,
+                                         seg_b, sweep, windows, n, radius[n], best, buf,
+                                         out) == NO:
+                continue
+            c = _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n,
+                       radius[n], buf, out)
+            if c < best or (c == best and n < owner):
                 best = c
                 owner = n
         label = owner if best < 0.0 else FREE
