@@ -25,10 +25,13 @@ panel can reach, as the set of constant accelerations whose exact
 clearance (:func:`nao_arena.geometry.path_clearance`, radii grown by the
 robot's radius and its agent's margin) is negative over the horizon,
 evaluated on a grid and coloured like the neighbour's path; the walls'
-region (grey) from the robot's path, sampled at 41 times over the horizon,
-against the wall segments; the acceleration-limit circle |a| = a_max; the desired
-(goal-seeking) acceleration as a green arrow and the last commanded one as
-a black arrow.
+region (grey): the accelerations whose path comes closer to a wall segment
+than its grown half-thickness (the exact minimum over the horizon,
+:func:`~nao_arena.geometry._kernel.segment.segment_min_distance`); each grid
+point shows the obstacle of least clearance (labels compiled in
+:mod:`nao_arena.render._panel_kernel`); the acceleration-limit circle
+|a| = a_max; the desired (goal-seeking) acceleration as a green arrow and the
+last commanded one as a black arrow.
 
 Every symbol is explained in the panel's legend (:meth:`Viewer.legend_entries`):
 a neighbour's predicted path, its position at the horizon (hollow ring) and
@@ -63,12 +66,13 @@ import pygame  # noqa: E402
 
 from nao_arena.agent import PanelAgent, ShowsPanel  # noqa: E402
 from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
+from nao_arena.geometry._kernel.exact import piece_sweep  # noqa: E402
 from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
-from nao_arena.geometry.clearance import PiecewisePath, path_clearance  # noqa: E402
+from nao_arena.geometry.clearance import PiecewisePath  # noqa: E402
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
-from nao_arena.maps.loader import point_segment_distances, segment_distances_xy  # noqa: E402
-from nao_arena.obstacles import obstacle_paths  # noqa: E402
+from nao_arena.obstacles import obstacle_paths, relative_walls  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
+from nao_arena.render._panel_kernel import panel_labels  # noqa: E402
 from nao_arena.sensing import Observation  # noqa: E402
 from nao_arena.traffic import CircleLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
@@ -615,13 +619,12 @@ class Viewer:
         path = obstacle_paths(times, centres, nb.radii + grow, obs.position)
         walls = None
         if len(obs.walls):
+            # the walls within reach as the agent sees them (its radius cut included)
             h = float(times[-1])
-            reach = obs.v_max * h + 0.5 * obs.a_max * h * h
-            segs = obs.walls - obs.position
-            near = (point_segment_distances(np.zeros((1, 2)), segs)[0]
-                    <= reach + obs.wall_radius + grow)
-            if np.any(near):
-                walls = (segs[near], obs.wall_radius[near] + grow)
+            segs, grown = relative_walls(obs.walls, obs.wall_radius + grow, obs.position,
+                                         obs.v_max * h + 0.5 * obs.a_max * h * h)
+            if len(segs):
+                walls = (segs, grown)
         return times, centres, path, walls
 
     def _draw_predictions(self, arena: ShownArena, tr: tuple[float, ...], selected: int,
@@ -711,26 +714,7 @@ class Viewer:
         _, _, path, walls = self._predictions(arena, selected, obs)
         img = np.full((g * g, 3), 255, dtype=np.uint8)
         # label per grid point: -1 free, -2 walls, j >= 0 the neighbour with least clearance
-        lab = np.full(g * g, -1)
-        best = np.zeros(g * g)
-        shown = 0
-        if path.n_obstacles:
-            keep = relevant_obstacles(obs.velocity, ext * math.sqrt(2), obs.v_max,
-                                      *path.moving_arrays, 0.0)
-            idx = np.flatnonzero(keep)
-            if len(idx):
-                shown += len(idx)
-                sub = PiecewisePath(path.t, path.c[idx], path.velocity[idx], path.acceleration[idx],
-                                    path.radius[idx])
-                clear = path_clearance(grid, obs.velocity, sub, v_max=obs.v_max).clearance
-                owner = np.argmin(clear, axis=1)
-                best = clear[np.arange(len(grid)), owner]
-                lab[best < 0] = idx[owner[best < 0]]
-        if walls is not None:
-            wall_clear = self._wall_clearance(grid, obs.velocity, obs.v_max, float(path.t[-1]),
-                                              walls)
-            lab[(wall_clear < 0) & (wall_clear < best)] = -2
-            shown += len(walls[1])
+        lab, shown = self._panel_labels(grid, obs, path, walls, ext * math.sqrt(2))
         hit = lab != -1
         grid_lab = lab.reshape(g, g)
         if np.any(hit):
@@ -773,33 +757,32 @@ class Viewer:
         self._text(status, (plot.left - 40, plot.bottom + 42), self._small, (70, 70, 70))
 
     @staticmethod
-    def _wall_clearance(grid: NDArray[np.float64], velocity: NDArray[np.float64], v_max: float,
-                        horizon: float, walls: tuple[NDArray[np.float64], NDArray[np.float64]],
-                        ) -> NDArray[np.float64]:
-        """Per panel acceleration (G, 2) m/s^2: the least clearance (G,) m of the robot's own
-        path (sampled at 41 times over ``horizon`` s) to the walls (robot-relative segments
-        (W, 2, 2) m, grown half-thicknesses (W,) m). Exact where negative; elsewhere a value
-        >= 0 (inf where no wall comes within reach), as only the sign matters.
-
-        A wall is measured only against the accelerations whose sampled path comes within
-        its bounding box grown by its half-thickness (any other is farther from it than
-        that); those are measured with the same arithmetic as all of them would be."""
-        times = np.linspace(0.0, horizon, 41)
-        xs, ys = _own_paths_xy(velocity, grid, v_max, times)
-        lo = np.stack([xs.min(axis=1), ys.min(axis=1)], axis=1)  # (G, 2) box of each path
-        hi = np.stack([xs.max(axis=1), ys.max(axis=1)], axis=1)
-        wall_clear = np.full(len(grid), np.inf)
-        for seg, grown in zip(walls[0], walls[1], strict=True):
-            # slack so that rounding never drops a point within `grown` of the segment
-            r = grown + 1e-9 * (1.0 + abs(grown))
-            box_lo = seg.min(axis=0) - r
-            box_hi = seg.max(axis=0) + r
-            near = np.flatnonzero(np.all((hi >= box_lo) & (lo <= box_hi), axis=1))
-            if not len(near):
-                continue
-            d = segment_distances_xy(xs[near], ys[near], seg)
-            wall_clear[near] = np.minimum(wall_clear[near], np.min(d, axis=1) - grown)
-        return wall_clear
+    def _panel_labels(grid: NDArray[np.float64], obs: Observation, path: PiecewisePath,
+                      walls: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+                      reach: float) -> tuple[NDArray[np.int64], int]:
+        """Per panel acceleration (G, 2) m/s^2: its label (G,) (-1 free, -2 walls, j >= 0 the
+        neighbour j of ``path`` with the least clearance, see
+        :mod:`nao_arena.render._panel_kernel`) and how many obstacles were within reach.
+        Neighbours count when some acceleration of norm <= ``reach`` m/s^2 can reach them
+        (:func:`relevant_obstacles`); walls: robot-relative segments (W, 2, 2) m with grown
+        half-thicknesses (W,) m, or None."""
+        idx = np.zeros(0, dtype=np.int64)
+        if path.n_obstacles:
+            idx = np.flatnonzero(relevant_obstacles(obs.velocity, reach, obs.v_max,
+                                                    *path.moving_arrays, 0.0))
+        segs, grown = walls if walls is not None else (np.zeros((0, 2, 2)), np.zeros(0))
+        shown = len(idx) + len(grown)
+        if not shown:
+            return np.full(len(grid), -1, dtype=np.int64), 0
+        c, w, b = (np.ascontiguousarray(x[idx]) for x in path.arrays[1:4])
+        t = np.ascontiguousarray(path.t)
+        lab = panel_labels(np.ascontiguousarray(grid), np.ascontiguousarray(obs.velocity, float),
+                           float(obs.v_max), t, c, w, b, np.ascontiguousarray(path.radius[idx]),
+                           piece_sweep(t, w, b), np.ascontiguousarray(segs, float),
+                           np.ascontiguousarray(grown, float))
+        own = lab >= 0
+        lab[own] = idx[lab[own]]
+        return lab, shown
 
     @staticmethod
     def _region_colours() -> NDArray[np.uint8]:
