@@ -29,7 +29,11 @@ from nao_arena.sensing import neighbour_lists
 SMALL = {"circle_swap": {"n": 4}, "circle_swap_perturbed": {"n": 4}, "crowd": {"n": 4},
          "corridor": {"n": 2}, "crossing": {"n": 2}, "dense_swap": {"n": 4},
          "dense_swap_perturbed": {"n": 4}, "crossing_streams": {"n": 2},
-         "crossing_streams_perturbed": {"n": 2}}
+         "crossing_streams_perturbed": {"n": 2}, "doorway": {"n": 2},
+         "doorway_perturbed": {"n": 2}, "intersection": {"n": 1},
+         "intersection_perturbed": {"n": 1}, "warehouse_aisles": {"n": 1},
+         "warehouse_aisles_perturbed": {"n": 1}, "pillar_corridor": {"n": 2},
+         "pillar_corridor_perturbed": {"n": 2}}
 """Map parameters that keep the API tests quick."""
 
 

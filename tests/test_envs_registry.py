@@ -27,7 +27,11 @@ from nao_arena.envs import available, load
 from nao_arena.maps import available_maps
 
 CHEAP = {"circle_swap": {"n": 3}, "circle_swap_perturbed": {"n": 3}, "crowd": {"n": 3},
-         "corridor": {"n": 1}, "crossing": {"n": 1}}
+         "corridor": {"n": 1}, "crossing": {"n": 1}, "doorway": {"n": 1},
+         "doorway_perturbed": {"n": 1}, "intersection": {"n": 1},
+         "intersection_perturbed": {"n": 1}, "warehouse_aisles": {"n": 1},
+         "warehouse_aisles_perturbed": {"n": 1}, "pillar_corridor": {"n": 1},
+         "pillar_corridor_perturbed": {"n": 1}}
 """Map parameters that keep the API tests quick."""
 
 
@@ -138,9 +142,17 @@ FINGERPRINTS = {
     "crowd_v0": "e9c38c63049a9196",
     "dense_swap_perturbed_v0": "4cf1bfe54718aa43",
     "dense_swap_v0": "2f1b5aa06993099b",
+    "doorway_perturbed_v0": "c2a414e936628fd2",
+    "doorway_v0": "891318c6c6153009",
+    "intersection_perturbed_v0": "e9aebf5f6e994807",
+    "intersection_v0": "7427cbbf656910f2",
+    "pillar_corridor_perturbed_v0": "88af26844f2df803",
+    "pillar_corridor_v0": "df7d72b485c0d624",
     "roundabout_crossing_v0": "c4ed22e5070c8c07",
     "roundabout_v0": "0f5c2984e84faa36",
     "two_lane_road_v0": "fe6f4298d40c2d21",
+    "warehouse_aisles_perturbed_v0": "72936c8d74b7a9a6",
+    "warehouse_aisles_v0": "ee1dfaae43eef2b4",
 }
 """Digest of what of each env affects learning and hashes the same on every platform: the
 map file, the default options, the agents, the observation and action spaces. Dynamics

@@ -20,8 +20,10 @@ from nao_arena.maps import (
 BAD = Path(__file__).parent / "bad_maps"
 SHIPPED = [
     "circle_swap", "circle_swap_perturbed", "corridor", "crossing", "crossing_streams",
-    "crossing_streams_perturbed", "crowd", "dense_swap", "dense_swap_perturbed", "roundabout",
-    "roundabout_crossing", "two_lane_road",
+    "crossing_streams_perturbed", "crowd", "dense_swap", "dense_swap_perturbed", "doorway",
+    "doorway_perturbed", "intersection", "intersection_perturbed", "pillar_corridor",
+    "pillar_corridor_perturbed", "roundabout", "roundabout_crossing", "two_lane_road",
+    "warehouse_aisles", "warehouse_aisles_perturbed",
 ]
 
 
@@ -195,7 +197,7 @@ BAD_CASES = {
     "point_too_short.yaml": ("walls[0].a", "expected at least 2 items"),
     "nonconvex_polygon.yaml": ("walls[0].points", "expected a convex polygon"),
     "zero_substeps.yaml": ("physics.substeps", "expected a positive number, got 0"),
-    "unknown_builder.yaml": ("layouts[0].builder", "expected one of circle_swap, crowd, stream"),
+    "unknown_builder.yaml": ("layouts[0].builder", "expected one of circle_swap, crowd, queue, stream"),
     "bad_layout_arg.yaml": ("layouts[0].args.n", "expected a positive number, got -3"),
     "unknown_layout_arg.yaml": ("layouts[0].args.diameter", "unknown key; expected one of: n"),
     "crowd_too_dense.yaml": ("layouts[0]", "cannot place 200 robots"),

@@ -50,9 +50,17 @@ _NAMES: tuple[str, ...] = (
     "crowd_v0",
     "dense_swap_perturbed_v0",
     "dense_swap_v0",
+    "doorway_perturbed_v0",
+    "doorway_v0",
+    "intersection_perturbed_v0",
+    "intersection_v0",
+    "pillar_corridor_perturbed_v0",
+    "pillar_corridor_v0",
     "roundabout_crossing_v0",
     "roundabout_v0",
     "two_lane_road_v0",
+    "warehouse_aisles_perturbed_v0",
+    "warehouse_aisles_v0",
 )
 
 

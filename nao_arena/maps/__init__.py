@@ -74,6 +74,13 @@ Top level
       goal is its start moved ``distance`` (m) along ``direction``;
       ``perturb`` (m, default 0) displaces each start (and its goal)
       uniformly within a disc of that radius (seeded).
+    - ``queue``: the robots of ``stream`` (same arguments, the same starts
+      and draws) with their goals in a block of the same kind: ``goal_width``
+      abreast (default ``width``), ``goal_spacing`` (m, required) between
+      centres, its front row ``distance`` m ahead of the starts' front row
+      (robot k takes goal k: the first robots head for the farthest goals);
+      ``perturb`` moves each start and its goal alike. A queue that spreads
+      out on arrival, so that a robot can pass between parked ones.
 ``traffic`` (list, optional): scripted vehicles, one group per lane:
     ``lane``: ``{type: circle, center: [x, y], radius: R, direction: ccw|cw,
     start_angle: rad}`` or ``{type: polyline, points: [[x, y], ...], closed:

@@ -1,0 +1,13 @@
+"""intersection_perturbed_v0: intersection with seeded start noise
+(perturb, default 0.1 m).
+
+The shipped map ``intersection_perturbed`` (maps/intersection_perturbed.yaml); see
+:mod:`nao_arena.envs` for the keywords and the versioning rule.
+"""
+
+from nao_arena.envs._make import constructors
+
+MAP = "intersection_perturbed"
+env, parallel_env = constructors(__name__, MAP)
+
+__all__ = ["MAP", "env", "parallel_env"]
