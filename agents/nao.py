@@ -82,6 +82,7 @@ from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry._kernel.segment import relevant_walls
 from nao_arena.geometry.selection import Selection
 from nao_arena.maps.loader import point_segment_distances
+from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
@@ -96,7 +97,8 @@ class NAOAgent:
     """NAO avoidance. Options: horizon (s), samples (per horizon; None: one every 0.1 s),
     predictor name, margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m),
     detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
-    "latest_contact").
+    "latest_contact"), goal_zone (m), navigate (heads around walls that stand between
+    the robot and its goal, see :mod:`nao_arena.navigation`).
 
     The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
     = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
@@ -116,6 +118,7 @@ class NAOAgent:
         reselect_after: float = 1.0,
         infeasible: str = "auto",
         goal_zone: float = 1.0,
+        navigate: bool = True,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
@@ -128,6 +131,7 @@ class NAOAgent:
             raise ValueError(f"horizon: expected a positive number of seconds, got {horizon!r}")
         self.detour_after = float(detour_after)
         self.goal_zone = float(goal_zone)
+        self.navigate = bool(navigate)
         if not (math.isfinite(self.goal_zone) and self.goal_zone >= 0.0):
             raise ValueError(f"goal_zone: expected a distance >= 0 (m), got {goal_zone!r}")
         if samples is None:
@@ -767,10 +771,38 @@ def _desired(
             if route is not None and len(route):
                 targets[i] = route[-1]
                 has_target[i] = True
+    if len(batch.walls):
+        targets = _around_walls(agents, batch, rows_a, targets, pos)
     cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
                     for ag, v in zip(agents, v_max.tolist(), strict=True)])
     return goal_seeking_accels(targets, pos, vel, a_max, cap, [ag.detour for ag in agents],
                                has_target=has_target)
+
+
+def _around_walls(
+    agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64],
+    targets: NDArray[np.float64], pos: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The heading targets (n, 2) m of the robots whose agents ``navigate``: their
+    targets, or where a wall stands between, the way around it
+    (:func:`~nao_arena.navigation.route_targets`; one grid per radius + margin)."""
+    radii = batch.radii[batch.bodies[rows_a]]
+    steer = [i for i, ag in enumerate(agents) if ag.navigate]
+    if not steer:
+        return targets
+    out = np.array(targets, dtype=np.float64, copy=True)
+    finite = np.isfinite(targets).all(axis=1)
+    walls = batch.walls.reshape(-1, 2, 2)
+    extent = np.concatenate([walls.reshape(-1, 2), pos, targets[finite]])
+    box = np.array([extent.min(axis=0), extent.max(axis=0)])
+    groups: dict[float, list[int]] = {}
+    for i in steer:
+        groups.setdefault(float(radii[i]) + agents[i].margin, []).append(i)
+    for clearance, members in groups.items():
+        grid = navigation_grid(walls, batch.wall_radius, clearance, box)
+        m = np.asarray(members, dtype=np.int64)
+        out[m] = route_targets(grid, pos[m], targets[m], radii[m])
+    return out
 
 
 class AOAgent(NAOAgent):
@@ -790,7 +822,8 @@ class AOAgent(NAOAgent):
         reselect_after: float = 1.0,
         infeasible: str = "auto",
         goal_zone: float = 1.0,
+        navigate: bool = True,
     ) -> None:
         super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
                          sensing_range, detour_after, replan, reselect_after, infeasible,
-                         goal_zone)
+                         goal_zone, navigate)
