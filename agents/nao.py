@@ -34,6 +34,12 @@ and by another such angle after each further ``detour_after`` s of crawling
 ``detour_after`` s; symmetric stand-offs then resolve like traffic keeping
 right, and a robot boxed in by its neighbours eventually backs out.
 
+Walls: where a wall stands between a robot and its goal, the robot heads for
+the farthest point it sees on the shortest way around the walls instead of
+the goal (``navigate``, :mod:`nao_arena.navigation`); a robot on such a way
+that has turned all the way round (150-180 degrees) and is still held heads
+along the way again rather than backing further into the walls.
+
 A neighbour or wall already closer than its grown radius (inside the
 margin, or touching) counts with just under its current distance: the
 robot may not close in further but may move away.
@@ -158,6 +164,7 @@ class NAOAgent:
         self.detour = 0.0
         self.detour_turns = 0
         self.settling = False
+        self.around_wall = False  # the last heading target was a way around a wall
         # what the last step saw: (batch, robot row, predictions, their excursions)
         self._seen: tuple[SensingBatch, int, NDArray[np.float64],
                           tuple[NDArray[np.float64], NDArray[np.bool_]]] | None = None
@@ -368,11 +375,17 @@ class NAOAgent:
         else:
             self.free_time += dt
             self.crawl_time = 0.0
-        if (self.crawl_time >= self.detour_after * (self.detour_turns + 1)
-                and self.detour > -5.0 * np.pi / 6.0):
-            # each further detour_after of crawling turns another 30-60 degrees right
-            self.detour -= float(self.rng.uniform(np.pi / 6, np.pi / 3))
-            self.detour_turns += 1
+        if self.crawl_time >= self.detour_after * (self.detour_turns + 1):
+            if self.detour > -5.0 * np.pi / 6.0:
+                # each further detour_after of crawling turns another 30-60 degrees right
+                self.detour -= float(self.rng.uniform(np.pi / 6, np.pi / 3))
+                self.detour_turns += 1
+            elif self.around_wall:
+                # turned all the way round on a way around a wall and still held (backing
+                # off further leads into the walls): head along the way again
+                self.detour = 0.0
+                self.detour_turns = 0
+                self.crawl_time = 0.0
         elif self.detour != 0.0 and self.free_time >= self.detour_after:
             self.detour = 0.0
             self.detour_turns = 0
@@ -802,6 +815,8 @@ def _around_walls(
         grid = navigation_grid(walls, batch.wall_radius, clearance, box)
         m = np.asarray(members, dtype=np.int64)
         out[m] = route_targets(grid, pos[m], targets[m], radii[m])
+    for i in steer:
+        agents[i].around_wall = not np.array_equal(out[i], targets[i], equal_nan=True)
     return out
 
 
