@@ -804,10 +804,9 @@ def _around_walls(
     if not steer:
         return targets
     out = np.array(targets, dtype=np.float64, copy=True)
-    finite = np.isfinite(targets).all(axis=1)
     walls = batch.walls.reshape(-1, 2, 2)
-    extent = np.concatenate([walls.reshape(-1, 2), pos, targets[finite]])
-    box = np.array([extent.min(axis=0), extent.max(axis=0)])
+    # the grid covers the walls (padded): the same for every robot and batch
+    box = np.array([walls.reshape(-1, 2).min(axis=0), walls.reshape(-1, 2).max(axis=0)])
     groups: dict[float, list[int]] = {}
     for i in steer:
         groups.setdefault(float(radii[i]) + agents[i].margin, []).append(i)

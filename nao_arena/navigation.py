@@ -74,7 +74,8 @@ def navigation_grid(
     extent: NDArray[np.float64], cell: float = 0.2,
 ) -> NavigationGrid:
     """The :class:`NavigationGrid` of the walls over ``extent`` ((2, 2) m: lower-left and
-    upper-right corners, padded by 2 m), memoised (walls do not move)."""
+    upper-right corners, padded by 2 m), memoised (walls do not move). Points outside
+    the grid count as in its nearest cell."""
     walls = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 2, 2)
     half = np.ascontiguousarray(half, dtype=np.float64)
     lo = np.floor(np.asarray(extent[0], dtype=np.float64) - 2.0)
