@@ -813,9 +813,9 @@ def _around_walls(
     for clearance, members in groups.items():
         grid = navigation_grid(walls, batch.wall_radius, clearance, box)
         m = np.asarray(members, dtype=np.int64)
-        out[m] = route_targets(grid, pos[m], targets[m], radii[m])
-    for i in steer:
-        agents[i].around_wall = not np.array_equal(out[i], targets[i], equal_nan=True)
+        out[m], around = route_targets(grid, pos[m], targets[m], radii[m])
+        for i, flag in zip(members, around.tolist(), strict=True):
+            agents[i].around_wall = flag
     return out
 
 

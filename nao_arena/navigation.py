@@ -233,23 +233,41 @@ def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_s
     return tx, ty
 
 
+@njit(cache=True)
+def _in_sight(positions, goals, walls, half, sight):
+    """Per row: whether the goal is finite and in sight of the (finite) position."""
+    n = positions.shape[0]
+    out = np.ones(n, dtype=np.bool_)
+    for k in range(n):
+        px = positions[k, 0]
+        py = positions[k, 1]
+        gx = goals[k, 0]
+        gy = goals[k, 1]
+        if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(gx)
+                and math.isfinite(gy)):
+            continue
+        out[k] = segment_clear(px, py, gx, gy, walls, half, sight[k])
+    return out
+
+
 def route_targets(
     grid: NavigationGrid, positions: NDArray[np.float64], goals: NDArray[np.float64],
     sight: NDArray[np.float64], lookahead: float = 6.0,
-) -> NDArray[np.float64]:
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Heading targets (n, 2) m of robots at ``positions`` (n, 2) m with ``goals``
-    (n, 2) m (see the module docstring); ``sight`` (n,) m: the clearance a line of sight
-    keeps from the walls' surfaces (the robot's radius); ``lookahead`` (m): how far
-    along the grid's path a target may lie. Rows with a non-finite goal keep it."""
-    out = np.array(goals, dtype=np.float64, copy=True)
+    (n, 2) m (see the module docstring), and which of them lead round a wall (n,);
+    ``sight`` (n,) m: the clearance a line of sight keeps from the walls' surfaces (the
+    robot's radius); ``lookahead`` (m): how far along the grid's path a target may lie.
+    Rows with a non-finite position or goal keep the goal."""
+    positions = np.ascontiguousarray(positions, dtype=np.float64)
+    goals = np.ascontiguousarray(goals, dtype=np.float64)
+    out = goals.copy()
+    around = ~_in_sight(positions, goals, grid.walls, grid.half,
+                        np.ascontiguousarray(sight, dtype=np.float64))
     steps = max(1, int(lookahead / grid.cell))
-    for k in range(len(positions)):
+    for k in np.flatnonzero(around).tolist():
         p, g = positions[k], goals[k]
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(g))):
-            continue
-        if segment_clear(p[0], p[1], g[0], g[1], grid.walls, grid.half, float(sight[k])):
-            continue
         out[k] = _descend(grid.field(g), grid.free, grid.origin[0], grid.origin[1], grid.cell,
                           p[0], p[1], g[0], g[1], grid.walls, grid.half, float(sight[k]),
                           steps)
-    return out
+    return out, around

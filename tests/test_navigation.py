@@ -63,8 +63,9 @@ def test_a_walled_in_goal_has_no_path_and_keeps_its_target():
     field = grid.field(goal[0])
     i, j = grid.cell_of(np.array([4.0, 4.0]))
     assert math.isinf(field[i, j])
-    np.testing.assert_array_equal(
-        route_targets(grid, np.array([[4.0, 4.0]]), goal, np.array([0.3])), goal)
+    target, around = route_targets(grid, np.array([[4.0, 4.0]]), goal, np.array([0.3]))
+    np.testing.assert_array_equal(target, goal)
+    assert around[0]
 
 
 def _sampled_clearance(a, b, walls, half):
@@ -94,8 +95,9 @@ def test_a_goal_in_sight_is_the_target_and_a_hidden_one_gives_a_visible_step_clo
     pos = np.array([[-3.0, 0.5], [2.0, 4.5]])
     goals = np.array([[4.0, 0.0], [4.0, 0.0]])
     sight = np.array([0.3, 0.3])
-    out = route_targets(grid, pos, goals, sight)
+    out, around = route_targets(grid, pos, goals, sight)
     np.testing.assert_array_equal(out[1], goals[1])  # in sight: unchanged
+    assert around.tolist() == [True, False]
     target = out[0]
     assert not np.array_equal(target, goals[0])
     assert segment_clear(pos[0, 0], pos[0, 1], target[0], target[1], WALL, HALF, 0.3)
