@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from strategies import floats
 
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.maps import LAYOUTS, MapError, MapSpec, PolygonWall, load_map, map_from_dict
@@ -28,7 +29,6 @@ from nao_arena.maps.layouts import LayoutContext, QueueArgs, StreamArgs, queue, 
 from nao_arena.maps.loader import point_segment_distances
 from nao_arena.maps.schema import Bounds
 from nao_arena.trials import make_map
-from tests.strategies import floats
 
 SCENES = ["doorway", "intersection", "warehouse_aisles", "pillar_corridor"]
 SEEDS = range(20)
