@@ -99,15 +99,11 @@ def navigation_grid(
     return grid
 
 
-def _dijkstra(free: NDArray[np.bool_], gi: int, gj: int, cell: float) -> NDArray[np.float64]:
+@njit(cache=True)
+def _dijkstra(free, gi, gj, cell):
     """8-connected shortest path lengths (m) over the free cells to cell (gi, gj) (which
     counts as free); diagonal steps only between free side neighbours (no corner
     cutting)."""
-    return _dijkstra_kernel(free, gi, gj, cell)
-
-
-@njit(cache=True)
-def _dijkstra_kernel(free, gi, gj, cell):
     nx, ny = free.shape
     dist = np.full((nx, ny), np.inf)
     dist[gi, gj] = 0.0
@@ -180,6 +176,24 @@ def segment_clear(ax, ay, bx, by, walls, half, sight):
     return True
 
 
+@njit(cache=True, inline="always")
+def _lowest_near(dist, i, j, span, below):
+    """The cell (a, b) within ``span`` cells of (i, j) with the least ``dist`` under
+    ``below`` (the first such in row order) and that value; (-1, -1, below) if none."""
+    nx, ny = dist.shape
+    bi = -1
+    bj = -1
+    for di in range(-span, span + 1):
+        for dj in range(-span, span + 1):
+            a = i + di
+            b = j + dj
+            if 0 <= a < nx and 0 <= b < ny and dist[a, b] < below:
+                below = dist[a, b]
+                bi = a
+                bj = b
+    return bi, bj, below
+
+
 @njit(cache=True)
 def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_steps):
     """The heading target (x, y) of a robot at (px, py) whose goal (gx, gy) it does not
@@ -190,17 +204,7 @@ def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_s
     i = min(max(int(math.floor((px - ox) / cell)), 0), nx - 1)
     j = min(max(int(math.floor((py - oy) / cell)), 0), ny - 1)
     # start from the best cell within 2 cells (the robot's own may be blocked)
-    bi = -1
-    bj = -1
-    best = math.inf
-    for di in range(-2, 3):
-        for dj in range(-2, 3):
-            a = i + di
-            b = j + dj
-            if 0 <= a < nx and 0 <= b < ny and dist[a, b] < best:
-                best = dist[a, b]
-                bi = a
-                bj = b
+    bi, bj, best = _lowest_near(dist, i, j, 2, math.inf)
     if bi < 0 or not math.isfinite(best):
         return gx, gy
     tx = ox + (bi + 0.5) * cell
@@ -210,18 +214,8 @@ def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_s
     for _ in range(max_steps):
         if dist[i, j] == 0.0:
             break
-        ni = i
-        nj = j
-        nd = dist[i, j]
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                a = i + di
-                b = j + dj
-                if 0 <= a < nx and 0 <= b < ny and dist[a, b] < nd:
-                    nd = dist[a, b]
-                    ni = a
-                    nj = b
-        if ni == i and nj == j:
+        ni, nj, _ = _lowest_near(dist, i, j, 1, dist[i, j])
+        if ni < 0:
             break
         i = ni
         j = nj

@@ -40,6 +40,28 @@ def _samples_in_piece(t0, t1, n_sub, per_second):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _piece_schedule(j, S, t0, t1, n_sub, per_second):
+    """(samples within piece j of S, geometric samples towards t = 0 before them, 1 if
+    the piece's end is sampled too): when the disk picture samples piece [t0, t1] (s)."""
+    k = _samples_in_piece(t0, t1, n_sub, per_second)
+    head = 8 if (j == 0 and math.isfinite(t1)) else 0
+    tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
+    return k, head, tail
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _sample_time(t0, t1, i, k, head):
+    """The i-th sample time (s) of piece [t0, t1] (:func:`_piece_schedule`)."""
+    if not math.isfinite(t1):
+        return max(t0, 1e-3) * 2.0 ** (i + 1)
+    if i < head:
+        return t1 * 2.0 ** (i - 8 - 1) * 2.0 / k
+    if i == k + head:
+        return t1
+    return t0 + (t1 - t0) * (i - head) / k
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _put(out, row, x, y, rho, dq):
     """Write the disk (x, y, rho, dq) into out[row]; returns the next row."""
     out[row, 0] = x
@@ -158,18 +180,9 @@ def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_sec
         for j in range(S):
             t0 = seg_t[j]
             t1 = seg_t[j + 1]
-            k = _samples_in_piece(t0, t1, n_sub, per_second)
-            head = 8 if (j == 0 and math.isfinite(t1)) else 0
-            tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
+            k, head, tail = _piece_schedule(j, S, t0, t1, n_sub, per_second)
             for i in range(k + head + tail):
-                if not math.isfinite(t1):
-                    t = max(t0, 1e-3) * 2.0 ** (i + 1)
-                elif i < head:
-                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / k
-                elif i == k + head:
-                    t = t1
-                else:
-                    t = t0 + (t1 - t0) * (i - head) / k
+                t = _sample_time(t0, t1, i, k, head)
                 if t * t <= 0.0 or not math.isfinite(2.0 / (t * t)):
                     continue
                 inv = 2.0 / (t * t)
@@ -245,18 +258,9 @@ def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, 
                         pend = False
                     last = -1
                     continue
-            k = _samples_in_piece(t0, t1, n_sub, per_second)
-            head = 8 if (j == 0 and math.isfinite(t1)) else 0
-            tail = 1 if (j == S - 1 and math.isfinite(t1)) else 0
+            k, head, tail = _piece_schedule(j, S, t0, t1, n_sub, per_second)
             for i in range(k + head + tail):
-                if not math.isfinite(t1):
-                    t = max(t0, 1e-3) * 2.0 ** (i + 1)
-                elif i < head:
-                    t = t1 * 2.0 ** (i - 8 - 1) * 2.0 / k
-                elif i == k + head:
-                    t = t1
-                else:
-                    t = t0 + (t1 - t0) * (i - head) / k
+                t = _sample_time(t0, t1, i, k, head)
                 if t * t <= 0.0 or not math.isfinite(2.0 / (t * t)):
                     continue
                 dt = t - t0
