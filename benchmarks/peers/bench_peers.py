@@ -31,7 +31,16 @@ time per agent-step (us) with the agent-steps it is over, the worst window of
 ``--window`` simulated seconds (us per agent-step) with its agent-steps, the
 contacts (count, deepest overlap mm) and the time at which every robot was at
 its goal at once (s; ``timeout`` at the time limit, ``cut`` when stopped at
-``--seconds``). Run:
+``--seconds``).
+
+Then, for nao_arena's agents, the decision with its neighbour finding alone
+beside the peer doing the same (mean us per agent-step over the same timed
+steps): ``sense`` (``Arena.sensing``: neighbour lists within the sensing
+range, no cap, and the bulk arrays) plus ``act_batch`` (the agent class's
+``act_batch``), as ``benchmarks/bench_crowds.py`` times them
+(:class:`bench_crowds.PhaseClock`), over the peer's mean doStep in the same
+run (which also finds its neighbours, with its k-d tree): ``orca`` over
+``rvo2``, ``nao`` over ``avo2`` and ``avo2-dt``. Run:
 
     python benchmarks/peers/bench_peers.py --rvo2 ~/src/RVO2 --avo2 ~/src/AVO2 \
         [--sizes 10,30,100] [--streams 20] [--seconds 500] [--seed 0] [--peers-only]
@@ -101,6 +110,8 @@ class Row:
     contacts: int
     deepest: float
     arrival: str
+    sense_us: float = math.nan
+    act_us: float = math.nan
 
 
 def swap_scene(n: int, perturbed: bool, seed: int, time_limit: float) -> Scene:
@@ -215,12 +226,17 @@ def run_peer(method: str, driver: Path, scene: Scene, seed: int, seconds: float,
 
 
 def run_arena(scene: Scene, agent: str, seed: int, seconds: float, window: float) -> Row:
-    """One nao_arena agent on one scene: each whole arena step timed, for at most
-    ``seconds`` simulated seconds, after one untimed warm-up step."""
+    """One nao_arena agent on one scene: each whole arena step timed, and its sensing
+    and act_batch calls, for at most ``seconds`` simulated seconds, after one untimed
+    warm-up step."""
+    if str(HERE.parent) not in sys.path:
+        sys.path.insert(0, str(HERE.parent))
+    from bench_crowds import PhaseClock
     arena = _arena(scene, agent)
     arena.reset(seed)
     arena.step()  # compilation and caches outside the timing
     arena.reset(seed)
+    phases = PhaseClock(arena)
     dt, n = arena.world.dt, len(arena.robots)
     limit = max(1, round(seconds / dt))
     walls: list[float] = []
@@ -240,8 +256,10 @@ def run_arena(scene: Scene, agent: str, seed: int, seconds: float, window: float
         arrival = "cut"
     contacts = arena.stats.contacts
     deepest = max((c.max_penetration for c in contacts), default=0.0)
+    per = 1e6 / (n * len(walls))
     return Row(scene.name, agent, len(walls) * dt, len(walls), n, mean, worst, span,
-               *motion_peaks(np.array(path), dt), len(contacts), deepest, arrival)
+               *motion_peaks(np.array(path), dt), len(contacts), deepest, arrival,
+               per * phases.sums["sense"], per * phases.sums["act_batch"])
 
 
 def _ints(text: str) -> list[int]:
@@ -274,6 +292,32 @@ def print_table(rows: list[Row], window: float) -> None:
         print(f"{r.scene:34} {r.method:7} {r.robots:6d} {r.span:6.1f} {r.steps:5d} "
               f"{mean:>22} {worst:>26} {r.max_speed:5.2f} {r.max_accel:5.1f} "
               f"{r.contacts:8d} {1e3 * r.deepest:10.2f} {r.arrival:>13}")
+
+
+#: The peer methods each nao_arena agent's decision is set beside.
+PEER_OF: dict[str, tuple[str, ...]] = {"orca": ("rvo2",), "nao": ("avo2", "avo2-dt")}
+
+
+def print_decisions(rows: list[Row]) -> None:
+    """For nao_arena's rows: whole step, sense, act_batch and their sum (mean us per
+    agent-step), beside the mean doStep of the peer (:data:`PEER_OF`) on the same
+    scene in the same run, and the sum over it."""
+    header = (f"{'scene':34} {'agent':6} {'whole us':>9} {'sense us':>9} {'act_batch us':>12} "
+              f"{'sense+act us':>12} {'peer':>7} {'doStep us':>9} {'(sense+act)/doStep':>18}")
+    print("\nnao_arena's decision with its neighbour finding (sense + act_batch) against "
+          "the peer's doStep (its own neighbour search included), mean us per agent-step")
+    print(header)
+    print("-" * len(header))
+    for r in rows:
+        if math.isnan(r.sense_us):
+            continue
+        own = r.sense_us + r.act_us
+        peers = [p for p in rows if p.scene == r.scene and p.method in PEER_OF.get(r.method, ())]
+        for p in peers or [None]:
+            tail = (f"{p.method:>7} {p.mean_us:9.2f} {own / p.mean_us:18.1f}" if p
+                    else f"{'-':>7} {'-':>9} {'-':>18}")
+            print(f"{r.scene:34} {r.method:6} {r.mean_us:9.2f} {r.sense_us:9.2f} "
+                  f"{r.act_us:12.2f} {own:12.2f} {tail}")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -334,6 +378,8 @@ def main(argv: list[str] | None = None) -> None:
                 rows.append(run_arena(scene, agent, args.seed, args.seconds, args.window))
                 print(f"# {rows[-1]}", flush=True)
     print_table(rows, args.window)
+    if agents:
+        print_decisions(rows)
 
 
 if __name__ == "__main__":
