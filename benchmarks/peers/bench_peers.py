@@ -154,6 +154,18 @@ def motion_peaks(path: np.ndarray, dt: float) -> tuple[float, float]:
         np.hypot(*dv.transpose(2, 0, 1)).max() / dt)
 
 
+def configured_source(build: Path) -> Path | None:
+    """The source folder the CMake build folder ``build`` was configured from (None: not
+    configured yet)."""
+    cache = build / "CMakeCache.txt"
+    if not cache.is_file():
+        return None
+    for line in cache.read_text(errors="replace").splitlines():
+        if line.startswith("CMAKE_HOME_DIRECTORY:"):
+            return Path(line.partition("=")[2]).resolve()
+    return None
+
+
 def build_drivers(rvo2: Path | None, avo2: Path | None, build: Path) -> dict[str, Path]:
     """Configure and build the drivers (once: CMake rebuilds only what changed);
     {peer: executable}."""
@@ -163,6 +175,10 @@ def build_drivers(rvo2: Path | None, avo2: Path | None, build: Path) -> dict[str
             raise SystemExit(f"--{peer} {src}: expected a checkout of the peer "
                              f"(a folder with src/), not found")
     defs = [f"-D{p.upper()}_DIR={s.resolve() if s else ''}" for p, s in peers.items()]
+    source = configured_source(build)
+    if source is not None and source != HERE:
+        raise SystemExit(f"--build {build}: expected a build folder of {HERE} (or a new "
+                         f"folder), got one configured from {source}")
     build.mkdir(parents=True, exist_ok=True)
     quiet = {"stdout": subprocess.DEVNULL}
     subprocess.run(["cmake", "-S", str(HERE), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
