@@ -31,7 +31,11 @@ Then, for each agent, how its mean cost per agent-step scales with n on the
 dense swaps: the ratio between consecutive sizes and the exponent k of a
 least-squares fit of log(cost per agent-step) = k log(n) + c over the sizes
 run (k = 0: total cost linear in n; k = 1: quadratic), for the whole step and
-for each phase. Run:
+for each phase. The robots start 2.2 m apart along the circle at every n, but a
+robot covers up to about 1.5 t m in t s, so the smaller circles reach their
+crowded centre sooner: n = 100 (R = 35 m) is well into it at 20 s. For the
+cost of the same crowd at each n, time a span all sizes spend approaching
+(``--seconds 10`` for n >= 100). Run:
 
     python benchmarks/bench_crowds.py [--sizes 100,300,1000] [--streams 20] [--seconds 20]
         [--agents nao,orca,goal] [--seed 0] [--window 10]
