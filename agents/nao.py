@@ -22,6 +22,13 @@ margin; walls as exact static segments), and
    that postpones contact longest when traffic is among them (traffic does
    not stop for it); ``"brake"`` and ``"latest_contact"`` force either.
 
+4. last, the robots of one batch that re-plan commit to *stopping plans*
+   together (``stopping_plans``, :mod:`nao_arena.stopping`): each one's
+   choice, followed by braking to a standstill, must keep the others'
+   plans and the walls at the sum of the radii plus 5 mm, or the robot brakes
+   instead (status "yielded"); under this rule NAO robots among NAO robots
+   never touch, whatever their predictions missed.
+
 With ``replan=False`` the agent selects once, at its first step, and
 holds that acceleration for the whole episode (the paper's open-loop
 crossing; choose a horizon that covers the manoeuvre).
@@ -32,7 +39,11 @@ right by a random angle in [30, 60] degrees (drawn from its own generator),
 and by another such angle after each further ``detour_after`` s of crawling
 (up to about 180 degrees: backing off), until it has moved freely again for
 ``detour_after`` s; symmetric stand-offs then resolve like traffic keeping
-right, and a robot boxed in by its neighbours eventually backs out.
+right, and a robot boxed in by its neighbours eventually backs out. A robot
+that has not come 0.5 m closer to its goal for ``switch_side_after`` s
+switches the side of its detours (right to left, and back after another
+such spell): a robot held behind a row of parked robots whose near end lies
+to its left gets round it.
 
 Walls: where a wall stands between a robot and its goal, the robot heads for
 the farthest point it sees on the shortest way around the walls instead of
@@ -92,11 +103,14 @@ from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
+from nao_arena.stopping import commit_plans
 
 if TYPE_CHECKING:
     from nao_arena.maps import RobotSpec
 
 _SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
+_PROGRESS = 0.5  # m closer to the goal that counts as progress (switch_side_after)
+PLAN_MARGIN = 0.005  # m kept between stopping plans beyond the sum of the radii
 
 
 class NAOAgent:
@@ -104,7 +118,9 @@ class NAOAgent:
     predictor name, margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m),
     detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
     "latest_contact"), goal_zone (m), navigate (heads around walls that stand between
-    the robot and its goal, see :mod:`nao_arena.navigation`).
+    the robot and its goal, see :mod:`nao_arena.navigation`), stopping_plans (commits
+    to stopping plans with the other robots of its batch and brakes where its choice
+    would meet theirs, see :mod:`nao_arena.stopping`).
 
     The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
     = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
@@ -125,6 +141,8 @@ class NAOAgent:
         infeasible: str = "auto",
         goal_zone: float = 1.0,
         navigate: bool = True,
+        stopping_plans: bool = True,
+        switch_side_after: float = 30.0,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
@@ -138,6 +156,11 @@ class NAOAgent:
         self.detour_after = float(detour_after)
         self.goal_zone = float(goal_zone)
         self.navigate = bool(navigate)
+        self.stopping_plans = bool(stopping_plans)
+        self.switch_side_after = float(switch_side_after)
+        if not self.switch_side_after > 0.0:
+            raise ValueError("switch_side_after: expected a positive number of seconds "
+                             f"(inf: never), got {switch_side_after!r}")
         if not (math.isfinite(self.goal_zone) and self.goal_zone >= 0.0):
             raise ValueError(f"goal_zone: expected a distance >= 0 (m), got {goal_zone!r}")
         if samples is None:
@@ -163,6 +186,9 @@ class NAOAgent:
         self.free_time = 0.0
         self.detour = 0.0
         self.detour_turns = 0
+        self.side = -1.0  # detours turn right (-1) or, after switching sides, left (+1)
+        self.best_distance = math.inf  # the closest (m) the robot has come to its goal
+        self.since_progress = 0.0  # s since it last came 0.5 m closer
         self.settling = False
         self.around_wall = False  # the last heading target was a way around a wall
         # what the last step saw: (batch, robot row, predictions, their excursions)
@@ -367,8 +393,22 @@ class NAOAgent:
                                     batch.walls, batch.wall_radius, batch.velocities[body],
                                     float(batch.a_max[body]), float(batch.v_max[body]))
 
-    def _detour_step(self, far: bool, crawling: bool, dt: float) -> None:
-        """:meth:`_update_detour` from precomputed tests (far from the goal, below v_max / 4)."""
+    def _detour_step(self, far: bool, crawling: bool, dt: float, to_goal: float) -> None:
+        """One step (dt s) of the liveness bookkeeping (module docstring, Liveness) from
+        precomputed tests: far from the goal, crawling (below v_max / 4), and the distance
+        to the goal (m)."""
+        if to_goal < self.best_distance - _PROGRESS:
+            self.best_distance = to_goal
+            self.since_progress = 0.0
+        else:
+            self.since_progress += dt
+        if far and self.since_progress >= self.switch_side_after:
+            # no progress on this side: detour to the other side from now on
+            self.side = -self.side
+            self.since_progress = 0.0
+            self.best_distance = to_goal
+            self.detour = 0.0
+            self.detour_turns = 0
         if far and crawling:
             self.crawl_time += dt
             self.free_time = 0.0
@@ -376,9 +416,9 @@ class NAOAgent:
             self.free_time += dt
             self.crawl_time = 0.0
         if self.crawl_time >= self.detour_after * (self.detour_turns + 1):
-            if self.detour > -5.0 * np.pi / 6.0:
-                # each further detour_after of crawling turns another 30-60 degrees right
-                self.detour -= float(self.rng.uniform(np.pi / 6, np.pi / 3))
+            if abs(self.detour) < 5.0 * np.pi / 6.0:
+                # each further detour_after of crawling turns another 30-60 degrees
+                self.detour += self.side * float(self.rng.uniform(np.pi / 6, np.pi / 3))
                 self.detour_turns += 1
             elif self.around_wall:
                 # turned all the way round on a way around a wall and still held (backing
@@ -709,7 +749,7 @@ def _act_rows(
     to_goal_l = to_goal.tolist()
     crawling = (speed < 0.25 * v_max).tolist()
     for i in live:
-        agents[i]._detour_step(far_l[i], crawling[i], batch.dt)
+        agents[i]._detour_step(far_l[i], crawling[i], batch.dt, to_goal_l[i])
         agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
         agents[i].age += batch.dt
     desired = _desired(agents, batch, rows_a, goals, pos, vel, a_max, v_max)
@@ -762,7 +802,31 @@ def _act_rows(
                                     float(v_max[i]), batch.dt, bool(traffic_near[i]))
             except Exception as exc:  # noqa: BLE001 - the agent's failure
                 out[i] = exc
+    _yield_to_plans(agents, out, batch, pos, vel, rad, a_max, v_max)
     return out  # type: ignore[return-value]
+
+
+def _yield_to_plans(
+    agents: Sequence[NAOAgent], out: list[NDArray[np.float64] | Exception | None],
+    batch: SensingBatch, pos: NDArray[np.float64], vel: NDArray[np.float64],
+    rad: NDArray[np.float64], a_max: NDArray[np.float64], v_max: NDArray[np.float64],
+) -> None:
+    """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans`) over the robots
+    whose agents re-plan with ``stopping_plans`` and decided this step: a robot whose
+    plan would meet another's (or a wall) brakes instead; its agent commits the braking
+    acceleration as a selection of status "yielded" (written into ``out``)."""
+    group = [i for i, ag in enumerate(agents)
+             if ag.stopping_plans and ag.replan and isinstance(out[i], np.ndarray)]
+    if not group:
+        return
+    g = np.asarray(group, dtype=np.int64)
+    chosen = np.array([out[i] for i in group], dtype=np.float64).reshape(len(group), 2)
+    brake, braking = commit_plans(
+        pos[g], vel[g], chosen, rad[g], a_max[g], v_max[g], batch.dt, batch.substeps,
+        PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
+    for j in np.flatnonzero(brake).tolist():
+        i = group[j]
+        out[i] = agents[i]._commit(Selection(braking[j].copy(), "yielded", None, math.inf, 0))
 
 
 def _desired(
@@ -837,7 +901,9 @@ class AOAgent(NAOAgent):
         infeasible: str = "auto",
         goal_zone: float = 1.0,
         navigate: bool = True,
+        stopping_plans: bool = True,
+        switch_side_after: float = 30.0,
     ) -> None:
         super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
                          sensing_range, detour_after, replan, reselect_after, infeasible,
-                         goal_zone, navigate)
+                         goal_zone, navigate, stopping_plans, switch_side_after)

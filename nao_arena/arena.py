@@ -306,7 +306,7 @@ class Arena:
             a_max=self._a_max, v_max=self._v_max, kinds=self._kinds, plans=plans,
             known_paths=known, path_times=self.path_times, bodies=self._bodies, goals=self.goals,
             routes=self.routes, walls=self.walls, wall_radius=self.wall_radius,
-            nb_start=start, nb_index=index,
+            nb_start=start, nb_index=index, substeps=self.world.substeps,
         )
 
     def observations(self) -> list[Observation]:

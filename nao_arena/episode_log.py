@@ -36,7 +36,8 @@ Statuses: ``desired`` (took its desired, goal-seeking acceleration),
 adjustment locally), ``adjusted`` (a full selection: the nearest admissible
 acceleration), ``infeasible`` (nothing admissible: braked, or postponed the
 contact), ``fault`` (the agent failed; zero acceleration), ``external`` (an
-action from outside replaced the agent). Agents that report their decisions
+action from outside replaced the agent), ``yielded`` (braked: its choice would have
+met another robot's stopping plan, :mod:`nao_arena.stopping`). Agents that report their decisions
 (``nao``, ``ao``: ``last_decision()``) get all of them; the others get
 ``desired`` when the command equals the goal-seeking acceleration (within
 1e-9 m/s^2), else ``adjusted``.
@@ -110,9 +111,9 @@ META_KEY = b"nao_arena.episode_log"
 META_SHA_KEY = b"nao_arena.episode_log.sha256"
 
 STATUSES: tuple[str, ...] = ("desired", "kept", "repaired", "adjusted", "infeasible",
-                             "fault", "external")
+                             "fault", "external", "yielded")
 """Decision statuses, in the order of the codes of :attr:`EpisodeLog.status`."""
-SELECTIONS: tuple[str, ...] = ("desired", "adjusted", "infeasible")
+SELECTIONS: tuple[str, ...] = ("desired", "adjusted", "infeasible", "yielded")
 """Statuses of a full selection (:attr:`EpisodeLog.selection` codes)."""
 
 _CODE = {s: i for i, s in enumerate(STATUSES)}

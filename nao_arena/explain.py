@@ -238,6 +238,9 @@ def _decision_phrase(p: Party) -> str:
                 else f"took the acceleration that postponed the contact longest "
                      f"(|a| = {a:.2f} m/s^2)")
         return f"nothing admissible{since}; {then}"
+    if status == "yielded":
+        return (f"braked{since} (|a| = {a:.2f} m/s^2 against its velocity): its choice "
+                f"would have met another robot's stopping plan (status yielded)")
     if status == "fault":
         return "its agent failed at that step (fault): zero acceleration"
     if status == "external":

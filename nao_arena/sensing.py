@@ -325,8 +325,10 @@ class SensingBatch:
     at ``path_times`` (s) as in :class:`Neighbours`. Robot arrays (R robots,
     robot order): bodies (R,) body indices, goals (R, 2), routes. The
     neighbours of robot k are ``nb_index[nb_start[k]:nb_start[k + 1]]``
-    (nearest first). :meth:`observation` builds the :class:`Observation` a
-    per-robot agent sees; batched agents read the arrays directly.
+    (nearest first). ``substeps``: the world's physics substeps per period dt (the
+    stopping plans of :mod:`nao_arena.stopping` follow them). :meth:`observation`
+    builds the :class:`Observation` a per-robot agent sees; batched agents read the
+    arrays directly.
 
     Every array the batch holds is read-only (a writable one given to the
     constructor is replaced by a read-only view of it, no copy), and so is
@@ -354,6 +356,7 @@ class SensingBatch:
     wall_radius: NDArray[np.float64]
     nb_start: NDArray[np.int64]
     nb_index: NDArray[np.int64]
+    substeps: int = 10
     _everyone: Neighbours | None = None
 
     def __post_init__(self) -> None:

@@ -28,10 +28,10 @@ ALL_AT_GOAL_WITHIN = {"dense_swap": 60.0, "dense_swap_perturbed": 60.0,
 CASES = [("dense_swap", 10, 0), ("dense_swap", 30, 0)]
 CASES += [("dense_swap_perturbed", n, seed) for n in (10, 30) for seed in range(5)]
 CASES += [("crossing_streams", 20, 0)]
-# seed 4 is left out on purpose: one northbound robot is carried east by the eastbound
-# stream and ends up behind the row of parked eastbound robots (1 m gaps); turning right
-# does not lead around the row, so it never arrives (see README, dense crowds)
-CASES += [("crossing_streams_perturbed", 20, seed) for seed in range(4)]
+# seed 4: one northbound robot is carried east by the eastbound stream and ends up behind
+# the row of parked eastbound robots (1 m gaps); turning right leads along the row, so it
+# arrives only after switching its detours to the left (switch_side_after)
+CASES += [("crossing_streams_perturbed", 20, seed) for seed in range(5)]
 
 
 def _episode(name: str, n: int, seed: int, agent: str = "nao"):
@@ -108,3 +108,37 @@ episode: {time_limit: 30.0, goal_tolerance: 0.1}
             offsets.append(float(abs(arena.state.positions[0] - arena.goals[0]).max()))
     # settling decays with a time constant of about 1 s (it chattered at 0.1 m/s, 2.5 cm)
     assert max(speeds) < 1e-4 and max(offsets) < 1e-4
+
+
+def _behind_the_row_map(tmp_path: Path) -> Path:
+    """The stuck case of crossing_streams_perturbed seed 4, reduced: a row of 20 parked
+    robots along y = 0 (x = 2 .. 40 m, 2 m apart), a column of parked robots along x = 0
+    with a free slot at y = 20 m, and one robot south of the row whose goal is that slot."""
+    parked = [(float(x), 0.0) for x in range(2, 42, 2)]
+    parked += [(0.0, float(y)) for y in range(2, 42, 2) if y != 20]
+    robot = "  - {{start: [{0}, {1}], goal: [{2}, {3}], radius: 0.5, a_max: 2.0, v_max: 1.5}}"
+    lines = [robot.format(9.4, -1.3, 0.0, 20.0)]
+    lines += [robot.format(x, y, x, y) for x, y in parked]
+    path = tmp_path / "behind_the_row.yaml"
+    path.write_text("name: behind_the_row\nbounds: {min: [-20.0, -20.0], max: [50.0, 50.0]}\n"
+                    "robots:\n" + "\n".join(lines)
+                    + "\nepisode: {time_limit: 150.0, goal_tolerance: 0.1}\n")
+    return path
+
+
+@pytest.mark.slow
+def test_a_robot_behind_a_row_of_parked_robots_gets_round_it_by_switching_sides(
+        tmp_path: Path):
+    """Detours to the right lead along the row, away from its near end: without switching
+    sides the robot is still behind the row after 150 s; with switch_side_after (30 s by
+    default) it gets round and parks in its slot, without contact."""
+    from nao_arena.arena import ArenaOptions
+
+    spec = load_map(_behind_the_row_map(tmp_path))
+    stuck = Arena(spec, ArenaOptions(agent_options={"switch_side_after": float("inf")}))
+    summary = stuck.run(seed=0)
+    assert not summary.robots[0].reached_goal and stuck.time >= 150.0
+    arena = Arena(spec)
+    summary = arena.run(seed=0)
+    assert summary.robots[0].at_goal_at_end and arena.time < 150.0
+    assert list(summary.contacts) == []

@@ -1,0 +1,377 @@
+"""Stopping plans: the rule under which robots that plan together never touch.
+
+Each control period a robot commits to a *stopping plan*: its acceleration for
+the coming period, then braking to a standstill (each later period the
+acceleration -min(a_max, |v| / dt) v / |v|, which stops it exactly at the end
+of the last one), then standing still. A plan is written out as the robot's
+positions at every physics substep (world frame, m), by the same arithmetic
+as the world (:mod:`nao_arena.world`: the command scaled to |a| <= a_max,
+the speed limit's saturation time, pymunk's integration: each substep of h =
+dt / substeps moves the body by h times its velocity, then adds the
+acceleration's share of the substep to the velocity), so a plan is the path
+the world drives, between substeps in straight lines as the contact check of
+:mod:`nao_arena.stats` reads it.
+
+The rule (:func:`commit_plans`), for the robots of one group (the robots of
+one agent class acting together, :meth:`nao_arena.agents.nao.NAOAgent.act_batch`):
+
+- every robot has a desired acceleration (its avoidance's choice) and its
+  *standing plan*: braking from now, which is the tail of the plan it
+  committed to one period earlier, because it has since driven that plan's
+  first period;
+- a robot takes its desired acceleration only if that plan keeps every
+  other robot's final plan and every wall at least the sum of the radii plus
+  ``margin`` away (exactly, substep by substep); otherwise it brakes (its
+  standing plan). Starting from "everyone desires", robots whose plan
+  conflicts switch to braking, in robot order, until no plan conflicts
+  (switching is one-way, so this ends; a conflict between two braking robots
+  is impossible while the rule has held, see below).
+
+Why it never touches: if the standing plans were pairwise clear at a step,
+they are after it (each robot either keeps its standing plan or takes one
+checked against all final plans), and next period's standing plans are
+exactly these plans' tails. Robots start at rest and apart, so by induction
+the plans stay clear and, as every robot drives its plan's first period,
+no two robots (and no robot and wall) ever come closer than the sum of their
+radii. Assumptions: every robot of the group drives its command (the world's
+model; no contact with a body outside the group pushes it off its plan), the
+group's robots sense each other whenever their plans could meet (a plan
+reaches at most v dt + v^2 / (2 a_max) + a_max dt^2 from its start), and the
+standing plans are clear at the first step (true for robots at rest apart).
+Bodies outside the group (traffic, other agents) are left to the avoidance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from nao_arena.speed_limit import saturation_time
+
+__all__ = ["commit_plans", "plan_clearance", "stopping_plan", "max_plan_points"]
+
+FloatArray = NDArray[np.float64]
+
+
+def max_plan_points(speed: float, a_max: float, dt: float, substeps: int) -> int:
+    """Substep positions of the longest stopping plan of a robot at ``speed`` (m/s) with
+    a_max (m/s^2) and dt (s): the start, the commanded period and the braking periods
+    (from at most speed + a_max dt)."""
+    brake = math.ceil(speed / (a_max * dt) + 1e-9) + 2
+    return (1 + brake) * substeps + 1
+
+
+@njit(cache=True, error_model="numpy")
+def _period(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
+            tau: float, h: float, substeps: int, out: FloatArray, k: int
+            ) -> tuple[float, float, float, float, int]:
+    """One control period of the world's integration from (p, v) under acceleration a
+    (m/s^2) that stops at saturation time tau (s); appends the substep positions to
+    out from row k on; returns the end position, velocity and next row."""
+    for j in range(substeps):
+        w = min(max((tau - j * h) / h, 0.0), 1.0)
+        px += vx * h
+        py += vy * h
+        vx += w * ax * h
+        vy += w * ay * h
+        out[k, 0] = px
+        out[k, 1] = py
+        k += 1
+    return px, py, vx, vy, k
+
+
+@njit(cache=True, error_model="numpy")
+def _fill_plan(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
+               a_max: float, v_max: float, dt: float, substeps: int,
+               out: FloatArray) -> int:
+    """The stopping plan from (p, v) with acceleration a for the first period (scaled to
+    |a| <= a_max, the speed limit as the world applies it) into out; returns its number
+    of points (out must hold :func:`max_plan_points`)."""
+    h = dt / substeps
+    speed = math.hypot(vx, vy)
+    if speed > v_max:
+        f = v_max / speed
+        vx, vy = vx * f, vy * f
+    norm = math.hypot(ax, ay)
+    scale = min(1.0, a_max / max(norm, 1e-300))
+    ax, ay = ax * scale, ay * scale
+    out[0, 0] = px
+    out[0, 1] = py
+    tau = saturation_time(vx, vy, ax, ay, v_max)
+    px, py, vx, vy, k = _period(px, py, vx, vy, ax, ay, tau, h, substeps, out, 1)
+    limit = out.shape[0] - substeps
+    while k <= limit:
+        speed = math.hypot(vx, vy)
+        if speed == 0.0:
+            break
+        b = min(a_max, speed / dt) / speed
+        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h,
+                                    substeps, out, k)
+        if b * dt >= 1.0:  # this period stopped it (up to rounding)
+            break
+    return k
+
+
+@njit(cache=True, error_model="numpy")
+def _seg_origin_dist2(ax: float, ay: float, bx: float, by: float) -> float:
+    """Squared distance (m^2) from the origin to the segment [a, b]."""
+    dx, dy = bx - ax, by - ay
+    dd = dx * dx + dy * dy
+    t = 0.0
+    if dd > 0.0:
+        t = min(max(-(ax * dx + ay * dy) / dd, 0.0), 1.0)
+    x, y = ax + t * dx, ay + t * dy
+    return x * x + y * y
+
+
+@njit(cache=True, error_model="numpy")
+def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: int,
+                    stop2: float, skip: float) -> float:
+    """Smallest squared distance (m^2) between two synchronous plans (points pa[:na],
+    pb[:nb]; a plan that ended stands at its last point), in straight lines between
+    substeps; returns early with a value below stop2 once one is found. skip (m): a
+    bound on how far a period's relative path strays from its chord (periods whose
+    chord clears sqrt(stop2) + skip are not looked into)."""
+    n = max(na, nb)
+    best = math.inf
+    k = 0
+    while k < n - 1:
+        e = min(k + substeps, n - 1)
+        ia0, ia1 = min(k, na - 1), min(e, na - 1)
+        ib0, ib1 = min(k, nb - 1), min(e, nb - 1)
+        ax, ay = pa[ia0, 0] - pb[ib0, 0], pa[ia0, 1] - pb[ib0, 1]
+        bx, by = pa[ia1, 0] - pb[ib1, 0], pa[ia1, 1] - pb[ib1, 1]
+        chord = _seg_origin_dist2(ax, ay, bx, by)
+        reach = math.sqrt(stop2) + skip
+        if chord > reach * reach:
+            best = min(best, chord)
+        else:
+            for j in range(k, e):
+                i0, i1 = min(j, na - 1), min(j + 1, na - 1)
+                j0, j1 = min(j, nb - 1), min(j + 1, nb - 1)
+                d2 = _seg_origin_dist2(pa[i0, 0] - pb[j0, 0], pa[i0, 1] - pb[j0, 1],
+                                       pa[i1, 0] - pb[j1, 0], pa[i1, 1] - pb[j1, 1])
+                if d2 < best:
+                    best = d2
+                    if best < stop2:
+                        return best
+        k = e
+    if n == 1:
+        dx, dy = pa[0, 0] - pb[0, 0], pa[0, 1] - pb[0, 1]
+        best = dx * dx + dy * dy
+    return best
+
+
+@njit(cache=True, error_model="numpy")
+def _seg_seg_dist2(ax: float, ay: float, bx: float, by: float,
+                   cx: float, cy: float, dx: float, dy: float) -> float:
+    """Squared distance (m^2) between the segments [a, b] and [c, d]."""
+    # proper crossing: distance 0
+    d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+    d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+    d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
+            ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
+        return 0.0
+    return min(_seg_origin_dist2(cx - ax, cy - ay, dx - ax, dy - ay),
+               _seg_origin_dist2(cx - bx, cy - by, dx - bx, dy - by),
+               _seg_origin_dist2(ax - cx, ay - cy, bx - cx, by - cy),
+               _seg_origin_dist2(ax - dx, ay - dy, bx - dx, by - dy))
+
+
+@njit(cache=True, error_model="numpy")
+def _wall_clear(p: FloatArray, n: int, walls: FloatArray, reach: float) -> bool:
+    """Whether the plan p[:n] keeps more than reach (m) from each wall (segments
+    walls (W, 2, 2) m) whose distance from the plan's start is below reach + the plan's
+    extent."""
+    r2 = reach * reach
+    for w in range(walls.shape[0]):
+        cx, cy = walls[w, 0, 0], walls[w, 0, 1]
+        dx, dy = walls[w, 1, 0], walls[w, 1, 1]
+        if n == 1:
+            if _seg_origin_dist2(cx - p[0, 0], cy - p[0, 1], dx - p[0, 0],
+                                 dy - p[0, 1]) < r2:
+                return False
+        for j in range(n - 1):
+            if _seg_seg_dist2(p[j, 0], p[j, 1], p[j + 1, 0], p[j + 1, 1],
+                              cx, cy, dx, dy) < r2:
+                return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _near_pairs(pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
+                ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """CSR lists (start, index) of the robots whose plans could come within margin (m) of
+    robot i's: centres closer than the radii + margin + both plans' extents ext (m);
+    found through a uniform grid (cells sorted by key)."""
+    n = pos.shape[0]
+    cell = 2.0 * (np.max(ext) + np.max(radius)) + margin + 1e-9
+    cx = np.floor(pos[:, 0] / cell).astype(np.int64)
+    cy = np.floor(pos[:, 1] / cell).astype(np.int64)
+    width = np.int64(1) << np.int64(32)
+    keys = (cx + (width >> 1)) * width + (cy + (width >> 1))
+    order = np.argsort(keys, kind="mergesort")
+    sorted_keys = keys[order]
+    start = np.zeros(n + 1, dtype=np.int64)
+    index = np.empty(16 * n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        for ox in range(-1, 2):
+            key0 = (cx[i] + ox + (width >> 1)) * width + (cy[i] + (width >> 1))
+            lo = np.searchsorted(sorted_keys, key0 - 1, side="left")
+            hi = np.searchsorted(sorted_keys, key0 + 1, side="right")
+            for q in range(lo, hi):
+                j = order[q]
+                if j == i:
+                    continue
+                dx, dy = pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1]
+                reach = radius[i] + radius[j] + margin + ext[i] + ext[j]
+                if dx * dx + dy * dy <= reach * reach:
+                    if m == index.shape[0]:
+                        grown = np.empty(2 * m, dtype=np.int64)
+                        grown[:m] = index
+                        index = grown
+                    index[m] = j
+                    m += 1
+        start[i + 1] = m
+    return start, index[:m]
+
+
+@njit(cache=True, error_model="numpy")
+def _commit(pos: FloatArray, vel: FloatArray, desired: FloatArray, radius: FloatArray,
+            a_max: FloatArray, v_max: FloatArray, dt: float, substeps: int, margin: float,
+            walls: FloatArray, wall_half: FloatArray, points: int,
+            brake: NDArray[np.bool_], braking: FloatArray) -> int:
+    """:func:`commit_plans` on arrays; writes brake (n,) and the standing plans'
+    accelerations braking (n, 2), returns the number of pair checks made."""
+    n = pos.shape[0]
+    want = np.empty((n, points, 2))
+    stand = np.empty((n, points, 2))
+    n_want = np.empty(n, dtype=np.int64)
+    n_stand = np.empty(n, dtype=np.int64)
+    ext = np.zeros(n)
+    for i in range(n):
+        n_want[i] = _fill_plan(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], desired[i, 0],
+                               desired[i, 1], a_max[i], v_max[i], dt, substeps, want[i])
+        speed = math.hypot(vel[i, 0], vel[i, 1])
+        bx, by = 0.0, 0.0
+        if speed > 0.0:
+            b = min(a_max[i], speed / dt) / speed
+            bx, by = -b * vel[i, 0], -b * vel[i, 1]
+        braking[i, 0], braking[i, 1] = bx, by
+        n_stand[i] = _fill_plan(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], bx, by,
+                                a_max[i], v_max[i], dt, substeps, stand[i])
+        far2 = 0.0
+        for k in range(n_want[i]):
+            dx, dy = want[i, k, 0] - pos[i, 0], want[i, k, 1] - pos[i, 1]
+            far2 = max(far2, dx * dx + dy * dy)
+        for k in range(n_stand[i]):
+            dx, dy = stand[i, k, 0] - pos[i, 0], stand[i, k, 1] - pos[i, 1]
+            far2 = max(far2, dx * dx + dy * dy)
+        ext[i] = math.sqrt(far2)
+    # a wanted plan that meets a wall is out (walls within reach of the plan only)
+    near = np.empty(walls.shape[0], dtype=np.bool_)
+    for i in range(n):
+        m = 0
+        for w in range(walls.shape[0]):
+            d2 = _seg_origin_dist2(walls[w, 0, 0] - pos[i, 0], walls[w, 0, 1] - pos[i, 1],
+                                   walls[w, 1, 0] - pos[i, 0], walls[w, 1, 1] - pos[i, 1])
+            reach = radius[i] + wall_half[w] + margin + ext[i]
+            near[w] = d2 <= reach * reach
+            m += near[w]
+        if m == 0:
+            continue
+        for w in range(walls.shape[0]):
+            if near[w] and not _wall_clear(want[i], n_want[i], walls[w:w + 1],
+                                           radius[i] + wall_half[w] + margin):
+                brake[i] = True
+                break
+    nb_start, nb_index = _near_pairs(pos, ext, radius, margin)
+    h2 = (dt / substeps) ** 2
+    checks = 0
+    changed = True
+    while changed:
+        changed = False
+        for i in range(n):
+            if brake[i]:
+                continue
+            for q in range(nb_start[i], nb_start[i + 1]):
+                j = nb_index[q]
+                reach = radius[i] + radius[j] + margin
+                # a period's relative path strays from its chord by at most
+                # (a_i + a_j) dt^2 / 8 (second differences of h^2 (a_i + a_j))
+                skip = (a_max[i] + a_max[j]) * h2 * substeps * substeps / 8.0 + 1e-12
+                checks += 1
+                if brake[j]:
+                    d2 = _pair_min_dist2(want[i], n_want[i], stand[j], n_stand[j], substeps,
+                                         reach * reach, skip)
+                else:
+                    d2 = _pair_min_dist2(want[i], n_want[i], want[j], n_want[j], substeps,
+                                         reach * reach, skip)
+                if d2 < reach * reach:
+                    brake[i] = True
+                    changed = True
+                    break
+    return checks
+
+
+def stopping_plan(position: NDArray[np.float64], velocity: NDArray[np.float64],
+                  accel: NDArray[np.float64], a_max: float, v_max: float, dt: float,
+                  substeps: int) -> FloatArray:
+    """The stopping plan of a robot at ``position`` (m) with ``velocity`` (m/s) that
+    drives ``accel`` (m/s^2) for one period dt (s) and then brakes to a standstill:
+    its positions (P, 2) m at every substep, the start first."""
+    speed = min(float(np.hypot(*velocity)), v_max)
+    out = np.empty((max_plan_points(speed, a_max, dt, substeps), 2))
+    n = _fill_plan(float(position[0]), float(position[1]), float(velocity[0]),
+                   float(velocity[1]), float(accel[0]), float(accel[1]), float(a_max),
+                   float(v_max), float(dt), int(substeps), out)
+    return out[:n].copy()
+
+
+def plan_clearance(plan_a: FloatArray, plan_b: FloatArray, substeps: int) -> float:
+    """Smallest distance (m) between the centres of two robots driving their plans
+    (:func:`stopping_plan`, same dt and substeps); a plan that ended stands still."""
+    a = np.ascontiguousarray(plan_a, dtype=np.float64)
+    b = np.ascontiguousarray(plan_b, dtype=np.float64)
+    return math.sqrt(_pair_min_dist2(a, len(a), b, len(b), int(substeps), -1.0, -1.0))
+
+
+def commit_plans(
+    positions: FloatArray, velocities: FloatArray, desired: FloatArray, radii: FloatArray,
+    a_max: FloatArray, v_max: FloatArray, dt: float, substeps: int, margin: float,
+    walls: FloatArray | None = None, wall_half: FloatArray | None = None,
+) -> tuple[NDArray[np.bool_], FloatArray]:
+    """Which robots of a group must brake (True) instead of driving their desired
+    acceleration (see the module docstring), and each robot's braking acceleration
+    (n, 2) m/s^2 (its standing plan's: -min(a_max, |v| / dt) v / |v|, zero at rest).
+
+    positions (n, 2) m, velocities (n, 2) m/s, desired (n, 2) m/s^2, radii (m), a_max
+    (m/s^2), v_max (m/s) (n,); dt (s) and substeps of the world; margin (m) kept beyond
+    the sum of the radii (and beyond radius + half-thickness from the walls: segments
+    (W, 2, 2) m with half-thicknesses wall_half (W,) m). Every pair of the group is
+    considered (found through a grid, not through sensing).
+    """
+    n = len(positions)
+    if walls is None or wall_half is None:
+        walls, wall_half = np.zeros((0, 2, 2)), np.zeros(0)
+    brake = np.zeros(n, dtype=np.bool_)
+    braking = np.zeros((n, 2))
+    if n == 0 or not (np.all(np.isfinite(positions)) and np.all(np.isfinite(velocities))
+                      and np.all(np.isfinite(desired))):
+        return brake, braking
+    speed = np.minimum(np.hypot(velocities[:, 0], velocities[:, 1]), v_max)
+    k = int(np.argmax(speed / np.asarray(a_max, dtype=np.float64)))
+    points = max_plan_points(float(speed[k]), float(a_max[k]), dt, substeps)
+    f = np.ascontiguousarray
+    _commit(f(positions, dtype=np.float64), f(velocities, dtype=np.float64),
+            f(desired, dtype=np.float64), f(radii, dtype=np.float64),
+            f(a_max, dtype=np.float64), f(v_max, dtype=np.float64), float(dt), int(substeps),
+            float(margin), f(walls, dtype=np.float64).reshape(-1, 2, 2),
+            f(wall_half, dtype=np.float64), points, brake, braking)
+    return brake, braking
