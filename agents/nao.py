@@ -409,6 +409,7 @@ class NAOAgent:
             self.best_distance = to_goal
             self.detour = 0.0
             self.detour_turns = 0
+            self.crawl_time = 0.0
         if far and crawling:
             self.crawl_time += dt
             self.free_time = 0.0

@@ -60,10 +60,14 @@ def test_explain_names_the_pair_and_time_of_each_goal_contact(goal_crowd):
 
 
 def test_explain_a_nao_contact_shows_the_predictions(tmp_path):
-    """The roundabout's one touch between two NAO robots (seed 16, turn-rate
-    predictions): both had nothing admissible and braked; each predicted the other."""
+    """The roundabout's one touch between two NAO robots without stopping plans (seed 16,
+    turn-rate predictions): both had nothing admissible and braked; each predicted the
+    other. With stopping plans (the default) the same episode has no contact."""
     spec = make_map("roundabout", 16, {"predictor": "turn_rate"})
-    summary, log = record(spec, 16, tmp_path, max_steps=90)
+    planned, _ = record(spec, 16, tmp_path, max_steps=90, name="planned")
+    assert planned.contacts == []
+    summary, log = record(spec, 16, tmp_path, ArenaOptions(
+        agent_options={"stopping_plans": False}), max_steps=90)
     assert [(c.name_a, c.name_b) for c in summary.contacts] == [("west_east", "south_north")]
     expl = explain_contact(log, 1)
     for p, q in (expl.parties, expl.parties[::-1]):

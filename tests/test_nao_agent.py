@@ -123,20 +123,38 @@ def test_a_neighbour_inside_the_margin_may_be_left_not_approached():
 def test_detours_turn_further_the_longer_a_robot_crawls():
     ag = agent()
     for _ in range(11):  # 1.1 s
-        ag._detour_step(far=True, crawling=True, dt=0.1)
+        ag._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert ag.detour_turns == 1 and -math.pi / 3 <= ag.detour <= -math.pi / 6
     for _ in range(20):  # 3.1 s
-        ag._detour_step(far=True, crawling=True, dt=0.1)
+        ag._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert ag.detour_turns == 3 and -math.pi <= ag.detour <= -math.pi / 2
     for _ in range(100):
-        ag._detour_step(far=True, crawling=True, dt=0.1)
+        ag._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert -5 * math.pi / 6 - math.pi / 3 <= ag.detour <= -5 * math.pi / 6  # backing off
     for _ in range(9):  # 0.9 s moving freely
-        ag._detour_step(far=True, crawling=False, dt=0.1)
+        ag._detour_step(far=True, crawling=False, dt=0.1, to_goal=10.0)
     assert ag.detour != 0.0
     for _ in range(2):  # 1.1 s: moved freely for detour_after
-        ag._detour_step(far=True, crawling=False, dt=0.1)
+        ag._detour_step(far=True, crawling=False, dt=0.1, to_goal=10.0)
     assert ag.detour == 0.0 and ag.detour_turns == 0
+
+
+def test_detours_switch_sides_after_a_spell_without_progress():
+    """30 s (switch_side_after) without coming 0.5 m closer: detours turn left from then
+    on; a robot that keeps getting closer keeps turning right."""
+    stuck, going = agent(), agent()
+    for k in range(301):
+        stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+        going._detour_step(far=True, crawling=True, dt=0.1, to_goal=100.0 - 0.1 * k)
+    assert stuck.side == 1.0 and going.side == -1.0 and going.detour < 0.0
+    for _ in range(11):
+        stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+    assert stuck.detour_turns == 1 and math.pi / 6 <= stuck.detour <= math.pi / 3
+    for _ in range(300):  # another spell: back to the right
+        stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+    assert stuck.side == -1.0
+    with pytest.raises(ValueError, match="switch_side_after"):
+        NAOAgent(switch_side_after=0.0)
 
 
 # ---------------------------------------------------------------- one robot is a batch of one
@@ -181,7 +199,9 @@ def test_act_on_an_observation_is_act_batch_on_the_arenas_batch(seed, n_robots, 
     arena's batch) decide alike, step after step: accelerations, failures, selections,
     detours and the obstacles tested, also for non-finite input and with no braking."""
     rng = np.random.default_rng(seed)
-    options = {"infeasible": infeasible, "samples": samples, "margin": 0.3}
+    # stopping plans act across the batch (a batch of one has no one to yield to)
+    options = {"infeasible": infeasible, "samples": samples, "margin": 0.3,
+               "stopping_plans": False}
     together = [NAOAgent(**options) for _ in range(n_robots)]
     alone = [NAOAgent(**options) for _ in range(n_robots)]
     for k in range(n_robots):
