@@ -34,6 +34,7 @@ from nao_arena.agents._nao_decide import (
     REPAIRED,
     UNDECIDED,
     decide,
+    ring_radii_rows,
 )
 from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
@@ -68,7 +69,13 @@ from nao_arena.geometry._kernel.search import (
 )
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
 from nao_arena.geometry.outcome import Outcome
-from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
+from nao_arena.geometry.selection import (
+    _RINGS,
+    AccelLimits,
+    _ring_radii,
+    _Tester,
+    repair_acceleration,
+)
 from nao_arena.maps import load_map
 from nao_arena.maps.loader import point_segment_distances
 from nao_arena.predictors import turn_rate
@@ -242,6 +249,13 @@ def test_nearest_outside_disks_matches_reference(seed):
         if len(ref) and ref[0, 2] > 0.0:
             np.testing.assert_array_equal(
                 nearest_outside_disks(q, disks, 2.0, max_out, math.inf, 0.999 * ref[0, 2]), ref)
+
+
+def test_ring_radii_rows_are_the_selections_ring_radii():
+    """decide's rings per robot, one array operation: the radii select_acceleration uses."""
+    a_max = np.array([2.0, 0.5, 3.7, 1e-13, 0.0, 6.0, 2.0])
+    np.testing.assert_array_equal(
+        ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
 
 
 def _outside_rows(q, disks, a_max, within, covered, row):
