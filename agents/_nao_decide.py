@@ -33,12 +33,11 @@ from nao_arena.geometry.selection import (
     _RING_POINTS,
     _RINGS,
     _SLIVER_DEPTH,
-    _ring_radii,
     _unit_rings,
 )
 
 __all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "decide",
-           "decide_batch"]
+           "decide_batch", "ring_radii_rows"]
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
 UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
@@ -125,6 +124,13 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             kind[k] = Outcome.INFEASIBLE
 
 
+def ring_radii_rows(a_max: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per robot, the radii (m/s^2) of the fallback rings of limit a_max (m/s^2), as
+    :func:`~nao_arena.geometry.selection._ring_radii` gives them (same values): (n, rings)."""
+    span = 2.0 * np.maximum(np.asarray(a_max, dtype=np.float64), 1e-12)
+    return np.ascontiguousarray(span[:, None] * 0.5 ** np.arange(_RINGS - 1, -1, -1))
+
+
 def decide(
     times: NDArray[np.float64], pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
@@ -143,7 +149,7 @@ def decide(
     kind = np.full(n, Outcome.UNDECIDED, dtype=np.int64)
     accel = np.zeros((n, 2))
     tested = np.zeros(n, dtype=np.int64)
-    radii = np.array([_ring_radii(float(a), _RINGS) for a in a_max]).reshape(n, _RINGS)
+    radii = ring_radii_rows(a_max)
     decide_batch(
         np.ascontiguousarray(times, dtype=np.float64), pred, excursions[0], excursions[1],
         nb_start, nb_index, np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,

@@ -640,9 +640,10 @@ def _keep_current(
         excursions[0], excursions[1], res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
-    return [int(status[j]) if status[j] != 2 else (1 if res[j] == 1 else
-                                                   (0 if res[j] == 0 else 2))
-            for j in range(len(m))]
+    tested = status == 2
+    status[tested & (res == 1)] = 1
+    status[tested & (res == 0)] = 0
+    return status.tolist()
 
 
 
@@ -657,7 +658,7 @@ def _decide(
     """The repairs (of the young adjustments, ``holds``) and selections of the members
     with status 0, in one compiled call (:func:`~nao_arena.agents._nao_decide.decide`):
     (kind, accel m/s^2, tested) per member, or None when there are none."""
-    todo = np.array([j for j, st in enumerate(status) if st == 0], dtype=np.int64)
+    todo = np.flatnonzero(np.asarray(status) == 0)
     if len(todo) == 0:
         return None
     m = np.asarray(members, dtype=np.int64)

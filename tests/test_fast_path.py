@@ -34,6 +34,7 @@ from nao_arena.agents._nao_decide import (
     REPAIRED,
     UNDECIDED,
     decide,
+    ring_radii_rows,
 )
 from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
@@ -49,10 +50,16 @@ from nao_arena.geometry._kernel.disks import (
     radius_order,
 )
 from nao_arena.geometry._kernel.exact import admissible_kernel, clearance_kernel, piece_sweep
-from nao_arena.geometry._kernel.outside import nearest_outside_disks
+from nao_arena.geometry._kernel.outside import (
+    nearest_outside_disks,
+    outside_advance,
+    outside_found,
+    outside_setup,
+)
 from nao_arena.geometry._kernel.relevance import relevant_obstacles, relevant_sampled_paths
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
 from nao_arena.geometry._kernel.search import (
+    _try_ball_disc,
     bisect_disc,
     ok_disc,
     outward_normal,
@@ -62,7 +69,13 @@ from nao_arena.geometry._kernel.search import (
 )
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
 from nao_arena.geometry.outcome import Outcome
-from nao_arena.geometry.selection import AccelLimits, _Tester, repair_acceleration
+from nao_arena.geometry.selection import (
+    _RINGS,
+    AccelLimits,
+    _ring_radii,
+    _Tester,
+    repair_acceleration,
+)
 from nao_arena.maps import load_map
 from nao_arena.maps.loader import point_segment_distances
 from nao_arena.predictors import turn_rate
@@ -236,6 +249,76 @@ def test_nearest_outside_disks_matches_reference(seed):
         if len(ref) and ref[0, 2] > 0.0:
             np.testing.assert_array_equal(
                 nearest_outside_disks(q, disks, 2.0, max_out, math.inf, 0.999 * ref[0, 2]), ref)
+
+
+def test_ring_radii_rows_are_the_selections_ring_radii():
+    """decide's rings per robot, one array operation: the radii select_acceleration uses."""
+    a_max = np.array([2.0, 0.5, 3.7, 1e-13, 0.0, 6.0, 2.0])
+    np.testing.assert_array_equal(
+        ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
+
+
+def _outside_rows(q, disks, a_max, within, covered, row):
+    """outside_setup then outside_advance until ``row`` is final: (res, resume position)."""
+    res = np.full((8, 3), math.inf)
+    lower = np.empty(len(disks) + 1)
+    order, scale = outside_setup(q, disks, a_max, within, res, lower)
+    m = len(disks)
+    oi = outside_advance(q, disks, a_max, covered, res, lower, order, 0, row, scale,
+                         np.empty((2 * m + 8, 2)), np.empty(2 * m + 4), np.empty(2 * m + 4),
+                         np.empty(4, dtype=np.uint64))
+    return res, oi
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_outside_rows_are_final_before_every_circle_is_visited(seed):
+    """Advanced only until row r is final, the rows 0..r of the search are those of the
+    whole search (nearest_outside_disks): its leading candidates, in its order."""
+    rng = np.random.default_rng(4100 + seed)
+    if seed % 3 == 0:
+        disks = drop_contained_ref(_random_disks(rng))
+        q = rng.normal(size=2)
+    else:
+        disks, q = _disk_scene(rng, crowded=seed % 3 == 1)
+    for within, covered in ((math.inf, 0.0), (1.0, 0.0), (math.inf, 0.05)):
+        ref = nearest_outside_disks(q, disks, 2.0, 8, within, covered)
+        for row in range(8):
+            res, _ = _outside_rows(q, disks, 2.0, within, covered, row)
+            found = outside_found(res[:row + 1], within)
+            assert found == min(row + 1, len(ref))
+            np.testing.assert_array_equal(res[:found], ref[:found])
+
+
+def test_outside_search_stops_early_in_a_crowded_picture():
+    """The first candidate is often final before the farther circles are visited."""
+    early = 0
+    for seed in range(20):
+        disks, q = _disk_scene(np.random.default_rng(seed), crowded=True)
+        full = _outside_rows(q, disks, 2.0, math.inf, 0.0, 8)[1]
+        early += _outside_rows(q, disks, 2.0, math.inf, 0.0, 0)[1] < full
+    assert early >= 2
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_ball_search_tries_the_candidates_of_nearest_outside_disks(seed):
+    """_try_ball_disc (candidates tried as soon as each is final) answers as
+    nearest_outside_disks followed by try_candidates_disc: same point, same count of
+    tests, and 'empty' exactly when there is no candidate."""
+    t, rng = _tester(5000 + seed)
+    p = t.path
+    for _ in range(4):
+        a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
+        samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
+        for reach in (0.5, 2.0, 8.0):
+            disks = nao_disks_within(samples, reach)
+            for covered in (0.0, 0.25 * reach):
+                cands = nearest_outside_disks(a_d, disks, 2.0, 8, reach, covered)
+                ref = try_candidates_disc(cands, 0, reach, a_d, 1e-3, 2.0, t.v, t.v_max,
+                                          *p.arrays, t.sweep, 0.0, disks)
+                got = _try_ball_disc(a_d, disks, reach, 1e-3, 2.0, t.v, t.v_max, *p.arrays,
+                                     t.sweep, 0.0, covered)
+                assert got[:4] == ref[:4]
+                assert got[4] == (len(cands) == 0)
 
 
 @pytest.mark.slow

@@ -314,8 +314,31 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
     many rows hold candidates. Scratch arrays given (borrowed here)."""
     q, disks, res, cand = borrowed(q), borrowed(disks), borrowed(res), borrowed(cand)
     starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
-    M = disks.shape[0]
     max_out = res.shape[0]
+    lower = np.empty(disks.shape[0] + 1)
+    order, scale = outside_setup(q, disks, a_max, within, res, lower)
+    outside_advance(q, disks, a_max, covered, res, lower, order, 0, max_out, scale, cand,
+                    starts, ends, cover)
+    return outside_found(res, within)
+
+
+@njit(cache=True, error_model="numpy")
+def outside_found(res, within):
+    """How many leading rows of ``res`` hold candidates within ``within`` (m/s^2)."""
+    found = 0
+    while found < res.shape[0] and res[found, 2] <= within and res[found, 2] < math.inf:
+        found += 1
+    return found
+
+
+@njit(cache=True, error_model="numpy")
+def outside_setup(q, disks, a_max, within, res, lower):
+    """Start :func:`nearest_outside_disks` (res (max_out, 3) filled with inf, lower (M + 1,)
+    scratch): the candidate bound set just above ``within``, q itself as a candidate when
+    no disk contains it, lower[i] the distance (m/s^2) from q to circle i (the limit
+    circle last). Returns (the circles' visiting order, the scale (m/s^2) of the
+    coordinates: a bound for rounding in :func:`outside_advance`)."""
+    M = disks.shape[0]
     # candidates farther than ``within`` are never kept: start the bound just above it
     res[:, 2] = np.nextafter(within, math.inf)
     # q itself, when no disk contains it
@@ -328,14 +351,34 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
         res[0, 0] = q[0]
         res[0, 1] = q[1]
         res[0, 2] = 0.0
-    lower = np.empty(M + 1)
+    scale = abs(q[0]) + abs(q[1]) + abs(a_max)
     for i in range(M):
         lower[i] = abs(vector_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
+        scale = max(scale, abs(q[0]) + abs(q[1]) + abs(disks[i, 0]) + abs(disks[i, 1])
+                    + abs(disks[i, 2]))
     lower[M] = abs(vector_norm(q[0], q[1]) - a_max)
     order = np.argsort(lower)
-    for i in order:
+    return order, scale
+
+
+@njit(cache=True, error_model="numpy")
+def outside_advance(q, disks, a_max, covered, res, lower, order, oi, row, scale, cand, starts,
+                    ends, cover):
+    """Visit the circles order[oi:] (:func:`outside_setup`) as :func:`nearest_outside_disks`
+    does, inserting their free-arc points into ``res``, but only until row ``row`` of
+    ``res`` is final: every circle left is farther from q than that row's candidate by
+    far more than rounding (a point of a circle is at least its ``lower`` from q), so no
+    later candidate can come before it (row >= max_out: until the end). Returns the
+    position in ``order`` to resume from (len(order): nothing is left to visit)."""
+    M = disks.shape[0]
+    max_out = res.shape[0]
+    while oi < order.shape[0]:
+        i = order[oi]
         if lower[i] >= res[max_out - 1, 2]:
-            break
+            return order.shape[0]
+        if row < max_out and lower[i] > res[row, 2] + 1e-9 * (res[row, 2] + scale) + 1e-12:
+            return oi
+        oi += 1
         if covered > 0.0:
             if i < M:
                 far = vector_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) + disks[i, 2]
@@ -362,7 +405,4 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
                 res[pos, 0] = cand[c, 0]
                 res[pos, 1] = cand[c, 1]
                 res[pos, 2] = d
-    found = 0
-    while found < max_out and res[found, 2] <= within and res[found, 2] < math.inf:
-        found += 1
-    return found
+    return oi

@@ -128,19 +128,20 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, v, a_max
     total = idx.shape[0]
     c = np.empty((total, S, 2))
     w = np.empty((total, S, 2))
-    b = np.zeros((total, S, 2))
     rad = np.empty(total)
+    # the pieces' accelerations are zero: only the kept rows are allocated (and zeroed)
     n = _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max,
-                             excursion, finite_path, c, w, b, rad)
+                             excursion, finite_path, c, w, c[:0], rad)
     if n < 0:
-        return c[:0], w[:0], b[:0], rad[:0], False
-    return c[:n], w[:n], b[:n], rad[:n], True
+        return c[:0], w[:0], np.zeros((0, S, 2)), rad[:0], False
+    return c[:n], w[:n], np.zeros((n, S, 2)), rad[:n], True
 
 
 @njit(cache=True, error_model="numpy")
 def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max, excursion,
                          finite_path, c, w, b, rad):
-    """:func:`relevant_sampled_paths` into c, w, b, rad (rows for every obstacle given):
+    """:func:`relevant_sampled_paths` into c, w, rad (rows for every obstacle given; b, the
+    zero accelerations, is not written):
     returns how many rows it kept, -1 when a neighbour's centres are not all finite.
     Arrays borrowed here."""
     times, pred, idx, position = borrowed(times), borrowed(pred), borrowed(idx), borrowed(position)

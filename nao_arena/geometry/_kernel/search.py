@@ -18,7 +18,7 @@ from nao_arena.geometry._kernel.disks import (
     radius_order,
 )
 from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan_obstacle
-from nao_arena.geometry._kernel.outside import nearest_outside_disks
+from nao_arena.geometry._kernel.outside import _WORDS, outside_advance, outside_setup
 from nao_arena.geometry._kernel.relevance import relevant_subset
 from nao_arena.geometry._kernel.segment import relevant_walls, wall_violation
 from nao_arena.geometry.borrow import borrowed
@@ -197,37 +197,51 @@ def _try_candidates(cands, start, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c
     walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     cands, a_d, v, disks = borrowed(cands), borrowed(a_d), borrowed(v), borrowed(disks)
-    vx = v[0]
-    vy = v[1]
     count = 0
     for i in range(start, cands.shape[0]):
-        x = cands[i, 0]
-        y = cands[i, 1]
         dist = cands[i, 2]
         if dist > reach:
             return False, 0.0, 0.0, count, True
-        ok, c = ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
-                        wall_r, sweep, margin, buf, res, hint)
+        found, gx, gy, c = _try_candidate(cands[i, 0], cands[i, 1], dist, a_d, tol, a_max, v,
+                                          v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                                          wall_r, sweep, margin, disks, buf, res, hint)
         count += c
-        if ok:
-            return True, x, y, count, False
-        if dist > 0.0:
-            found, gx, gy, c = _sliver_push(x, y, (x - a_d[0]) / dist, (y - a_d[1]) / dist,
-                                            tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
-                                            seg_b, radius, walls, wall_r, sweep, margin, buf, res,
-                                            hint)
-            count += c
-            if found:
-                return True, gx, gy, count, False
-        ux, uy = outward_normal(x, y, disks)
-        if ux != 0.0 or uy != 0.0:
-            found, gx, gy, c = _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t,
-                                            seg_c, seg_w, seg_b, radius, walls, wall_r, sweep,
-                                            margin, buf, res, hint)
-            count += c
-            if found:
-                return True, gx, gy, count, False
+        if found:
+            return True, gx, gy, count, False
     return False, 0.0, 0.0, count, False
+
+
+@njit(cache=True, error_model="numpy")
+def _try_candidate(x, y, dist, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                   walls, wall_r, sweep, margin, disks, buf, res, hint):
+    """One candidate (x, y) m/s^2 at ``dist`` from a_d of :func:`try_candidates_disc`: it,
+    or its pushes out of a sliver, if admissible. Returns (found, x, y, candidates
+    tested)."""
+    vx = v[0]
+    vy = v[1]
+    count = 0
+    ok, c = ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                    wall_r, sweep, margin, buf, res, hint)
+    count += c
+    if ok:
+        return True, x, y, count
+    if dist > 0.0:
+        found, gx, gy, c = _sliver_push(x, y, (x - a_d[0]) / dist, (y - a_d[1]) / dist,
+                                        tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w,
+                                        seg_b, radius, walls, wall_r, sweep, margin, buf, res,
+                                        hint)
+        count += c
+        if found:
+            return True, gx, gy, count
+    ux, uy = outward_normal(x, y, disks)
+    if ux != 0.0 or uy != 0.0:
+        found, gx, gy, c = _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t,
+                                        seg_c, seg_w, seg_b, radius, walls, wall_r, sweep,
+                                        margin, buf, res, hint)
+        count += c
+        if found:
+            return True, gx, gy, count
+    return False, 0.0, 0.0, count
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -423,11 +437,35 @@ def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
     """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
     whether the disks cover the whole ball). ``covered``: see
     :func:`nearest_outside_disks`."""
-    cands = nearest_outside_disks(a_d, disks, a_max, 8, reach, covered)
-    found, x, y, count, beyond = try_candidates_disc(
-        cands, 0, reach, a_d, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
-        wall_r, sweep, margin, disks)
-    return found, x, y, count, cands.shape[0] == 0
+    # nearest_outside_disks(a_d, disks, a_max, 8, reach, covered) tried with
+    # try_candidates_disc, each candidate as soon as it is final: the circles farther
+    # than the admissible one are never visited (same candidates, same order)
+    M = disks.shape[0]
+    out = np.full((8, 3), math.inf)
+    lower = np.empty(M + 1)
+    order, scale = outside_setup(a_d, disks, a_max, reach, out, lower)
+    cand = np.empty((2 * M + 8, 2))
+    starts = np.empty(2 * M + 4)
+    ends = np.empty(2 * M + 4)
+    cover = np.empty(_WORDS, dtype=np.uint64)
+    buf = np.empty(3)
+    res = np.empty(3)
+    hint = np.full(2, -1, dtype=np.int64)
+    count = 0
+    oi = 0
+    for row in range(8):
+        oi = outside_advance(a_d, disks, a_max, covered, out, lower, order, oi, row, scale,
+                             cand, starts, ends, cover)
+        dist = out[row, 2]
+        if not (dist <= reach and dist < math.inf):
+            return False, 0.0, 0.0, count, row == 0
+        found, x, y, c = _try_candidate(out[row, 0], out[row, 1], dist, a_d, tol, a_max, v,
+                                        v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
+                                        wall_r, sweep, margin, disks, buf, res, hint)
+        count += c
+        if found:
+            return True, x, y, count, False
+    return False, 0.0, 0.0, count, False
 
 
 @njit(cache=True, error_model="numpy")
