@@ -114,6 +114,11 @@ class Row:
     act_us: float = math.nan
 
 
+#: --variants: which maps of each scene run (perturbed or not).
+VARIANTS: dict[str, tuple[bool, ...]] = {"both": (False, True), "symmetric": (False,),
+                                         "perturbed": (True,)}
+
+
 def swap_scene(n: int, perturbed: bool, seed: int, time_limit: float) -> Scene:
     """dense_swap(_perturbed) with n robots, bounds 10 m beyond the circle's radius."""
     bound = max(10.0, 1.1 * n / math.pi) + 10.0
@@ -372,6 +377,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=0,
                         help="start noise of the perturbed maps and nao_arena's agents")
     parser.add_argument("--peers-only", action="store_true", help="leave nao_arena's agents out")
+    parser.add_argument("--variants", choices=sorted(VARIANTS), default="both",
+                        help="the symmetric maps, the perturbed ones or both")
     args = parser.parse_args(argv)
     rvo2, avo2 = _dir(args.rvo2), _dir(args.avo2)
     if rvo2 is None and avo2 is None:
@@ -394,7 +401,7 @@ def main(argv: list[str] | None = None) -> None:
           flush=True)
     scenes = [make(n, p, args.seed, args.time_limit)
               for make, sizes in ((swap_scene, args.sizes), (streams_scene, args.streams))
-              for n in _ints(sizes) for p in (False, True)]
+              for n in _ints(sizes) for p in VARIANTS[args.variants]]
     agents = [] if args.peers_only else [a for a in args.agents.split(",") if a.strip()]
     rows: list[Row] = []
     with tempfile.TemporaryDirectory() as tmp:
