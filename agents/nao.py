@@ -41,9 +41,10 @@ and by another such angle after each further ``detour_after`` s of crawling
 ``detour_after`` s; symmetric stand-offs then resolve like traffic keeping
 right, and a robot boxed in by its neighbours eventually backs out. A robot
 that has not come 0.5 m closer to its goal for ``switch_side_after`` s
-switches the side of its detours (right to left, and back after another
-such spell): a robot held behind a row of parked robots whose near end lies
-to its left gets round it.
+while its nearest neighbour stood still within 1 m (held by parked robots,
+not by a moving crowd) switches the side of its detours (right to left, and
+back after another such spell): a robot held behind a row of parked robots
+whose near end lies to its left gets round it.
 
 Walls: where a wall stands between a robot and its goal, the robot heads for
 the farthest point it sees on the shortest way around the walls instead of
@@ -142,7 +143,7 @@ class NAOAgent:
         goal_zone: float = 1.0,
         navigate: bool = True,
         stopping_plans: bool = True,
-        switch_side_after: float = 30.0,
+        switch_side_after: float = 20.0,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
@@ -393,14 +394,16 @@ class NAOAgent:
                                     batch.walls, batch.wall_radius, batch.velocities[body],
                                     float(batch.a_max[body]), float(batch.v_max[body]))
 
-    def _detour_step(self, far: bool, crawling: bool, dt: float, to_goal: float) -> None:
+    def _detour_step(self, far: bool, crawling: bool, dt: float, to_goal: float,
+                     held: bool = True) -> None:
         """One step (dt s) of the liveness bookkeeping (module docstring, Liveness) from
-        precomputed tests: far from the goal, crawling (below v_max / 4), and the distance
-        to the goal (m)."""
+        precomputed tests: far from the goal, crawling (below v_max / 4), the distance
+        to the goal (m), and held (its nearest neighbour stands still close by: only such
+        time counts toward switching sides)."""
         if to_goal < self.best_distance - _PROGRESS:
             self.best_distance = to_goal
             self.since_progress = 0.0
-        else:
+        elif held:
             self.since_progress += dt
         if far and self.since_progress >= self.switch_side_after:
             # no progress on this side: detour to the other side from now on
@@ -750,8 +753,9 @@ def _act_rows(
     far_l = (to_goal > 4 * rad).tolist()
     to_goal_l = to_goal.tolist()
     crawling = (speed < 0.25 * v_max).tolist()
+    held_l = _held_by_standing(batch, rows_a, rad).tolist()
     for i in live:
-        agents[i]._detour_step(far_l[i], crawling[i], batch.dt, to_goal_l[i])
+        agents[i]._detour_step(far_l[i], crawling[i], batch.dt, to_goal_l[i], held_l[i])
         agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
         agents[i].age += batch.dt
     desired = _desired(agents, batch, rows_a, goals, pos, vel, a_max, v_max)
@@ -831,6 +835,24 @@ def _yield_to_plans(
         out[i] = agents[i]._commit(Selection(braking[j].copy(), "yielded", None, math.inf, 0))
 
 
+def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
+                      rad: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Per robot: whether its nearest neighbour stands still (below 0.1 m/s) within 1 m of
+    its surface (a robot held by parked robots, not by a moving crowd)."""
+    start, stop = batch.nb_start[rows], batch.nb_start[rows + 1]
+    has = stop > start
+    out = np.zeros(len(rows), dtype=bool)
+    if not np.any(has):
+        return out
+    nearest = batch.nb_index[start[has]]
+    own = batch.bodies[rows[has]]
+    gap = (np.hypot(*(batch.positions[nearest] - batch.positions[own]).T)
+           - batch.radii[nearest] - rad[has])
+    still = np.hypot(*batch.velocities[nearest].T) < 0.1
+    out[has] = still & (gap < 1.0)
+    return out
+
+
 def _desired(
     agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64],
     goals: NDArray[np.float64], pos: NDArray[np.float64], vel: NDArray[np.float64],
@@ -904,7 +926,7 @@ class AOAgent(NAOAgent):
         goal_zone: float = 1.0,
         navigate: bool = True,
         stopping_plans: bool = True,
-        switch_side_after: float = 30.0,
+        switch_side_after: float = 20.0,
     ) -> None:
         super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
                          sensing_range, detour_after, replan, reselect_after, infeasible,

