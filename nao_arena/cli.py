@@ -61,11 +61,12 @@ from nao_arena import __version__
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
 COMPILE_NOTE = "compiling geometry kernels (first run only, about a minute) ..."
 KERNEL_MODULES = ("nao_arena.world", "nao_arena.stats", "nao_arena.sensing",
+                  "nao_arena.stopping",
                   *(f"nao_arena.geometry._kernel.{name}" for name in (
                       "quartic", "robot_path", "segment", "exact", "sampled", "relevance",
                       "disks", "outside", "batch", "search")))
 """Modules whose numba kernels every episode (``world``, ``stats``, ``sensing``) or the
-``nao`` and ``ao`` agents (``geometry._kernel``) compile."""
+``nao`` and ``ao`` agents (``stopping``, ``geometry._kernel``) compile."""
 
 
 def _err(message: str) -> int:
