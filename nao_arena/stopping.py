@@ -33,12 +33,13 @@ checked against all final plans), and next period's standing plans are
 exactly these plans' tails. Robots start at rest and apart, so by induction
 the plans stay clear and, as every robot drives its plan's first period,
 no two robots (and no robot and wall) ever come closer than the sum of their
-radii. Assumptions: every robot of the group drives its command (the world's
-model; no contact with a body outside the group pushes it off its plan), the
-group's robots sense each other whenever their plans could meet (a plan
-reaches at most v dt + v^2 / (2 a_max) + a_max dt^2 from its start), and the
-standing plans are clear at the first step (true for robots at rest apart).
-Bodies outside the group (traffic, other agents) are left to the avoidance.
+radii plus ``margin``. Assumptions: every robot of the group drives its command
+(the world's model; no contact with a body outside the group pushes it off
+its plan), and the standing plans are clear at the first step (true for
+robots at rest apart). Pairs whose plans could meet are found through a grid
+of the rule's own, not through sensing, so sensing range and caps do not
+weaken it. Bodies outside the group (traffic, other agents) are left to the
+avoidance.
 """
 
 from __future__ import annotations
