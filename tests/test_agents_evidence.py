@@ -56,13 +56,10 @@ def test_goal_seeking_without_avoidance_collides_on_the_same_seeds(map_name):
 def test_nao_crosses_the_roundabout_without_collision(predictor):
     results = [run("roundabout", seed, predictor=predictor) for seed in SEEDS]
     collisions = [r["collisions"] for r in results]
-    if predictor == "known_path":
-        assert collisions == [0] * len(SEEDS)
-    else:
-        # the contact check over every physics substep finds one light touch between the
-        # two robots (seed 16: 3.2 mm deep at 1.03 m/s, inside one control step), which a
-        # check at the control steps' ends missed; no contact with the cars
-        assert sum(c > 0 for c in collisions) <= 1, collisions
+    # with turn-rate predictions the two robots touched once (seed 16: 3.2 mm deep at
+    # 1.03 m/s, inside one control step) before they shared stopping plans; now neither
+    # predictor lets them touch (tests/test_explain.py replays that touch without plans)
+    assert collisions == [0] * len(SEEDS)
     assert all(r["arrived"] == r["robots"] for r in results)
     # the same scenes are dangerous: driving straight at the goal collides
     goal = [run("roundabout", seed, agent="goal")["collisions"] > 0 for seed in SEEDS]
