@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.segment import segment_segment_dist2
 from nao_arena.maps.loader import segment_distances_xy
 
 __all__ = ["NavigationGrid", "navigation_grid", "route_targets", "segment_clear"]
@@ -130,47 +131,13 @@ def _dijkstra(free, gi, gj, cell):
     return dist
 
 
-@njit(cache=True, inline="always")
-def _seg_seg_dist2(ax, ay, bx, by, px, py, qx, qy):
-    """Squared distance (m^2) between the segments [a, b] and [p, q]."""
-    best = math.inf
-    for k in range(4):
-        if k == 0:
-            ox, oy, sx, sy, ex, ey = ax, ay, px, py, qx, qy
-        elif k == 1:
-            ox, oy, sx, sy, ex, ey = bx, by, px, py, qx, qy
-        elif k == 2:
-            ox, oy, sx, sy, ex, ey = px, py, ax, ay, bx, by
-        else:
-            ox, oy, sx, sy, ex, ey = qx, qy, ax, ay, bx, by
-        ux = ex - sx
-        uy = ey - sy
-        ll = ux * ux + uy * uy
-        u = 0.0
-        if ll > 0.0:
-            u = min(max(((ox - sx) * ux + (oy - sy) * uy) / ll, 0.0), 1.0)
-        dx = sx + u * ux - ox
-        dy = sy + u * uy - oy
-        d2 = dx * dx + dy * dy
-        if d2 < best:
-            best = d2
-    # a proper crossing: distance 0
-    d1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-    d2_ = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
-    d3 = (qx - px) * (ay - py) - (qy - py) * (ax - px)
-    d4 = (qx - px) * (by - py) - (qy - py) * (bx - px)
-    if ((d1 > 0.0) != (d2_ > 0.0)) and ((d3 > 0.0) != (d4 > 0.0)) and d1 != 0.0 and d2_ != 0.0:
-        return 0.0
-    return best
-
-
 @njit(cache=True)
 def segment_clear(ax, ay, bx, by, walls, half, sight):
     """Whether the segment [a, b] (m) stays farther than ``sight`` + half-thickness (m)
     from every wall (walls (W, 2, 2) m, half (W,) m)."""
     for w in range(walls.shape[0]):
         lim = sight + half[w]
-        if _seg_seg_dist2(ax, ay, bx, by, walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0],
+        if segment_segment_dist2(ax, ay, bx, by, walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0],
                           walls[w, 1, 1]) <= lim * lim:
             return False
     return True

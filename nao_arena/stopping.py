@@ -50,6 +50,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_segment_dist2
 from nao_arena.speed_limit import saturation_time
 
 __all__ = ["commit_plans", "plan_clearance", "stopping_plan", "max_plan_points"]
@@ -117,18 +118,6 @@ def _fill_plan(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
 
 
 @njit(cache=True, error_model="numpy")
-def _seg_origin_dist2(ax: float, ay: float, bx: float, by: float) -> float:
-    """Squared distance (m^2) from the origin to the segment [a, b]."""
-    dx, dy = bx - ax, by - ay
-    dd = dx * dx + dy * dy
-    t = 0.0
-    if dd > 0.0:
-        t = min(max(-(ax * dx + ay * dy) / dd, 0.0), 1.0)
-    x, y = ax + t * dx, ay + t * dy
-    return x * x + y * y
-
-
-@njit(cache=True, error_model="numpy")
 def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: int,
                     stop2: float, skip: float) -> float:
     """Smallest squared distance (m^2) between two synchronous plans (points pa[:na],
@@ -138,6 +127,7 @@ def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: 
     chord clears sqrt(stop2) + skip are not looked into)."""
     n = max(na, nb)
     best = math.inf
+    reach = math.sqrt(stop2) + skip
     k = 0
     while k < n - 1:
         e = min(k + substeps, n - 1)
@@ -145,15 +135,14 @@ def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: 
         ib0, ib1 = min(k, nb - 1), min(e, nb - 1)
         ax, ay = pa[ia0, 0] - pb[ib0, 0], pa[ia0, 1] - pb[ib0, 1]
         bx, by = pa[ia1, 0] - pb[ib1, 0], pa[ia1, 1] - pb[ib1, 1]
-        chord = _seg_origin_dist2(ax, ay, bx, by)
-        reach = math.sqrt(stop2) + skip
+        chord = point_segment_dist2(ax, ay, bx, by)
         if chord > reach * reach:
             best = min(best, chord)
         else:
             for j in range(k, e):
                 i0, i1 = min(j, na - 1), min(j + 1, na - 1)
                 j0, j1 = min(j, nb - 1), min(j + 1, nb - 1)
-                d2 = _seg_origin_dist2(pa[i0, 0] - pb[j0, 0], pa[i0, 1] - pb[j0, 1],
+                d2 = point_segment_dist2(pa[i0, 0] - pb[j0, 0], pa[i0, 1] - pb[j0, 1],
                                        pa[i1, 0] - pb[j1, 0], pa[i1, 1] - pb[j1, 1])
                 if d2 < best:
                     best = d2
@@ -167,40 +156,15 @@ def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: 
 
 
 @njit(cache=True, error_model="numpy")
-def _seg_seg_dist2(ax: float, ay: float, bx: float, by: float,
-                   cx: float, cy: float, dx: float, dy: float) -> float:
-    """Squared distance (m^2) between the segments [a, b] and [c, d]."""
-    # proper crossing: distance 0
-    d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
-    d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
-    d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-    d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
-    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
-            ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
-        return 0.0
-    return min(_seg_origin_dist2(cx - ax, cy - ay, dx - ax, dy - ay),
-               _seg_origin_dist2(cx - bx, cy - by, dx - bx, dy - by),
-               _seg_origin_dist2(ax - cx, ay - cy, bx - cx, by - cy),
-               _seg_origin_dist2(ax - dx, ay - dy, bx - dx, by - dy))
-
-
-@njit(cache=True, error_model="numpy")
-def _wall_clear(p: FloatArray, n: int, walls: FloatArray, reach: float) -> bool:
-    """Whether the plan p[:n] keeps more than reach (m) from each wall (segments
-    walls (W, 2, 2) m) whose distance from the plan's start is below reach + the plan's
-    extent."""
+def _plan_clears_wall(p: FloatArray, n: int, cx: float, cy: float, dx: float, dy: float,
+                      reach: float) -> bool:
+    """Whether the plan p[:n] (straight between substeps) keeps more than reach (m) from
+    the wall segment [c, d] (m)."""
     r2 = reach * reach
-    for w in range(walls.shape[0]):
-        cx, cy = walls[w, 0, 0], walls[w, 0, 1]
-        dx, dy = walls[w, 1, 0], walls[w, 1, 1]
-        if n == 1:
-            if _seg_origin_dist2(cx - p[0, 0], cy - p[0, 1], dx - p[0, 0],
-                                 dy - p[0, 1]) < r2:
-                return False
-        for j in range(n - 1):
-            if _seg_seg_dist2(p[j, 0], p[j, 1], p[j + 1, 0], p[j + 1, 1],
-                              cx, cy, dx, dy) < r2:
-                return False
+    for j in range(n - 1):
+        if segment_segment_dist2(p[j, 0], p[j, 1], p[j + 1, 0], p[j + 1, 1],
+                                 cx, cy, dx, dy) < r2:
+            return False
     return True
 
 
@@ -280,7 +244,7 @@ def _commit(pos: FloatArray, vel: FloatArray, desired: FloatArray, radius: Float
     for i in range(n):
         m = 0
         for w in range(walls.shape[0]):
-            d2 = _seg_origin_dist2(walls[w, 0, 0] - pos[i, 0], walls[w, 0, 1] - pos[i, 1],
+            d2 = point_segment_dist2(walls[w, 0, 0] - pos[i, 0], walls[w, 0, 1] - pos[i, 1],
                                    walls[w, 1, 0] - pos[i, 0], walls[w, 1, 1] - pos[i, 1])
             reach = radius[i] + wall_half[w] + margin + ext[i]
             near[w] = d2 <= reach * reach
@@ -288,8 +252,9 @@ def _commit(pos: FloatArray, vel: FloatArray, desired: FloatArray, radius: Float
         if m == 0:
             continue
         for w in range(walls.shape[0]):
-            if near[w] and not _wall_clear(want[i], n_want[i], walls[w:w + 1],
-                                           radius[i] + wall_half[w] + margin):
+            if near[w] and not _plan_clears_wall(
+                    want[i], n_want[i], walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0],
+                    walls[w, 1, 1], radius[i] + wall_half[w] + margin):
                 brake[i] = True
                 break
     nb_start, nb_index = _near_pairs(pos, ext, radius, margin)

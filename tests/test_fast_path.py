@@ -228,15 +228,19 @@ def test_drop_contained_matches_reference(seed):
     np.testing.assert_array_equal(drop_contained(disks), drop_contained_ref(disks))
 
 
+def _outside_scene(rng, seed):
+    """A nearest-outside-disks scene: random disks (none inside another) and a random
+    point (seed % 3 == 0), else a crowded or sparse disk picture and its point."""
+    if seed % 3 == 0:
+        return drop_contained_ref(_random_disks(rng)), rng.normal(size=2)
+    return _disk_scene(rng, crowded=seed % 3 == 1)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", range(60))
 def test_nearest_outside_disks_matches_reference(seed):
     rng = np.random.default_rng(100 + seed)
-    if seed % 3 == 0:
-        disks = drop_contained_ref(_random_disks(rng))
-        q = rng.normal(size=2)
-    else:
-        disks, q = _disk_scene(rng, crowded=seed % 3 == 1)
+    disks, q = _outside_scene(rng, seed)
     for max_out in (1, 8):
         ref = nearest_outside_disks_ref(q, disks, 2.0, max_out)
         np.testing.assert_array_equal(nearest_outside_disks(q, disks, 2.0, max_out), ref)
@@ -275,11 +279,7 @@ def test_outside_rows_are_final_before_every_circle_is_visited(seed):
     """Advanced only until row r is final, the rows 0..r of the search are those of the
     whole search (nearest_outside_disks): its leading candidates, in its order."""
     rng = np.random.default_rng(4100 + seed)
-    if seed % 3 == 0:
-        disks = drop_contained_ref(_random_disks(rng))
-        q = rng.normal(size=2)
-    else:
-        disks, q = _disk_scene(rng, crowded=seed % 3 == 1)
+    disks, q = _outside_scene(rng, seed)
     for within, covered in ((math.inf, 0.0), (1.0, 0.0), (math.inf, 0.05)):
         ref = nearest_outside_disks(q, disks, 2.0, 8, within, covered)
         for row in range(8):

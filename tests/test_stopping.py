@@ -251,3 +251,19 @@ def test_nao_robots_with_stopping_plans_never_touch_even_when_short_sighted() ->
     assert min(r.min_separation for r in summary.robots) >= PLAN_MARGIN - 1e-9
     assert all(r.at_goal_at_end for r in summary.robots)
     assert summary.duration < 120.0
+
+
+def test_a_yield_is_recorded_in_the_episode_log(tmp_path) -> None:
+    """The short-sighted swap's yields reach the episode log as status "yielded"."""
+    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.episode_log import EpisodeRecorder, read_log, write_log
+    from nao_arena.maps import load_map
+
+    options = ArenaOptions(agent_options={"horizon": 0.3, "margin": 0.0})
+    arena = Arena(load_map("dense_swap_perturbed", n=30, time_limit=120.0), options)
+    arena.recorder = EpisodeRecorder()
+    arena.run(seed=0, max_steps=200)
+    log = read_log(write_log(arena.recorder.finish(), tmp_path / "swap.parquet"))
+    statuses = {log.status_of(step, robot) for step in range(1, log.n_steps)
+                for robot in range(30)}
+    assert "yielded" in statuses

@@ -51,9 +51,11 @@ from nao_arena.geometry.borrow import borrowed
 
 __all__ = [
     "nearby_walls",
+    "point_segment_dist2",
     "relevant_walls",
     "segment_admissible",
     "segment_min_distance",
+    "segment_segment_dist2",
     "segments_admissible",
     "segment_within",
     "segments_min_distance",
@@ -83,6 +85,40 @@ def point_segment_dist2(px, py, qx, qy):
     dx = px + u * ux
     dy = py + u * uy
     return dx * dx + dy * dy
+
+
+@njit(cache=True, inline="always")
+def segment_segment_dist2(ax, ay, bx, by, px, py, qx, qy):
+    """Squared distance (m^2) between the segments [a, b] and [p, q]."""
+    best = math.inf
+    for k in range(4):
+        if k == 0:
+            ox, oy, sx, sy, ex, ey = ax, ay, px, py, qx, qy
+        elif k == 1:
+            ox, oy, sx, sy, ex, ey = bx, by, px, py, qx, qy
+        elif k == 2:
+            ox, oy, sx, sy, ex, ey = px, py, ax, ay, bx, by
+        else:
+            ox, oy, sx, sy, ex, ey = qx, qy, ax, ay, bx, by
+        ux = ex - sx
+        uy = ey - sy
+        ll = ux * ux + uy * uy
+        u = 0.0
+        if ll > 0.0:
+            u = min(max(((ox - sx) * ux + (oy - sy) * uy) / ll, 0.0), 1.0)
+        dx = sx + u * ux - ox
+        dy = sy + u * uy - oy
+        d2 = dx * dx + dy * dy
+        if d2 < best:
+            best = d2
+    # a proper crossing: distance 0
+    d1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+    d2_ = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+    d3 = (qx - px) * (ay - py) - (qy - py) * (ax - px)
+    d4 = (qx - px) * (by - py) - (qy - py) * (bx - px)
+    if ((d1 > 0.0) != (d2_ > 0.0)) and ((d3 > 0.0) != (d4 > 0.0)) and d1 != 0.0 and d2_ != 0.0:
+        return 0.0
+    return best
 
 
 @njit(cache=True, error_model="numpy")
