@@ -124,7 +124,8 @@ def make_agent(
     """Instantiate the agent ``ref`` (a reference, or the class it names) for ``robot``.
 
     The robot's predictor and the map's ``agent_options`` for it are passed
-    where the constructor takes them; ``options`` (from the caller) are
+    where the constructor takes them (and, when the map names the agent they are for,
+    ``agent_options_for``, only to that agent); ``options`` (from the caller) are
     passed as given and take precedence.
     """
     cls = load_agent(ref) if isinstance(ref, str) else ref
@@ -132,7 +133,8 @@ def make_agent(
         params = inspect.signature(cls).parameters
     except (TypeError, ValueError):
         params = {}
-    kwargs = {k: v for k, v in robot.agent_options.items() if k in params}
+    meant = robot.agent_options_for is None or load_agent(robot.agent_options_for) is cls
+    kwargs = {k: v for k, v in robot.agent_options.items() if k in params and meant}
     if "predictor" in params:
         kwargs["predictor"] = robot.predictor
     kwargs.update(options or {})

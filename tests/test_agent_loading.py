@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nao_arena.agent import available_agents, load_agent, safe_act
-from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.arena import Arena, ArenaOptions, make_agent
 from nao_arena.maps import load_map
 from nao_arena.sensing import Observation
 from nao_arena.watchdog import EpisodeTimeout
@@ -28,6 +28,21 @@ def test_builtin_agents_load_and_act():
         a = np.asarray(agent.act(obs()))
         assert a.shape == (2,) and np.all(np.isfinite(a)) and np.hypot(*a) <= 2.0 + 1e-9
     assert {"nao", "ao", "vo", "orca", "goal", "lane"} <= set(available_agents())
+
+
+def test_map_agent_options_reach_only_the_agent_they_are_for():
+    spec = load_map("dense_swap_perturbed", n=4)
+    assert spec.robots[0].agent_options == {"horizon": 1.5}
+    assert spec.robots[0].agent_options_for == "nao"
+    horizons = {}
+    for name in ("nao", "ao", "orca"):
+        arena = Arena(spec, ArenaOptions(agent=name))
+        arena.reset(0)
+        horizons[name] = arena.agents[0].horizon
+    # ao and orca keep their own default horizon (3 s) though they take the option
+    assert horizons == {"nao": 1.5, "ao": 3.0, "orca": 3.0}
+    everyone = spec.robots[0].model_copy(update={"agent_options_for": None})
+    assert make_agent("orca", everyone).horizon == 1.5
 
 
 def test_agent_from_file_and_module(tmp_path, monkeypatch):

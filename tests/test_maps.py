@@ -232,6 +232,10 @@ BAD_CASES = {
         "robots[0].agent", "expected one of nao, ao, vo, orca, goal, lane, a "
         "path/to/file.py:ClassName or a package.module:ClassName, got 'superbot'",
     ),
+    "unknown_options_agent.yaml": (
+        "robots[0].agent_options_for", "expected one of nao, ao, vo, orca, goal, lane, a "
+        "path/to/file.py:ClassName or a package.module:ClassName, got 'naoo'",
+    ),
     "unknown_predictor.yaml": (
         "layouts[0].robot.predictor", "expected one of constant_velocity, "
         "constant_acceleration, turn_rate, known_path, shared_plan, got 'crystal_ball'",

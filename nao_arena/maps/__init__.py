@@ -46,6 +46,8 @@ Top level
     checked when the agent is loaded), ``predictor`` (default "turn_rate",
     one of :data:`nao_arena.predictors.PREDICTORS`), ``agent_options``
     (keyword options of the agent's constructor, e.g. ``{horizon: 5.0}``),
+    ``agent_options_for`` (the agent those options are for, e.g. "nao": a robot
+    that runs another agent gets none of them; default: any agent that takes them),
     ``name`` (default "robot<i>").
 ``layouts`` (list, optional): generated robots, each
     ``{builder: <name>, args: {...}, robot: {...}, name: prefix}``, where

@@ -374,13 +374,15 @@ def _check_names(file: str, mf: MapFile) -> None:
     ] + [(f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(mf.layouts)]
     agents: dict[str, str] | None = None
     for where, t in templates:
-        if t.agent not in BUILTIN_AGENTS and ":" not in t.agent:
+        for field, name in (("agent", t.agent), ("agent_options_for", t.agent_options_for)):
+            if name is None or name in BUILTIN_AGENTS or ":" in name:
+                continue
             agents = available_agents() if agents is None else agents
-            if t.agent not in agents:
+            if name not in agents:
                 raise field_error(
-                    file, f"{where}.agent",
+                    file, f"{where}.{field}",
                     f"expected one of {', '.join(agents)}, a path/to/file.py:ClassName or a "
-                    f"package.module:ClassName, got {t.agent!r}",
+                    f"package.module:ClassName, got {name!r}",
                 )
         if t.predictor not in PREDICTORS:
             raise field_error(

@@ -152,6 +152,9 @@ class RobotTemplate(StrictModel):
     agent: str = "nao"
     predictor: str = "turn_rate"
     agent_options: dict[str, Scalar] = Field(default_factory=dict)
+    agent_options_for: str | None = None
+    """The agent the ``agent_options`` are meant for (None: any agent that takes them):
+    when the robot runs another agent (``--agent``), that agent gets none of them."""
 
 
 class RobotSpec(RobotTemplate):
