@@ -132,6 +132,9 @@ def neighbour_lists(
 
 
 _MAX_CELLS_PER_BODY = 4  # a finer grid than this many cells per body costs more than it saves
+# cells per body of the nearest-k search's grid: fine enough that a dense crowd's cell
+# holds a few bodies though the grid spans the whole (mostly empty) extent
+_KNN_CELLS_PER_BODY = 16
 
 
 @njit(cache=True)
@@ -173,23 +176,10 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
             wy = math.floor((y1 - y0) / h) + 1.0
         gx = int(wx)
         gy = int(wy)
-    cell = np.zeros(n, dtype=np.int64)
-    if gx * gy > 1:
-        for j in range(n):
-            cx = min(int(math.floor((positions[j, 0] - x0) / h)), gx - 1)
-            cy = min(int(math.floor((positions[j, 1] - y0) / h)), gy - 1)
-            cell[j] = cy * gx + cx
-    cell_start = np.zeros(gx * gy + 1, dtype=np.int64)
-    for j in range(n):
-        cell_start[cell[j] + 1] += 1
-    for c in range(gx * gy):
-        cell_start[c + 1] += cell_start[c]
-    fill = cell_start[:-1].copy()
-    members = np.empty(n, dtype=np.int64)
-    for j in range(n):
-        members[fill[cell[j]]] = j
-        fill[cell[j]] += 1
-
+    if max_neighbours >= 0:
+        return _nearest_lists(bodies, positions, sensing_range, max_neighbours, use_hypot,
+                              x0, y0, x1, y1)
+    cell, cell_start, members = _grid(positions, x0, y0, h, gx, gy)
     start = np.zeros(b + 1, dtype=np.int64)
     index = np.empty(16 * b + 16, dtype=np.int64)
     d = np.empty(n)
@@ -245,6 +235,170 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
             index = grown
         for i in range(m):
             index[start[k] + i] = cand[order[i]]
+        start[k + 1] = start[k] + m
+    return start, index[:start[b]].copy()
+
+
+@njit(cache=True)
+def _grid(positions, x0, y0, h, gx, gy):
+    """Bodies bucketed by grid cell (cells h m wide from (x0, y0), gx x gy of them; the
+    last row and column take what lies on their far border): (cell of each body,
+    cell_start (gx gy + 1,), members: the bodies of cell c, in index order, are
+    members[cell_start[c]:cell_start[c + 1]])."""
+    n = positions.shape[0]
+    cell = np.zeros(n, dtype=np.int64)
+    if gx * gy > 1:
+        for j in range(n):
+            cx = min(int(math.floor((positions[j, 0] - x0) / h)), gx - 1)
+            cy = min(int(math.floor((positions[j, 1] - y0) / h)), gy - 1)
+            cell[j] = cy * gx + cx
+    cell_start = np.zeros(gx * gy + 1, dtype=np.int64)
+    for j in range(n):
+        cell_start[cell[j] + 1] += 1
+    for c in range(gx * gy):
+        cell_start[c + 1] += cell_start[c]
+    fill = cell_start[:-1].copy()
+    members = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        members[fill[cell[j]]] = j
+        fill[cell[j]] += 1
+    return cell, cell_start, members
+
+
+@njit(cache=True)
+def _typical_kth(bodies, positions, sensing_range, most):
+    """The median over up to 32 of ``bodies`` (evenly spread in their order) of the
+    distance (m) to its most-th nearest body within range (the range when fewer are in
+    it; 0 when unknown): half of it makes cells that hold a few of a crowd's bodies."""
+    b = bodies.shape[0]
+    n = positions.shape[0]
+    samples = min(b, 32)
+    kth = np.empty(samples)
+    buf = np.empty(most)
+    found = 0
+    for s in range(samples):
+        me = bodies[(s * b) // samples]
+        m = 0
+        for j in range(n):
+            if j == me:
+                continue
+            dx = positions[j, 0] - positions[me, 0]
+            dy = positions[j, 1] - positions[me, 1]
+            d = math.sqrt(dx * dx + dy * dy)
+            if not d <= sensing_range or (m == most and d >= buf[m - 1]):
+                continue
+            pos = m if m < most else most - 1
+            while pos > 0 and buf[pos - 1] > d:
+                buf[pos] = buf[pos - 1]
+                pos -= 1
+            buf[pos] = d
+            if m < most:
+                m += 1
+        d = buf[most - 1] if m == most else sensing_range
+        if math.isfinite(d):
+            kth[found] = d
+            found += 1
+    if found == 0:
+        return 0.0
+    return float(np.median(kth[:found]))
+
+
+@njit(cache=True)
+def _nearest_lists(bodies, positions, sensing_range, most, use_hypot, x0, y0, x1, y1):
+    """:func:`_neighbour_lists` with a cap (``most`` >= 0): the ``most`` nearest within
+    range, by (distance, index), found by visiting grid cells in square rings around
+    each body until no cell left can hold a nearer one (the k-nearest search RVO2 does
+    with its k-d tree). Cells hold about one body each on average, so a crowd's
+    nearest 10 come from a few rings, not from every body within range."""
+    b = bodies.shape[0]
+    n = positions.shape[0]
+    start = np.zeros(b + 1, dtype=np.int64)
+    if most == 0:
+        return start, np.zeros(0, dtype=np.int64)
+    gx = 1
+    gy = 1
+    h = 1.0
+    span = max(abs(x0), abs(x1), abs(y0), abs(y1))
+    if math.isfinite(x1 - x0) and math.isfinite(y1 - y0) and n > 1:
+        cells = _KNN_CELLS_PER_BODY * n + 16
+        h = max(1e-9, 1.01 * math.sqrt((x1 - x0) * (y1 - y0) / cells),
+                1.01 * max(x1 - x0, y1 - y0) / cells, 0.5 * _typical_kth(
+                    bodies, positions, sensing_range, most))
+        wx = math.floor((x1 - x0) / h) + 1.0
+        wy = math.floor((y1 - y0) / h) + 1.0
+        while wx * wy > 4 * cells:  # long thin extents: coarser until the cells fit
+            h *= 2.0
+            wx = math.floor((x1 - x0) / h) + 1.0
+            wy = math.floor((y1 - y0) / h) + 1.0
+        gx = int(wx)
+        gy = int(wy)
+    cell, cell_start, members = _grid(positions, x0, y0, h, gx, gy)
+    # rounding of the cell arithmetic, as a distance (m): bounds are lowered by it
+    slack = 1e-9 * (span + h)
+    index = np.empty(most * b + 1, dtype=np.int64)
+    best_d = np.empty(most + 1)
+    best_j = np.empty(most + 1, dtype=np.int64)
+    for k in range(b):
+        me = bodies[k]
+        mx = positions[me, 0]
+        my = positions[me, 1]
+        cx = cell[me] % gx
+        cy = cell[me] // gx
+        m = 0
+        r = 0
+        while True:
+            y_lo = cy - r
+            y_hi = cy + r
+            for yy in range(max(y_lo, 0), min(y_hi, gy - 1) + 1):
+                edge = yy == y_lo or yy == y_hi
+                xx = cx - r
+                while xx <= cx + r:
+                    if 0 <= xx < gx:
+                        c = yy * gx + xx
+                        for i in range(cell_start[c], cell_start[c + 1]):
+                            j = members[i]
+                            dx = positions[j, 0] - mx
+                            dy = positions[j, 1] - my
+                            if j == me:
+                                dj = math.inf
+                            elif use_hypot:
+                                dj = math.hypot(dx, dy)
+                            else:
+                                dj = math.sqrt(dx * dx + dy * dy)
+                            if not dj <= sensing_range:
+                                continue
+                            if m == most and not (dj < best_d[m - 1] or (
+                                    dj == best_d[m - 1] and j < best_j[m - 1])):
+                                continue
+                            # insert keeping (distance, index) order
+                            pos = m if m < most else most - 1
+                            while pos > 0 and (best_d[pos - 1] > dj or (
+                                    best_d[pos - 1] == dj and best_j[pos - 1] > j)):
+                                best_d[pos] = best_d[pos - 1]
+                                best_j[pos] = best_j[pos - 1]
+                                pos -= 1
+                            best_d[pos] = dj
+                            best_j[pos] = j
+                            if m < most:
+                                m += 1
+                    # the ring's inner rows only have their two end cells
+                    if edge:
+                        xx += 1
+                    elif xx == cx - r:
+                        xx = cx + r
+                    else:
+                        break
+            # every body of the cells beyond ring r is at least r h away
+            bound = r * h - slack
+            if m == most and best_d[m - 1] < bound:
+                break
+            if bound > sensing_range:
+                break
+            if cx - r <= 0 and cy - r <= 0 and cx + r >= gx - 1 and cy + r >= gy - 1:
+                break
+            r += 1
+        for i in range(m):
+            index[start[k] + i] = best_j[i]
         start[k + 1] = start[k] + m
     return start, index[:start[b]].copy()
 

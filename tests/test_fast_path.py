@@ -125,23 +125,32 @@ def test_neighbour_lists_match_neighbours_in_range(seed):
             np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
 
 
-@settings(max_examples=150, deadline=None)
-@given(st.integers(1, 120), st.floats(0.5, 400.0), st.sampled_from([0.0, 0.7, 3.0, 25.0]),
-       st.sampled_from([None, 1, 6]), st.integers(0, 2**32 - 1))
+@settings(max_examples=300, deadline=None)
+@given(st.integers(1, 160), st.floats(0.5, 400.0),
+       st.sampled_from([0.0, 0.7, 3.0, 15.0, 25.0, np.inf]),
+       st.sampled_from([None, 0, 1, 6, 10]), st.sampled_from([0.0, 0.5, 0.9]),
+       st.booleans(), st.integers(0, 2**32 - 1))
 def test_neighbour_lists_through_the_grid_are_a_scan_over_all_bodies(n, spread, rng_m, cap,
-                                                                     seed):
-    """Many cells (bodies spread far beyond the range), bodies on cell borders (positions
-    on a lattice of the range), duplicates: the same lists as a scan of every body."""
+                                                                     packed, hypot, seed):
+    """Many cells (bodies spread far beyond the range), a packed crowd among sparse
+    bodies (the nearest-k search's rings), bodies on cell borders (positions on a
+    lattice), equal distances, duplicates: the same lists as a scan of every body."""
     rng = np.random.default_rng(seed)
     pos = rng.uniform(-spread, spread, size=(n, 2))
-    if rng_m > 0:
-        lattice = rng.random(n) < 0.3
-        pos[lattice] = np.round(pos[lattice] / rng_m) * rng_m
+    crowd = rng.random(n) < packed
+    pos[crowd] = rng.uniform(-0.6, 0.6, size=(int(crowd.sum()), 2)) * np.sqrt(crowd.sum())
+    lattice = rng.random(n) < rng.choice([0.3, 1.0])  # all: ties in many cells
+    step = rng.choice([rng_m, 0.5]) if 0 < rng_m < np.inf else rng.choice([0.5, 1.0])
+    pos[lattice] = np.round(pos[lattice] / step) * step
     pos[rng.random(n) < 0.1] = pos[0]
     bodies = rng.permutation(n)[: int(rng.integers(1, n + 1))]
-    start, index = neighbour_lists(bodies, pos, rng_m, cap)
+    start, index = neighbour_lists(bodies, pos, rng_m, cap, hypot=hypot)
     for k, b in enumerate(bodies):
-        expect = neighbours_in_range(int(b), pos, rng_m, cap)
+        d = pos - pos[b]
+        dist = np.hypot(d[:, 0], d[:, 1]) if hypot else np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2)
+        dist[b] = np.inf
+        expect = np.flatnonzero(dist <= rng_m)
+        expect = expect[np.argsort(dist[expect], kind="stable")][:cap]
         np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
 
 

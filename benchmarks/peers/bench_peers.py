@@ -192,21 +192,12 @@ def build_drivers(rvo2: Path | None, avo2: Path | None, build: Path) -> dict[str
     return {p: build / f"driver_{p}" for p, s in peers.items() if s is not None}
 
 
-#: nao_arena agents run with the peers' neighbour settings: ``orca-rvo2`` is the compiled
-#: ``orca`` sensing and using what RVO2's Circle example queries (the 10 nearest within
-#: 15 m) instead of the maps' 30 m without a cap.
-NEIGHBOUR_VARIANTS: dict[str, tuple[str, float, int]] = {"orca-rvo2": ("orca", 15.0, 10)}
-
-
 def _arena(scene: Scene, agent: str) -> Any:
+    """The scene's map with every robot running ``agent``; the maps sense what the peers
+    query (the 10 nearest within 15 m)."""
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import load_map
     spec = load_map(scene.map_name, **scene.overrides)
-    if agent in NEIGHBOUR_VARIANTS:
-        name, reach, most = NEIGHBOUR_VARIANTS[agent]
-        return Arena(spec, ArenaOptions(
-            agent=name, sensing_range=reach, max_neighbours=most,
-            agent_options={"sensing_range": reach, "max_neighbours": most}))
     return Arena(spec, ArenaOptions(agent=agent))
 
 
@@ -328,8 +319,7 @@ def print_table(rows: list[Row], window: float) -> None:
 
 
 #: The peer methods each nao_arena agent's decision is set beside.
-PEER_OF: dict[str, tuple[str, ...]] = {"orca": ("rvo2",), "orca-rvo2": ("rvo2",),
-                                       "nao": ("avo2", "avo2-dt")}
+PEER_OF: dict[str, tuple[str, ...]] = {"orca": ("rvo2",), "nao": ("avo2", "avo2-dt")}
 
 
 def print_decisions(rows: list[Row]) -> None:
@@ -364,8 +354,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="build folder of the drivers (default benchmarks/peers/build)")
     parser.add_argument("--sizes", default="10,30,100", help="circle swap robot counts")
     parser.add_argument("--streams", default="20", help="crossing streams: robots per stream")
-    parser.add_argument("--agents", default="nao,orca,orca-rvo2",
-                        help="nao_arena agents (orca-rvo2: orca with RVO2's neighbour settings)")
+    parser.add_argument("--agents", default="nao,orca", help="nao_arena agents")
     parser.add_argument("--peer-methods", default=",".join(PEER_METHODS),
                         help=f"peer methods, of {', '.join(PEER_METHODS)}")
     parser.add_argument("--seconds", type=float, default=500.0,
