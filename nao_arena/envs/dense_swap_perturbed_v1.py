@@ -1,8 +1,10 @@
-"""dense_swap_perturbed_v0: dense_swap with seeded start noise
+"""dense_swap_perturbed_v1: dense_swap with seeded start noise
 (perturb, default 0.01 m).
 
 The shipped map ``dense_swap_perturbed`` (maps/dense_swap_perturbed.yaml); see
-:mod:`nao_arena.envs` for the keywords and the versioning rule.
+:mod:`nao_arena.envs` for the keywords and the versioning rule. v1 (from v0): every robot
+senses the 10 nearest bodies within 15 m (v0: every body within 30 m), and nao robots look
+1.5 s ahead (v0: 3 s).
 """
 
 from nao_arena.envs._make import constructors
