@@ -308,8 +308,10 @@ def _nearest_lists(bodies, positions, sensing_range, most, use_hypot, x0, y0, x1
     """:func:`_neighbour_lists` with a cap (``most`` >= 0): the ``most`` nearest within
     range, by (distance, index), found by visiting grid cells in square rings around
     each body until no cell left can hold a nearer one (the k-nearest search RVO2 does
-    with its k-d tree). Cells hold about one body each on average, so a crowd's
-    nearest 10 come from a few rings, not from every body within range."""
+    with its k-d tree). Cells are half as wide as the crowd's typical distance to its
+    most-th neighbour (:func:`_typical_kth`; at least as wide as 16 cells per body over
+    the extent allow), so a dense crowd's nearest 10 come from a few rings, not from
+    every body within range."""
     b = bodies.shape[0]
     n = positions.shape[0]
     start = np.zeros(b + 1, dtype=np.int64)
