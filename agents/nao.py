@@ -41,8 +41,9 @@ and by another such angle after each further ``detour_after`` s of crawling
 ``detour_after`` s; symmetric stand-offs then resolve like traffic keeping
 right, and a robot boxed in by its neighbours eventually backs out. A robot
 that has not come 0.5 m closer to its goal for ``switch_side_after`` s
-while its nearest neighbour stood still within 1 m (held by parked robots,
-not by a moving crowd) switches the side of its detours (right to left, and
+while its nearest neighbour stood still within 1 m and nothing was within 1 m
+behind it (held by parked robots with room behind, not by a moving crowd or
+a jam all around) switches the side of its detours (right to left, and
 back after another such spell): a robot held behind a row of parked robots
 whose near end lies to its left gets round it.
 
@@ -753,7 +754,7 @@ def _act_rows(
     far_l = (to_goal > 4 * rad).tolist()
     to_goal_l = to_goal.tolist()
     crawling = (speed < 0.25 * v_max).tolist()
-    held_l = _held_by_standing(batch, rows_a, rad).tolist()
+    held_l = _held_by_standing(batch, rows_a, rad, goals).tolist()
     for i in live:
         agents[i]._detour_step(far_l[i], crawling[i], batch.dt, to_goal_l[i], held_l[i])
         agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
@@ -836,20 +837,33 @@ def _yield_to_plans(
 
 
 def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
-                      rad: NDArray[np.float64]) -> NDArray[np.bool_]:
+                      rad: NDArray[np.float64], goals: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Per robot: whether its nearest neighbour stands still (below 0.1 m/s) within 1 m of
-    its surface (a robot held by parked robots, not by a moving crowd)."""
+    its surface while nothing is within 1 m of its surface on the side away from its goal
+    (goals (n, 2) m): a robot held by parked robots with room behind it, not by a moving
+    crowd or a jam all around it."""
     start, stop = batch.nb_start[rows], batch.nb_start[rows + 1]
     has = stop > start
     out = np.zeros(len(rows), dtype=bool)
     if not np.any(has):
         return out
+    own_all = batch.bodies[rows]
     nearest = batch.nb_index[start[has]]
-    own = batch.bodies[rows[has]]
+    own = own_all[has]
     gap = (np.hypot(*(batch.positions[nearest] - batch.positions[own]).T)
            - batch.radii[nearest] - rad[has])
     still = np.hypot(*batch.velocities[nearest].T) < 0.1
-    out[has] = still & (gap < 1.0)
+    # every sensed neighbour within 1 m of the surface behind the robot boxes it in
+    counts = stop - start
+    owner = np.repeat(np.arange(len(rows)), counts)
+    first = np.cumsum(counts) - counts  # each robot's first entry in the concatenation
+    other = batch.nb_index[np.repeat(start - first, counts) + np.arange(counts.sum())]
+    rel = batch.positions[other] - batch.positions[own_all[owner]]
+    near = np.hypot(rel[:, 0], rel[:, 1]) - batch.radii[other] - rad[owner] < 1.0
+    ahead = goals[owner] - batch.positions[own_all[owner]]
+    behind = rel[:, 0] * ahead[:, 0] + rel[:, 1] * ahead[:, 1] < 0.0
+    boxed = np.bincount(owner[near & behind], minlength=len(rows)) > 0
+    out[has] = still & (gap < 1.0) & ~boxed[has]
     return out
 
 

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nao_arena.agents.goal import GoalAgent, goal_seeking_accel
-from nao_arena.agents.nao import NAOAgent
+from nao_arena.agents.nao import NAOAgent, _held_by_standing
 from nao_arena.geometry import AccelLimits, repair_acceleration
 from nao_arena.obstacles import RADIUS_CUT, obstacle_paths
 from nao_arena.sensing import Neighbours, Observation, SensingBatch, neighbour_lists
@@ -158,6 +158,43 @@ def test_detours_switch_sides_after_a_spell_without_progress():
     assert stuck.side == -1.0
     with pytest.raises(ValueError, match="switch_side_after"):
         NAOAgent(switch_side_after=0.0)
+
+
+def _held_scene(extra: list[tuple[float, float]], speed: float = 0.0) -> SensingBatch:
+    """Robot 0 at the origin (radius 0.5 m) heading for (0, 10); a robot 1.2 m ahead (gap
+    0.2 m) moving at ``speed`` m/s, and standing ``extra`` bodies (x, y) of radius 0.5 m."""
+    pos = np.array([(0.0, 0.0), (0.0, 1.2), *extra])
+    vel = np.zeros_like(pos)
+    vel[1, 0] = speed
+    n = len(pos)
+    bodies = np.zeros(1, dtype=np.int64)
+    start, index = neighbour_lists(bodies, pos, 15.0, 10)
+    return SensingBatch(
+        time=0.0, dt=0.1, positions=pos, velocities=vel, accelerations=np.zeros((n, 2)),
+        radii=np.full(n, 0.5), a_max=np.full(n, 2.0), v_max=np.full(n, 1.5),
+        kinds=np.array(["robot"] * n), plans=None, known_paths=None, path_times=np.zeros(0),
+        bodies=bodies, goals=np.array([[0.0, 10.0]]), routes=(None,),
+        walls=np.zeros((0, 2, 2)), wall_radius=np.zeros(0), nb_start=start, nb_index=index,
+    )
+
+
+@pytest.mark.parametrize(("extra", "held"), [
+    ([], True),                 # held by a standing robot, room behind: counts
+    ([(3.0, -1.5)], True),      # a body behind but more than 1 m off the surface
+    ([(0.8, -1.0)], False),     # boxed in: a body within 1 m behind (a jam)
+    ([(1.3, 0.3)], True),       # a body close beside, towards the goal: still counts
+])
+def test_only_a_robot_held_by_standing_robots_with_room_behind_counts_toward_switching(
+        extra, held):
+    """The time toward switch_side_after counts while the nearest neighbour stands within
+    1 m and nothing is within 1 m behind the robot (away from its goal): held behind a
+    parked row, not packed in a jam, where switching sides would go against the crowd."""
+    batch = _held_scene(extra)
+    rows = np.zeros(1, dtype=np.int64)
+    got = _held_by_standing(batch, rows, np.array([0.5]), batch.goals)
+    assert got.tolist() == [held]
+    moving = _held_scene(extra, speed=0.5)  # the nearest moves: a crowd, not a parked row
+    assert _held_by_standing(moving, rows, np.array([0.5]), moving.goals).tolist() == [False]
 
 
 # ---------------------------------------------------------------- one robot is a batch of one
