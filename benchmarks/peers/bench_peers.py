@@ -20,7 +20,8 @@ statistics (exact over its physics substeps).
 
 Timing: the wall time of each peer doStep (steady_clock, in the driver) and of
 each whole arena step (sensing, agents, pymunk physics, statistics;
-perf_counter, after one untimed warm-up step), over each episode's first
+perf_counter, after an untimed warm-up: a whole 10-robot swap, then one step
+of the scene), over each episode's first
 ``--seconds`` simulated seconds. nao_arena episodes stop there too (``cut`` in
 the arrival column; their contacts then cover that span); the peers always run
 to arrival or the time limit. The process and its children are pinned to one
@@ -251,14 +252,15 @@ def run_peer(method: str, driver: Path, scene: Scene, seed: int, seconds: float,
 
 def run_arena(scene: Scene, agent: str, seed: int, seconds: float, window: float) -> Row:
     """One nao_arena agent on one scene: each whole arena step timed, and its sensing
-    and act_batch calls, for at most ``seconds`` simulated seconds, after one untimed
-    warm-up step."""
+    and act_batch calls, for at most ``seconds`` simulated seconds, after the untimed
+    warm-up (``bench_crowds.warm_up``) and one untimed step."""
     if str(HERE.parent) not in sys.path:
         sys.path.insert(0, str(HERE.parent))
-    from bench_crowds import PhaseClock
+    from bench_crowds import PhaseClock, warm_up
+    warm_up(agent)
     arena = _arena(scene, agent)
     arena.reset(seed)
-    arena.step()  # compilation and caches outside the timing
+    arena.step()  # this scene's caches outside the timing
     arena.reset(seed)
     phases = PhaseClock(arena)
     dt, n = arena.world.dt, len(arena.robots)
