@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
@@ -47,37 +49,53 @@ def goal_seeking_accels(
     of overshooting or chattering around it. The acceleration closes the velocity
     error in tau s and is scaled to |a| <= a_max.
     """
-    to_goal = targets - positions
-    dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
-    still = dist < 1e-9
-    if has_target is not None:
-        still |= ~has_target
-    lag = braking * a_max * time_constant
-    # min(cap, stopping speed, k d), the first of equals (Python's min, also with NaN)
-    stop = np.sqrt(2.0 * braking * a_max * dist + lag * lag) - lag
-    speed = np.where(stop < speed_cap, stop, speed_cap)
-    near = approach_gain * dist
-    speed = np.where(near < speed, near, speed)
-    if np.any(still):  # standing still: no direction (and no division by 0)
-        dist = np.where(still, 1.0, dist)
-        speed[still] = 0.0
-    v_target = to_goal / dist[:, None] * speed[:, None]
-    if np.any(still):
-        v_target[still] = 0.0
-    if heading_offset is not None:
-        for i in np.flatnonzero(~still).tolist():
-            turn = heading_offset[i]
-            if turn:
-                c, s_ = np.cos(turn), np.sin(turn)
-                vt = v_target[i].copy()
-                v_target[i] = (c * vt[0] - s_ * vt[1], s_ * vt[0] + c * vt[1])
-    tau = np.asarray(time_constant, dtype=np.float64)
-    acc = (v_target - velocities) / (tau[:, None] if tau.ndim else tau)
-    norm = np.hypot(acc[:, 0], acc[:, 1])
-    over = norm > a_max
-    if np.any(over):
-        acc[over] *= (a_max[over] / norm[over])[:, None]
-    return acc
+    n = len(targets)
+    f = np.ascontiguousarray
+    offsets = np.zeros(n) if heading_offset is None else f(heading_offset, dtype=np.float64)
+    has = np.ones(n, dtype=np.bool_) if has_target is None else f(has_target, dtype=np.bool_)
+    out = np.empty((n, 2))
+    _goal_seeking_kernel(
+        f(targets, dtype=np.float64).reshape(n, 2), f(positions, dtype=np.float64),
+        f(velocities, dtype=np.float64), f(a_max, dtype=np.float64),
+        f(speed_cap, dtype=np.float64), offsets, np.cos(offsets), np.sin(offsets),
+        f(np.broadcast_to(np.asarray(time_constant, dtype=np.float64), (n,))),
+        float(braking), float(approach_gain), has, out)
+    return out
+
+
+@njit(cache=True)
+def _goal_seeking_kernel(targets, positions, velocities, a_max, speed_cap, offset, cos_off,
+                         sin_off, tau, braking, approach_gain, has_target, out):
+    """:func:`goal_seeking_accels` row by row into ``out`` (n, 2) m/s^2; the heading
+    offsets (rad) come with their cosines and sines."""
+    for i in range(targets.shape[0]):
+        dx = targets[i, 0] - positions[i, 0]
+        dy = targets[i, 1] - positions[i, 1]
+        dist = math.hypot(dx, dy)
+        lag = braking * a_max[i] * tau[i]
+        # min(cap, stopping speed, k d), the first of equals (Python's min, also with NaN)
+        stop = math.sqrt(2.0 * braking * a_max[i] * dist + lag * lag) - lag
+        speed = stop if stop < speed_cap[i] else speed_cap[i]
+        near = approach_gain * dist
+        speed = near if near < speed else speed
+        vx = 0.0
+        vy = 0.0
+        if not (dist < 1e-9 or not has_target[i]):  # else standing still: no direction
+            vx = dx / dist * speed
+            vy = dy / dist * speed
+            if offset[i] != 0.0:
+                c = cos_off[i]
+                s = sin_off[i]
+                vx, vy = c * vx - s * vy, s * vx + c * vy
+        ax = (vx - velocities[i, 0]) / tau[i]
+        ay = (vy - velocities[i, 1]) / tau[i]
+        norm = math.hypot(ax, ay)
+        if norm > a_max[i]:
+            scale = a_max[i] / norm
+            ax *= scale
+            ay *= scale
+        out[i, 0] = ax
+        out[i, 1] = ay
 
 
 def goal_seeking_accel(

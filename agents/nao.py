@@ -87,6 +87,7 @@ from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
 from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
+from nao_arena.agents._nao_liveness import held_by_standing_kernel
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.geometry import (
     AccelLimits,
@@ -841,29 +842,15 @@ def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
     """Per robot: whether its nearest neighbour stands still (below 0.1 m/s) within 1 m of
     its surface while nothing is within 1 m of its surface on the side away from its goal
     (goals (n, 2) m): a robot held by parked robots with room behind it, not by a moving
-    crowd or a jam all around it."""
-    start, stop = batch.nb_start[rows], batch.nb_start[rows + 1]
-    has = stop > start
-    out = np.zeros(len(rows), dtype=bool)
-    if not np.any(has):
-        return out
-    own_all = batch.bodies[rows]
-    nearest = batch.nb_index[start[has]]
-    own = own_all[has]
-    gap = (np.hypot(*(batch.positions[nearest] - batch.positions[own]).T)
-           - batch.radii[nearest] - rad[has])
-    still = np.hypot(*batch.velocities[nearest].T) < 0.1
-    # every sensed neighbour within 1 m of the surface behind the robot boxes it in
-    counts = stop - start
-    owner = np.repeat(np.arange(len(rows)), counts)
-    first = np.cumsum(counts) - counts  # each robot's first entry in the concatenation
-    other = batch.nb_index[np.repeat(start - first, counts) + np.arange(counts.sum())]
-    rel = batch.positions[other] - batch.positions[own_all[owner]]
-    near = np.hypot(rel[:, 0], rel[:, 1]) - batch.radii[other] - rad[owner] < 1.0
-    ahead = goals[owner] - batch.positions[own_all[owner]]
-    behind = rel[:, 0] * ahead[:, 0] + rel[:, 1] * ahead[:, 1] < 0.0
-    boxed = np.bincount(owner[near & behind], minlength=len(rows)) > 0
-    out[has] = still & (gap < 1.0) & ~boxed[has]
+    crowd or a jam all around it (:func:`held_by_standing_kernel`)."""
+    out = np.zeros(len(rows), dtype=np.bool_)
+    f = np.ascontiguousarray
+    held_by_standing_kernel(
+        f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
+        f(rows, dtype=np.int64), f(batch.bodies, dtype=np.int64),
+        f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
+        f(batch.radii, dtype=np.float64), f(rad, dtype=np.float64),
+        f(goals, dtype=np.float64), out)
     return out
 
 

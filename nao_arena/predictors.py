@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -52,76 +51,62 @@ def turn_rate(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]
     """Constant turn rate omega = (v x a) / |v|^2 and tangential acceleration a.v / |v|.
 
     The speed is held at >= 0 (a vehicle does not reverse by braking), and a
-    neighbour at rest stays at rest (its observed acceleration is the braking
-    that stopped it). The
+    neighbour at rest (speed 1e-6 m/s or below) stays at rest: its observed
+    acceleration, the mean over the last period, is the braking that stopped
+    it (one that sets off from rest is already moving when observed). The
     path is integrated exactly for the arc on a fine internal grid (8 steps
-    per sample interval, midpoint rule), (n, T, 2) m. The integration is
-    compiled (:func:`_arcs`).
+    per sample interval, midpoint rule), (n, T, 2) m, in one compiled pass
+    (:func:`_turn_rate_arcs`).
     """
     if len(nb) == 0:
         return np.zeros((0, len(times), 2))
-    m = turn_rate_motion(times, nb)
-    out = _arcs(
-        np.ascontiguousarray(nb.positions, dtype=np.float64), m.speed, m.omega, m.a_t,
-        m.heading, np.ascontiguousarray(m.mid), np.ascontiguousarray(m.fine), len(times),
-    )
-    return hold_still(out, nb, m.moving)
+    mid, fine = _fine_grid(times)
+    f = np.ascontiguousarray
+    v = f(nb.velocities, dtype=np.float64)
+    return _turn_rate_arcs(
+        f(nb.positions, dtype=np.float64), v, f(nb.accelerations, dtype=np.float64),
+        np.arctan2(v[:, 1], v[:, 0]), mid, fine, len(times))
 
 
-@dataclass(frozen=True)
-class TurnRateMotion:
-    """Per neighbour: speed (m/s), omega (rad/s), a_t (m/s^2), heading (rad), moving
-    (speed above 1e-6 m/s); the fine grid's midpoints ``mid`` (s) and steps ``fine`` (s),
-    8 per sample interval."""
-
-    speed: NDArray[np.float64]
-    omega: NDArray[np.float64]
-    a_t: NDArray[np.float64]
-    heading: NDArray[np.float64]
-    moving: NDArray[np.bool_]
-    mid: NDArray[np.float64]
-    fine: NDArray[np.float64]
+_FINE: dict[bytes, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
 
 
-def turn_rate_motion(times: NDArray[np.float64], nb: Neighbours) -> TurnRateMotion:
-    """The motion :func:`turn_rate` integrates, from the neighbours' observed state."""
-    v = nb.velocities
-    a = nb.accelerations
-    speed = np.hypot(v[:, 0], v[:, 1])
-    moving = speed > 1e-6
-    safe = np.where(moving, speed, 1.0)
-    omega = np.where(moving, (v[:, 0] * a[:, 1] - v[:, 1] * a[:, 0]) / safe**2, 0.0)
-    a_t = np.where(moving, (v[:, 0] * a[:, 0] + v[:, 1] * a[:, 1]) / safe, 0.0)
-    heading = np.arctan2(v[:, 1], v[:, 0])
-    fine = np.concatenate([[0.0], np.repeat(np.diff(np.concatenate([[0.0], times])) / 8, 8)])
-    t_fine = np.cumsum(fine)
-    mid = t_fine[:-1] + 0.5 * fine[1:]
-    return TurnRateMotion(speed, omega, a_t, heading, moving, mid, fine[1:])
-
-
-def hold_still(out: NDArray[np.float64], nb: Neighbours,
-               moving: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """``out`` (n, T, 2) m with the neighbours at rest held at their positions: a
-    neighbour at rest (no heading) stays at rest, its observed acceleration, the mean over
-    the last period, being the braking that stopped it (one that sets off from rest is
-    already moving when observed)."""
-    still = ~moving
-    if np.any(still):
-        out[still] = nb.positions[still][:, None, :]
-    return out
+def _fine_grid(times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The fine grid of :func:`turn_rate` for the sample times (T,) s: its midpoints and
+    steps (s), 8 per sample interval (the first from 0); memoised per grid."""
+    key = np.asarray(times, dtype=np.float64).tobytes()
+    grid = _FINE.get(key)
+    if grid is None:
+        fine = np.concatenate([[0.0], np.repeat(np.diff(np.concatenate([[0.0], times])) / 8,
+                                                8)])
+        t_fine = np.cumsum(fine)
+        if len(_FINE) > 64:
+            _FINE.clear()
+        grid = _FINE[key] = (t_fine[:-1] + 0.5 * fine[1:], fine[1:].copy())
+    return grid
 
 
 @njit(cache=True)
-def _arcs(positions, speed, omega, a_t, heading, mid, fine, n_times):
-    """Midpoint-rule arcs: positions (n, 2) m, speed (m/s), omega (rad/s), a_t (m/s^2),
-    heading (rad) per row; fine-grid midpoints ``mid`` and steps ``fine`` (s), 8 per
-    sample (equal within a sample). Returns the centres at every 8th fine step,
-    (n, n_times, 2) m. The heading's cosine and sine are evaluated at the first
-    midpoint of each sample and turned by omega * fine step (a rotation) for the
-    other seven."""
+def _turn_rate_arcs(positions, velocities, accelerations, heading, mid, fine, n_times):
+    """Midpoint-rule arcs: per row, position (m), velocity (m/s), acceleration (m/s^2)
+    and heading (rad, the velocity's angle); fine-grid midpoints ``mid`` and steps
+    ``fine`` (s), 8 per sample (equal within a sample). Returns the centres at every
+    8th fine step, (n, n_times, 2) m; a row at rest stays at its position. The
+    heading's cosine and sine are evaluated at the first midpoint of each sample and
+    turned by omega * fine step (a rotation) for the other seven."""
     n = positions.shape[0]
     out = np.empty((n, n_times, 2))
     for i in range(n):
+        vx = velocities[i, 0]
+        vy = velocities[i, 1]
+        speed = math.hypot(vx, vy)
+        if not speed > 1e-6:  # at rest: stays at rest
+            for j in range(n_times):
+                out[i, j, 0] = positions[i, 0]
+                out[i, j, 1] = positions[i, 1]
+            continue
+        omega = (vx * accelerations[i, 1] - vy * accelerations[i, 0]) / (speed * speed)
+        a_t = (vx * accelerations[i, 0] + vy * accelerations[i, 1]) / speed
         sx = 0.0
         sy = 0.0
         j = 0
@@ -131,15 +116,15 @@ def _arcs(positions, speed, omega, a_t, heading, mid, fine, n_times):
         rs = 0.0
         for m in range(mid.shape[0]):
             if m % 8 == 0:
-                th = heading[i] + omega[i] * mid[m]
+                th = heading[i] + omega * mid[m]
                 c = math.cos(th)
                 s = math.sin(th)
-                turn = omega[i] * fine[m]
+                turn = omega * fine[m]
                 rc = math.cos(turn)
                 rs = math.sin(turn)
             else:
                 c, s = c * rc - s * rs, s * rc + c * rs
-            sp = speed[i] + a_t[i] * mid[m]
+            sp = speed + a_t * mid[m]
             if sp < 0.0:
                 sp = 0.0
             sx = sx + sp * c * fine[m]

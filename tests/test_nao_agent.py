@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from reference.goal_reference import goal_seeking_accels_reference
 
-from nao_arena.agents.goal import GoalAgent, goal_seeking_accel
+from nao_arena.agents.goal import GoalAgent, goal_seeking_accel, goal_seeking_accels
 from nao_arena.agents.nao import NAOAgent, _held_by_standing
 from nao_arena.geometry import AccelLimits, repair_acceleration
 from nao_arena.obstacles import RADIUS_CUT, obstacle_paths
@@ -197,6 +198,49 @@ def test_only_a_robot_held_by_standing_robots_with_room_behind_counts_toward_swi
     assert _held_by_standing(moving, rows, np.array([0.5]), moving.goals).tolist() == [False]
 
 
+def _held_reference(batch: SensingBatch, rows: np.ndarray, rad: np.ndarray,
+                   goals: np.ndarray) -> np.ndarray:
+    """The held test in plain numpy, robot by robot (the compiled one's reference)."""
+    out = np.zeros(len(rows), dtype=bool)
+    for i, row in enumerate(rows.tolist()):
+        nbs = batch.nb_index[batch.nb_start[row]:batch.nb_start[row + 1]]
+        if not len(nbs):
+            continue
+        own = batch.positions[batch.bodies[row]]
+        rel = batch.positions[nbs] - own
+        surface = np.hypot(rel[:, 0], rel[:, 1]) - batch.radii[nbs] - rad[i]
+        still = np.hypot(*batch.velocities[nbs[0]]) < 0.1
+        behind = rel @ (goals[i] - own) < 0.0
+        out[i] = still and surface[0] < 1.0 and not np.any((surface < 1.0) & behind)
+    return out
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 40), st.integers(0, 2**32 - 1), st.floats(0.5, 6.0),
+       st.integers(0, 10))
+def test_held_by_standing_matches_a_robot_by_robot_reference(n, seed, spread, cap):
+    """The compiled held test gives the reference's answer for every robot of random
+    crowds (half of the bodies standing, goals anywhere, some robots without neighbours)."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(-spread, spread, (n, 2)) * math.sqrt(n)
+    vel = rng.uniform(-0.3, 0.3, (n, 2)) * (rng.random((n, 1)) < 0.5)
+    radii = rng.uniform(0.2, 0.6, n)
+    bodies = rng.permutation(n)[: max(1, n // 2)].astype(np.int64)
+    start, index = neighbour_lists(bodies, pos, 4.0, cap)
+    k = len(bodies)
+    goals = rng.uniform(-10.0, 10.0, (k, 2))
+    batch = SensingBatch(
+        time=0.0, dt=0.1, positions=pos, velocities=vel, accelerations=np.zeros((n, 2)),
+        radii=radii, a_max=np.full(n, 2.0), v_max=np.full(n, 1.5),
+        kinds=np.array(["robot"] * n), plans=None, known_paths=None, path_times=np.zeros(0),
+        bodies=bodies, goals=goals, routes=(None,) * k, walls=np.zeros((0, 2, 2)),
+        wall_radius=np.zeros(0), nb_start=start, nb_index=index)
+    rows = rng.permutation(k).astype(np.int64)
+    rad = radii[bodies[rows]]
+    want = _held_reference(batch, rows, rad, goals[rows])
+    assert _held_by_standing(batch, rows, rad, goals[rows]).tolist() == want.tolist()
+
+
 # ---------------------------------------------------------------- one robot is a batch of one
 
 
@@ -330,6 +374,36 @@ def test_goal_seeking_in_bulk_is_goal_seeking_robot_by_robot(seed, n_robots, odd
     for k in range(n_robots):
         want = goal_seeking_accel(batch.observation(k), v_pref, 0.3 + 0.1 * k)
         np.testing.assert_array_equal(got[k], want)
+
+
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 30),
+       odd=st.sampled_from(["", "nan", "inf", "at_goal"]), turned=st.booleans(),
+       per_row_tau=st.booleans(), targets_missing=st.booleans())
+def test_compiled_goal_seeking_is_the_numpy_reference_bit_for_bit(
+        seed, n, odd, turned, per_row_tau, targets_missing):
+    """goal_seeking_accels (compiled) gives the vectorised numpy reference's accelerations
+    bit for bit: heading offsets, per-row time constants, robots without a target,
+    robots on their goal, far and near goals, non-finite input."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(-20.0, 20.0, (n, 2))
+    targets = pos + rng.normal(0.0, 1.0, (n, 2)) * rng.choice([0.01, 1.0, 30.0], (n, 1))
+    vel = rng.uniform(-2.0, 2.0, (n, 2))
+    a_max = rng.uniform(0.5, 3.0, n)
+    cap = rng.uniform(0.2, 2.0, n)
+    if odd == "at_goal":
+        targets[:: 2] = pos[:: 2]
+    elif odd:
+        vel[rng.integers(n)] = float(odd)
+        targets[rng.integers(n), rng.integers(2)] = float(odd)
+    offsets = (rng.uniform(-np.pi, np.pi, n) * (rng.random(n) < 0.7)).tolist() if turned else None
+    tau = rng.uniform(0.2, 1.0, n) if per_row_tau else 0.5
+    has = rng.random(n) < 0.8 if targets_missing else None
+    got = goal_seeking_accels(targets, pos, vel, a_max, cap, offsets, tau, has_target=has)
+    want = goal_seeking_accels_reference(targets, pos, vel, a_max, cap, offsets, tau,
+                                         has_target=has)
+    np.testing.assert_array_equal(got, want)
 
 
 def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach():
