@@ -58,6 +58,7 @@ __all__ = ["commit_plans", "plan_clearance", "stopping_plan", "max_plan_points"]
 FloatArray = NDArray[np.float64]
 
 
+@njit(cache=True)
 def max_plan_points(speed: float, a_max: float, dt: float, substeps: int) -> int:
     """Substep positions of the longest stopping plan of a robot at ``speed`` (m/s) with
     a_max (m/s^2) and dt (s): the start, the commanded period and the braking periods
@@ -210,11 +211,30 @@ def _near_pairs(pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: fl
 @njit(cache=True, error_model="numpy")
 def _commit(pos: FloatArray, vel: FloatArray, desired: FloatArray, radius: FloatArray,
             a_max: FloatArray, v_max: FloatArray, dt: float, substeps: int, margin: float,
-            walls: FloatArray, wall_half: FloatArray, points: int,
+            walls: FloatArray, wall_half: FloatArray,
             brake: NDArray[np.bool_], braking: FloatArray) -> int:
     """:func:`commit_plans` on arrays; writes brake (n,) and the standing plans'
-    accelerations braking (n, 2), returns the number of pair checks made."""
+    accelerations braking (n, 2), returns the number of pair checks made (nothing is
+    written, and 0 returned, when a position, velocity or desired acceleration is not
+    finite)."""
     n = pos.shape[0]
+    if n == 0:
+        return 0
+    for i in range(n):
+        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1])
+                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1])
+                and math.isfinite(desired[i, 0]) and math.isfinite(desired[i, 1])):
+            return 0
+    # the longest plan: that of the robot with the most speed per a_max (the first of equals)
+    k = 0
+    best = -math.inf
+    for i in range(n):
+        ratio = min(math.hypot(vel[i, 0], vel[i, 1]), v_max[i]) / a_max[i]
+        if ratio > best:
+            best = ratio
+            k = i
+    points = max_plan_points(min(math.hypot(vel[k, 0], vel[k, 1]), v_max[k]), a_max[k], dt,
+                             substeps)
     want = np.empty((n, points, 2))
     stand = np.empty((n, points, 2))
     n_want = np.empty(n, dtype=np.int64)
@@ -328,16 +348,10 @@ def commit_plans(
         walls, wall_half = np.zeros((0, 2, 2)), np.zeros(0)
     brake = np.zeros(n, dtype=np.bool_)
     braking = np.zeros((n, 2))
-    if n == 0 or not (np.all(np.isfinite(positions)) and np.all(np.isfinite(velocities))
-                      and np.all(np.isfinite(desired))):
-        return brake, braking
-    speed = np.minimum(np.hypot(velocities[:, 0], velocities[:, 1]), v_max)
-    k = int(np.argmax(speed / np.asarray(a_max, dtype=np.float64)))
-    points = max_plan_points(float(speed[k]), float(a_max[k]), dt, substeps)
     f = np.ascontiguousarray
     _commit(f(positions, dtype=np.float64), f(velocities, dtype=np.float64),
             f(desired, dtype=np.float64), f(radii, dtype=np.float64),
             f(a_max, dtype=np.float64), f(v_max, dtype=np.float64), float(dt), int(substeps),
             float(margin), f(walls, dtype=np.float64).reshape(-1, 2, 2),
-            f(wall_half, dtype=np.float64), points, brake, braking)
+            f(wall_half, dtype=np.float64), brake, braking)
     return brake, braking

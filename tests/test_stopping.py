@@ -203,6 +203,26 @@ def wall_gap(sub: np.ndarray, seg: np.ndarray) -> float:
     return float(np.min(np.hypot(*(pts - (a + t[:, None] * e)).T)))
 
 
+def test_non_finite_input_brakes_nobody() -> None:
+    """A non-finite position, velocity or desired acceleration anywhere in the group: no
+    robot is told to brake and the braking accelerations stay zero (the arena rejects
+    such input before it reaches the world); an empty group is empty."""
+    pos = np.array([[0.0, 0.0], [1.2, 0.0]])
+    vel = np.array([[1.0, 0.0], [-1.0, 0.0]])
+    desired = np.array([[2.0, 0.0], [-2.0, 0.0]])  # head-on: both plans meet
+    ones = np.ones(2)
+    args = (RADIUS * ones, A_MAX * ones, V_MAX * ones, DT, SUBSTEPS, 0.01)
+    assert commit_plans(pos, vel, desired, *args)[0].any()
+    for which, bad in (("pos", math.nan), ("vel", math.inf), ("desired", math.nan)):
+        arrays = {"pos": pos.copy(), "vel": vel.copy(), "desired": desired.copy()}
+        arrays[which][1, 0] = bad
+        brake, braking = commit_plans(arrays["pos"], arrays["vel"], arrays["desired"], *args)
+        assert not brake.any() and not braking.any(), which
+    empty = commit_plans(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0),
+                         np.zeros(0), np.zeros(0), DT, SUBSTEPS, 0.01)
+    assert empty[0].shape == (0,) and empty[1].shape == (0, 2)
+
+
 def test_rule_keeps_colliding_goal_seekers_apart_in_the_world() -> None:
     """Eight goal seekers swap places across a circle (no avoidance at all): without the
     rule they collide; with it, no two centres ever come within 2 r in the world."""
