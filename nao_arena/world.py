@@ -210,7 +210,10 @@ class _ReadBuffer:
 
 class _WriteBuffer:
     """A ``pymunk.batch`` buffer over a float64 numpy array that pymunk reads (the array
-    is kept alive here; nothing is allocated in C)."""
+    is kept alive here; nothing is allocated in C). :meth:`write` is
+    ``pymunk.batch.set_space_bodies`` without its per-call set-up."""
+
+    _SET = pb.ffi.addressof(pb.lib, "pmSpaceBodySetIteratorFuncBatched")
 
     def __init__(self, array: FloatArray) -> None:
         self._array = array
@@ -219,6 +222,42 @@ class _WriteBuffer:
         self._float_arr.arr = self._view
         self._float_arr.num = self._float_arr.max = array.size
         self._int_arr = pb.ffi.new("pmIntArray *")
+        self._data = pb.ffi.new("pmBatchedData *")
+        self._data.floatArray = self._float_arr
+        self._data.intArray = self._int_arr
+
+    def write(self, space: pymunk.Space, fields: pb.BodyFields) -> None:
+        """Write ``fields`` of every body of ``space`` (its iteration order) from the
+        array, as ``pymunk.batch.set_space_bodies(space, fields, self)`` does."""
+        self._data.fields = fields.value
+        size = self._float_arr.num
+        self._float_arr.num = 0  # pymunk reads from the start, counting up
+        pb.lib.cpSpaceEachBody(space._space, self._SET, self._data)
+        self._float_arr.num = size
+
+
+#: pymunk's own bookkeeping around a step, as this pymunk version names it (checked
+#: once: with another version :func:`_step_space` always calls ``Space.step``)
+_STEP_STATE = ("_bodies_to_check", "_add_later", "_remove_later", "_post_step_callbacks",
+               "_removed_shapes", "threaded", "_locked")
+_DIRECT_STEP = all(hasattr(pymunk.Space(), name) for name in _STEP_STATE)
+
+
+def _step_space(space: pymunk.Space, h: float) -> None:
+    """``space.step(h)``; straight to chipmunk's step when pymunk has nothing of its own
+    to do around it (no body to check, nothing to add or remove, no post-step
+    callback: the world adds and removes bodies only between episodes and sets no
+    collision handler), which is what ``Space.step`` then does."""
+    if (not _DIRECT_STEP or space._bodies_to_check or space._add_later
+            or space._remove_later or space._post_step_callbacks or space._removed_shapes
+            or space.threaded):
+        space.step(h)
+        return
+    space._locked = True
+    try:
+        pb.lib.cpSpaceStep(space._space, h)
+    finally:
+        space._locked = False
 
 
 class World:
@@ -346,7 +385,7 @@ class World:
             self._vel_rows[: self.n] = v
         else:
             self._vel_rows[self._rows] = v
-        pb.set_space_bodies(self._space, pb.BodyFields.VELOCITY, self._vel_buf)
+        self._vel_buf.write(self._space, pb.BodyFields.VELOCITY)
         self._vel = v
 
     def _record(self, accels: FloatArray) -> None:
@@ -428,8 +467,8 @@ class World:
         path = np.empty((self.substeps + 1, self.n, 2))
         path[0] = self._pos
         for j, force_buf in enumerate(self._force_bufs):
-            pb.set_space_bodies(space, pb.BodyFields.FORCE, force_buf)
-            space.step(h)
+            force_buf.write(space, pb.BodyFields.FORCE)
+            _step_space(space, h)
             if j + 1 < self.substeps:
                 buf.fill(space, pb.BodyFields.POSITION)
                 data = buf.floats(self._n_rows, 2)
