@@ -212,7 +212,7 @@ class EpisodeStats:
         stuck = away & (before - dist < self.config.stuck_progress)
         self._goal_dist[slot] = dist
         self.stuck_time += self.dt * stuck
-        if np.any(away) and np.array_equal(stuck, away):
+        if away.any() and (stuck == away).all():  # every robot away from its goal is stuck
             self.deadlock_duration += self.dt
             if math.isnan(self.deadlock_time):
                 self.deadlock_time = t + self.dt
