@@ -37,7 +37,7 @@ from nao_arena.geometry.selection import (
 )
 
 __all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "decide",
-           "decide_batch", "ring_radii_rows"]
+           "decide_batch", "keep_candidates", "member_lists", "ring_radii_rows"]
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
 UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
@@ -159,3 +159,35 @@ def decide(
         _unit_rings(_RINGS, _RING_POINTS), _REPAIR_STEPS, _REPAIR_UNIT, _MAX_DISKS,
         _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH, kind, accel, tested)
     return kind, accel, tested
+
+
+@njit(cache=True)
+def keep_candidates(members, current, desired, a_max, band, holds, status):
+    """Per member j (robot members[j]): status[j] = 2 if its current acceleration
+    current[i] (m/s^2) may be kept, subject to the admissibility test: within band[j]
+    (m/s^2) of desired[i] or holds[j] (a young adjustment), and within a_max[i] (m/s^2,
+    up to 1e-9 relative); else 0. Returns how many are 2."""
+    count = 0
+    for j in range(members.shape[0]):
+        i = members[j]
+        near = (math.hypot(current[i, 0] - desired[i, 0], current[i, 1] - desired[i, 1])
+                <= band[j])
+        inside = not (math.hypot(current[i, 0], current[i, 1]) > a_max[i] * (1 + 1e-9))
+        status[j] = 2 if (near or holds[j]) and inside else 0
+        count += status[j] == 2
+    return count
+
+
+@njit(cache=True)
+def member_lists(nb_start, nb_index, rows):
+    """The neighbour lists of the batch rows ``rows`` (CSR nb_start, nb_index of the
+    whole batch), concatenated in that order: (start (len(rows) + 1,), index)."""
+    start = np.zeros(rows.shape[0] + 1, dtype=np.int64)
+    for j in range(rows.shape[0]):
+        start[j + 1] = start[j] + nb_start[rows[j] + 1] - nb_start[rows[j]]
+    index = np.empty(start[-1], dtype=np.int64)
+    for j in range(rows.shape[0]):
+        lo = nb_start[rows[j]]
+        for e in range(start[j + 1] - start[j]):
+            index[start[j] + e] = nb_index[lo + e]
+    return start, index

@@ -86,7 +86,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
-from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, decide
+from nao_arena.agents._nao_decide import (
+    ADJUSTED,
+    DESIRED,
+    INFEASIBLE,
+    REPAIRED,
+    decide,
+    keep_candidates,
+    member_lists,
+)
 from nao_arena.agents._nao_liveness import held_by_standing_kernel
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.geometry import (
@@ -588,14 +596,9 @@ def _obstacle_lists(
     (nb_start, nb_index: body indices), then the walls in its range (wall_seg (W, 2, 2) m
     and wall_half (W,) m: every wall's ends and half-thickness; wall_start, wall_index)."""
     m = np.asarray(members, dtype=np.int64)
-    k_rows = rows[m]
-    lo = batch.nb_start[k_rows]
-    counts = batch.nb_start[k_rows + 1] - lo
-    nb_start = np.zeros(len(m) + 1, dtype=np.int64)
-    np.cumsum(counts, out=nb_start[1:])
-    # the members' slices of the arena's lists, concatenated
-    take = np.repeat(lo - nb_start[:-1], counts) + np.arange(nb_start[-1])
-    nb_index = batch.nb_index[take].astype(np.int64)
+    nb_start, nb_index = member_lists(np.ascontiguousarray(batch.nb_start, dtype=np.int64),
+                                      np.ascontiguousarray(batch.nb_index, dtype=np.int64),
+                                      np.ascontiguousarray(rows[m], dtype=np.int64))
     wall_start = np.zeros(len(m) + 1, dtype=np.int64)
     walls = np.ascontiguousarray(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
     half = np.ascontiguousarray(batch.wall_radius, dtype=np.float64)
@@ -626,12 +629,13 @@ def _keep_current(
     ag0 = agents[members[0]]
     times = ag0.times
     m = np.asarray(members, dtype=np.int64)
-    band = np.hypot(current[m, 0] - desired[m, 0], current[m, 1] - desired[m, 1]) <= np.array(
-        [agents[i]._band() for i in members])
-    band |= holds
-    inside = ~(np.hypot(current[m, 0], current[m, 1]) > a_max[m] * (1 + 1e-9))
-    status = np.where(band & inside, 2, 0)
-    if lists is None or not np.any(status == 2):
+    status = np.zeros(len(m), dtype=np.int64)
+    band = np.array([agents[i]._band() for i in members], dtype=np.float64)
+    some = keep_candidates(m, np.ascontiguousarray(current, dtype=np.float64),
+                           np.ascontiguousarray(desired, dtype=np.float64),
+                           np.ascontiguousarray(a_max, dtype=np.float64), band,
+                           np.ascontiguousarray(holds, dtype=np.bool_), status)
+    if lists is None or some == 0:
         return status.tolist()
     nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
     todo = np.flatnonzero(status == 2)
