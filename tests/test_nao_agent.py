@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference.goal_reference import goal_seeking_accels_reference
 
+from nao_arena.agents._nao_decide import keep_candidates, member_lists
 from nao_arena.agents.goal import GoalAgent, goal_seeking_accel, goal_seeking_accels
 from nao_arena.agents.nao import NAOAgent, _held_by_standing
 from nao_arena.geometry import AccelLimits, repair_acceleration
@@ -404,6 +405,36 @@ def test_compiled_goal_seeking_is_the_numpy_reference_bit_for_bit(
     want = goal_seeking_accels_reference(targets, pos, vel, a_max, cap, offsets, tau,
                                          has_target=has)
     np.testing.assert_array_equal(got, want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 25))
+def test_keep_candidates_and_member_lists_are_their_plain_definitions(seed, n):
+    """The compiled keep candidates are: within the band of the desired acceleration or
+    holding a young adjustment, and within a_max (NaN: not near, not outside); the
+    members' lists are their rows' slices of the batch lists, concatenated."""
+    rng = np.random.default_rng(seed)
+    current = rng.uniform(-2.5, 2.5, (n, 2))
+    desired = current + rng.normal(0.0, 0.3, (n, 2)) * rng.choice([0.0, 1.0, 5.0], (n, 1))
+    current[rng.random(n) < 0.1] = np.nan
+    a_max = rng.uniform(1.0, 3.0, n)
+    members = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
+    band = rng.choice([0.0, 0.3], len(members))
+    holds = rng.random(len(members)) < 0.3
+    status = np.full(len(members), -7, dtype=np.int64)
+    count = keep_candidates(members, current, desired, a_max, band, holds, status)
+    for j, i in enumerate(members.tolist()):
+        near = np.hypot(*(current[i] - desired[i])) <= band[j]
+        inside = not np.hypot(*current[i]) > a_max[i] * (1 + 1e-9)
+        assert status[j] == (2 if (near or holds[j]) and inside else 0)
+    assert count == int(np.sum(status == 2))
+    counts = rng.integers(0, 6, n)
+    nb_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    nb_index = rng.integers(0, 100, nb_start[-1]).astype(np.int64)
+    start, index = member_lists(nb_start, nb_index, members)
+    want = [nb_index[nb_start[r]:nb_start[r + 1]] for r in members.tolist()]
+    assert np.diff(start).tolist() == [len(w) for w in want]
+    assert index.tolist() == (np.concatenate(want).tolist() if want else [])
 
 
 def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach():
