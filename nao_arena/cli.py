@@ -61,12 +61,14 @@ from nao_arena import __version__
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
 COMPILE_NOTE = "compiling geometry kernels (first run only, about a minute) ..."
 KERNEL_MODULES = ("nao_arena.world", "nao_arena.stats", "nao_arena.sensing",
-                  "nao_arena.stopping",
+                  "nao_arena.stopping", "nao_arena.predictors", "nao_arena.agents.goal",
+                  "nao_arena.agents._nao_decide", "nao_arena.agents._nao_liveness",
                   *(f"nao_arena.geometry._kernel.{name}" for name in (
                       "quartic", "robot_path", "segment", "exact", "sampled", "relevance",
                       "disks", "outside", "batch", "search")))
 """Modules whose numba kernels every episode (``world``, ``stats``, ``sensing``) or the
-``nao`` and ``ao`` agents (``stopping``, ``geometry._kernel``) compile."""
+``goal``, ``nao`` and ``ao`` agents (``stopping``, ``predictors``, ``agents.goal``,
+``agents._nao_*``, ``geometry._kernel``) compile."""
 
 
 def _err(message: str) -> int:
