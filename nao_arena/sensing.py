@@ -137,6 +137,20 @@ _MAX_CELLS_PER_BODY = 4  # a finer grid than this many cells per body costs more
 _KNN_CELLS_PER_BODY = 16
 
 
+@njit(cache=True, inline="always")
+def _distance_from(positions, j, me, mx, my, use_hypot):
+    """Distance (m) from body me at (mx, my) to body j (inf for j == me: a body is not
+    its own neighbour), as ``math.hypot`` (use_hypot) or the square root of the sum of
+    squares."""
+    if j == me:
+        return math.inf
+    dx = positions[j, 0] - mx
+    dy = positions[j, 1] - my
+    if use_hypot:
+        return math.hypot(dx, dy)
+    return math.sqrt(dx * dx + dy * dy)
+
+
 @njit(cache=True)
 def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot):
     """:func:`neighbour_lists` compiled: per body the others within range (the body
@@ -214,14 +228,7 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
         m = 0
         for i in range(c_n):
             j = near[i]
-            dx = positions[j, 0] - mx
-            dy = positions[j, 1] - my
-            if j == me:
-                dj = math.inf
-            elif use_hypot:
-                dj = math.hypot(dx, dy)
-            else:
-                dj = math.sqrt(dx * dx + dy * dy)
+            dj = _distance_from(positions, j, me, mx, my, use_hypot)
             if dj <= sensing_range:
                 d[m] = dj
                 cand[m] = j
@@ -359,14 +366,7 @@ def _nearest_lists(bodies, positions, sensing_range, most, use_hypot, x0, y0, x1
                         c = yy * gx + xx
                         for i in range(cell_start[c], cell_start[c + 1]):
                             j = members[i]
-                            dx = positions[j, 0] - mx
-                            dy = positions[j, 1] - my
-                            if j == me:
-                                dj = math.inf
-                            elif use_hypot:
-                                dj = math.hypot(dx, dy)
-                            else:
-                                dj = math.sqrt(dx * dx + dy * dy)
+                            dj = _distance_from(positions, j, me, mx, my, use_hypot)
                             if not dj <= sensing_range:
                                 continue
                             if m == most and not (dj < best_d[m - 1] or (
