@@ -15,6 +15,7 @@ Run:
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -30,7 +31,7 @@ V_MAX = 1.5  # m/s
 HORIZON = 3.0  # s
 
 
-def _timeit(fn, min_time: float = 1.0) -> float:
+def per_call(fn: Callable[[], object], min_time: float = 1.0) -> float:
     """Seconds per call of fn, after a warm-up call (compilation, caches)."""
     fn()
     n, start = 0, time.perf_counter()
@@ -85,13 +86,13 @@ def main() -> None:
         tmin = np.empty_like(clear)
         tfirst = np.empty_like(clear)
         disc_ok = np.empty(k, dtype=bool)
-        dt_seg = _timeit(lambda walls=walls, half=half, seg_out=seg_out: _segment_clearances(
+        dt_seg = per_call(lambda walls=walls, half=half, seg_out=seg_out: _segment_clearances(
             v, accels, V_MAX, walls, half, HORIZON, seg_out))
-        dt_disc = _timeit(lambda path=path, clear=clear, tmin=tmin, tfirst=tfirst: (
+        dt_disc = per_call(lambda path=path, clear=clear, tmin=tmin, tfirst=tfirst: (
             clearance_kernel(vv, accels, V_MAX, *path.arrays, clear, tmin, tfirst)))
-        dt_seg_adm = _timeit(lambda walls=walls, half=half, seg_ok=seg_ok: _segment_admissible(
+        dt_seg_adm = per_call(lambda walls=walls, half=half, seg_ok=seg_ok: _segment_admissible(
             v, accels, V_MAX, walls, half, RADIUS, HORIZON, seg_ok))
-        dt_disc_adm = _timeit(lambda path=path, sweep=sweep, disc_ok=disc_ok: admissible_kernel(
+        dt_disc_adm = per_call(lambda path=path, sweep=sweep, disc_ok=disc_ok: admissible_kernel(
             vv, accels, V_MAX, *path.arrays, sweep, 0.0, disc_ok))
         # the disc chain is conservative: its clearance (to grown discs) never exceeds the
         # exact surface clearance; the gap is what the chain gives away

@@ -13,23 +13,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
-from collections.abc import Callable
 from functools import partial
 
 import numpy as np
+from bench_segment import per_call
 
 from nao_arena.sensing import neighbour_lists
-
-
-def _per_call(fn: Callable[[], object], min_time: float = 0.5) -> float:
-    """Seconds per call of fn, after a warm-up call (compilation, caches)."""
-    fn()
-    n, start = 0, time.perf_counter()
-    while time.perf_counter() - start < min_time:
-        fn()
-        n += 1
-    return (time.perf_counter() - start) / n
 
 
 def crowds(n: int) -> dict[str, np.ndarray]:
@@ -70,8 +59,10 @@ def main() -> None:
             got = neighbour_lists(bodies, pos, args.range, args.k)
             ref = sorted_then_cut(bodies, pos, args.range, args.k)
             assert all(np.array_equal(a, b) for a, b in zip(got, ref, strict=True))
-            rings = _per_call(partial(neighbour_lists, bodies, pos, args.range, args.k)) / n
-            full = _per_call(partial(neighbour_lists, bodies, pos, args.range, None)) / n
+            rings = per_call(partial(neighbour_lists, bodies, pos, args.range, args.k),
+                                     0.5) / n
+            full = per_call(partial(neighbour_lists, bodies, pos, args.range, None),
+                                    0.5) / n
             print(f"{n:>6} {name:8} {1e6 * rings:>8.2f} {1e6 * full:>9.2f} "
                   f"{full / rings:>10.1f}x")
 
