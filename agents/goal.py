@@ -51,13 +51,17 @@ def goal_seeking_accels(
     """
     n = len(targets)
     f = np.ascontiguousarray
-    offsets = np.zeros(n) if heading_offset is None else f(heading_offset, dtype=np.float64)
+    if heading_offset is None:  # no turn: the kernel reads no cosine or sine
+        offsets = cos_off = sin_off = np.zeros(n)
+    else:
+        offsets = f(heading_offset, dtype=np.float64)
+        cos_off, sin_off = np.cos(offsets), np.sin(offsets)
     has = np.ones(n, dtype=np.bool_) if has_target is None else f(has_target, dtype=np.bool_)
     out = np.empty((n, 2))
     _goal_seeking_kernel(
         f(targets, dtype=np.float64).reshape(n, 2), f(positions, dtype=np.float64),
         f(velocities, dtype=np.float64), f(a_max, dtype=np.float64),
-        f(speed_cap, dtype=np.float64), offsets, np.cos(offsets), np.sin(offsets),
+        f(speed_cap, dtype=np.float64), offsets, cos_off, sin_off,
         f(np.broadcast_to(np.asarray(time_constant, dtype=np.float64), (n,))),
         float(braking), float(approach_gain), has, out)
     return out

@@ -134,7 +134,7 @@ def make_agent(
     except (TypeError, ValueError):
         params = {}
     meant = robot.agent_options_for is None or load_agent(robot.agent_options_for) is cls
-    kwargs = {k: v for k, v in robot.agent_options.items() if k in params and meant}
+    kwargs = {k: v for k, v in robot.agent_options.items() if k in params} if meant else {}
     if "predictor" in params:
         kwargs["predictor"] = robot.predictor
     kwargs.update(options or {})
