@@ -23,14 +23,17 @@ scaling its velocity (never by moving it), and then gains no speed. Speeds
 above v_max left by contacts at the end of a period are scaled back too, so
 observed speeds never exceed v_max.
 
-Bulk state I/O goes through ``pymunk.batch``: one call per substep writes
-all forces and one reads all positions (:attr:`World.substep_positions`, the
-engine's exact path within the period: between two substeps every body
-moves in a straight line), one more reads the velocities at the period's
-end. The batch buffers' C arrays are owned here and freed with the world
-(``pymunk.batch.Buffer`` never frees its own). A fresh ``pymunk.Space`` is
-built on every :meth:`World.reset`. Same map and same commands give
-bit-identical trajectories.
+Bulk state I/O goes through ``pymunk.batch``'s C iterators: one pass per
+substep writes all forces and one reads all positions
+(:attr:`World.substep_positions`, the engine's exact path within the period:
+between two substeps every body moves in a straight line), one more reads
+the positions and velocities at the period's end. Their buffers are numpy
+arrays owned by the world. Once pymunk has nothing of its own to do around a
+step (it checks new bodies on the first), a period's substeps run in
+compiled code that calls chipmunk directly, the same C calls ``Space.step``
+makes (tested bit for bit). A fresh ``pymunk.Space`` is built on every
+:meth:`World.reset`. Same map and same commands give bit-identical
+trajectories.
 
 Copies and pickles
 ------------------
@@ -48,7 +51,9 @@ differently wherever a body has two contacts at once.
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pymunk
@@ -168,96 +173,148 @@ def _finish_period(
     return any_over
 
 
-class _ReadBuffer:
-    """A ``pymunk.batch`` buffer that pymunk fills (and grows); its C arrays are freed
-    when it is collected. :meth:`fill` is ``pymunk.batch.get_space_bodies`` without its
-    per-call set-up, and :meth:`floats` reuses its array view while the C array stays
-    where it is (pymunk only moves it to grow it)."""
-
-    _GET = pb.ffi.addressof(pb.lib, "pmSpaceBodyGetIteratorFuncBatched")
-
-    def __init__(self) -> None:
-        self._float_arr = pb.ffi.gc(pb.lib.pmFloatArrayNew(0), pb.lib.pmFloatArrayFree)
-        self._int_arr = pb.ffi.gc(pb.lib.pmIntArrayNew(0), pb.lib.pmIntArrayFree)
-        self._data = pb.ffi.new("pmBatchedData *")
-        self._data.floatArray = self._float_arr
-        self._data.intArray = self._int_arr
-        self._view_key: tuple[int, int, int] | None = None
-        self._view = np.zeros((0, 0))
-
-    def fill(self, space: pymunk.Space, fields: pb.BodyFields) -> None:
-        """Clear, then read ``fields`` of every body of ``space`` (its iteration order)."""
-        self._float_arr.num = 0
-        self._int_arr.num = 0
-        self._data.fields = fields.value
-        pb.lib.cpSpaceEachBody(space._space, self._GET, self._data)
-
-    def floats(self, rows: int, cols: int) -> FloatArray:
-        """The float data as a (rows, cols) array (a view, valid until the next fill)."""
-        arr = self._float_arr
-        key = (int(pb.ffi.cast("uintptr_t", arr.arr)), arr.num, cols)
-        if key != self._view_key:
-            data = pb.ffi.buffer(arr.arr, 8 * arr.num)
-            self._view = np.frombuffer(data, dtype=np.float64).reshape(rows, cols)
-            self._view_key = key
-        return self._view
-
-    def ints(self) -> NDArray[np.uintp]:
-        """The integer data (a copy)."""
-        data = pb.ffi.buffer(self._int_arr.arr, pb.ffi.sizeof("uintptr_t") * self._int_arr.num)
-        return np.frombuffer(data, dtype=np.uintp).copy()
+def _c_function(name: str, restype: object, *argtypes: object) -> Any:
+    """The function ``name`` of pymunk's C library as a ctypes function, which compiled
+    code can call (pointers passed as integers)."""
+    address = int(pb.ffi.cast("uintptr_t", pb.ffi.addressof(pb.lib, name)))
+    return ctypes.CFUNCTYPE(restype, *argtypes)(address)
 
 
-class _WriteBuffer:
-    """A ``pymunk.batch`` buffer over a float64 numpy array that pymunk reads (the array
-    is kept alive here; nothing is allocated in C). :meth:`write` is
-    ``pymunk.batch.set_space_bodies`` without its per-call set-up."""
+_SPACE_STEP = _c_function("cpSpaceStep", None, ctypes.c_void_p, ctypes.c_double)
+_EACH_BODY = _c_function("cpSpaceEachBody", None, ctypes.c_void_p, ctypes.c_void_p,
+                         ctypes.c_void_p)
+_GET_BODY = int(pb.ffi.cast("uintptr_t", pb.ffi.addressof(
+    pb.lib, "pmSpaceBodyGetIteratorFuncBatched")))
+_SET_BODY = int(pb.ffi.cast("uintptr_t", pb.ffi.addressof(
+    pb.lib, "pmSpaceBodySetIteratorFuncBatched")))
 
-    _SET = pb.ffi.addressof(pb.lib, "pmSpaceBodySetIteratorFuncBatched")
 
-    def __init__(self, array: FloatArray) -> None:
-        self._array = array
-        self._view = pb.ffi.from_buffer("double[]", array)
-        self._float_arr = pb.ffi.new("pmFloatArray *")
-        self._float_arr.arr = self._view
-        self._float_arr.num = self._float_arr.max = array.size
-        self._int_arr = pb.ffi.new("pmIntArray *")
-        self._data = pb.ffi.new("pmBatchedData *")
-        self._data.floatArray = self._float_arr
-        self._data.intArray = self._int_arr
+def _address(pointer: Any) -> int:
+    return int(pb.ffi.cast("uintptr_t", pointer))
 
-    def write(self, space: pymunk.Space, fields: pb.BodyFields) -> None:
-        """Write ``fields`` of every body of ``space`` (its iteration order) from the
-        array, as ``pymunk.batch.set_space_bodies(space, fields, self)`` does."""
-        self._data.fields = fields.value
-        size = self._float_arr.num
-        self._float_arr.num = 0  # pymunk reads from the start, counting up
-        pb.lib.cpSpaceEachBody(space._space, self._SET, self._data)
-        self._float_arr.num = size
+
+def _body_order(space: pymunk.Space) -> NDArray[np.uintp]:
+    """The body ids of ``space`` in its iteration order (``pymunk.batch``'s BODY_ID read,
+    into a C array freed here)."""
+    ints = pb.ffi.gc(pb.lib.pmIntArrayNew(0), pb.lib.pmIntArrayFree)
+    data = pb.ffi.new("pmBatchedData *")
+    data.intArray = ints
+    data.floatArray = pb.ffi.gc(pb.lib.pmFloatArrayNew(0), pb.lib.pmFloatArrayFree)
+    data.fields = pb.BodyFields.BODY_ID.value
+    pb.lib.cpSpaceEachBody(space._space, pb.ffi.cast("void *", _GET_BODY), data)
+    raw = pb.ffi.buffer(ints.arr, pb.ffi.sizeof("uintptr_t") * ints.num)
+    return np.frombuffer(raw, dtype=np.uintp).copy()
+
+
+#: the data slots of :class:`_BatchIO` after the substeps' force slots
+_READ_POSITIONS, _READ_STATE, _WRITE_VELOCITIES = 0, 1, 2
+
+
+class _BatchIO:
+    """``pymunk.batch``'s C structures for one world, over float64 arrays owned here.
+
+    pymunk's batched body iterators read from and write to a ``pmFloatArray`` (a count,
+    a capacity and a C array of doubles). Here every such array is a numpy array:
+    the substeps' forces (substeps, rows, 2) N, the velocities (rows, 2) m/s to write,
+    and one read array of capacity 4 rows + 4 (pymunk grows an array, by moving it,
+    only when it is within 3 values of full, which a read of 4 values per row never
+    is). The counts (:attr:`counts`, column :attr:`num`) are a view of the C structures,
+    so compiled code can rewind them. Rows are bodies in the space's iteration order.
+    """
+
+    def __init__(self, substeps: int, rows: int) -> None:
+        ffi = pb.ffi
+        self.substeps, self.rows = substeps, rows
+        self.forces = np.zeros((substeps, rows, 2))
+        self.velocities = np.zeros((rows, 2))
+        self.floats = np.zeros(4 * rows + 4)
+        targets = [*self.forces, self.velocities, self.floats]
+        self._arrays = ffi.new("pmFloatArray[]", len(targets))
+        self._views = [ffi.from_buffer("double[]", t) for t in targets]  # kept alive
+        for arr, view, target in zip(self._arrays, self._views, targets, strict=True):
+            arr.arr = view
+            arr.num = 0
+            arr.max = target.size
+        self.counts = np.frombuffer(ffi.buffer(self._arrays), dtype=np.int32).reshape(
+            len(targets), -1)
+        self.num = ffi.offsetof("pmFloatArray", "num") // 4
+        fields = pb.BodyFields
+        # (array, fields) per data slot: each substep's forces, then the reads and writes
+        slots = [(j, fields.FORCE) for j in range(substeps)] + [
+            (substeps + 1, fields.POSITION),
+            (substeps + 1, fields.POSITION | fields.VELOCITY),
+            (substeps, fields.VELOCITY),
+        ]
+        self._data = ffi.new("pmBatchedData[]", len(slots))
+        for data, (a, f) in zip(self._data, slots, strict=True):
+            data.floatArray = self._arrays + a
+            data.fields = f.value
+        self.data = np.array([_address(self._data + j) for j in range(len(slots))],
+                             dtype=np.int64)
+        self.read_slot = substeps + 1  # the counts row of the read array
+
+    def _each(self, space: pymunk.Space, slot: int, count_row: int, func: int) -> None:
+        self.counts[count_row, self.num] = 0
+        pb.lib.cpSpaceEachBody(space._space, pb.ffi.cast("void *", func),
+                               self._data + self.substeps + slot)
+
+    def read_positions(self, space: pymunk.Space) -> FloatArray:
+        """Positions of every body, (rows, 2) (a view of :attr:`floats`)."""
+        self._each(space, _READ_POSITIONS, self.read_slot, _GET_BODY)
+        return self.floats[: 2 * self.rows].reshape(-1, 2)
+
+    def read_state(self, space: pymunk.Space) -> FloatArray:
+        """Positions and velocities of every body, (rows, 4) (a view of :attr:`floats`)."""
+        self._each(space, _READ_STATE, self.read_slot, _GET_BODY)
+        return self.floats[: 4 * self.rows].reshape(-1, 4)
+
+    def write_velocities(self, space: pymunk.Space) -> None:
+        """Set every body's velocity from :attr:`velocities`."""
+        self._each(space, _WRITE_VELOCITIES, self.substeps, _SET_BODY)
+
+
+@njit(cache=True)
+def _run_substeps(
+    space_step: Any, each_body: Any, space: int, h: float, set_body: int, get_body: int,
+    data: NDArray[np.int64], counts: NDArray[np.int32], num: int, floats: FloatArray,
+    rows: NDArray[np.intp], path: FloatArray,
+) -> None:
+    """One period's physics substeps of ``h`` s, in chipmunk directly: before substep j,
+    the forces of data slot j; after each but the last, every body's position into
+    path[j + 1] (N, 2) m (body i from read row rows[i]); after the last, positions and
+    velocities into ``floats`` (see :class:`_BatchIO`)."""
+    substeps = path.shape[0] - 1
+    read = substeps + 1
+    for j in range(substeps):
+        counts[j, num] = 0
+        each_body(space, set_body, data[j])
+        space_step(space, h)
+        counts[read, num] = 0
+        if j + 1 < substeps:
+            each_body(space, get_body, data[substeps + _READ_POSITIONS])
+            for i in range(rows.shape[0]):
+                r = rows[i]
+                path[j + 1, i, 0] = floats[2 * r]
+                path[j + 1, i, 1] = floats[2 * r + 1]
+        else:
+            each_body(space, get_body, data[substeps + _READ_STATE])
 
 
 #: pymunk's own bookkeeping around a step, as this pymunk version names it (checked
-#: once: with another version :func:`_step_space` always calls ``Space.step``)
+#: once: with another version, or while it has something to do, :meth:`World.step`
+#: calls ``Space.step``)
 _STEP_STATE = ("_bodies_to_check", "_add_later", "_remove_later", "_post_step_callbacks",
                "_removed_shapes", "threaded", "_locked")
 _DIRECT_STEP = all(hasattr(pymunk.Space(), name) for name in _STEP_STATE)
 
 
-def _step_space(space: pymunk.Space, h: float) -> None:
-    """``space.step(h)``; straight to chipmunk's step when pymunk has nothing of its own
-    to do around it (no body to check, nothing to add or remove, no post-step
-    callback: the world adds and removes bodies only between episodes and sets no
-    collision handler), which is what ``Space.step`` then does."""
-    if (not _DIRECT_STEP or space._bodies_to_check or space._add_later
-            or space._remove_later or space._post_step_callbacks or space._removed_shapes
-            or space.threaded):
-        space.step(h)
-        return
-    space._locked = True
-    try:
-        pb.lib.cpSpaceStep(space._space, h)
-    finally:
-        space._locked = False
+def _pymunk_is_idle(space: pymunk.Space) -> bool:
+    """Whether ``Space.step`` would do nothing but chipmunk's step: no body to check,
+    nothing to add or remove, no post-step callback, not threaded (the world adds and
+    removes bodies only between episodes and sets no collision handler)."""
+    return _DIRECT_STEP and not (
+        space._bodies_to_check or space._add_later or space._remove_later
+        or space._post_step_callbacks or space._removed_shapes or space.threaded)
 
 
 class World:
@@ -351,41 +408,26 @@ class World:
     def _setup_batch(self) -> None:
         """Map the space's body iteration order to map order; allocate the I/O buffers
         (once per world: a reset keeps them when the row count is the same)."""
-        ids = _ReadBuffer()
-        pb.get_space_bodies(self._space, pb.BodyFields.BODY_ID, ids)
-        order = ids.ints()
+        order = _body_order(self._space)
         row_of = {int(pid): r for r, pid in enumerate(order)}
         self._rows = np.array([row_of[b.id] for b in self._pm_bodies], dtype=np.intp)
-        self._identity = bool(np.array_equal(self._rows, np.arange(self.n)))
         if getattr(self, "_n_rows", None) == len(order):
             return
         self._n_rows = len(order)
-        # one persistent force array and buffer per substep (rows in iteration order)
-        self._forces = np.zeros((self.substeps, self._n_rows, 2))
-        self._force_bufs = [_WriteBuffer(self._forces[j].reshape(-1))
-                            for j in range(self.substeps)]
-        self._vel_rows = np.zeros((self._n_rows, 2))
-        self._vel_buf = _WriteBuffer(self._vel_rows.reshape(-1))
-        self._get_buf = _ReadBuffer()
+        self._io = _BatchIO(self.substeps, self._n_rows)
 
     # ------------------------------------------------------------------ I/O
 
     def _read(self) -> None:
-        buf = self._get_buf
-        buf.fill(self._space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY)
-        data = buf.floats(self._n_rows, 4)
-        data = data[: self.n] if self._identity else data[self._rows]
+        data = self._io.read_state(self._space)[self._rows]
         self._pos = data[:, 0:2].copy()
         self._vel = data[:, 2:4].copy()
         self._path = self._pos[None].copy()
         self._path.setflags(write=False)
 
     def _write_velocities(self, v: FloatArray) -> None:
-        if self._identity:
-            self._vel_rows[: self.n] = v
-        else:
-            self._vel_rows[self._rows] = v
-        self._vel_buf.write(self._space, pb.BodyFields.VELOCITY)
+        self._io.velocities[self._rows] = v
+        self._io.write_velocities(self._space)
         self._vel = v
 
     def _record(self, accels: FloatArray) -> None:
@@ -395,6 +437,31 @@ class World:
             grown[: self._steps] = self._log[: self._steps]
             self._log = grown
         self._log[self._steps] = accels
+
+    def _run_substeps(self, path: FloatArray) -> None:
+        """The period's physics substeps (forces from the batch I/O's force slots), in
+        compiled code straight into chipmunk when pymunk has nothing of its own to do
+        around a step (see :func:`_pymunk_is_idle`), else through ``Space.step``; the
+        positions after each substep but the last into ``path`` (S + 1, N, 2), and the
+        final positions and velocities into the batch I/O's read array."""
+        space, io, h = self._space, self._io, self.dt / self.substeps
+        if _pymunk_is_idle(space):
+            space._locked = True
+            try:
+                _run_substeps(_SPACE_STEP, _EACH_BODY, _address(space._space), h, _SET_BODY,
+                              _GET_BODY, io.data, io.counts, io.num, io.floats, self._rows,
+                              path)
+            finally:
+                space._locked = False
+            return
+        for j in range(self.substeps):
+            io.counts[j, io.num] = 0
+            pb.lib.cpSpaceEachBody(space._space, pb.ffi.cast("void *", _SET_BODY),
+                                   pb.ffi.cast("void *", int(io.data[j])))
+            space.step(h)
+            if j + 1 < self.substeps:
+                path[j + 1] = io.read_positions(space)[self._rows]
+        io.read_state(space)
 
     # ------------------------------------------------------------------ public
 
@@ -455,27 +522,17 @@ class World:
         v_start = self._vel
         v = np.empty_like(v_start)
         finite, over = _plan_period(a, v_start, self.a_max, self.v_max, self.masses, self.dt,
-                                    self._rows, self._forces, v)
+                                    self._rows, self._io.forces, v)
         if not finite:
             raise ValueError("expected finite accelerations")
         self._record(a)
         if over:
             self._write_velocities(v)
-        h = self.dt / self.substeps
-        space = self._space
-        buf = self._get_buf
         path = np.empty((self.substeps + 1, self.n, 2))
         path[0] = self._pos
-        for j, force_buf in enumerate(self._force_bufs):
-            force_buf.write(space, pb.BodyFields.FORCE)
-            _step_space(space, h)
-            if j + 1 < self.substeps:
-                buf.fill(space, pb.BodyFields.POSITION)
-                data = buf.floats(self._n_rows, 2)
-                path[j + 1] = data[: self.n] if self._identity else data[self._rows]
+        self._run_substeps(path)
         self._prev_positions = self._pos
-        buf.fill(space, pb.BodyFields.POSITION | pb.BodyFields.VELOCITY)
-        data = buf.floats(self._n_rows, 4)
+        data = self._io.floats[: 4 * self._n_rows].reshape(-1, 4)  # see _run_substeps
         self._pos = np.empty((self.n, 2))
         vel = np.empty((self.n, 2))
         self._acc = np.empty((self.n, 2))
