@@ -132,90 +132,203 @@ def _cover_bins(p0, p1, shrink, cover):
         _set_bins(0, last - _BINS, cover)
 
 
+# what :func:`_mark` did
+_NOTHING, _MARKED, _ALL_OUTSIDE, _UNPROVABLE = 0, 1, 2, 3
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mark(cx, cy, rho, circ, j, a_max, cover):
+    """Mark in the bit set ``cover`` the bins of the circle (cx, cy, rho) that disk j of
+    ``circ`` covers (j == len(circ): the outside of the limit disc |a| <= a_max).
+
+    A bin is marked only if it lies inside the covered arc (from the two intersection
+    points, no trigonometry) by a margin well above the rounding error of the exact
+    angles of :func:`_add_interval`, so every marked bin is covered in the exact
+    computation too. Disks near tangency or with ill-conditioned angles mark nothing.
+    Returns _MARKED, _NOTHING, or for the limit disc _ALL_OUTSIDE (the exact computation
+    finds the whole circle outside it) or _UNPROVABLE (an ill-conditioned limit circle)."""
+    M = circ.shape[0]
+    if j == M:
+        dx = -cx
+        dy = -cy
+        rj = a_max
+    else:
+        dx = circ[j, 0] - cx
+        dy = circ[j, 1] - cy
+        rj = circ[j, 2]
+        far = rho + rj
+        if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
+            return _NOTHING
+    d = math.sqrt(dx * dx + dy * dy)
+    if j == M:
+        if d + rho <= a_max * (1.0 - 1e-9):
+            return _NOTHING  # the circle lies inside the limit disc: nothing to cover
+        if d >= (rho + a_max) * (1.0 + 1e-9) or d + a_max <= rho * (1.0 - 1e-9):
+            return _ALL_OUTSIDE
+    if not (d > 0.0 and d < (rho + rj) * (1.0 - 1e-9) and d + rj > rho * (1.0 + 1e-9)
+            and d + rho > rj * (1.0 + 1e-9)):
+        return _UNPROVABLE if j == M else _NOTHING
+    scale = d * d + rho * rho + rj * rj
+    inv_d = 1.0 / d
+    a = (d * d + rho * rho - rj * rj) * (0.5 * inv_d)
+    h2 = rho * rho - a * a
+    if h2 <= (1e-4 * rho) ** 2:
+        return _NOTHING
+    h = math.sqrt(h2)
+    # bound on the angle error of the exact (acos, atan2) and of this computation:
+    # 1e-15 scale / (2 d rho sin(beta)) + 1e-13, with rho sin(beta) = h
+    err = 1e-15 * scale * (0.5 * inv_d) / h + 1e-13
+    if err > 1e-6:
+        return _NOTHING
+    ux = dx * inv_d
+    uy = dy * inv_d
+    # intersection directions at angles alpha -/+ beta (alpha: towards the disk)
+    p_minus = _pseudo_angle(a * ux + h * uy, a * uy - h * ux)
+    p_plus = _pseudo_angle(a * ux - h * uy, a * uy + h * ux)
+    shrink = 8.0 * err
+    if j == M:
+        _cover_bins(p_plus, p_minus, shrink, cover)  # outside the limit disc
+    else:
+        _cover_bins(p_minus, p_plus, shrink, cover)
+    return _MARKED
+
+
+#: de Bruijn sequence and table: the index of a word's lowest set bit in a few operations
+_DE_BRUIJN = np.uint64(0x03F79D71B4CB0A89)
+_DE_BRUIJN_INDEX = np.array([
+    0, 1, 48, 2, 57, 49, 28, 3, 61, 58, 50, 42, 38, 29, 17, 4,
+    62, 55, 59, 36, 53, 51, 43, 22, 45, 39, 33, 30, 24, 18, 12, 5,
+    63, 47, 56, 27, 60, 41, 37, 16, 54, 35, 52, 21, 44, 32, 23, 11,
+    46, 26, 40, 15, 34, 20, 31, 10, 25, 14, 19, 9, 13, 8, 7, 6], dtype=np.int64)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _next_bin(cover, b, marked):
+    """The first bin >= b (b < _BINS) that is marked in ``cover`` (``marked``) or not;
+    _BINS when there is none."""
+    w = b // 64
+    x = cover[w] if marked else ~cover[w]
+    x &= _FULL << np.uint64(b % 64)
+    while x == np.uint64(0):
+        w += 1
+        if w == _WORDS:
+            return _BINS
+        x = cover[w] if marked else ~cover[w]
+    low = x & (~x + np.uint64(1))
+    return 64 * w + _DE_BRUIJN_INDEX[(low * _DE_BRUIJN) >> np.uint64(58)]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _on_circle(cx, cy, rho, p):
+    """The point of the circle (cx, cy, rho) at pseudo-angle p (see :func:`_pseudo_angle`)."""
+    p %= 4.0
+    if p < 2.0:
+        x = 1.0 - p
+        y = 1.0 - abs(x)
+    else:
+        x = p - 3.0
+        y = abs(x) - 1.0
+    n = math.sqrt(x * x + y * y)
+    return cx + rho * x / n, cy + rho * y / n
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _inside(circ, j, x, y):
+    """Whether (x, y) lies strictly inside disk j of ``circ``."""
+    dx = circ[j, 0] - x
+    dy = circ[j, 1] - y
+    return dx * dx + dy * dy < circ[j, 2] * circ[j, 2]
+
+
+#: how many disks :func:`_surely_covered` chooses, and the probes of a stretch it looks at
+_GAP_TRIES = 8
+_PROBES = 5
+
+
 @njit(cache=True, error_model="numpy")
-def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
+def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
 
-    The circle is cut into bins of pseudo-angle; each disk marks the bins its
-    covered arc (from the two intersection points, no trigonometry) contains
-    with a margin well above the rounding error of the exact angles, so every
-    marked bin is covered in the exact computation too. All bins marked:
-    covered. Disks near tangency or with ill-conditioned angles are left out
-    (leaving out can only fail to prove).
+    The circle is cut into bins of pseudo-angle; the disks mark the bins they surely
+    cover (:func:`_mark`). All bins marked: covered. Deep in a crowded picture a circle
+    meets dozens of disks, but two or three cover it, so the disks are chosen: the
+    limit disc and the rows next to ``skip`` (the same obstacle at the neighbouring
+    times) first, then, one at a time, the disk that holds the start of the first
+    unmarked stretch (at most a quarter turn) and the most of its probe points after
+    it. A stretch whose start lies in no disk, or whose first bin no disk spans, is
+    left unproven (False at once: part of it is free, most likely); when a chosen disk
+    marks nothing new, or after _GAP_TRIES disks, every disk in turn is marked until
+    all bins are. Which disks are marked decides only how fast a covered circle is
+    proven, never whether a circle with a free arc is called covered. px, py: scratch
+    for the probe points (with fewer than _PROBES values, no disk is chosen).
     """
     M = circ.shape[0]
     for i in range(_WORDS):
         cover[i] = 0
-    # visiting order: the limit disc, the rows next to ``skip`` (the same obstacle at
-    # nearby times, which cover most), then the rest; stop as soon as all is proven
-    lo_w = max(0, skip - 8) if skip >= 0 else 0
-    hi_w = min(M, skip + 9) if skip >= 0 else 0
-    width = hi_w - lo_w
-    marked = 0
-    checked = 0
-    for step in range(M + 1):
-        if step == 0:
-            j = M
-        elif step <= width:
-            j = lo_w + step - 1
-        else:
-            j = step - 1 - width
-            if j >= lo_w:
-                j += width
-        if step == width + 1 or marked > checked:
-            checked = marked
-            if _all_binned(cover):
-                return True
-        if j == M:
-            if not in_limit:
+    if in_limit:
+        done = _mark(cx, cy, rho, circ, M, a_max, cover)
+        if done == _ALL_OUTSIDE:
+            return True
+        if done == _UNPROVABLE:
+            return False
+    if skip >= 0:
+        if skip >= 1:
+            _mark(cx, cy, rho, circ, skip - 1, a_max, cover)
+        if skip + 1 < M:
+            _mark(cx, cy, rho, circ, skip + 1, a_max, cover)
+    unit = 4.0 / _BINS
+    for _ in range(_GAP_TRIES if min(px.shape[0], py.shape[0]) >= _PROBES else 0):
+        # the first unmarked bin after a marked one (bin 0 when none is marked), and the
+        # stretch of unmarked bins [first, end) from it, at most a quarter turn
+        first = 0
+        some = _next_bin(cover, 0, True)
+        if some < _BINS:
+            first = _next_bin(cover, some, False)
+            if first == _BINS:
+                first = _next_bin(cover, 0, False)
+                if first == _BINS:
+                    return True
+        end = _next_bin(cover, first + 1, True) if first + 1 < _BINS else _BINS
+        if end == _BINS:
+            end = _BINS + _next_bin(cover, 0, True)
+        end = min(end, first + _BINS // 4)
+        # probes: the stretch's start, the end of its first bin, then on to its end
+        px[0], py[0] = _on_circle(cx, cy, rho, first * unit)
+        for k in range(1, _PROBES):
+            at = first + 1 + (end - first - 1) * (k - 1) / (_PROBES - 2)
+            px[k], py[k] = _on_circle(cx, cy, rho, at * unit)
+        # the disk that holds the stretch's start and the most probes after it
+        chosen = -1
+        reach = 0
+        for j in range(M):
+            if j == skip or not _inside(circ, j, px[0], py[0]):
                 continue
-            dx = -cx
-            dy = -cy
-            rj = a_max
-        else:
-            if j == skip:
-                continue
-            dx = circ[j, 0] - cx
-            dy = circ[j, 1] - cy
-            rj = circ[j, 2]
-            far = rho + rj
-            if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
-                continue
-        d = math.sqrt(dx * dx + dy * dy)
-        if j == M:
-            if d + rho <= a_max * (1.0 - 1e-9):
-                continue  # the circle lies inside the limit disc: nothing to cover
-            if d >= (rho + a_max) * (1.0 + 1e-9) or d + a_max <= rho * (1.0 - 1e-9):
-                return True  # the exact computation finds it all outside (-1)
-        if not (d > 0.0 and d < (rho + rj) * (1.0 - 1e-9) and d + rj > rho * (1.0 + 1e-9)
-                and d + rho > rj * (1.0 + 1e-9)):
-            if j == M:
-                return False
+            k = 1
+            while k < _PROBES and _inside(circ, j, px[k], py[k]):
+                k += 1
+            if k > reach:
+                chosen = j
+                reach = k
+                if k == _PROBES:
+                    break
+        if chosen < 0:
+            return False  # the start is free (or within rounding of a circle)
+        if reach < 2:
+            return False  # no disk spans the first bin: part of it is free, most likely
+        if _mark(cx, cy, rho, circ, chosen, a_max, cover) != _MARKED:
+            break
+        if _next_bin(cover, first, True) != first:
+            break
+    if _all_binned(cover):
+        return True
+    # every disk in turn (marking a bin twice changes nothing); stop once all is proven
+    for j in range(M):
+        if j == skip:
             continue
-        scale = d * d + rho * rho + rj * rj
-        a = (d * d + rho * rho - rj * rj) / (2.0 * d)
-        h2 = rho * rho - a * a
-        if h2 <= (1e-4 * rho) ** 2:
-            continue
-        h = math.sqrt(h2)
-        sin_b = h / rho
-        # bound on the angle error of the exact (acos, atan2) and of this computation
-        err = 1e-15 * scale / (2.0 * d * rho) / sin_b + 1e-13
-        if err > 1e-6:
-            continue
-        ux = dx / d
-        uy = dy / d
-        # intersection directions at angles alpha -/+ beta (alpha: towards the disk)
-        p_minus = _pseudo_angle(a * ux + h * uy, a * uy - h * ux)
-        p_plus = _pseudo_angle(a * ux - h * uy, a * uy + h * ux)
-        shrink = 8.0 * err
-        if j == M:
-            _cover_bins(p_plus, p_minus, shrink, cover)  # outside the limit disc
-        else:
-            _cover_bins(p_minus, p_plus, shrink, cover)
-        marked += 1
-    return _all_binned(cover)
+        if _mark(cx, cy, rho, circ, j, a_max, cover) == _MARKED and _all_binned(cover):
+            return True
+    return False
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -240,7 +353,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
     (:func:`_surely_covered`) skips the exact angles for them.
     """
     M = circ.shape[0]
-    if _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover):
+    if _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, starts, ends):
         return k
     n = 0
     for j in range(M + 1):
