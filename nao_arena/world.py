@@ -173,24 +173,22 @@ def _finish_period(
     return any_over
 
 
+def _address(pointer: Any) -> int:
+    """A cffi pointer (or function) of pymunk's C library as an integer address."""
+    return int(pb.ffi.cast("uintptr_t", pointer))
+
+
 def _c_function(name: str, restype: object, *argtypes: object) -> Any:
     """The function ``name`` of pymunk's C library as a ctypes function, which compiled
     code can call (pointers passed as integers)."""
-    address = int(pb.ffi.cast("uintptr_t", pb.ffi.addressof(pb.lib, name)))
-    return ctypes.CFUNCTYPE(restype, *argtypes)(address)
+    return ctypes.CFUNCTYPE(restype, *argtypes)(_address(pb.ffi.addressof(pb.lib, name)))
 
 
 _SPACE_STEP = _c_function("cpSpaceStep", None, ctypes.c_void_p, ctypes.c_double)
 _EACH_BODY = _c_function("cpSpaceEachBody", None, ctypes.c_void_p, ctypes.c_void_p,
                          ctypes.c_void_p)
-_GET_BODY = int(pb.ffi.cast("uintptr_t", pb.ffi.addressof(
-    pb.lib, "pmSpaceBodyGetIteratorFuncBatched")))
-_SET_BODY = int(pb.ffi.cast("uintptr_t", pb.ffi.addressof(
-    pb.lib, "pmSpaceBodySetIteratorFuncBatched")))
-
-
-def _address(pointer: Any) -> int:
-    return int(pb.ffi.cast("uintptr_t", pointer))
+_GET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodyGetIteratorFuncBatched"))
+_SET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodySetIteratorFuncBatched"))
 
 
 def _body_order(space: pymunk.Space) -> NDArray[np.uintp]:
@@ -251,30 +249,38 @@ class _BatchIO:
             data.fields = f.value
         self.data = np.array([_address(self._data + j) for j in range(len(slots))],
                              dtype=np.int64)
-        self.read_slot = substeps + 1  # the counts row of the read array
+        self._array_of = [a for a, _ in slots]  # the counts row of each data slot
 
-    def _each(self, space: pymunk.Space, slot: int, count_row: int, func: int) -> None:
-        self.counts[count_row, self.num] = 0
-        pb.lib.cpSpaceEachBody(space._space, pb.ffi.cast("void *", func),
-                               self._data + self.substeps + slot)
+    def _each(self, space: pymunk.Space, slot: int, func: int) -> None:
+        """One pass of pymunk's body iterator ``func`` over data slot ``slot``."""
+        self.counts[self._array_of[slot], self.num] = 0
+        pb.lib.cpSpaceEachBody(space._space, pb.ffi.cast("void *", func), self._data + slot)
+
+    def write_forces(self, space: pymunk.Space, substep: int) -> None:
+        """Set every body's force from :attr:`forces` [substep]."""
+        self._each(space, substep, _SET_BODY)
 
     def read_positions(self, space: pymunk.Space) -> FloatArray:
         """Positions of every body, (rows, 2) (a view of :attr:`floats`)."""
-        self._each(space, _READ_POSITIONS, self.read_slot, _GET_BODY)
+        self._each(space, self.substeps + _READ_POSITIONS, _GET_BODY)
         return self.floats[: 2 * self.rows].reshape(-1, 2)
 
     def read_state(self, space: pymunk.Space) -> FloatArray:
-        """Positions and velocities of every body, (rows, 4) (a view of :attr:`floats`)."""
-        self._each(space, _READ_STATE, self.read_slot, _GET_BODY)
+        """Positions and velocities of every body, (rows, 4) (:meth:`state`)."""
+        self._each(space, self.substeps + _READ_STATE, _GET_BODY)
+        return self.state()
+
+    def state(self) -> FloatArray:
+        """The last positions and velocities read, (rows, 4) (a view of :attr:`floats`)."""
         return self.floats[: 4 * self.rows].reshape(-1, 4)
 
     def write_velocities(self, space: pymunk.Space) -> None:
         """Set every body's velocity from :attr:`velocities`."""
-        self._each(space, _WRITE_VELOCITIES, self.substeps, _SET_BODY)
+        self._each(space, self.substeps + _WRITE_VELOCITIES, _SET_BODY)
 
 
 @njit(cache=True)
-def _run_substeps(
+def _substeps_kernel(
     space_step: Any, each_body: Any, space: int, h: float, set_body: int, get_body: int,
     data: NDArray[np.int64], counts: NDArray[np.int32], num: int, floats: FloatArray,
     rows: NDArray[np.intp], path: FloatArray,
@@ -448,16 +454,14 @@ class World:
         if _pymunk_is_idle(space):
             space._locked = True
             try:
-                _run_substeps(_SPACE_STEP, _EACH_BODY, _address(space._space), h, _SET_BODY,
-                              _GET_BODY, io.data, io.counts, io.num, io.floats, self._rows,
-                              path)
+                _substeps_kernel(_SPACE_STEP, _EACH_BODY, _address(space._space), h,
+                                 _SET_BODY, _GET_BODY, io.data, io.counts, io.num, io.floats,
+                                 self._rows, path)
             finally:
                 space._locked = False
             return
         for j in range(self.substeps):
-            io.counts[j, io.num] = 0
-            pb.lib.cpSpaceEachBody(space._space, pb.ffi.cast("void *", _SET_BODY),
-                                   pb.ffi.cast("void *", int(io.data[j])))
+            io.write_forces(space, j)
             space.step(h)
             if j + 1 < self.substeps:
                 path[j + 1] = io.read_positions(space)[self._rows]
@@ -532,7 +536,7 @@ class World:
         path[0] = self._pos
         self._run_substeps(path)
         self._prev_positions = self._pos
-        data = self._io.floats[: 4 * self._n_rows].reshape(-1, 4)  # see _run_substeps
+        data = self._io.state()  # read by _run_substeps
         self._pos = np.empty((self.n, 2))
         vel = np.empty((self.n, 2))
         self._acc = np.empty((self.n, 2))

@@ -289,7 +289,7 @@ def test_compiled_substeps_are_pymunks_own_steps(monkeypatch: pytest.MonkeyPatch
     walls; the compiled loop is the one that runs once pymunk is idle."""
     import nao_arena.world as world_module
 
-    compiled = world_module._run_substeps
+    compiled = world_module._substeps_kernel
     calls = [0]
 
     def counted(*args: object) -> None:
@@ -308,7 +308,7 @@ def test_compiled_substeps_are_pymunks_own_steps(monkeypatch: pytest.MonkeyPatch
             path.append(world.substep_positions)
         return np.array(pos), np.array(vel), np.array(path)
 
-    monkeypatch.setattr(world_module, "_run_substeps", counted)
+    monkeypatch.setattr(world_module, "_substeps_kernel", counted)
     fast = run()
     assert calls[0] == 59  # every period but the first (pymunk checks new bodies then)
     monkeypatch.setattr(world_module, "_pymunk_is_idle", lambda space: False)

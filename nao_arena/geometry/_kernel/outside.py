@@ -19,6 +19,19 @@ _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _offset(cx, cy, rho, circ, j):
+    """Disk j of ``circ`` seen from the circle (cx, cy, rho): (dx, dy) from the circle's
+    centre to the disk's (m/s^2), its radius, and whether the two are clearly apart
+    (farther than the sum of the radii by a relative 1e-9: every exact test skips
+    such a disk too)."""
+    dx = circ[j, 0] - cx
+    dy = circ[j, 1] - cy
+    rj = circ[j, 2]
+    far = rho + rj
+    return dx, dy, rj, dx * dx + dy * dy > far * far * (1.0 + 1e-9)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     """Add the angular interval of the circle (cx, cy, rho) that disk j of ``circ``
     covers (j == len(circ): the outside of the limit disc, when ``in_limit``) to
@@ -41,12 +54,8 @@ def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     else:
         if j == skip:
             return n
-        dx = circ[j, 0] - cx
-        dy = circ[j, 1] - cy
-        rj = circ[j, 2]
-        far = rho + rj
-        if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
-            # clearly apart (the exact test below would skip it too)
+        dx, dy, rj, apart = _offset(cx, cy, rho, circ, j)
+        if apart:
             return n
         d = vector_norm(dx, dy)
         if d + rho <= rj * (1.0 - 1e-12):
@@ -153,11 +162,8 @@ def _mark(cx, cy, rho, circ, j, a_max, cover):
         dy = -cy
         rj = a_max
     else:
-        dx = circ[j, 0] - cx
-        dy = circ[j, 1] - cy
-        rj = circ[j, 2]
-        far = rho + rj
-        if dx * dx + dy * dy > far * far * (1.0 + 1e-9):
+        dx, dy, rj, apart = _offset(cx, cy, rho, circ, j)
+        if apart:
             return _NOTHING
     d = math.sqrt(dx * dx + dy * dy)
     if j == M:
@@ -240,6 +246,25 @@ def _inside(circ, j, x, y):
     return dx * dx + dy * dy < circ[j, 2] * circ[j, 2]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _first_stretch(cover):
+    """The first unmarked bin of ``cover`` after a marked one (bin 0 when none is marked)
+    and the end of the stretch of unmarked bins from it, at most a quarter turn on (may
+    pass _BINS: bins wrap round); (-1, -1) when every bin is marked."""
+    first = 0
+    some = _next_bin(cover, 0, True)
+    if some < _BINS:
+        first = _next_bin(cover, some, False)
+        if first == _BINS:
+            first = _next_bin(cover, 0, False)
+            if first == _BINS:
+                return -1, -1
+    end = _next_bin(cover, first + 1, True) if first + 1 < _BINS else _BINS
+    if end == _BINS:
+        end = _BINS + _next_bin(cover, 0, True)
+    return first, min(end, first + _BINS // 4)
+
+
 #: how many disks :func:`_surely_covered` chooses, and the probes of a stretch it looks at
 _GAP_TRIES = 8
 _PROBES = 5
@@ -279,20 +304,9 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
             _mark(cx, cy, rho, circ, skip + 1, a_max, cover)
     unit = 4.0 / _BINS
     for _ in range(_GAP_TRIES if min(px.shape[0], py.shape[0]) >= _PROBES else 0):
-        # the first unmarked bin after a marked one (bin 0 when none is marked), and the
-        # stretch of unmarked bins [first, end) from it, at most a quarter turn
-        first = 0
-        some = _next_bin(cover, 0, True)
-        if some < _BINS:
-            first = _next_bin(cover, some, False)
-            if first == _BINS:
-                first = _next_bin(cover, 0, False)
-                if first == _BINS:
-                    return True
-        end = _next_bin(cover, first + 1, True) if first + 1 < _BINS else _BINS
-        if end == _BINS:
-            end = _BINS + _next_bin(cover, 0, True)
-        end = min(end, first + _BINS // 4)
+        first, end = _first_stretch(cover)
+        if first < 0:
+            return True
         # probes: the stretch's start, the end of its first bin, then on to its end
         px[0], py[0] = _on_circle(cx, cy, rho, first * unit)
         for k in range(1, _PROBES):
