@@ -19,6 +19,18 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from nao_arena.agents._nao_columns import (
+    AGE,
+    CACHED,
+    CUR_X,
+    CUR_Y,
+    KEEP_BAND,
+    SEL_X,
+    SEL_Y,
+    SETTLING,
+    STATUS,
+    TESTED,
+)
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
 from nao_arena.geometry._kernel.search import onto_disc, repair_relevant, select_relevant
@@ -36,7 +48,8 @@ from nao_arena.geometry.selection import (
     _unit_rings,
 )
 
-__all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "decide",
+__all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "apply_decisions",
+           "decide",
            "decide_batch", "keep_candidates", "member_lists", "ring_radii_rows"]
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
@@ -162,20 +175,51 @@ def decide(
 
 
 @njit(cache=True)
-def keep_candidates(members, current, desired, a_max, band, holds, status):
-    """Per member j (robot members[j]): status[j] = 2 if its current acceleration
-    current[i] (m/s^2) may be kept, subject to the admissibility test: within band[j]
-    (m/s^2) of desired[i] or holds[j] (a young adjustment), and within a_max[i] (m/s^2,
-    up to 1e-9 relative); else 0. Returns how many are 2."""
+def keep_candidates(members, current, desired, a_max, whole, opt, holds, status):
+    """Per member j (row members[j] of the agents' table, columns
+    :mod:`~nao_arena.agents._nao_columns`): status[j] = 2 if its current acceleration
+    current[i] (m/s^2) may be kept, subject to the admissibility test: within keep_band
+    (m/s^2; 0 while settling) of desired[i] or holds[j] (a young adjustment), and within
+    a_max[i] (m/s^2, up to 1e-9 relative); else 0. Returns how many are 2."""
     count = 0
     for j in range(members.shape[0]):
         i = members[j]
+        band = 0.0 if whole[i, SETTLING] != 0 else opt[i, KEEP_BAND]
         near = (math.hypot(current[i, 0] - desired[i, 0], current[i, 1] - desired[i, 1])
-                <= band[j])
+                <= band)
         inside = not (math.hypot(current[i, 0], current[i, 1]) > a_max[i] * (1 + 1e-9))
         status[j] = 2 if (near or holds[j]) and inside else 0
         count += status[j] == 2
     return count
+
+
+@njit(cache=True)
+def apply_decisions(members, status, kind, accel, tested, real, whole, out, settled):
+    """The repairs and the selections of an admissible acceleration among the outcomes
+    (kind, accel m/s^2, tested) of :func:`decide` for the members j with status[j] 0,
+    into their rows members[j] of the agents' table (a repair becomes the current
+    acceleration; a selection also the last full selection, whose age restarts) and of
+    ``out`` (n, 2) m/s^2; settled[j] = True for each of them."""
+    for j in range(members.shape[0]):
+        if status[j] != 0:
+            continue
+        i = members[j]
+        kd = kind[j]
+        if kd == REPAIRED:
+            real[i, CUR_X] = accel[j, 0]
+            real[i, CUR_Y] = accel[j, 1]
+        elif kd == DESIRED or kd == ADJUSTED:
+            real[i, CUR_X] = real[i, SEL_X] = accel[j, 0]
+            real[i, CUR_Y] = real[i, SEL_Y] = accel[j, 1]
+            real[i, AGE] = 0.0
+            whole[i, STATUS] = kd
+            whole[i, TESTED] = tested[j]
+            whole[i, CACHED] = 0
+        else:
+            continue
+        out[i, 0] = accel[j, 0]
+        out[i, 1] = accel[j, 1]
+        settled[j] = True
 
 
 @njit(cache=True)

@@ -62,9 +62,16 @@ def goal_seeking_accels(
         f(targets, dtype=np.float64).reshape(n, 2), f(positions, dtype=np.float64),
         f(velocities, dtype=np.float64), f(a_max, dtype=np.float64),
         f(speed_cap, dtype=np.float64), offsets, cos_off, sin_off,
-        f(np.broadcast_to(np.asarray(time_constant, dtype=np.float64), (n,))),
+        _per_row(time_constant, n),
         float(braking), float(approach_gain), has, out)
     return out
+
+
+def _per_row(value: float | NDArray[np.float64], n: int) -> NDArray[np.float64]:
+    """``value`` as n float64 values: one for every row, or one per row."""
+    if np.ndim(value) == 0:
+        return np.full(n, float(value))
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)))
 
 
 @njit(cache=True)

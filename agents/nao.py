@@ -64,7 +64,11 @@ physics integration error, covered by the margin).
 
 The agents of one class act together (:meth:`NAOAgent.act_batch`):
 predictions once per step for all bodies, goal seeking vectorised, the keep
-test (1.), the repairs and the selections in compiled calls; :meth:`NAOAgent.act`
+test (1.), the repairs and the selections in compiled calls; their state
+(current acceleration, adjustment age, detours, last selection) and numeric
+options are the rows of one table (:mod:`nao_arena.agents._nao_columns`), so
+the step's bookkeeping is compiled too and no Python runs per robot unless a
+robot needs the slow path; :meth:`NAOAgent.act`
 is ``act_batch`` for the one-robot batch of its observation. A subclass
 customises the agent through its options (as :class:`AOAgent` does) or by
 overriding ``act``, which ``act_batch`` then calls robot by robot.
@@ -86,11 +90,45 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
+from nao_arena.agents import _nao_columns as col
+from nao_arena.agents._nao_columns import (
+    AGE,
+    AROUND,
+    CUR_X,
+    CUR_Y,
+    DETOUR,
+    GOAL_ZONE,
+    KEEP_BAND,
+    MARGIN,
+    NAVIGATE,
+    NO_SELECTION,
+    RANGE,
+    REPLAN,
+    RESELECT,
+    ROW,
+    SEEN,
+    SELECTION_LABELS,
+    SETTLING,
+    STATUS,
+    STOPPING,
+    V_PREF,
+    YIELDED,
+    Acceleration,
+    AgentColumns,
+    Column,
+    GridAttribute,
+    OptionalSpeed,
+    columns_of,
+    detour_one,
+    liveness_batch,
+    young_adjustments,
+)
 from nao_arena.agents._nao_decide import (
     ADJUSTED,
     DESIRED,
     INFEASIBLE,
     REPAIRED,
+    apply_decisions,
     decide,
     keep_candidates,
     member_lists,
@@ -120,7 +158,6 @@ if TYPE_CHECKING:
     from nao_arena.maps import RobotSpec
 
 _SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
-_PROGRESS = 0.5  # m closer to the goal that counts as progress (switch_side_after)
 PLAN_MARGIN = 0.005  # m kept between stopping plans beyond the sum of the radii
 
 
@@ -136,6 +173,34 @@ class NAOAgent:
     The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
     = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
     6 s (an overtake). A shorter one runs faster in crowds, see the README benchmarks."""
+
+    # the agent's state and numeric options live in its row of a table shared with the
+    # other agents of its batch (:mod:`nao_arena.agents._nao_columns`)
+    current = Acceleration()
+    age = Column("real", AGE)
+    crawl_time = Column("real", col.CRAWL)
+    free_time = Column("real", col.FREE)
+    detour = Column("real", DETOUR)
+    side = Column("real", col.SIDE)
+    best_distance = Column("real", col.BEST)
+    since_progress = Column("real", col.SINCE)
+    detour_turns = Column("whole", col.TURNS, int)
+    settling = Column("whole", SETTLING, bool)
+    around_wall = Column("whole", AROUND, bool)
+    replan = Column("whole", REPLAN, bool)
+    navigate = Column("whole", NAVIGATE, bool)
+    stopping_plans = Column("whole", STOPPING, bool)
+    margin = Column("opt", MARGIN)
+    keep_band = Column("opt", KEEP_BAND)
+    goal_zone = Column("opt", GOAL_ZONE)
+    reselect_after = Column("opt", RESELECT)
+    detour_after = Column("opt", col.DETOUR_AFTER)
+    switch_side_after = Column("opt", col.SWITCH_AFTER)
+    sensing_range = Column("opt", RANGE)
+    v_pref = OptionalSpeed("opt", V_PREF)
+    times = GridAttribute()
+    predictor_name = GridAttribute()
+    predict = GridAttribute()
 
     def __init__(
         self,
@@ -158,6 +223,9 @@ class NAOAgent:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
                              f"got {infeasible!r}")
+        self._cols = AgentColumns(1)
+        self._row = 0
+        self._cols.members = (self,)
         self.infeasible = infeasible
         self.replan = bool(replan)
         self.reselect_after = float(reselect_after)
@@ -202,9 +270,39 @@ class NAOAgent:
         self.since_progress = 0.0  # s since it last came 0.5 m closer
         self.settling = False
         self.around_wall = False  # the last heading target was a way around a wall
-        # what the last step saw: (batch, robot row, predictions, their excursions)
-        self._seen: tuple[SensingBatch, int, NDArray[np.float64],
-                          tuple[NDArray[np.float64], NDArray[np.bool_]]] | None = None
+        self._cols.whole[self._row, SEEN] = -1  # nothing seen yet (see _seen)
+
+    @property
+    def last_selection(self) -> Selection | None:
+        """The agent's last full selection (None before the first)."""
+        return self._cols.selection(self._row)
+
+    @last_selection.setter
+    def last_selection(self, sel: Selection | None) -> None:
+        self._cols.set_selection(self._row, sel)
+
+    @property
+    def _seen(self) -> tuple[SensingBatch, int, NDArray[np.float64],
+                             tuple[NDArray[np.float64], NDArray[np.bool_]]] | None:
+        """What the last step saw: (batch, robot row, predictions, their excursions)."""
+        cols, r = self._cols, self._row
+        view = int(cols.whole[r, SEEN])
+        if view < 0:
+            return None
+        batch, pred, excursions = cols.seen[view]
+        return batch, int(cols.whole[r, ROW]), pred, excursions
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled (or copied) alone: with a table of its own row only."""
+        state = self.__dict__.copy()
+        own = AgentColumns(1)
+        own.copy_row(self._cols, self._row, 0)
+        state["_cols"], state["_row"] = own, 0
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._cols.members = (self,)
 
     def last_decision(self) -> tuple[Selection | None, NDArray[np.float64], float]:
         """What the agent keeps of its decisions, read-only: its last full selection (None
@@ -223,14 +321,6 @@ class NAOAgent:
                 and np.all(np.isfinite(times)))
             self._grid_checked = times
         return self._grid_regular
-
-    def _grid_key(self) -> tuple[str, bytes]:
-        """(predictor name, time grid bytes): agents with the same key share predictions;
-        worked out once per grid."""
-        if getattr(self, "_key_times", None) is not self.times:
-            self._key = (self.predictor_name, self.times.tobytes())
-            self._key_times = self.times
-        return self._key
 
     def _relevant_paths(
         self,
@@ -294,11 +384,12 @@ class NAOAgent:
         return None
 
     def _commit(self, sel: Selection) -> NDArray[np.float64]:
-        """A full selection becomes the current acceleration (m/s^2); its age restarts."""
+        """A full selection becomes the current acceleration (m/s^2, a copy returned); its
+        age restarts."""
         self.last_selection = sel
         self.age = 0.0
-        self.current = np.asarray(sel.accel, dtype=np.float64)
-        return self.current
+        self.current = sel.accel
+        return self.current.copy()
 
     def _repair(
         self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
@@ -318,28 +409,24 @@ class NAOAgent:
     def _holds_adjustment(self) -> bool:
         """Whether the current acceleration is an avoidance adjustment young enough to keep
         (while admissible) even though it lies outside keep_band of the desired one."""
-        sel = self.last_selection
-        return (sel is not None and sel.status == "adjusted" and not self.settling
-                and self.age < self.reselect_after - 1e-9)
-
-    def _band(self) -> float:
-        """keep_band (m/s^2), or 0 while settling on the goal (track the desired one)."""
-        return 0.0 if self.settling else self.keep_band
+        return bool(_holds(self._cols, np.array([self._row]))[0])
 
     def act(self, obs: Observation) -> NDArray[np.float64]:
         """The robot's acceleration (m/s^2): :meth:`act_batch` for the one-robot batch of
         ``obs`` (:meth:`SensingBatch.of_observation`); raises what that reports."""
-        out = _act_rows([self], SensingBatch.of_observation(obs), np.zeros(1, dtype=np.int64))
-        if isinstance(out[0], Exception):
-            raise out[0]
+        out, errors = _act_rows([self], SensingBatch.of_observation(obs),
+                                np.zeros(1, dtype=np.int64))
+        if errors:
+            raise errors[0]
         return out[0]
 
     @classmethod
     def act_batch(
         cls, agents: Sequence[NAOAgent], batch: SensingBatch, rows: Sequence[int]
-    ) -> list[NDArray[np.float64] | Exception]:
+    ) -> NDArray[np.float64] | list[NDArray[np.float64] | Exception]:
         """The accelerations (m/s^2) of the robots ``rows`` of ``batch`` (agent i drives
-        robot rows[i]), one per row, or the exception that robot's step raised.
+        robot rows[i]): an array (len(rows), 2), or where some robot's step raised, a list
+        with one acceleration or exception per row.
 
         Predictions are made once per step for all bodies (per predictor and
         time grid) and indexed per robot; goal seeking is vectorised; whether
@@ -359,21 +446,24 @@ class NAOAgent:
             except Exception as exc:  # noqa: BLE001 - the agent's failure
                 out[i] = exc
         if not own:
-            return _act_rows(agents, batch, rows_a)
+            accels, errors = _act_rows(agents, batch, rows_a)
+            if not errors:
+                return accels
+            return [errors.get(i, accels[i]) for i in range(len(rows_a))]
         rest = [i for i in range(len(rows_a)) if out[i] is None]
         if rest:
-            done = _act_rows([agents[i] for i in rest], batch, rows_a[rest])
-            for i, res in zip(rest, done, strict=True):
-                out[i] = res
+            accels, errors = _act_rows([agents[i] for i in rest], batch, rows_a[rest])
+            for j, i in enumerate(rest):
+                out[i] = errors.get(j, accels[j])
         return out  # type: ignore[return-value]
 
     def panel(self) -> PanelAgent:
         """What the viewer's acceleration panel shows of this agent (its time grid,
         predictor, margin, v_pref, detour and the status of its last selection)."""
-        sel = self.last_selection
+        code = int(self._cols.whole[self._row, STATUS])
         return PanelAgent(times=self.times, predict=self.predict, margin=self.margin,
                           v_pref=self.v_pref, detour=float(self.detour),
-                          status=None if sel is None else sel.status)
+                          status=None if code == NO_SELECTION else SELECTION_LABELS[code])
 
     def last_obstacles(self) -> PiecewisePath | None:
         """The obstacles of the agent's last step (None before its first): its
@@ -409,40 +499,16 @@ class NAOAgent:
         """One step (dt s) of the liveness bookkeeping (module docstring, Liveness) from
         precomputed tests: far from the goal, crawling (below v_max / 4), the distance
         to the goal (m), and held (its nearest neighbour stands still close by: only such
-        time counts toward switching sides)."""
-        if to_goal < self.best_distance - _PROGRESS:
-            self.best_distance = to_goal
-            self.since_progress = 0.0
-        elif held:
-            self.since_progress += dt
-        if far and self.since_progress >= self.switch_side_after:
-            # no progress on this side: detour to the other side from now on
-            self.side = -self.side
-            self.since_progress = 0.0
-            self.best_distance = to_goal
-            self.detour = 0.0
-            self.detour_turns = 0
-            self.crawl_time = 0.0
-        if far and crawling:
-            self.crawl_time += dt
-            self.free_time = 0.0
-        else:
-            self.free_time += dt
-            self.crawl_time = 0.0
-        if self.crawl_time >= self.detour_after * (self.detour_turns + 1):
-            if abs(self.detour) < 5.0 * np.pi / 6.0:
-                # each further detour_after of crawling turns another 30-60 degrees
-                self.detour += self.side * float(self.rng.uniform(np.pi / 6, np.pi / 3))
-                self.detour_turns += 1
-            elif self.around_wall:
-                # turned all the way round on a way around a wall and still held (backing
-                # off further leads into the walls): head along the way again
-                self.detour = 0.0
-                self.detour_turns = 0
-                self.crawl_time = 0.0
-        elif self.detour != 0.0 and self.free_time >= self.detour_after:
-            self.detour = 0.0
-            self.detour_turns = 0
+        time counts toward switching sides); :func:`detour_row` on the agent's row."""
+        cols = self._cols
+        if detour_one(self._row, bool(far), bool(crawling), float(dt), float(to_goal),
+                      bool(held), cols.real, cols.whole, cols.opt):
+            self._turn_detour()
+
+    def _turn_detour(self) -> None:
+        """Turn the detour once more, by an angle in [30, 60] degrees (drawn from the
+        agent's generator) to its side."""
+        self.detour += self.side * float(self.rng.uniform(np.pi / 6, np.pi / 3))
 
     def _admissible(
         self, a: NDArray[np.float64], v: NDArray[np.float64], a_max: float, v_max: float,
@@ -513,32 +579,30 @@ class NAOAgent:
         want = _desired_rows(desired, n)
         out = np.zeros((n, 2))
         status = [""] * n
+        cols = columns_of(agents)
         pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
-        groups: dict[tuple[str, bytes], list[int]] = {}
-        for i, ag in enumerate(agents):
-            ag.age += batch.dt
-            groups.setdefault(ag._grid_key(), []).append(i)
+        cols.real[:, AGE] += batch.dt
         traffic_near = _traffic_near(batch, rows_a)
-        previous = np.array([ag.current for ag in agents], dtype=np.float64).reshape(n, 2)
-        for members in groups.values():
-            ag0 = agents[members[0]]
+        previous = cols.real[:, CUR_X:CUR_Y + 1].copy()
+        cols.seen = []
+        for m in cols.grid_groups(agents):
+            ag0 = agents[int(m[0])]
             pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
                                         dtype=np.float64)
-            excursions, lists, margin = _group_view(members, agents, batch, rows_a, pos, rad,
-                                                    pred)
+            excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
             # the keep test with the desired accelerations as the ones to keep
-            every = np.ones(len(members), dtype=bool)
-            keep = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
-                                 vel, rad, v_max, want, want, a_max, every, margin)
-            holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
-            decided = (_decide(members, keep, agents, pred, excursions, lists, batch.radii,
-                               pos, vel, rad, a_max, v_max, previous, want, holds, margin)
+            every = np.ones(len(m), dtype=bool)
+            keep = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos, vel,
+                                 rad, v_max, want, want, a_max, every)
+            holds = _holds(cols, m)
+            decided = (_decide(m, keep, ag0, cols, pred, excursions, lists, batch.radii, pos,
+                               vel, rad, a_max, v_max, previous, want, holds)
                        if lists is not None else None)
-            for j, (i, st) in enumerate(zip(members, keep, strict=True)):
+            for j, (i, st) in enumerate(zip(m.tolist(), keep.tolist(), strict=True)):
                 ag = agents[i]
                 if st == 1:
-                    ag.current = want[i].copy()
-                    out[i], status[i] = ag.current, "kept"
+                    cols.real[i, CUR_X:CUR_Y + 1] = want[i]
+                    out[i], status[i] = want[i], "kept"
                     continue
                 if decided is not None and st == 0:
                     done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch.dt,
@@ -588,14 +652,14 @@ def _limits(a_max: float) -> AccelLimits:
 
 
 def _obstacle_lists(
-    members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
-    rows: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
+    m: NDArray[np.int64], cols: AgentColumns, batch: SensingBatch, rows: NDArray[np.int64],
+    pos: NDArray[np.float64], rad: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
            NDArray[np.int64], NDArray[np.int64]]:
-    """The obstacles each member sees, as CSR lists (members' order): neighbours
-    (nb_start, nb_index: body indices), then the walls in its range (wall_seg (W, 2, 2) m
-    and wall_half (W,) m: every wall's ends and half-thickness; wall_start, wall_index)."""
-    m = np.asarray(members, dtype=np.int64)
+    """The obstacles each member (rows m of the agents' table) sees, as CSR lists
+    (members' order): neighbours (nb_start, nb_index: body indices), then the walls in
+    its range (wall_seg (W, 2, 2) m and wall_half (W,) m: every wall's ends and
+    half-thickness; wall_start, wall_index)."""
     nb_start, nb_index = member_lists(np.ascontiguousarray(batch.nb_start, dtype=np.int64),
                                       np.ascontiguousarray(batch.nb_index, dtype=np.int64),
                                       np.ascontiguousarray(rows[m], dtype=np.int64))
@@ -605,8 +669,8 @@ def _obstacle_lists(
     if not len(walls):
         return (nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64))
     # the walls within each member's range: distance <= range + half-thickness + grow
-    grow = rad[m] + np.array([agents[i].margin for i in members])
-    reach = np.array([agents[i].sensing_range for i in members])
+    grow = rad[m] + cols.opt[m, MARGIN]
+    reach = cols.opt[m, RANGE]
     dist = point_segment_distances(pos[m], walls)
     near = dist <= reach[:, None] + half[None, :] + grow[:, None]
     member, which = np.nonzero(near)
@@ -614,66 +678,71 @@ def _obstacle_lists(
     return nb_start, nb_index, walls, half, wall_start, which.astype(np.int64)
 
 
+def _holds(cols: AgentColumns, m: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per row of m: whether the current acceleration is an avoidance adjustment young
+    enough to keep (while admissible) even though it lies outside keep_band of the
+    desired one (:func:`~nao_arena.agents._nao_columns.young_adjustments`)."""
+    holds = np.empty(len(m), dtype=np.bool_)
+    young_adjustments(m, cols.real, cols.whole, cols.opt, holds)
+    return holds
+
+
 def _keep_current(
-    members: list[int], agents: Sequence[NAOAgent], pred: NDArray[np.float64],
+    m: NDArray[np.int64], ag0: NAOAgent, cols: AgentColumns, pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
     lists: tuple[NDArray[Any], ...] | None, nb_radius: NDArray[np.float64],
     pos: NDArray[np.float64], vel: NDArray[np.float64], rad: NDArray[np.float64],
     v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
-    a_max: NDArray[np.float64], holds: NDArray[np.bool_], margin: NDArray[np.float64],
-) -> list[int]:
-    """Per member: 1 keep the current acceleration (within keep_band of the desired one and
+    a_max: NDArray[np.float64], holds: NDArray[np.bool_],
+) -> NDArray[np.int64]:
+    """Per member (rows m of the agents' table, ag0's time grid): 1 keep the current
+    acceleration (within keep_band of the desired one, or 0 while settling, and
     admissible), 0 select anew, 2 undecided here (decide from the full path).
     lists: :func:`_obstacle_lists` (None: an irregular time grid, nothing decided here);
-    holds: per member, whether it holds a young adjustment; margin (m) per member."""
-    ag0 = agents[members[0]]
-    times = ag0.times
-    m = np.asarray(members, dtype=np.int64)
+    holds: per member, whether it holds a young adjustment."""
     status = np.zeros(len(m), dtype=np.int64)
-    band = np.array([agents[i]._band() for i in members], dtype=np.float64)
     some = keep_candidates(m, np.ascontiguousarray(current, dtype=np.float64),
                            np.ascontiguousarray(desired, dtype=np.float64),
-                           np.ascontiguousarray(a_max, dtype=np.float64), band,
+                           np.ascontiguousarray(a_max, dtype=np.float64), cols.whole, cols.opt,
                            np.ascontiguousarray(holds, dtype=np.bool_), status)
     if lists is None or some == 0:
-        return status.tolist()
+        return status
     nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
     todo = np.flatnonzero(status == 2)
     res = np.zeros(len(m), dtype=np.int64)
     sampled_admissible_batch(
-        np.ascontiguousarray(times, dtype=np.float64), pred, nb_start, nb_index,
+        np.ascontiguousarray(ag0.times, dtype=np.float64), pred, nb_start, nb_index,
         np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,
         wall_index, todo, np.ascontiguousarray(pos[m]),
         np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
-        np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]), margin,
+        np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]), cols.opt[m, MARGIN],
         excursions[0], excursions[1], res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
     tested = status == 2
     status[tested & (res == 1)] = 1
     status[tested & (res == 0)] = 0
-    return status.tolist()
-
+    return status
 
 
 def _decide(
-    members: list[int], status: list[int], agents: Sequence[NAOAgent],
+    m: NDArray[np.int64], status: NDArray[np.int64], ag0: NAOAgent, cols: AgentColumns,
     pred: NDArray[np.float64], excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
     lists: tuple[NDArray[Any], ...], nb_radius: NDArray[np.float64], pos: NDArray[np.float64],
     vel: NDArray[np.float64], rad: NDArray[np.float64], a_max: NDArray[np.float64],
     v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
-    holds: NDArray[np.bool_], margin: NDArray[np.float64],
+    holds: NDArray[np.bool_],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
     """The repairs (of the young adjustments, ``holds``) and selections of the members
-    with status 0, in one compiled call (:func:`~nao_arena.agents._nao_decide.decide`):
-    (kind, accel m/s^2, tested) per member, or None when there are none."""
-    todo = np.flatnonzero(np.asarray(status) == 0)
+    (rows m) with status 0, in one compiled call
+    (:func:`~nao_arena.agents._nao_decide.decide`): (kind, accel m/s^2, tested) per
+    member, or None when there are none."""
+    todo = np.flatnonzero(status == 0)
     if len(todo) == 0:
         return None
-    m = np.asarray(members, dtype=np.int64)
     return decide(
-        agents[members[0]].times, pred, excursions, lists, nb_radius, todo, pos[m], vel[m],
-        rad[m] + margin, a_max[m], v_max[m], holds, current[m], desired[m])
+        ag0.times, pred, excursions, lists, nb_radius, todo, pos[m], vel[m],
+        rad[m] + cols.opt[m, MARGIN], a_max[m], v_max[m], holds, current[m], desired[m])
 
 
 def _take_decision(
@@ -686,17 +755,19 @@ def _take_decision(
     traffic: whether traffic is among the robot's neighbours."""
     kind, accel, tested = decided
     kd = int(kind[j])
+    cols, r = ag._cols, ag._row
     if kd == REPAIRED:
-        ag.current = accel[j].copy()
-        return ag.current
+        cols.real[r, CUR_X:CUR_Y + 1] = accel[j]
+        return accel[j].copy()
     if kd == DESIRED or kd == ADJUSTED:
-        return ag._commit(Selection(accel[j].copy(), "desired" if kd == DESIRED else "adjusted",
-                                    None, math.inf, int(tested[j])))
+        cols.commit(r, accel[j], kd, int(tested[j]))
+        return accel[j].copy()
     if kd == INFEASIBLE:
         fallback = ag._fallback(velocity, a_max, dt, traffic)
         if fallback is not None:
-            return ag._commit(Selection(_limits(a_max).project(fallback), "infeasible", None,
-                                        math.inf, int(tested[j])))
+            chosen = _limits(a_max).project(fallback)
+            cols.commit(r, chosen, INFEASIBLE, int(tested[j]))
+            return np.array(chosen, dtype=np.float64)
     return None
 
 
@@ -721,79 +792,80 @@ def _own_state(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[
 
 
 def _group_view(
-    members: list[int], agents: Sequence[NAOAgent], batch: SensingBatch,
+    m: NDArray[np.int64], ag0: NAOAgent, cols: AgentColumns, batch: SensingBatch,
     rows_a: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
     pred: NDArray[np.float64],
-) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], tuple[NDArray[Any], ...] | None,
-           NDArray[np.float64]]:
-    """What the agents ``members`` (one predictor and time grid) decide from, given the
-    predictions ``pred`` of every body: their :func:`path_excursions`, the members'
-    :func:`_obstacle_lists` (None: an irregular time grid) and margins (m). Each member
-    keeps what it saw (:meth:`NAOAgent.last_obstacles`)."""
+) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], tuple[NDArray[Any], ...] | None]:
+    """What the agents of rows m (ag0's predictor and time grid) decide from, given the
+    predictions ``pred`` of every body: their :func:`path_excursions` and the members'
+    :func:`_obstacle_lists` (None: an irregular time grid). Each member keeps what it
+    saw (:meth:`NAOAgent.last_obstacles`)."""
     excursions = path_excursions(pred)
-    for i in members:
-        agents[i]._seen = (batch, int(rows_a[i]), pred, excursions)
-    lists = (_obstacle_lists(members, agents, batch, rows_a, pos, rad)
-             if agents[members[0]]._regular_grid() else None)
-    return excursions, lists, np.array([agents[i].margin for i in members])
+    cols.whole[m, SEEN] = len(cols.seen)
+    cols.whole[m, ROW] = rows_a[m]
+    cols.seen.append((batch, pred, excursions))
+    lists = (_obstacle_lists(m, cols, batch, rows_a, pos, rad)
+             if ag0._regular_grid() else None)
+    return excursions, lists
 
 
 def _act_rows(
     agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64]
-) -> list[NDArray[np.float64] | Exception]:
-    """:meth:`NAOAgent.act_batch` of agents that act as :class:`NAOAgent` does."""
+) -> tuple[NDArray[np.float64], dict[int, Exception]]:
+    """:meth:`NAOAgent.act_batch` of agents that act as :class:`NAOAgent` does: the
+    accelerations (n, 2) m/s^2 and, by agent, the exceptions of the robots whose step
+    raised (their rows of the accelerations are meaningless)."""
     n = len(rows_a)
-    out: list[NDArray[np.float64] | Exception | None] = [None] * n
+    cols = columns_of(agents)
+    real, whole = cols.real, cols.whole
+    errors: dict[int, Exception] = {}
     pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
     goals = batch.goals[rows_a]
-    live = [i for i, ag in enumerate(agents) if ag.replan or ag.last_selection is None]
-    if len(live) < n:
-        for i, ag in enumerate(agents):
-            if not (ag.replan or ag.last_selection is None):
-                out[i] = ag.current  # the open-loop hold
-        if not live:
-            return out  # type: ignore[return-value]
+    live = (whole[:, REPLAN] != 0) | (whole[:, STATUS] == NO_SELECTION)
+    out = real[:, CUR_X:CUR_Y + 1].copy()  # what holds (replan=False) keep
+    if not live.any():
+        return out, errors
     # liveness bookkeeping: crawling away from the goal starts a detour
-    speed = np.hypot(vel[:, 0], vel[:, 1])
-    to_goal = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1])
-    far_l = (to_goal > 4 * rad).tolist()
-    to_goal_l = to_goal.tolist()
-    crawling = (speed < 0.25 * v_max).tolist()
-    held_l = _held_by_standing(batch, rows_a, rad, goals).tolist()
-    for i in live:
-        agents[i]._detour_step(far_l[i], crawling[i], batch.dt, to_goal_l[i], held_l[i])
-        agents[i].settling = to_goal_l[i] <= agents[i].goal_zone
-        agents[i].age += batch.dt
-    desired = _desired(agents, batch, rows_a, goals, pos, vel, a_max, v_max)
-    # predictions: once per (predictor, time grid) for every body
-    groups: dict[tuple[str, bytes], list[int]] = {}
-    for i in live:
-        groups.setdefault(agents[i]._grid_key(), []).append(i)
+    held = _held_by_standing(batch, rows_a, rad, goals)
+    turn = np.empty(n, dtype=np.bool_)
+    liveness_batch(live, np.ascontiguousarray(pos), np.ascontiguousarray(vel),
+                   np.ascontiguousarray(goals, dtype=np.float64), np.ascontiguousarray(rad),
+                   np.ascontiguousarray(v_max), held, float(batch.dt), real, whole, cols.opt,
+                   turn)
+    for i in np.flatnonzero(turn).tolist():
+        agents[i]._turn_detour()
+    desired = _desired(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
     traffic_near = _traffic_near(batch, rows_a)
-    current = np.array([ag.current for ag in agents]).reshape(n, 2)
-    for members in groups.values():
-        ag0 = agents[members[0]]
+    current = real[:, CUR_X:CUR_Y + 1].copy()
+    cols.seen = []
+    # predictions: once per (predictor, time grid) for every body
+    for group in cols.grid_groups(agents):
+        m = group[live[group]]
+        if not len(m):
+            continue
+        ag0 = agents[int(m[0])]
         try:
             pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
                                         dtype=np.float64)
         except Exception as exc:  # noqa: BLE001 - the agents' failure
-            for i in members:
-                out[i] = exc
+            for i in m.tolist():
+                errors[i] = exc
             continue
-        excursions, lists, margin = _group_view(members, agents, batch, rows_a, pos, rad, pred)
-        holds = np.array([agents[i]._holds_adjustment() for i in members], dtype=bool)
-        status = _keep_current(members, agents, pred, excursions, lists, batch.radii, pos,
-                               vel, rad, v_max, current, desired, a_max, holds, margin)
-        decided = (_decide(members, status, agents, pred, excursions, lists, batch.radii,
-                           pos, vel, rad, a_max, v_max, current, desired, holds, margin)
+        excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
+        holds = _holds(cols, m)
+        status = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos, vel,
+                               rad, v_max, current, desired, a_max, holds)
+        decided = (_decide(m, status, ag0, cols, pred, excursions, lists, batch.radii, pos,
+                           vel, rad, a_max, v_max, current, desired, holds)
                    if lists is not None else None)
-        for j, (i, st) in enumerate(zip(members, status, strict=True)):
+        settled = status == 1  # kept: out holds the current acceleration
+        if decided is not None:
+            apply_decisions(m, status, *decided, real, whole, out, settled)
+        for j in np.flatnonzero(~settled).tolist():
+            i = int(m[j])
             ag = agents[i]
-            if st == 1:
-                out[i] = ag.current
-                continue
             try:
-                if decided is not None and st == 0:
+                if decided is not None and status[j] == 0:
                     done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
                                           batch.dt, bool(traffic_near[i]))
                     if done is not None:
@@ -801,10 +873,9 @@ def _act_rows(
                         continue
                 # undecided by the compiled calls: robot by robot
                 path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
-                if st == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
-                                              float(v_max[i]), path):
-                    out[i] = ag.current
-                    continue
+                if status[j] == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
+                                                     float(v_max[i]), path):
+                    continue  # kept: out holds the current acceleration
                 fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]),
                                    float(v_max[i]))
                 if fixed is not None:
@@ -813,32 +884,34 @@ def _act_rows(
                 out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
                                     float(v_max[i]), batch.dt, bool(traffic_near[i]))
             except Exception as exc:  # noqa: BLE001 - the agent's failure
-                out[i] = exc
-    _yield_to_plans(agents, out, batch, pos, vel, rad, a_max, v_max)
-    return out  # type: ignore[return-value]
+                errors[i] = exc
+    _yield_to_plans(cols, out, errors, batch, pos, vel, rad, a_max, v_max)
+    return out, errors
 
 
 def _yield_to_plans(
-    agents: Sequence[NAOAgent], out: list[NDArray[np.float64] | Exception | None],
+    cols: AgentColumns, out: NDArray[np.float64], errors: dict[int, Exception],
     batch: SensingBatch, pos: NDArray[np.float64], vel: NDArray[np.float64],
     rad: NDArray[np.float64], a_max: NDArray[np.float64], v_max: NDArray[np.float64],
 ) -> None:
     """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans`) over the robots
-    whose agents re-plan with ``stopping_plans`` and decided this step: a robot whose
-    plan would meet another's (or a wall) brakes instead; its agent commits the braking
-    acceleration as a selection of status "yielded" (written into ``out``)."""
-    group = [i for i, ag in enumerate(agents)
-             if ag.stopping_plans and ag.replan and isinstance(out[i], np.ndarray)]
-    if not group:
+    whose agents (rows of ``cols``) re-plan with ``stopping_plans`` and decided this step
+    (not in ``errors``): a robot whose plan would meet another's (or a wall) brakes
+    instead; its agent commits the braking acceleration as a selection of status
+    "yielded" (written into ``out``)."""
+    take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
+    if errors:
+        take[list(errors)] = False
+    g = np.flatnonzero(take)
+    if not len(g):
         return
-    g = np.asarray(group, dtype=np.int64)
-    chosen = np.array([out[i] for i in group], dtype=np.float64).reshape(len(group), 2)
     brake, braking = commit_plans(
-        pos[g], vel[g], chosen, rad[g], a_max[g], v_max[g], batch.dt, batch.substeps,
+        pos[g], vel[g], out[g], rad[g], a_max[g], v_max[g], batch.dt, batch.substeps,
         PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
     for j in np.flatnonzero(brake).tolist():
-        i = group[j]
-        out[i] = agents[i]._commit(Selection(braking[j].copy(), "yielded", None, math.inf, 0))
+        i = int(g[j])
+        cols.commit(i, braking[j], YIELDED, 0)
+        out[i] = braking[j]
 
 
 def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
@@ -859,13 +932,14 @@ def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
 
 
 def _desired(
-    agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64],
+    cols: AgentColumns, batch: SensingBatch, rows_a: NDArray[np.int64],
     goals: NDArray[np.float64], pos: NDArray[np.float64], vel: NDArray[np.float64],
     a_max: NDArray[np.float64], v_max: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """The goal-seeking accelerations (n, 2) m/s^2 (:func:`goal_seeking_accels`, turned by
-    each agent's detour) toward the robots' goals; a robot without a finite goal heads
-    for its route's last waypoint, or stands still without one."""
+    """The goal-seeking accelerations (n, 2) m/s^2 (:func:`goal_seeking_accels` at
+    min(v_pref, v_max), turned by each agent's detour; agents: the rows of ``cols``)
+    toward the robots' goals; a robot without a finite goal heads for its route's last
+    waypoint, or stands still without one."""
     targets = goals
     has_target = None
     lost = ~np.all(np.isfinite(goals), axis=1)
@@ -878,22 +952,22 @@ def _desired(
                 targets[i] = route[-1]
                 has_target[i] = True
     if len(batch.walls):
-        targets = _around_walls(agents, batch, rows_a, targets, pos)
-    cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
-                    for ag, v in zip(agents, v_max.tolist(), strict=True)])
-    return goal_seeking_accels(targets, pos, vel, a_max, cap, [ag.detour for ag in agents],
+        targets = _around_walls(cols, batch, rows_a, targets, pos)
+    v_pref = cols.opt[:, V_PREF]
+    cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
+    return goal_seeking_accels(targets, pos, vel, a_max, cap, cols.real[:, DETOUR],
                                has_target=has_target)
 
 
 def _around_walls(
-    agents: Sequence[NAOAgent], batch: SensingBatch, rows_a: NDArray[np.int64],
+    cols: AgentColumns, batch: SensingBatch, rows_a: NDArray[np.int64],
     targets: NDArray[np.float64], pos: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """The heading targets (n, 2) m of the robots whose agents ``navigate``: their
-    targets, or where a wall stands between, the way around it
+    """The heading targets (n, 2) m of the robots whose agents (rows of ``cols``)
+    ``navigate``: their targets, or where a wall stands between, the way around it
     (:func:`~nao_arena.navigation.route_targets`; one grid per radius + margin)."""
     radii = batch.radii[batch.bodies[rows_a]]
-    steer = [i for i, ag in enumerate(agents) if ag.navigate]
+    steer = np.flatnonzero(cols.whole[:, NAVIGATE]).tolist()
     if not steer:
         return targets
     out = np.array(targets, dtype=np.float64, copy=True)
@@ -901,14 +975,14 @@ def _around_walls(
     # the grid covers the walls (padded): the same for every robot and batch
     box = np.array([walls.reshape(-1, 2).min(axis=0), walls.reshape(-1, 2).max(axis=0)])
     groups: dict[float, list[int]] = {}
+    clearances = (radii + cols.opt[:, MARGIN]).tolist()
     for i in steer:
-        groups.setdefault(float(radii[i]) + agents[i].margin, []).append(i)
+        groups.setdefault(clearances[i], []).append(i)
     for clearance, members in groups.items():
         grid = navigation_grid(walls, batch.wall_radius, clearance, box)
         m = np.asarray(members, dtype=np.int64)
         out[m], around = route_targets(grid, pos[m], targets[m], radii[m])
-        for i, flag in zip(members, around.tolist(), strict=True):
-            agents[i].around_wall = flag
+        cols.whole[m, AROUND] = around
     return out
 
 

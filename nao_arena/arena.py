@@ -17,7 +17,8 @@ the scripted lane followers of the map's traffic and the episode's
    is recorded; traffic gets its lane followers' accelerations. Agent
    classes with a ``act_batch(agents, batch, rows)`` classmethod are asked
    once per class for all their robots (one acceleration or exception per
-   row, checked like :func:`~nao_arena.agent.safe_act`); the result must be
+   row, or an array (rows, 2) of accelerations; checked like
+   :func:`~nao_arena.agent.safe_act`); the result must be
    what ``act`` would give robot by robot;
 4. steps the world (limits enforced there);
 5. updates the statistics (swept contact check over every physics substep,
@@ -399,7 +400,11 @@ class Arena:
         by robot."""
         agents = [self.agents[k] for k in rows]
         try:
-            results = list(cls.act_batch(agents, batch, rows))
+            results = cls.act_batch(agents, batch, rows)
+            if (type(results) is np.ndarray and results.shape == (len(rows), 2)
+                    and results.dtype == np.float64 and np.all(np.isfinite(results))):
+                return results.copy(), {}  # the common case of an array of them
+            results = list(results)
             if len(results) != len(rows):
                 raise ValueError(
                     f"act_batch returned {len(results)} results for {len(rows)} agents"

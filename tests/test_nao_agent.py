@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference.goal_reference import goal_seeking_accels_reference
 
+from nao_arena.agents import _nao_columns as columns
 from nao_arena.agents._nao_decide import keep_candidates, member_lists
 from nao_arena.agents.goal import GoalAgent, goal_seeking_accel, goal_seeking_accels
 from nao_arena.agents.nao import NAOAgent, _held_by_standing
@@ -419,12 +420,16 @@ def test_keep_candidates_and_member_lists_are_their_plain_definitions(seed, n):
     current[rng.random(n) < 0.1] = np.nan
     a_max = rng.uniform(1.0, 3.0, n)
     members = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
-    band = rng.choice([0.0, 0.3], len(members))
+    whole = np.zeros((n, columns.N_WHOLE), dtype=np.int64)
+    opt = np.zeros((n, columns.N_OPT))
+    opt[:, columns.KEEP_BAND] = rng.choice([0.1, 0.3], n)
+    whole[:, columns.SETTLING] = rng.random(n) < 0.3
+    band = np.where(whole[:, columns.SETTLING] == 1, 0.0, opt[:, columns.KEEP_BAND])
     holds = rng.random(len(members)) < 0.3
     status = np.full(len(members), -7, dtype=np.int64)
-    count = keep_candidates(members, current, desired, a_max, band, holds, status)
+    count = keep_candidates(members, current, desired, a_max, whole, opt, holds, status)
     for j, i in enumerate(members.tolist()):
-        near = np.hypot(*(current[i] - desired[i])) <= band[j]
+        near = np.hypot(*(current[i] - desired[i])) <= band[i]
         inside = not np.hypot(*current[i]) > a_max[i] * (1 + 1e-9)
         assert status[j] == (2 if (near or holds[j]) and inside else 0)
     assert count == int(np.sum(status == 2))
