@@ -202,14 +202,6 @@ class NAOAgent:
     predictor_name = GridAttribute()
     predict = GridAttribute()
 
-    def __new__(cls, *args: Any, **kwargs: Any) -> NAOAgent:
-        # a table of its own from the start (a subclass may set options before __init__)
-        self = super().__new__(cls)
-        self._cols = AgentColumns(1)
-        self._row = 0
-        self._cols.members = (self,)
-        return self
-
     def __init__(
         self,
         horizon: float = 3.0,
@@ -231,6 +223,9 @@ class NAOAgent:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
                              f"got {infeasible!r}")
+        self._cols = AgentColumns(1)
+        self._row = 0
+        self._cols.members = (self,)
         self.infeasible = infeasible
         self.replan = bool(replan)
         self.reselect_after = float(reselect_after)

@@ -190,14 +190,3 @@ def test_young_adjustments_and_applied_decisions_are_their_plain_definitions(see
             assert sel.status == ("desired" if kd == DESIRED else "adjusted")
             assert sel.accel.tolist() == accel[j].tolist() and sel.evaluations == tested[j]
             assert ag.last_selection is sel  # built once
-
-
-def test_a_subclass_may_set_options_before_the_agents_own_init():
-    class Eager(NAOAgent):
-        def __init__(self) -> None:
-            self.keep_band = 0.7  # before NAOAgent.__init__: the agent has its row already
-            self.note = self.keep_band
-            super().__init__(margin=0.2)
-
-    ag = Eager()
-    assert ag.note == 0.7 and ag.keep_band == 0.3 and ag.margin == 0.2
