@@ -283,12 +283,6 @@ def detour_row(r, far, crawling, dt, to_goal, held, real, whole, opt):  # pragma
 
 
 @njit(cache=True)
-def detour_one(r, far, crawling, dt, to_goal, held, real, whole, opt):  # pragma: no cover
-    """:func:`detour_row` called from Python (one robot)."""
-    return detour_row(r, far, crawling, dt, to_goal, held, real, whole, opt)
-
-
-@njit(cache=True)
 def liveness_batch(live, positions, velocities, goals, radii, v_max, held, dt, real, whole,
                    opt, turn):  # pragma: no cover
     """One step (dt s) of the bookkeeping of the rows with ``live``: the detours

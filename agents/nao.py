@@ -119,7 +119,7 @@ from nao_arena.agents._nao_columns import (
     GridAttribute,
     OptionalSpeed,
     columns_of,
-    detour_one,
+    detour_row,
     liveness_batch,
     young_adjustments,
 )
@@ -501,7 +501,7 @@ class NAOAgent:
         to the goal (m), and held (its nearest neighbour stands still close by: only such
         time counts toward switching sides); :func:`detour_row` on the agent's row."""
         cols = self._cols
-        if detour_one(self._row, bool(far), bool(crawling), float(dt), float(to_goal),
+        if detour_row(self._row, bool(far), bool(crawling), float(dt), float(to_goal),
                       bool(held), cols.real, cols.whole, cols.opt):
             self._turn_detour()
 
