@@ -270,7 +270,7 @@ _GAP_TRIES = 8
 _PROBES = 5
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
@@ -366,6 +366,8 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
     Most circles of a crowded picture are covered entirely: a cheap proof
     (:func:`_surely_covered`) skips the exact angles for them.
     """
+    q, circ, out = borrowed(q), borrowed(circ), borrowed(out)
+    starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
     M = circ.shape[0]
     if _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, starts, ends):
         return k
@@ -497,6 +499,9 @@ def outside_advance(q, disks, a_max, covered, res, lower, order, oi, row, scale,
     far more than rounding (a point of a circle is at least its ``lower`` from q), so no
     later candidate can come before it (row >= max_out: until the end). Returns the
     position in ``order`` to resume from (len(order): nothing is left to visit)."""
+    q, disks, res, lower, order = borrowed(q), borrowed(disks), borrowed(res), borrowed(lower), \
+        borrowed(order)
+    cand, starts, ends, cover = borrowed(cand), borrowed(starts), borrowed(ends), borrowed(cover)
     M = disks.shape[0]
     max_out = res.shape[0]
     while oi < order.shape[0]:
@@ -513,12 +518,11 @@ def outside_advance(q, disks, a_max, covered, res, lower, order, oi, row, scale,
                 far = vector_norm(q[0], q[1]) + a_max
             if far < covered:
                 continue
-        if i < M:
-            k = _free_arc_points(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
-                                 a_max, cand, 0, starts, ends, cover)
-        else:
-            k = _free_arc_points(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0,
-                                 starts, ends, cover)
+        # circle i: disk i, or (i = M) the limit circle, which skips no disk
+        cx, cy, rho, skip = (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else \
+            (0.0, 0.0, a_max, -1)
+        k = _free_arc_points(cx, cy, rho, i < M, q, disks, skip, a_max, cand, 0, starts, ends,
+                             cover)
         for c in range(max(k, 0)):
             d = vector_norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:

@@ -25,7 +25,7 @@ from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.outcome import Outcome
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
             sweep, margin, buf, res, hint):
     """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
@@ -437,20 +437,33 @@ def _try_ball_disc(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w,
     """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
     whether the disks cover the whole ball). ``covered``: see
     :func:`nearest_outside_disks`."""
-    # nearest_outside_disks(a_d, disks, a_max, 8, reach, covered) tried with
-    # try_candidates_disc, each candidate as soon as it is final: the circles farther
-    # than the admissible one are never visited (same candidates, same order)
     M = disks.shape[0]
     out = np.full((8, 3), math.inf)
     lower = np.empty(M + 1)
     order, scale = outside_setup(a_d, disks, a_max, reach, out, lower)
-    cand = np.empty((2 * M + 8, 2))
-    starts = np.empty(2 * M + 4)
-    ends = np.empty(2 * M + 4)
-    cover = np.empty(_WORDS, dtype=np.uint64)
-    buf = np.empty(3)
-    res = np.empty(3)
-    hint = np.full(2, -1, dtype=np.int64)
+    return _ball_search(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b,
+                        radius, walls, wall_r, sweep, margin, covered, out, lower, order, scale,
+                        np.empty((2 * M + 8, 2)), np.empty(2 * M + 4), np.empty(2 * M + 4),
+                        np.empty(_WORDS, dtype=np.uint64), np.empty(3), np.empty(3),
+                        np.full(2, -1, dtype=np.int64))
+
+
+@njit(cache=True, error_model="numpy")
+def _ball_search(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, radius,
+                 walls, wall_r, sweep, margin, covered, out, lower, order, scale, cand, starts,
+                 ends, cover, buf, res, hint):
+    """:func:`_try_ball_disc` after :func:`outside_setup`, with its scratch arrays given
+    (borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
+    radius, sweep = borrowed(radius), borrowed(sweep)
+    walls, wall_r = borrowed(walls), borrowed(wall_r)
+    a_d, disks, v = borrowed(a_d), borrowed(disks), borrowed(v)
+    out, lower, order, cand = borrowed(out), borrowed(lower), borrowed(order), borrowed(cand)
+    starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
+    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    # nearest_outside_disks(a_d, disks, a_max, 8, reach, covered) tried with
+    # try_candidates_disc, each candidate as soon as it is final: the circles farther
+    # than the admissible one are never visited (same candidates, same order)
     count = 0
     oi = 0
     for row in range(8):
