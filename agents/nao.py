@@ -773,11 +773,26 @@ def _take_decision(
 
 def _traffic_near(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bool_]:
     """Per row: whether traffic is among the robot's neighbours."""
-    is_traffic = batch.kinds == "traffic"
-    if not np.any(is_traffic):
+    is_traffic = _traffic_mask(batch.kinds)
+    if is_traffic is None:
         return np.zeros(len(rows), dtype=bool)
     seen = np.concatenate([[0], np.cumsum(is_traffic[batch.nb_index])])
     return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
+
+
+_TRAFFIC_MASK: list[Any] = [None, None]  # the last read-only kinds array and its mask
+
+
+def _traffic_mask(kinds: NDArray[np.str_]) -> NDArray[np.bool_] | None:
+    """Per body: whether it is traffic (None: no body is); worked out once per read-only
+    kinds array that owns its data (the arena's, which every step's batch shares)."""
+    if kinds is _TRAFFIC_MASK[0]:
+        return _TRAFFIC_MASK[1]
+    mask = kinds == "traffic"
+    found = mask if mask.any() else None
+    if not kinds.flags.writeable and kinds.base is None:
+        _TRAFFIC_MASK[:] = [kinds, found]
+    return found
 
 
 def _own_state(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[
@@ -942,8 +957,8 @@ def _desired(
     waypoint, or stands still without one."""
     targets = goals
     has_target = None
-    lost = ~np.all(np.isfinite(goals), axis=1)
-    if np.any(lost):
+    if not np.isfinite(goals).all():
+        lost = ~np.all(np.isfinite(goals), axis=1)
         targets = goals.copy()
         has_target = ~lost
         for i in np.flatnonzero(lost).tolist():

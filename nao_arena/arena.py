@@ -299,7 +299,9 @@ class Arena:
         plans[self.robot_ids] = clip_accelerations(self.commanded[self.robot_ids],
                                                    self._robot_a_max)
         if self._kinds is None:
-            self._kinds = read_only(np.array(self.world.kinds))
+            kinds = np.array(self.world.kinds)
+            kinds.setflags(write=False)  # read-only and owning its data: agents may cache by it
+            self._kinds = kinds
         start, index = neighbour_lists(
             self.robot_ids, state.positions, self.sensing_range, self.max_neighbours,
         )

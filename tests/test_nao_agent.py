@@ -462,3 +462,31 @@ def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach(
     np.testing.assert_array_equal(whole.radius, [0.75, 0.75])
     np.testing.assert_array_equal(whole.wall_radius, [0.5, 0.5, 0.5])
     assert obstacle_paths(times, np.zeros((0, 3, 2)), np.zeros(0), position).n_obstacles == 0
+
+
+def test_traffic_near_follows_each_kinds_array_even_when_remembered():
+    """_traffic_near reads each batch's kinds: the mask remembered for the arena's
+    read-only kinds array is never served for another array, a writable one, or one
+    that was changed (a copy with other kinds)."""
+    from types import SimpleNamespace
+
+    from nao_arena.agents.nao import _traffic_near
+
+    def batch(kinds: np.ndarray) -> SimpleNamespace:
+        # robot 0 sees body 1, robot 1 sees body 2
+        return SimpleNamespace(kinds=kinds, nb_start=np.array([0, 1, 2]),
+                               nb_index=np.array([1, 2]))
+
+    rows = np.array([0, 1])
+    owned = np.array(["robot", "traffic", "robot"])
+    owned.setflags(write=False)
+    other = np.array(["robot", "robot", "traffic"])
+    other.setflags(write=False)
+    writable = np.array(["robot", "robot", "robot"], dtype="<U7")
+    for _ in range(2):  # twice: the second round is served from what was remembered
+        assert _traffic_near(batch(owned), rows).tolist() == [True, False]
+        assert _traffic_near(batch(other), rows).tolist() == [False, True]
+        assert _traffic_near(batch(writable), rows).tolist() == [False, False]
+        writable[1] = "traffic"
+        assert _traffic_near(batch(writable), rows).tolist() == [True, False]
+        writable[1] = "robot"
