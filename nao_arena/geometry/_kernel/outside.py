@@ -270,6 +270,7 @@ _GAP_TRIES = 8
 _PROBES = 5
 
 
+# inlined into its one caller, _free_arc_points (once per circle visited)
 @njit(cache=True, error_model="numpy", inline="always")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`

@@ -25,6 +25,8 @@ from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.outcome import Outcome
 
 
+# inlined into the searches: a call would count references to its eleven arrays, once
+# per candidate (see nao_arena.geometry.borrow)
 @njit(cache=True, error_model="numpy", inline="always")
 def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
             sweep, margin, buf, res, hint):
