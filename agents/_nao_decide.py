@@ -48,8 +48,8 @@ from nao_arena.geometry.selection import (
     _unit_rings,
 )
 
-__all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "apply_decisions",
-           "decide",
+__all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "apply_braking",
+           "apply_decisions", "decide",
            "decide_batch", "keep_candidates", "member_lists", "ring_radii_rows"]
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
@@ -219,6 +219,45 @@ def apply_decisions(members, status, kind, accel, tested, real, whole, out, sett
             continue
         out[i, 0] = accel[j, 0]
         out[i, 1] = accel[j, 1]
+        settled[j] = True
+
+
+@njit(cache=True)
+def apply_braking(members, status, kind, tested, brakes, vel, a_max, dt, real, whole, out,
+                  settled):
+    """For the members j with status[j] 0 whose :func:`decide` outcome is INFEASIBLE and
+    whose fallback is braking (brakes[j]): what :meth:`NAOAgent._fallback` and
+    ``AccelLimits(a_max).project`` give, braking towards standing still within dt (s)
+    from velocity vel[i] (m/s), committed as a selection of status INFEASIBLE into row
+    members[j] = i of the agents' table and of ``out`` (n, 2) m/s^2; settled[j] = True
+    for each of them (same operations)."""
+    for j in range(members.shape[0]):
+        if status[j] != 0 or kind[j] != INFEASIBLE or not brakes[j]:
+            continue
+        i = members[j]
+        speed = math.hypot(vel[i, 0], vel[i, 1])
+        x = 0.0
+        y = 0.0
+        if speed != 0.0:
+            f = -min(a_max[i], speed / dt) / speed
+            x = vel[i, 0] * f
+            y = vel[i, 1] * f
+        # onto the limit disc, as AccelLimits.project does it (its norm is at most a_max
+        # up to rounding, so the scale is never subnormal)
+        x = x if math.isfinite(x) else 0.0
+        y = y if math.isfinite(y) else 0.0
+        norm = math.hypot(x, y)
+        if not norm <= a_max[i]:
+            scale = a_max[i] / norm
+            x, y = x * scale, y * scale
+        real[i, CUR_X] = real[i, SEL_X] = x
+        real[i, CUR_Y] = real[i, SEL_Y] = y
+        real[i, AGE] = 0.0
+        whole[i, STATUS] = INFEASIBLE
+        whole[i, TESTED] = tested[j]
+        whole[i, CACHED] = 0
+        out[i, 0] = x
+        out[i, 1] = y
         settled[j] = True
 
 

@@ -128,6 +128,7 @@ from nao_arena.agents._nao_decide import (
     DESIRED,
     INFEASIBLE,
     REPAIRED,
+    apply_braking,
     apply_decisions,
     decide,
     keep_candidates,
@@ -376,8 +377,9 @@ class NAOAgent:
     ) -> NDArray[np.float64] | None:
         """The acceleration (m/s^2) taken when nothing is admissible: braking towards
         standing still within one step dt (s), or None: the one that postpones contact
-        longest (see ``infeasible``)."""
-        if self.infeasible == "brake" or (self.infeasible == "auto" and not traffic):
+        longest (see ``infeasible``). (:func:`~nao_arena.agents._nao_decide.apply_braking`
+        does the same for many robots.)"""
+        if _brakes_when_infeasible(self, traffic):
             speed = float(np.hypot(*velocity))
             return (np.zeros(2) if speed == 0.0
                     else velocity * (-min(a_max, speed / dt) / speed))
@@ -745,6 +747,12 @@ def _decide(
         rad[m] + cols.opt[m, MARGIN], a_max[m], v_max[m], holds, current[m], desired[m])
 
 
+def _brakes_when_infeasible(agent: NAOAgent, traffic: bool) -> bool:
+    """Whether the agent brakes when nothing is admissible (``infeasible``), with
+    (``traffic``) or without non-reactive traffic among its neighbours."""
+    return agent.infeasible == "brake" or (agent.infeasible == "auto" and not traffic)
+
+
 def _take_decision(
     ag: NAOAgent, decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]],
     j: int, velocity: NDArray[np.float64], a_max: float, dt: float, traffic: bool,
@@ -876,6 +884,11 @@ def _act_rows(
         settled = status == 1  # kept: out holds the current acceleration
         if decided is not None:
             apply_decisions(m, status, *decided, real, whole, out, settled)
+            if (decided[0] == INFEASIBLE).any():
+                brakes = np.array([_brakes_when_infeasible(agents[i], bool(traffic_near[i]))
+                                   for i in m.tolist()])
+                apply_braking(m, status, decided[0], decided[2], brakes, vel, a_max,
+                              float(batch.dt), real, whole, out, settled)
         for j in np.flatnonzero(~settled).tolist():
             i = int(m[j])
             ag = agents[i]

@@ -14,8 +14,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nao_arena.agents import _nao_columns as columns
-from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED, apply_decisions
-from nao_arena.agents.nao import NAOAgent, _holds
+from nao_arena.agents._nao_decide import (
+    ADJUSTED,
+    DESIRED,
+    INFEASIBLE,
+    REPAIRED,
+    apply_braking,
+    apply_decisions,
+)
+from nao_arena.agents.nao import NAOAgent, _brakes_when_infeasible, _holds, _take_decision
 from nao_arena.geometry.selection import Selection
 
 STATE = ("age", "crawl_time", "free_time", "detour", "detour_turns", "side", "best_distance",
@@ -190,3 +197,51 @@ def test_young_adjustments_and_applied_decisions_are_their_plain_definitions(see
             assert sel.status == ("desired" if kd == DESIRED else "adjusted")
             assert sel.accel.tolist() == accel[j].tolist() and sel.evaluations == tested[j]
             assert ag.last_selection is sel  # built once
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 8))
+def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
+    """apply_braking does for many robots what _take_decision does robot by robot for an
+    INFEASIBLE outcome (the agent's _fallback, AccelLimits.project, the commit): the
+    same accelerations bit for bit, the same selections, and nothing for the members it
+    must leave alone (status not 0, another outcome, a fallback that is not braking)."""
+    rng = np.random.default_rng(seed)
+    group, twins = agents(n, seed % 1000), agents(n, seed % 1000)
+    for ag, tw in zip(group, twins, strict=True):  # what a commit changes: alike
+        scramble(ag, rng)
+        tw.age, tw.current, tw.last_selection = ag.age, ag.current, ag.last_selection
+    table = columns.columns_of(group)
+    m = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
+    status = rng.choice([0, 0, 1, 2], len(m)).astype(np.int64)
+    kind = rng.choice([INFEASIBLE, INFEASIBLE, ADJUSTED, -1], len(m)).astype(np.int64)
+    tested = rng.integers(0, 50, len(m)).astype(np.int64)
+    traffic = rng.random(len(m)) < 0.3
+    for i in m.tolist():
+        group[i].infeasible = twins[i].infeasible = str(
+            rng.choice(["brake", "auto", "latest_contact"]))
+    # speeds from standing still to far beyond the limits; a_max down to subnormal
+    vel = rng.normal(size=(n, 2)) * rng.choice([0.0, 1e-300, 1.0, 1e300], size=(n, 1))
+    a_max = rng.choice([2.0, 0.5, 1e-310], n)
+    dt = 0.1
+    brakes = np.array([_brakes_when_infeasible(group[i], bool(traffic[j]))
+                       for j, i in enumerate(m.tolist())])
+    out = rng.normal(size=(n, 2))
+    expected = out.copy()
+    settled = np.zeros(len(m), dtype=np.bool_)
+    apply_braking(m, status, kind, tested, brakes, vel, a_max, dt, table.real, table.whole,
+                  out, settled)
+    decided = (kind, np.zeros((len(m), 2)), tested)
+    for j, i in enumerate(m.tolist()):
+        acted = status[j] == 0 and kind[j] == INFEASIBLE and brakes[j]
+        assert settled[j] == acted
+        done = (_take_decision(twins[i], decided, j, vel[i], float(a_max[i]), dt,
+                               bool(traffic[j])) if acted else None)
+        if done is not None:
+            expected[i] = done
+        ag, tw = group[i], twins[i]
+        assert out[i].tobytes() == expected[i].tobytes()
+        assert ag.current.tobytes() == tw.current.tobytes() and ag.age == tw.age
+        sel, tsel = ag.last_selection, tw.last_selection
+        assert (sel.status, sel.accel.tobytes(), sel.evaluations) == (
+            tsel.status, tsel.accel.tobytes(), tsel.evaluations)
