@@ -101,9 +101,11 @@ class AgentColumns:
             self.whole[i, SEEN] = len(self.seen)
             self.seen.append(src.seen[view])
 
-    def commit(self, r: int, accel: NDArray[np.float64], status: int, tested: int) -> None:
+    def commit(self, r: int | NDArray[np.int64], accel: NDArray[np.float64], status: int,
+               tested: int) -> None:
         """A full selection (status code, candidates tested) of ``accel`` (2,) m/s^2 for
-        row r: it becomes the current acceleration and its age restarts."""
+        row r (or of accel (k, 2) for the rows r (k,)): it becomes the current
+        acceleration and its age restarts."""
         self.real[r, SEL_X:SEL_Y + 1] = accel
         self.real[r, CUR_X:CUR_Y + 1] = accel
         self.real[r, AGE] = 0.0

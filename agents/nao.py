@@ -936,10 +936,10 @@ def _yield_to_plans(
     brake, braking = commit_plans(
         pos[g], vel[g], out[g], rad[g], a_max[g], v_max[g], batch.dt, batch.substeps,
         PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
-    for j in np.flatnonzero(brake).tolist():
-        i = int(g[j])
-        cols.commit(i, braking[j], YIELDED, 0)
-        out[i] = braking[j]
+    if brake.any():
+        yielding = g[brake]
+        cols.commit(yielding, braking[brake], YIELDED, 0)
+        out[yielding] = braking[brake]
 
 
 def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
