@@ -711,20 +711,23 @@ def _keep_current(
         return status
     nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
     todo = np.flatnonzero(status == 2)
-    res = np.zeros(len(m), dtype=np.int64)
+    res = np.full(len(m), -1, dtype=np.int64)
+    f = np.ascontiguousarray
     sampled_admissible_batch(
-        np.ascontiguousarray(ag0.times, dtype=np.float64), pred, nb_start, nb_index,
-        np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,
-        wall_index, todo, np.ascontiguousarray(pos[m]),
-        np.ascontiguousarray(vel[m]), np.ascontiguousarray(current[m]),
-        np.ascontiguousarray(v_max[m]), np.ascontiguousarray(rad[m]), cols.opt[m, MARGIN],
-        excursions[0], excursions[1], res,
+        f(ag0.times, dtype=np.float64), pred, nb_start, nb_index, f(nb_radius), wall_seg,
+        wall_half, wall_start, wall_index, todo, *_members((pos, vel, current, v_max, rad), m),
+        cols.opt[m, MARGIN], excursions[0], excursions[1], res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
-    tested = status == 2
-    status[tested & (res == 1)] = 1
-    status[tested & (res == 0)] = 0
+    status[todo] = np.where(res[todo] == 1, 1, np.where(res[todo] == 0, 0, 2))
     return status
+
+
+def _members(arrays: tuple[NDArray[Any], ...], m: NDArray[np.int64]) -> list[NDArray[Any]]:
+    """The rows m of each array (contiguous; the arrays themselves, when contiguous and m
+    takes every row in order)."""
+    every = all(len(m) == len(a) for a in arrays)  # m: distinct rows in order, so all
+    return [np.ascontiguousarray(a) if every else np.ascontiguousarray(a[m]) for a in arrays]
 
 
 def _decide(
@@ -934,7 +937,7 @@ def _yield_to_plans(
     if not len(g):
         return
     brake, braking = commit_plans(
-        pos[g], vel[g], out[g], rad[g], a_max[g], v_max[g], batch.dt, batch.substeps,
+        *_members((pos, vel, out, rad, a_max, v_max), g), batch.dt, batch.substeps,
         PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
     if brake.any():
         yielding = g[brake]
