@@ -693,3 +693,45 @@ def test_liveness_in_the_arena_summary() -> None:
         assert r["final_goal_distance"] is not None and r["final_goal_distance"] >= 0
         assert r["stuck_time"] >= 0 and r["time_away_after_arrival"] >= 0
         assert r["timed_out"] == (not r["reached_goal"])
+
+
+def _liveness_reference(dt, p1, goals, goal, robots, reached, goal_dist, slot, progress,
+                        time_away, stuck_time):
+    """The liveness bookkeeping as numpy operations (the recorder's former code)."""
+    at_goal = goal & robots
+    time_away = time_away + dt * (reached & ~goal & robots)
+    dist = np.hypot(p1[:, 0] - goals[:, 0], p1[:, 1] - goals[:, 1])
+    before = goal_dist[slot].copy()
+    away = robots & ~goal
+    stuck = away & (before - dist < progress)
+    goal_dist = goal_dist.copy()
+    goal_dist[slot] = dist
+    stuck_time = stuck_time + dt * stuck
+    deadlocked = bool(away.any() and (stuck == away).all())
+    return at_goal, time_away, goal_dist, stuck_time, deadlocked
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 7))
+def test_liveness_kernel_is_the_numpy_bookkeeping_bit_for_bit(seed, n) -> None:
+    from nao_arena.stats.kernel import liveness_kernel
+
+    rng = np.random.default_rng(seed)
+    window = int(rng.integers(1, 4))
+    p1 = rng.normal(size=(n, 2)) * 3
+    goals = p1 + rng.normal(size=(n, 2)) * rng.choice([0.0, 0.05, 1.0], size=(n, 1))
+    goals[rng.random(n) < 0.2] = np.nan  # traffic: no goal
+    goal, robots, reached = (rng.random(n) < q for q in (0.4, 0.8, 0.5))
+    goal_dist = rng.normal(size=(window, n)) + 1.0
+    goal_dist[rng.random((window, n)) < 0.3] = np.nan  # too early
+    slot = int(rng.integers(0, window))
+    time_away, stuck_time = rng.random(n), rng.random(n)
+    expected = _liveness_reference(0.1, p1, goals, goal, robots, reached, goal_dist, slot,
+                                   0.1, time_away, stuck_time)
+    at_goal = np.zeros(n, dtype=bool)
+    deadlocked = liveness_kernel(0.1, p1, goals, goal, robots, reached, goal_dist, slot, 0.1,
+                                 at_goal, time_away, stuck_time)
+    got = (at_goal, time_away, goal_dist, stuck_time, deadlocked)
+    for g, e in zip(got[:4], expected[:4], strict=True):
+        assert g.tobytes() == e.tobytes()
+    assert got[4] == expected[4]

@@ -477,3 +477,38 @@ def step_kernel(
             prox_contact[i, j] = had and keep
             n_prox += keep
     return codes[:ne], vals[:ne], n_prox
+
+
+@njit(cache=True, error_model="numpy")
+def liveness_kernel(
+    dt: float, p1: FloatArray, goals: FloatArray, goal: NDArray[np.bool_],
+    robots: NDArray[np.bool_], reached: NDArray[np.bool_], goal_dist: FloatArray, slot: int,
+    stuck_progress: float, at_goal: NDArray[np.bool_], time_away: FloatArray,
+    stuck_time: FloatArray,
+) -> bool:
+    """The liveness bookkeeping of one step of dt (s) that ends with the bodies at p1
+    (N, 2) m, goal[i] within the goal tolerance, for the robots: at_goal (written),
+    time_away (s, added to: reached before and not at the goal now), and, with goals
+    (N, 2) m (empty: none): the distance to the goal written into goal_dist[slot] (the
+    ring of distances one stuck window apart), stuck_time (s, added to: away from the goal
+    and not stuck_progress m closer than one window ago). Returns whether every robot
+    away from its goal is stuck (and one is)."""
+    n = p1.shape[0]
+    for i in range(n):
+        at_goal[i] = goal[i] and robots[i]
+        if reached[i] and not goal[i] and robots[i]:
+            time_away[i] += dt
+    if goals.shape[0] == 0:
+        return False
+    some_away = False
+    all_stuck = True
+    for i in range(n):
+        dist = math.hypot(p1[i, 0] - goals[i, 0], p1[i, 1] - goals[i, 1])
+        away = robots[i] and not goal[i]
+        stuck = away and goal_dist[slot, i] - dist < stuck_progress
+        goal_dist[slot, i] = dist
+        if stuck:
+            stuck_time[i] += dt
+        some_away = some_away or away
+        all_stuck = all_stuck and stuck == away
+    return some_away and all_stuck

@@ -15,6 +15,7 @@ from nao_arena.stats.events import first_disc_touch, first_touching_substep, fir
 from nao_arena.stats.kernel import (
     EV_DEEPER,
     EV_START,
+    liveness_kernel,
     new_depth_map,
     step_kernel,
     swept_distances,
@@ -31,6 +32,8 @@ from nao_arena.stats.records import (
 __all__ = ["EpisodeStats"]
 
 FloatArray = NDArray[np.float64]
+
+_NO_GOALS = np.zeros((0, 2))  # no goals: only the arrival bookkeeping
 IntArray = NDArray[np.intp]
 
 
@@ -200,19 +203,13 @@ class EpisodeStats:
     def _liveness(self, t: float, p1: FloatArray, goal: NDArray[np.bool_]) -> None:
         """Stuck, away-after-arrival and deadlock time of the step that ends at t + dt
         (after the kernel marked new arrivals)."""
-        robots = self.is_robot
-        self.at_goal = goal & robots
-        self.time_away += self.dt * (self.reached & ~goal & robots)
-        if self._goals is None:
-            return
-        dist = np.hypot(p1[:, 0] - self._goals[:, 0], p1[:, 1] - self._goals[:, 1])
-        slot = self.steps % self._window
-        before = self._goal_dist[slot]  # the distance one window ago (NaN: too early)
-        away = robots & ~goal
-        stuck = away & (before - dist < self.config.stuck_progress)
-        self._goal_dist[slot] = dist
-        self.stuck_time += self.dt * stuck
-        if away.any() and (stuck == away).all():  # every robot away from its goal is stuck
+        # the distances one window ago are NaN at first (too early: not stuck)
+        deadlocked = liveness_kernel(
+            self.dt, np.ascontiguousarray(p1, dtype=np.float64),
+            _NO_GOALS if self._goals is None else self._goals, goal, self.is_robot,
+            self.reached, self._goal_dist, self.steps % self._window,
+            float(self.config.stuck_progress), self.at_goal, self.time_away, self.stuck_time)
+        if deadlocked:  # every robot away from its goal is stuck
             self.deadlock_duration += self.dt
             if math.isnan(self.deadlock_time):
                 self.deadlock_time = t + self.dt
