@@ -32,9 +32,9 @@ from nao_arena.stats.records import (
 __all__ = ["EpisodeStats"]
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
 
 _NO_GOALS = np.zeros((0, 2))  # no goals: only the arrival bookkeeping
-IntArray = NDArray[np.intp]
 
 
 def _c_array(x: ArrayLike, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
