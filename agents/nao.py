@@ -791,18 +791,22 @@ def _traffic_near(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bo
     return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
 
 
-_TRAFFIC_MASK: list[Any] = [None, None]  # the last read-only kinds array and its mask
+# the last read-only kinds array and its traffic mask, replaced as one tuple (threads
+# stepping other arenas see one pair or the other, never a mix)
+_traffic_seen: tuple[Any, Any] = (None, None)
 
 
 def _traffic_mask(kinds: NDArray[np.str_]) -> NDArray[np.bool_] | None:
     """Per body: whether it is traffic (None: no body is); worked out once per read-only
     kinds array that owns its data (the arena's, which every step's batch shares)."""
-    if kinds is _TRAFFIC_MASK[0]:
-        return _TRAFFIC_MASK[1]
+    global _traffic_seen
+    seen_kinds, seen_mask = _traffic_seen
+    if kinds is seen_kinds:
+        return seen_mask
     mask = kinds == "traffic"
     found = mask if mask.any() else None
     if not kinds.flags.writeable and kinds.base is None:
-        _TRAFFIC_MASK[:] = [kinds, found]
+        _traffic_seen = (kinds, found)
     return found
 
 
