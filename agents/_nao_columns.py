@@ -48,7 +48,8 @@ SEEN = 5  # which of the table's ``seen`` views the last step saw (-1: none)
 ROW = 6  # the robot's row in that view's batch
 REPLAN, NAVIGATE, STOPPING = 7, 8, 9  # options (0/1)
 CACHED = 10  # 1: the table's ``selections`` entry is the row's last full selection
-N_WHOLE = 11
+FALLBACK = 11  # option ``infeasible``: its index in FALLBACKS
+N_WHOLE = 12
 
 # option (float64) columns
 MARGIN = 0  # m
@@ -64,6 +65,9 @@ N_OPT = 8
 #: the statuses of a full selection, by their codes in the STATUS column (the first
 #: three are :class:`~nao_arena.geometry.outcome.Outcome` DESIRED, ADJUSTED, INFEASIBLE)
 SELECTION_LABELS: tuple[str, ...] = ("desired", "adjusted", "infeasible", "yielded")
+#: the ``infeasible`` options, by their codes in the FALLBACK column
+FALLBACKS: tuple[str, ...] = ("auto", "brake", "latest_contact")
+AUTO, BRAKE = 0, 1
 NO_SELECTION = -1
 ADJUSTED_SELECTION = 1
 YIELDED = 3
@@ -198,6 +202,25 @@ class OptionalSpeed(Column):
         if value is not None and math.isnan(float(value)):
             raise ValueError("v_pref: expected a speed (m/s) or None, got NaN")
         ag._cols.opt[ag._row, self.index] = math.nan if value is None else float(value)
+
+
+class Choice(Column):
+    """An option that is one of ``labels`` (stored as its index in the whole table)."""
+
+    def __init__(self, index: int, labels: tuple[str, ...], name: str) -> None:
+        super().__init__("whole", index, int)
+        self.labels, self.name = labels, name
+
+    def __get__(self, ag: Any, owner: type | None = None) -> Any:
+        if ag is None:
+            return self
+        return self.labels[int(ag._cols.whole[ag._row, self.index])]
+
+    def __set__(self, ag: Any, value: Any) -> None:
+        if value not in self.labels:
+            raise ValueError(f"{self.name}: expected one of "
+                             f"{', '.join(repr(v) for v in self.labels)}, got {value!r}")
+        ag._cols.whole[ag._row, self.index] = self.labels.index(value)
 
 
 class Acceleration:

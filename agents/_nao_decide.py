@@ -21,9 +21,12 @@ from numpy.typing import NDArray
 
 from nao_arena.agents._nao_columns import (
     AGE,
+    AUTO,
+    BRAKE,
     CACHED,
     CUR_X,
     CUR_Y,
+    FALLBACK,
     KEEP_BAND,
     SEL_X,
     SEL_Y,
@@ -223,18 +226,22 @@ def apply_decisions(members, status, kind, accel, tested, real, whole, out, sett
 
 
 @njit(cache=True)
-def apply_braking(members, status, kind, tested, brakes, vel, a_max, dt, real, whole, out,
+def apply_braking(members, status, kind, tested, traffic, vel, a_max, dt, real, whole, out,
                   settled):
     """For the members j with status[j] 0 whose :func:`decide` outcome is INFEASIBLE and
-    whose fallback is braking (brakes[j]): what :meth:`NAOAgent._fallback` and
+    whose fallback is braking (option ``infeasible`` "brake", or "auto" without traffic
+    among the neighbours, traffic[i]): what :meth:`NAOAgent._fallback` and
     ``AccelLimits(a_max).project`` give, braking towards standing still within dt (s)
     from velocity vel[i] (m/s), committed as a selection of status INFEASIBLE into row
     members[j] = i of the agents' table and of ``out`` (n, 2) m/s^2; settled[j] = True
     for each of them (same operations)."""
     for j in range(members.shape[0]):
-        if status[j] != 0 or kind[j] != INFEASIBLE or not brakes[j]:
+        if status[j] != 0 or kind[j] != INFEASIBLE:
             continue
         i = members[j]
+        mode = whole[i, FALLBACK]
+        if not (mode == BRAKE or (mode == AUTO and not traffic[i])):
+            continue
         speed = math.hypot(vel[i, 0], vel[i, 1])
         x = 0.0
         y = 0.0

@@ -199,6 +199,7 @@ class NAOAgent:
     switch_side_after = Column("opt", col.SWITCH_AFTER)
     sensing_range = Column("opt", RANGE)
     v_pref = OptionalSpeed("opt", V_PREF)
+    infeasible = col.Choice(col.FALLBACK, col.FALLBACKS, "infeasible")
     times = GridAttribute()
     predictor_name = GridAttribute()
     predict = GridAttribute()
@@ -891,11 +892,8 @@ def _act_rows(
         settled = status == 1  # kept: out holds the current acceleration
         if decided is not None:
             apply_decisions(m, status, *decided, real, whole, out, settled)
-            if (decided[0] == INFEASIBLE).any():
-                brakes = np.array([_brakes_when_infeasible(agents[i], bool(traffic_near[i]))
-                                   for i in m.tolist()])
-                apply_braking(m, status, decided[0], decided[2], brakes, vel, a_max,
-                              float(batch.dt), real, whole, out, settled)
+            apply_braking(m, status, decided[0], decided[2], traffic_near, vel, a_max,
+                          float(batch.dt), real, whole, out, settled)
         for j in np.flatnonzero(~settled).tolist():
             i = int(m[j])
             ag = agents[i]

@@ -10,6 +10,7 @@ import math
 import pickle
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -205,7 +206,8 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
     """apply_braking does for many robots what _take_decision does robot by robot for an
     INFEASIBLE outcome (the agent's _fallback, AccelLimits.project, the commit): the
     same accelerations bit for bit, the same selections, and nothing for the members it
-    must leave alone (status not 0, another outcome, a fallback that is not braking)."""
+    must leave alone (status not 0, another outcome, a fallback that is not braking: the
+    option read from the table, with traffic near or not)."""
     rng = np.random.default_rng(seed)
     group, twins = agents(n, seed % 1000), agents(n, seed % 1000)
     for ag, tw in zip(group, twins, strict=True):  # what a commit changes: alike
@@ -216,7 +218,7 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
     status = rng.choice([0, 0, 1, 2], len(m)).astype(np.int64)
     kind = rng.choice([INFEASIBLE, INFEASIBLE, ADJUSTED, -1], len(m)).astype(np.int64)
     tested = rng.integers(0, 50, len(m)).astype(np.int64)
-    traffic = rng.random(len(m)) < 0.3
+    traffic = rng.random(n) < 0.3  # per robot (row of the table)
     for i in m.tolist():
         group[i].infeasible = twins[i].infeasible = str(
             rng.choice(["brake", "auto", "latest_contact"]))
@@ -224,19 +226,18 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
     vel = rng.normal(size=(n, 2)) * rng.choice([0.0, 1e-300, 1.0, 1e300], size=(n, 1))
     a_max = rng.choice([2.0, 0.5, 1e-310], n)
     dt = 0.1
-    brakes = np.array([_brakes_when_infeasible(group[i], bool(traffic[j]))
-                       for j, i in enumerate(m.tolist())])
     out = rng.normal(size=(n, 2))
     expected = out.copy()
     settled = np.zeros(len(m), dtype=np.bool_)
-    apply_braking(m, status, kind, tested, brakes, vel, a_max, dt, table.real, table.whole,
+    apply_braking(m, status, kind, tested, traffic, vel, a_max, dt, table.real, table.whole,
                   out, settled)
     decided = (kind, np.zeros((len(m), 2)), tested)
     for j, i in enumerate(m.tolist()):
-        acted = status[j] == 0 and kind[j] == INFEASIBLE and brakes[j]
+        acted = (status[j] == 0 and kind[j] == INFEASIBLE
+                 and _brakes_when_infeasible(twins[i], bool(traffic[i])))
         assert settled[j] == acted
         done = (_take_decision(twins[i], decided, j, vel[i], float(a_max[i]), dt,
-                               bool(traffic[j])) if acted else None)
+                               bool(traffic[i])) if acted else None)
         if done is not None:
             expected[i] = done
         ag, tw = group[i], twins[i]
@@ -245,3 +246,18 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
         sel, tsel = ag.last_selection, tw.last_selection
         assert (sel.status, sel.accel.tobytes(), sel.evaluations) == (
             tsel.status, tsel.accel.tobytes(), tsel.evaluations)
+
+
+def test_the_infeasible_option_is_a_checked_column():
+    group = agents(3)
+    table = columns.columns_of(group)
+    for ag, label in zip(group, ("brake", "latest_contact", "auto"), strict=True):
+        ag.infeasible = label
+    assert [ag.infeasible for ag in group] == ["brake", "latest_contact", "auto"]
+    assert table.whole[:, columns.FALLBACK].tolist() == [
+        columns.FALLBACKS.index(v) for v in ("brake", "latest_contact", "auto")]
+    with pytest.raises(ValueError, match="infeasible"):
+        group[0].infeasible = "swerve"
+    assert group[0].infeasible == "brake"
+    assert copy.deepcopy(group[1]).infeasible == "latest_contact"
+    assert NAOAgent(infeasible="brake").infeasible == "brake"
