@@ -142,9 +142,22 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
 
 def ring_radii_rows(a_max: NDArray[np.float64]) -> NDArray[np.float64]:
     """Per robot, the radii (m/s^2) of the fallback rings of limit a_max (m/s^2), as
-    :func:`~nao_arena.geometry.selection._ring_radii` gives them (same values): (n, rings)."""
-    span = 2.0 * np.maximum(np.asarray(a_max, dtype=np.float64), 1e-12)
-    return np.ascontiguousarray(span[:, None] * 0.5 ** np.arange(_RINGS - 1, -1, -1))
+    :func:`~nao_arena.geometry.selection._ring_radii` gives them (same values): (n, rings).
+    The last limits' radii are remembered (a batch's limits rarely change; not to be
+    modified)."""
+    global _last_radii
+    a = np.ascontiguousarray(a_max, dtype=np.float64)
+    key = a.tobytes()
+    seen_key, seen_radii = _last_radii
+    if key == seen_key:
+        return seen_radii
+    span = 2.0 * np.maximum(a, 1e-12)
+    radii = np.ascontiguousarray(span[:, None] * 0.5 ** np.arange(_RINGS - 1, -1, -1))
+    _last_radii = (key, radii)
+    return radii
+
+
+_last_radii: tuple[bytes, NDArray[np.float64]] = (b"", np.zeros((0, _RINGS)))
 
 
 def decide(

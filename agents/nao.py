@@ -746,9 +746,9 @@ def _decide(
     todo = np.flatnonzero(status == 0)
     if len(todo) == 0:
         return None
-    return decide(
-        ag0.times, pred, excursions, lists, nb_radius, todo, pos[m], vel[m],
-        rad[m] + cols.opt[m, MARGIN], a_max[m], v_max[m], holds, current[m], desired[m])
+    p, v, r, a, s, c, d = _members((pos, vel, rad, a_max, v_max, current, desired), m)
+    return decide(ag0.times, pred, excursions, lists, nb_radius, todo, p, v,
+                  r + cols.opt[m, MARGIN], a, s, holds, c, d)
 
 
 def _brakes_when_infeasible(agent: NAOAgent, traffic: bool) -> bool:
