@@ -154,6 +154,18 @@ class AgentColumns:
         return self._grid_groups[1]
 
 
+@njit(cache=True, inline="always")
+def commit_row(real, whole, i, x, y, status, tested):  # pragma: no cover
+    """:meth:`AgentColumns.commit` of the acceleration (x, y) m/s^2 for row i, in the
+    compiled passes."""
+    real[i, CUR_X] = real[i, SEL_X] = x
+    real[i, CUR_Y] = real[i, SEL_Y] = y
+    real[i, AGE] = 0.0
+    whole[i, STATUS] = status
+    whole[i, TESTED] = tested
+    whole[i, CACHED] = 0
+
+
 def columns_of(agents: Sequence[NAOAgent]) -> AgentColumns:
     """The one table whose rows are ``agents`` in this order: theirs if they already
     share it, else a new one with their rows (the tables they leave are no longer

@@ -20,19 +20,14 @@ from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.agents._nao_columns import (
-    AGE,
     AUTO,
     BRAKE,
-    CACHED,
     CUR_X,
     CUR_Y,
     FALLBACK,
     KEEP_BAND,
-    SEL_X,
-    SEL_Y,
     SETTLING,
-    STATUS,
-    TESTED,
+    commit_row,
 )
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
@@ -225,12 +220,7 @@ def apply_decisions(members, status, kind, accel, tested, real, whole, out, sett
             real[i, CUR_X] = accel[j, 0]
             real[i, CUR_Y] = accel[j, 1]
         elif kd == DESIRED or kd == ADJUSTED:
-            real[i, CUR_X] = real[i, SEL_X] = accel[j, 0]
-            real[i, CUR_Y] = real[i, SEL_Y] = accel[j, 1]
-            real[i, AGE] = 0.0
-            whole[i, STATUS] = kd
-            whole[i, TESTED] = tested[j]
-            whole[i, CACHED] = 0
+            commit_row(real, whole, i, accel[j, 0], accel[j, 1], kd, tested[j])
         else:
             continue
         out[i, 0] = accel[j, 0]
@@ -270,12 +260,7 @@ def apply_braking(members, status, kind, tested, traffic, vel, a_max, dt, real, 
         if not norm <= a_max[i]:
             scale = a_max[i] / norm
             x, y = x * scale, y * scale
-        real[i, CUR_X] = real[i, SEL_X] = x
-        real[i, CUR_Y] = real[i, SEL_Y] = y
-        real[i, AGE] = 0.0
-        whole[i, STATUS] = INFEASIBLE
-        whole[i, TESTED] = tested[j]
-        whole[i, CACHED] = 0
+        commit_row(real, whole, i, x, y, INFEASIBLE, tested[j])
         out[i, 0] = x
         out[i, 1] = y
         settled[j] = True

@@ -271,6 +271,15 @@ def test_ring_radii_rows_are_the_selections_ring_radii():
         ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
 
 
+def test_ring_radii_rows_remembered_only_for_the_same_limits():
+    """The remembered radii are those of the limits asked for: other limits (another
+    value, another count of robots), then the first ones again."""
+    first = np.array([2.0, 2.0, 2.0])
+    for a_max in (first, np.array([2.0, 2.0, 0.5]), np.array([2.0, 2.0]), first.copy(), first):
+        np.testing.assert_array_equal(
+            ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
+
+
 def _outside_rows(q, disks, a_max, within, covered, row):
     """outside_setup then outside_advance until ``row`` is final: (res, resume position)."""
     res = np.full((8, 3), math.inf)
