@@ -14,6 +14,7 @@ to the caller, which has the fallbacks.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -48,7 +49,8 @@ from nao_arena.geometry.selection import (
 
 __all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "apply_braking",
            "apply_decisions", "decide",
-           "decide_batch", "keep_candidates", "member_lists", "ring_radii_rows"]
+           "decide_batch", "keep_candidates", "member_lists", "ring_radii_rows",
+           "selection_settings"]
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
 UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
@@ -173,16 +175,22 @@ def decide(
     kind = np.full(n, Outcome.UNDECIDED, dtype=np.int64)
     accel = np.zeros((n, 2))
     tested = np.zeros(n, dtype=np.int64)
-    radii = ring_radii_rows(a_max)
     decide_batch(
         np.ascontiguousarray(times, dtype=np.float64), pred, excursions[0], excursions[1],
         nb_start, nb_index, np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,
         wall_index, rows, np.ascontiguousarray(pos), np.ascontiguousarray(vel),
         np.ascontiguousarray(grow), np.ascontiguousarray(a_max), np.ascontiguousarray(v_max),
-        repair, np.ascontiguousarray(current), np.ascontiguousarray(desired), radii,
-        _unit_rings(_RINGS, _RING_POINTS), _REPAIR_STEPS, _REPAIR_UNIT, _MAX_DISKS,
-        _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH, kind, accel, tested)
+        repair, np.ascontiguousarray(current), np.ascontiguousarray(desired),
+        *selection_settings(a_max), kind, accel, tested)
     return kind, accel, tested
+
+
+def selection_settings(a_max: NDArray[np.float64]) -> tuple[Any, ...]:
+    """The arguments ring_radii .. sliver_depth of :func:`decide_batch` for robots of
+    limits a_max (m/s^2): the settings :func:`~nao_arena.geometry.select_acceleration`
+    and :func:`~nao_arena.geometry.repair_acceleration` use by default."""
+    return (ring_radii_rows(a_max), _unit_rings(_RINGS, _RING_POINTS), _REPAIR_STEPS,
+            _REPAIR_UNIT, _MAX_DISKS, _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH)
 
 
 @njit(cache=True)

@@ -58,7 +58,7 @@ def goal_seeking_accels(
         cos_off, sin_off = np.cos(offsets), np.sin(offsets)
     has = np.ones(n, dtype=np.bool_) if has_target is None else f(has_target, dtype=np.bool_)
     out = np.empty((n, 2))
-    _goal_seeking_kernel(
+    goal_seeking_kernel(
         f(targets, dtype=np.float64).reshape(n, 2), f(positions, dtype=np.float64),
         f(velocities, dtype=np.float64), f(a_max, dtype=np.float64),
         f(speed_cap, dtype=np.float64), offsets, cos_off, sin_off,
@@ -75,7 +75,7 @@ def _per_row(value: float | NDArray[np.float64], n: int) -> NDArray[np.float64]:
 
 
 @njit(cache=True)
-def _goal_seeking_kernel(targets, positions, velocities, a_max, speed_cap, offset, cos_off,
+def goal_seeking_kernel(targets, positions, velocities, a_max, speed_cap, offset, cos_off,
                          sin_off, tau, braking, approach_gain, has_target, out):
     """:func:`goal_seeking_accels` row by row into ``out`` (n, 2) m/s^2; the heading
     offsets (rad) come with their cosines and sines."""

@@ -63,12 +63,13 @@ physics integration error, covered by the margin).
 ``ao`` is the same agent with constant-acceleration predictions (the AO).
 
 The agents of one class act together (:meth:`NAOAgent.act_batch`):
-predictions once per step for all bodies, goal seeking vectorised, the keep
-test (1.), the repairs and the selections in compiled calls; their state
-(current acceleration, adjustment age, detours, last selection) and numeric
-options are the rows of one table (:mod:`nao_arena.agents._nao_columns`), so
-the step's bookkeeping is compiled too and no Python runs per robot unless a
-robot needs the slow path; :meth:`NAOAgent.act`
+predictions once per step for all bodies, and the rest of the step in three
+compiled calls (:mod:`nao_arena.agents._nao_batch`: the robots' own state,
+liveness and goal seeking; per group of shared predictions, the keep test (1.),
+the repairs and the selections; the stopping plans (4.)); their state (current
+acceleration, adjustment age, detours, last selection) and numeric options are
+the rows of one table (:mod:`nao_arena.agents._nao_columns`), so no Python runs
+per robot unless a robot needs the slow path; :meth:`NAOAgent.act`
 is ``act_batch`` for the one-robot batch of its observation. A subclass
 customises the agent through its options (as :class:`AOAgent` does) or by
 overriding ``act``, which ``act_batch`` then calls robot by robot.
@@ -91,6 +92,13 @@ from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
 from nao_arena.agents import _nao_columns as col
+from nao_arena.agents._nao_batch import (
+    desired_rows,
+    own_rows,
+    prepare_rows,
+    settle_members,
+    yield_rows,
+)
 from nao_arena.agents._nao_columns import (
     AGE,
     AROUND,
@@ -112,7 +120,6 @@ from nao_arena.agents._nao_columns import (
     STATUS,
     STOPPING,
     V_PREF,
-    YIELDED,
     Acceleration,
     AgentColumns,
     Column,
@@ -120,7 +127,6 @@ from nao_arena.agents._nao_columns import (
     OptionalSpeed,
     columns_of,
     detour_row,
-    liveness_batch,
     young_adjustments,
 )
 from nao_arena.agents._nao_decide import (
@@ -128,14 +134,11 @@ from nao_arena.agents._nao_decide import (
     DESIRED,
     INFEASIBLE,
     REPAIRED,
-    apply_braking,
-    apply_decisions,
     decide,
     keep_candidates,
     member_lists,
+    selection_settings,
 )
-from nao_arena.agents._nao_liveness import held_by_standing_kernel
-from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.geometry import (
     AccelLimits,
     PiecewisePath,
@@ -153,7 +156,6 @@ from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
-from nao_arena.stopping import commit_plans
 
 if TYPE_CHECKING:
     from nao_arena.maps import RobotSpec
@@ -432,12 +434,14 @@ class NAOAgent:
         with one acceleration or exception per row.
 
         Predictions are made once per step for all bodies (per predictor and
-        time grid) and indexed per robot; goal seeking is vectorised; whether
-        the current accelerations stay admissible is decided in one compiled
-        call, and so are the repairs and selections of the others; only what
-        that leaves undecided (non-finite input, an irregular time grid, no
-        admissible acceleration with ``infeasible="latest_contact"``) runs
-        robot by robot. A subclass that overrides :meth:`act` gets its own
+        time grid) and indexed per robot; the liveness bookkeeping and goal
+        seeking are one compiled call; whether the current accelerations stay
+        admissible, and the repairs and selections of the others, are another
+        per group; the stopping plans a third; only what they leave undecided
+        (non-finite input, an irregular time grid, no admissible acceleration
+        with ``infeasible="latest_contact"``) and the heading targets other than
+        the goals (a detour turned this step, a goal missing, a wall in the
+        way) run in Python. A subclass that overrides :meth:`act` gets its own
         ``act`` called robot by robot (the one hook besides the options).
         """
         rows_a = np.asarray(rows, dtype=np.int64)
@@ -583,9 +587,8 @@ class NAOAgent:
         out = np.zeros((n, 2))
         status = [""] * n
         cols = columns_of(agents)
-        pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
+        pos, vel, rad, a_max, v_max, _, traffic_near, _ = _own_rows(batch, rows_a)
         cols.real[:, AGE] += batch.dt
-        traffic_near = _traffic_near(batch, rows_a)
         previous = cols.real[:, CUR_X:CUR_Y + 1].copy()
         cols.seen = []
         for m in cols.grid_groups(agents):
@@ -783,15 +786,6 @@ def _take_decision(
     return None
 
 
-def _traffic_near(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bool_]:
-    """Per row: whether traffic is among the robot's neighbours."""
-    is_traffic = _traffic_mask(batch.kinds)
-    if is_traffic is None:
-        return np.zeros(len(rows), dtype=bool)
-    seen = np.concatenate([[0], np.cumsum(is_traffic[batch.nb_index])])
-    return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
-
-
 # the last read-only kinds array and its traffic mask, replaced as one tuple (threads
 # stepping other arenas see one pair or the other, never a mix)
 _traffic_seen: tuple[Any, Any] = (None, None)
@@ -811,15 +805,20 @@ def _traffic_mask(kinds: NDArray[np.str_]) -> NDArray[np.bool_] | None:
     return found
 
 
-def _own_state(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[
-    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-    NDArray[np.float64],
-]:
-    """The robots' own state, one row per robot of ``rows_a``: positions (m), velocities
-    (m/s), radii (m), a_max (m/s^2), v_max (m/s)."""
-    bodies = batch.bodies[rows_a]
-    return (batch.positions[bodies], batch.velocities[bodies], batch.radii[bodies],
-            batch.a_max[bodies], batch.v_max[bodies])
+def _own_rows(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[Any, ...]:
+    """:func:`~nao_arena.agents._nao_batch.own_rows` of the batch rows ``rows_a``: per
+    robot its position (m), velocity (m/s), radius (m), a_max (m/s^2), v_max (m/s),
+    goal (m), whether traffic is among its neighbours; and whether every goal is
+    finite."""
+    f = np.ascontiguousarray
+    traffic = _traffic_mask(batch.kinds)
+    return own_rows(
+        f(rows_a, dtype=np.int64), f(batch.bodies, dtype=np.int64),
+        f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
+        f(batch.radii, dtype=np.float64), f(batch.a_max, dtype=np.float64),
+        f(batch.v_max, dtype=np.float64), f(batch.goals, dtype=np.float64),
+        f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
+        _NO_TRAFFIC if traffic is None else traffic)
 
 
 def _group_view(
@@ -845,123 +844,117 @@ def _act_rows(
 ) -> tuple[NDArray[np.float64], dict[int, Exception]]:
     """:meth:`NAOAgent.act_batch` of agents that act as :class:`NAOAgent` does: the
     accelerations (n, 2) m/s^2 and, by agent, the exceptions of the robots whose step
-    raised (their rows of the accelerations are meaningless)."""
-    n = len(rows_a)
+    raised (their rows of the accelerations are meaningless). The common work runs in
+    the compiled calls of :mod:`~nao_arena.agents._nao_batch`; only what they leave
+    undecided runs robot by robot here."""
     cols = columns_of(agents)
     real, whole = cols.real, cols.whole
     errors: dict[int, Exception] = {}
-    pos, vel, rad, a_max, v_max = _own_state(batch, rows_a)
-    goals = batch.goals[rows_a]
-    live = (whole[:, REPLAN] != 0) | (whole[:, STATUS] == NO_SELECTION)
-    out = real[:, CUR_X:CUR_Y + 1].copy()  # what holds (replan=False) keep
-    if not live.any():
-        return out, errors
-    # liveness bookkeeping: crawling away from the goal starts a detour
-    held = _held_by_standing(batch, rows_a, rad, goals)
-    turn = np.empty(n, dtype=np.bool_)
-    liveness_batch(live, np.ascontiguousarray(pos), np.ascontiguousarray(vel),
-                   np.ascontiguousarray(goals, dtype=np.float64), np.ascontiguousarray(rad),
-                   np.ascontiguousarray(v_max), held, float(batch.dt), real, whole, cols.opt,
-                   turn)
-    for i in np.flatnonzero(turn).tolist():
-        agents[i]._turn_detour()
-    desired = _desired(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
-    traffic_near = _traffic_near(batch, rows_a)
-    current = real[:, CUR_X:CUR_Y + 1].copy()
+    f = np.ascontiguousarray
+    traffic = _traffic_mask(batch.kinds)
+    walls = f(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
+    wall_half = f(batch.wall_radius, dtype=np.float64)
+    (pos, vel, rad, a_max, v_max, goals, live, n_live, out, turn, turns, traffic_near, desired,
+     direct) = prepare_rows(
+        f(rows_a, dtype=np.int64), f(batch.bodies, dtype=np.int64),
+        f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
+        f(batch.radii, dtype=np.float64), f(batch.a_max, dtype=np.float64),
+        f(batch.v_max, dtype=np.float64), f(batch.goals, dtype=np.float64),
+        f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
+        _NO_TRAFFIC if traffic is None else traffic, walls, wall_half, float(batch.dt), real,
+        whole, cols.opt)
+    if not n_live:
+        return out, errors  # holds (replan=False) keep their acceleration
+    if turns:
+        # liveness: crawling away from the goal turns the detour (angles drawn here)
+        for i in np.flatnonzero(turn).tolist():
+            agents[i]._turn_detour()
+    if turns or not direct:
+        # a turned detour, a goal missing or a wall in the way: the targets in Python
+        desired = _desired(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
+    current = out.copy()
     cols.seen = []
     # predictions: once per (predictor, time grid) for every body
     for group in cols.grid_groups(agents):
-        m = group[live[group]]
+        m = group if n_live == len(live) else group[live[group]]
         if not len(m):
             continue
         ag0 = agents[int(m[0])]
         try:
-            pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
-                                        dtype=np.float64)
+            pred = f(ag0.predict(ag0.times, batch.everyone()), dtype=np.float64)
         except Exception as exc:  # noqa: BLE001 - the agents' failure
             for i in m.tolist():
                 errors[i] = exc
             continue
         excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
-        holds = _holds(cols, m)
-        status = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos, vel,
-                               rad, v_max, current, desired, a_max, holds)
-        decided = (_decide(m, status, ag0, cols, pred, excursions, lists, batch.radii, pos,
-                           vel, rad, a_max, v_max, current, desired, holds)
-                   if lists is not None else None)
-        settled = status == 1  # kept: out holds the current acceleration
-        if decided is not None:
-            apply_decisions(m, status, *decided, real, whole, out, settled)
-            apply_braking(m, status, decided[0], decided[2], traffic_near, vel, a_max,
-                          float(batch.dt), real, whole, out, settled)
-        for j in np.flatnonzero(~settled).tolist():
-            i = int(m[j])
-            ag = agents[i]
-            try:
-                if decided is not None and status[j] == 0:
-                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
-                                          batch.dt, bool(traffic_near[i]))
-                    if done is not None:
-                        out[i] = done
-                        continue
-                # undecided by the compiled calls: robot by robot
-                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
-                if status[j] == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
-                                                     float(v_max[i]), path):
-                    continue  # kept: out holds the current acceleration
-                fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]),
-                                   float(v_max[i]))
-                if fixed is not None:
-                    out[i] = fixed
-                    continue
-                out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
-                                    float(v_max[i]), batch.dt, bool(traffic_near[i]))
-            except Exception as exc:  # noqa: BLE001 - the agent's failure
-                errors[i] = exc
-    _yield_to_plans(cols, out, errors, batch, pos, vel, rad, a_max, v_max)
+        if lists is None:
+            # an irregular time grid: the keep test's first part only, the rest below
+            status = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos,
+                                   vel, rad, v_max, current, desired, a_max, _holds(cols, m))
+            decided = None
+            left = len(m)
+            settled = np.zeros(len(m), dtype=bool)
+        else:
+            nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
+            status, kind, accel, tested, settled, left = settle_members(
+                m, f(ag0.times, dtype=np.float64), pred, excursions[0], excursions[1],
+                nb_start, nb_index, f(batch.radii, dtype=np.float64), wall_seg, wall_half,
+                wall_start, wall_index, pos, vel, rad, a_max, v_max, current, desired,
+                traffic_near, float(batch.dt),
+                *selection_settings(a_max if len(m) == len(a_max) else a_max[m]),
+                real, whole, cols.opt, out)
+            decided = kind, accel, tested
+        if left:
+            _undecided(agents, m, status, settled, decided, errors, out, batch, rows_a,
+                       pred, excursions, vel, a_max, v_max, current, desired, traffic_near)
+    failed = np.zeros(len(rows_a), dtype=np.bool_)
+    if errors:
+        failed[list(errors)] = True
+    yield_rows(pos, vel, out, rad, a_max, v_max, failed, float(batch.dt), int(batch.substeps),
+               PLAN_MARGIN, walls, wall_half, real, whole)
     return out, errors
 
 
-def _yield_to_plans(
-    cols: AgentColumns, out: NDArray[np.float64], errors: dict[int, Exception],
-    batch: SensingBatch, pos: NDArray[np.float64], vel: NDArray[np.float64],
-    rad: NDArray[np.float64], a_max: NDArray[np.float64], v_max: NDArray[np.float64],
+_NO_TRAFFIC = np.zeros(0, dtype=np.bool_)
+
+
+def _undecided(
+    agents: Sequence[NAOAgent], m: NDArray[np.int64], status: NDArray[np.int64],
+    settled: NDArray[np.bool_],
+    decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None,
+    errors: dict[int, Exception], out: NDArray[np.float64], batch: SensingBatch,
+    rows_a: NDArray[np.int64], pred: NDArray[np.float64],
+    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]], vel: NDArray[np.float64],
+    a_max: NDArray[np.float64], v_max: NDArray[np.float64], current: NDArray[np.float64],
+    desired: NDArray[np.float64], traffic_near: NDArray[np.bool_],
 ) -> None:
-    """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans`) over the robots
-    whose agents (rows of ``cols``) re-plan with ``stopping_plans`` and decided this step
-    (not in ``errors``): a robot whose plan would meet another's (or a wall) brakes
-    instead; its agent commits the braking acceleration as a selection of status
-    "yielded" (written into ``out``)."""
-    take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
-    if errors:
-        take[list(errors)] = False
-    g = np.flatnonzero(take)
-    if not len(g):
-        return
-    brake, braking = commit_plans(
-        *_members((pos, vel, out, rad, a_max, v_max), g), batch.dt, batch.substeps,
-        PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
-    if brake.any():
-        yielding = g[brake]
-        cols.commit(yielding, braking[brake], YIELDED, 0)
-        out[yielding] = braking[brake]
-
-
-def _held_by_standing(batch: SensingBatch, rows: NDArray[np.int64],
-                      rad: NDArray[np.float64], goals: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Per robot: whether its nearest neighbour stands still (below 0.1 m/s) within 1 m of
-    its surface while nothing is within 1 m of its surface on the side away from its goal
-    (goals (n, 2) m): a robot held by parked robots with room behind it, not by a moving
-    crowd or a jam all around it (:func:`held_by_standing_kernel`)."""
-    out = np.zeros(len(rows), dtype=np.bool_)
-    f = np.ascontiguousarray
-    held_by_standing_kernel(
-        f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
-        f(rows, dtype=np.int64), f(batch.bodies, dtype=np.int64),
-        f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
-        f(batch.radii, dtype=np.float64), f(rad, dtype=np.float64),
-        f(goals, dtype=np.float64), out)
-    return out
+    """The members m (rows of the agents' table) that the compiled calls left
+    unsettled, robot by robot: the fallback of an outcome that is not braking
+    (:func:`_take_decision`), else the keep test, repair and selection in Python (non-finite
+    paths, an irregular time grid). Writes ``out`` (n, 2) m/s^2; a robot whose step raises
+    gets its exception in ``errors``."""
+    for j in np.flatnonzero(~settled).tolist():
+        i = int(m[j])
+        ag = agents[i]
+        try:
+            if decided is not None and status[j] == 0:
+                done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch.dt,
+                                      bool(traffic_near[i]))
+                if done is not None:
+                    out[i] = done
+                    continue
+            path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
+            if status[j] == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
+                                                 float(v_max[i]), path):
+                continue  # kept: out holds the current acceleration
+            fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]), float(v_max[i]))
+            if fixed is not None:
+                out[i] = fixed
+                continue
+            out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]), float(v_max[i]),
+                                batch.dt, bool(traffic_near[i]))
+        except Exception as exc:  # noqa: BLE001 - the agent's failure
+            errors[i] = exc
 
 
 def _desired(
@@ -986,10 +979,10 @@ def _desired(
                 has_target[i] = True
     if len(batch.walls):
         targets = _around_walls(cols, batch, rows_a, targets, pos)
-    v_pref = cols.opt[:, V_PREF]
-    cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
-    return goal_seeking_accels(targets, pos, vel, a_max, cap, cols.real[:, DETOUR],
-                               has_target=has_target)
+    if has_target is None:
+        has_target = np.ones(len(targets), dtype=np.bool_)
+    return desired_rows(np.ascontiguousarray(targets, dtype=np.float64), has_target, pos, vel,
+                        a_max, v_max, cols.real, cols.opt)
 
 
 def _around_walls(

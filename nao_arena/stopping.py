@@ -209,10 +209,10 @@ def _near_pairs(pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: fl
 
 
 @njit(cache=True, error_model="numpy")
-def _commit(pos: FloatArray, vel: FloatArray, desired: FloatArray, radius: FloatArray,
-            a_max: FloatArray, v_max: FloatArray, dt: float, substeps: int, margin: float,
-            walls: FloatArray, wall_half: FloatArray,
-            brake: NDArray[np.bool_], braking: FloatArray) -> int:
+def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
+                        radius: FloatArray, a_max: FloatArray, v_max: FloatArray, dt: float,
+                        substeps: int, margin: float, walls: FloatArray, wall_half: FloatArray,
+                        brake: NDArray[np.bool_], braking: FloatArray) -> int:
     """:func:`commit_plans` on arrays; writes brake (n,) and the standing plans'
     accelerations braking (n, 2), returns the number of pair checks made (nothing is
     written, and 0 returned, when a position, velocity or desired acceleration is not
@@ -349,7 +349,7 @@ def commit_plans(
     brake = np.zeros(n, dtype=np.bool_)
     braking = np.zeros((n, 2))
     f = np.ascontiguousarray
-    _commit(f(positions, dtype=np.float64), f(velocities, dtype=np.float64),
+    commit_plans_kernel(f(positions, dtype=np.float64), f(velocities, dtype=np.float64),
             f(desired, dtype=np.float64), f(radii, dtype=np.float64),
             f(a_max, dtype=np.float64), f(v_max, dtype=np.float64), float(dt), int(substeps),
             float(margin), f(walls, dtype=np.float64).reshape(-1, 2, 2),

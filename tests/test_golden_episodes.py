@@ -7,9 +7,10 @@ SHA-256 of the env's observations and rewards) is compared with the values
 recorded in ``tests/data/golden_episodes.json``.
 
 Floating-point results may differ between CPUs and library versions, so the
-file records the machine it was made on (CPU model, Python, numpy, numba,
-pymunk); on another machine the comparison is skipped with that reason. To
-record after an intended change of behaviour::
+file holds one record per machine it was made on (CPU model, Python, numpy,
+numba, pymunk); on a machine it has no record of, the comparison is skipped with
+that reason. To record this machine's hashes (after an intended change of
+behaviour, re-record on every machine or drop the others' records)::
 
     python tests/test_golden_episodes.py --record
 """
@@ -142,13 +143,22 @@ def cases() -> dict[str, Callable[[], str]]:
     return out
 
 
+def _records() -> list[dict]:
+    """The data file's records: {"machine": ..., "hashes": {case: hash}} each."""
+    if not DATA.exists():
+        return []
+    return json.loads(DATA.read_text())["records"]
+
+
 def _recorded() -> dict:
+    here = machine()
+    for rec in _records():
+        if rec["machine"] == here:
+            return rec["hashes"]
     if not DATA.exists():
         pytest.skip(f"{DATA} not recorded (python {__file__} --record)")
-    data = json.loads(DATA.read_text())
-    if data["machine"] != machine():
-        pytest.skip(f"golden hashes recorded on {data['machine']}, this is {machine()}")
-    return data["hashes"]
+    pytest.skip(f"golden hashes recorded on {[r['machine'] for r in _records()]}, "
+                f"this is {here}")
 
 
 @pytest.mark.slow
@@ -160,13 +170,17 @@ def test_golden_episode(name: str) -> None:
 
 
 def record() -> None:
-    """Run every case and write the data file (atomically)."""
+    """Run every case and write this machine's record into the data file (atomically;
+    the other machines' records are kept)."""
     hashes = {name: fn() for name, fn in sorted(cases().items())}
+    here = machine()
+    records = [r for r in _records() if r["machine"] != here]
+    records.append({"machine": here, "hashes": hashes})
     DATA.parent.mkdir(exist_ok=True)
     tmp = DATA.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"machine": machine(), "hashes": hashes}, indent=1) + "\n")
+    tmp.write_text(json.dumps({"records": records}, indent=1) + "\n")
     tmp.replace(DATA)
-    print(f"recorded {len(hashes)} golden episodes in {DATA}")
+    print(f"recorded {len(hashes)} golden episodes of {here} in {DATA}")
 
 
 if __name__ == "__main__":

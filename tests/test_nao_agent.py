@@ -15,8 +15,9 @@ from reference.goal_reference import goal_seeking_accels_reference
 
 from nao_arena.agents import _nao_columns as columns
 from nao_arena.agents._nao_decide import keep_candidates, member_lists
+from nao_arena.agents._nao_liveness import held_by_standing_kernel
 from nao_arena.agents.goal import GoalAgent, goal_seeking_accel, goal_seeking_accels
-from nao_arena.agents.nao import NAOAgent, _held_by_standing
+from nao_arena.agents.nao import NAOAgent
 from nao_arena.geometry import AccelLimits, repair_acceleration
 from nao_arena.obstacles import RADIUS_CUT, obstacle_paths
 from nao_arena.sensing import Neighbours, Observation, SensingBatch, neighbour_lists
@@ -198,6 +199,17 @@ def test_only_a_robot_held_by_standing_robots_with_room_behind_counts_toward_swi
     assert got.tolist() == [held]
     moving = _held_scene(extra, speed=0.5)  # the nearest moves: a crowd, not a parked row
     assert _held_by_standing(moving, rows, np.array([0.5]), moving.goals).tolist() == [False]
+
+
+def _held_by_standing(batch: SensingBatch, rows: np.ndarray, rad: np.ndarray,
+                      goals: np.ndarray) -> np.ndarray:
+    """The compiled held test (:func:`held_by_standing_kernel`) of the batch rows ``rows``."""
+    out = np.zeros(len(rows), dtype=np.bool_)
+    f = np.ascontiguousarray
+    held_by_standing_kernel(f(batch.nb_start), f(batch.nb_index), f(rows), f(batch.bodies),
+                            f(batch.positions), f(batch.velocities), f(batch.radii), f(rad),
+                            f(goals), out)
+    return out
 
 
 def _held_reference(batch: SensingBatch, rows: np.ndarray, rad: np.ndarray,
@@ -465,28 +477,33 @@ def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach(
 
 
 def test_traffic_near_follows_each_kinds_array_even_when_remembered():
-    """_traffic_near reads each batch's kinds: the mask remembered for the arena's
-    read-only kinds array is never served for another array, a writable one, or one
-    that was changed (a copy with other kinds)."""
+    """The robots' traffic flags read each batch's kinds: the mask remembered for the
+    arena's read-only kinds array is never served for another array, a writable one, or
+    one that was changed (a copy with other kinds)."""
     from types import SimpleNamespace
 
-    from nao_arena.agents.nao import _traffic_near
+    from nao_arena.agents.nao import _own_rows
 
     def batch(kinds: np.ndarray) -> SimpleNamespace:
-        # robot 0 sees body 1, robot 1 sees body 2
-        return SimpleNamespace(kinds=kinds, nb_start=np.array([0, 1, 2]),
-                               nb_index=np.array([1, 2]))
+        # robot 0 (body 0) sees body 1, robot 1 (body 2) sees body 2
+        return SimpleNamespace(
+            kinds=kinds, nb_start=np.array([0, 1, 2]), nb_index=np.array([1, 2]),
+            bodies=np.array([0, 2]), positions=np.zeros((3, 2)), velocities=np.zeros((3, 2)),
+            radii=np.full(3, 0.5), a_max=np.full(3, 2.0), v_max=np.full(3, 1.5),
+            goals=np.zeros((2, 2)))
 
-    rows = np.array([0, 1])
+    def traffic_near(b: SimpleNamespace) -> list[bool]:
+        return _own_rows(b, np.array([0, 1]))[6].tolist()
+
     owned = np.array(["robot", "traffic", "robot"])
     owned.setflags(write=False)
     other = np.array(["robot", "robot", "traffic"])
     other.setflags(write=False)
     writable = np.array(["robot", "robot", "robot"], dtype="<U7")
     for _ in range(2):  # twice: the second round is served from what was remembered
-        assert _traffic_near(batch(owned), rows).tolist() == [True, False]
-        assert _traffic_near(batch(other), rows).tolist() == [False, True]
-        assert _traffic_near(batch(writable), rows).tolist() == [False, False]
+        assert traffic_near(batch(owned)) == [True, False]
+        assert traffic_near(batch(other)) == [False, True]
+        assert traffic_near(batch(writable)) == [False, False]
         writable[1] = "traffic"
-        assert _traffic_near(batch(writable), rows).tolist() == [True, False]
+        assert traffic_near(batch(writable)) == [True, False]
         writable[1] = "robot"

@@ -1,0 +1,297 @@
+"""The ``nao`` agents' step for a whole batch, in a few compiled calls.
+
+:func:`~nao_arena.agents.nao.NAOAgent.act_batch` runs these in turn; between them
+only what needs Python runs (the detours' random angles, heading targets other than
+the goals, the predictions):
+
+1. :func:`prepare_rows`: each robot's own state gathered from the batch, which
+   agents decide this step, the liveness bookkeeping
+   (:func:`~nao_arena.agents._nao_columns.liveness_batch`), whether traffic is among
+   the neighbours, and goal seeking toward the goals (:func:`desired_rows`);
+2. :func:`settle_members`: per group of agents that share predictions, the keep test,
+   the repairs and selections (:func:`~nao_arena.agents._nao_decide.decide_batch`) and
+   their commits, braking where nothing is admissible;
+3. :func:`yield_rows`: the stopping-plan rule over the robots that re-plan
+   (:func:`~nao_arena.stopping.commit_plans_kernel`).
+
+Per-robot arrays are in the rows of the agents' table (:mod:`._nao_columns`); body
+arrays are the batch's (:class:`~nao_arena.sensing.SensingBatch`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from nao_arena.agents._nao_columns import (
+    AROUND,
+    CUR_X,
+    CUR_Y,
+    DETOUR,
+    MARGIN,
+    NAVIGATE,
+    NO_SELECTION,
+    REPLAN,
+    STATUS,
+    STOPPING,
+    V_PREF,
+    YIELDED,
+    commit_row,
+    liveness_batch,
+    young_adjustments,
+)
+from nao_arena.agents._nao_decide import (
+    UNDECIDED,
+    apply_braking,
+    apply_decisions,
+    decide_batch,
+    keep_candidates,
+)
+from nao_arena.agents._nao_liveness import held_by_standing_kernel
+from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.navigation import segment_clear
+from nao_arena.stopping import commit_plans_kernel
+
+__all__ = ["BRAKING", "TIME_CONSTANT", "desired_rows", "own_rows", "prepare_rows",
+           "settle_members", "yield_rows"]
+
+#: goal seeking's time constant (s) and braking (fraction of a_max), as the ``nao``
+#: agent uses :func:`~nao_arena.agents.goal.goal_seeking_accels`
+TIME_CONSTANT = 0.5
+BRAKING = 0.5
+
+
+@njit(cache=True)
+def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pragma: no cover
+    """The goal-seeking accelerations (n, 2) m/s^2 of the table's rows toward targets
+    (n, 2) m (rows without ``has_target`` track standing still): what
+    :func:`~nao_arena.agents.goal.goal_seeking_accels` gives at the speed cap
+    min(v_pref, v_max) m/s (v_max where v_pref is NaN), turned by each row's detour
+    (rad); per row: position (m), velocity (m/s), a_max (m/s^2), v_max (m/s)."""
+    n = targets.shape[0]
+    cap = np.empty(n)
+    offset = np.empty(n)
+    cos_off = np.empty(n)
+    sin_off = np.empty(n)
+    for i in range(n):
+        v_pref = opt[i, V_PREF]
+        # numpy's minimum: NaN if either is (a NaN v_pref is "none")
+        cap[i] = v_pref if v_pref < v_max[i] else v_max[i]
+        offset[i] = real[i, DETOUR]
+        cos_off[i] = math.cos(offset[i])
+        sin_off[i] = math.sin(offset[i])
+    out = np.empty((n, 2))
+    goal_seeking_kernel(targets, pos, vel, a_max, cap, offset, cos_off, sin_off,
+                        np.full(n, TIME_CONSTANT), BRAKING, APPROACH_GAIN, has_target, out)
+    return out
+
+
+@njit(cache=True)
+def own_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals,
+             nb_start, nb_index, traffic):  # pragma: no cover
+    """Each robot's own state, one row per batch row of ``rows``, gathered from the body
+    arrays (``bodies``: each batch row's body): position (m), velocity (m/s), radius (m),
+    a_max (m/s^2), v_max (m/s), its goal (goals (R, 2) m, batch rows), whether traffic
+    (``traffic`` (N,): per body; empty: no body is) is among its neighbours (CSR
+    nb_start, nb_index of the batch rows), and whether every goal is finite."""
+    n = rows.shape[0]
+    pos = np.empty((n, 2))
+    vel = np.empty((n, 2))
+    rad = np.empty(n)
+    a_max = np.empty(n)
+    v_max = np.empty(n)
+    own_goals = np.empty((n, 2))
+    traffic_near = np.zeros(n, dtype=np.bool_)
+    aimed = True
+    for i in range(n):
+        b = bodies[rows[i]]
+        pos[i, 0] = positions[b, 0]
+        pos[i, 1] = positions[b, 1]
+        vel[i, 0] = velocities[b, 0]
+        vel[i, 1] = velocities[b, 1]
+        rad[i] = radii[b]
+        a_max[i] = body_a_max[b]
+        v_max[i] = body_v_max[b]
+        own_goals[i, 0] = goals[rows[i], 0]
+        own_goals[i, 1] = goals[rows[i], 1]
+        aimed = aimed and math.isfinite(own_goals[i, 0]) and math.isfinite(own_goals[i, 1])
+        if traffic.shape[0]:
+            for e in range(nb_start[rows[i]], nb_start[rows[i] + 1]):
+                if traffic[nb_index[e]]:
+                    traffic_near[i] = True
+                    break
+    return pos, vel, rad, a_max, v_max, own_goals, traffic_near, aimed
+
+
+@njit(cache=True)
+def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals,
+                 nb_start, nb_index, traffic, walls, wall_half, dt, real, whole,
+                 opt):  # pragma: no cover
+    """The start of a batch's step for the table's rows (agent i drives batch row rows[i]).
+
+    The robots' own state (:func:`own_rows`); ``live``: the rows that decide this step
+    (REPLAN, or no selection yet), n_live of them; ``out``: the current accelerations
+    (m/s^2), what the others keep. When some row is live: their liveness bookkeeping of
+    dt s (:func:`~nao_arena.agents._nao_columns.liveness_batch`, with whether parked
+    robots hold them, :func:`~nao_arena.agents._nao_liveness.held_by_standing_kernel`;
+    turn[i]: the detour turns once more, its angle for the caller to draw) and the goal
+    seeking toward the goals (:func:`desired_rows`), valid where ``direct``: every goal
+    is finite and, for the robots that ``navigate``, in sight past the walls (W, 2, 2) m
+    of half-thickness wall_half (m) (:func:`~nao_arena.navigation.segment_clear` at the
+    robot's radius; their AROUND is then cleared, as
+    :func:`~nao_arena.navigation.route_targets` clears it); else the caller finds the
+    heading targets.
+
+    Returns (pos, vel, rad, a_max, v_max, goals, live, n_live, out, turn, turns,
+    traffic_near, desired, direct); turns counts turn; n_live 0: desired unset.
+    """
+    pos, vel, rad, a_max, v_max, own_goals, traffic_near, direct = own_rows(
+        rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals, nb_start,
+        nb_index, traffic)
+    n = rows.shape[0]
+    live = np.empty(n, dtype=np.bool_)
+    out = np.empty((n, 2))
+    n_live = 0
+    for i in range(n):
+        live[i] = whole[i, REPLAN] != 0 or whole[i, STATUS] == NO_SELECTION
+        n_live += live[i]
+        out[i, 0] = real[i, CUR_X]
+        out[i, 1] = real[i, CUR_Y]
+    turn = np.zeros(n, dtype=np.bool_)
+    if n_live == 0:
+        return (pos, vel, rad, a_max, v_max, own_goals, live, n_live, out, turn, 0,
+                traffic_near, out, direct)
+    held = np.empty(n, dtype=np.bool_)
+    held_by_standing_kernel(nb_start, nb_index, rows, bodies, positions, velocities, radii, rad,
+                            own_goals, held)
+    liveness_batch(live, pos, vel, own_goals, rad, v_max, held, dt, real, whole, opt, turn)
+    turns = 0
+    for i in range(n):
+        turns += turn[i]
+    if direct and walls.shape[0]:
+        for i in range(n):
+            if (whole[i, NAVIGATE] != 0 and math.isfinite(pos[i, 0])
+                    and math.isfinite(pos[i, 1])
+                    and not segment_clear(pos[i, 0], pos[i, 1], own_goals[i, 0],
+                                          own_goals[i, 1], walls, wall_half, rad[i])):
+                direct = False
+                break
+        if direct:
+            for i in range(n):
+                if whole[i, NAVIGATE] != 0:
+                    whole[i, AROUND] = 0
+    desired = desired_rows(own_goals, np.ones(n, dtype=np.bool_), pos, vel, a_max, v_max,
+                           real, opt)
+    return (pos, vel, rad, a_max, v_max, own_goals, live, n_live, out, turn, turns,
+            traffic_near, desired, direct)
+
+
+@njit(cache=True)
+def settle_members(m, times, pred, excursion, finite_path, nb_start, nb_index, nb_radius,
+                   wall_seg, wall_half, wall_start, wall_index, pos, vel, rad, a_max, v_max,
+                   current, desired, traffic, dt, ring_radii, unit_rings, repair_steps,
+                   repair_unit, max_disks, n_sub, per_second, sliver_depth, real, whole, opt,
+                   out):  # pragma: no cover
+    """The decisions of the members m (rows of the agents' table; they share the
+    predictions ``pred`` at ``times`` and see the obstacles of the member CSR lists, as
+    :func:`~nao_arena.agents._nao_decide.decide_batch` reads them).
+
+    1. The keep test: a member keeps its current acceleration current[i] (m/s^2) where
+       :func:`~nao_arena.agents._nao_decide.keep_candidates` allows it (within keep_band
+       of desired[i], or a young adjustment) and it stays admissible
+       (:func:`~nao_arena.geometry._kernel.batch.sampled_admissible_batch`);
+    2. the others are repaired (young adjustments) or select in full
+       (:func:`~nao_arena.agents._nao_decide.decide_batch`; ring_radii .. sliver_depth: its
+       selection parameters), committed into the table and ``out`` (n, 2) m/s^2
+       (:func:`~nao_arena.agents._nao_decide.apply_decisions`), and where nothing is
+       admissible and the fallback is braking, braking is
+       (:func:`~nao_arena.agents._nao_decide.apply_braking`; traffic[i]: traffic among
+       the neighbours, dt s).
+
+    Per-row arrays (n rows): pos (m), vel (m/s), rad (m), a_max (m/s^2), v_max (m/s),
+    current, desired (m/s^2), traffic. Returns, per member, status (1: kept, 0:
+    decided here, 2: non-finite paths), the decide outcomes (kind, accel m/s^2,
+    tested; kind UNDECIDED where not decided), settled (kept or committed here; the
+    others are left to the caller) and how many are not settled.
+    """
+    k = m.shape[0]
+    every = k == pos.shape[0]  # m: distinct rows in order, so all of them
+    p = pos if every else pos[m]
+    v = vel if every else vel[m]
+    c = current if every else current[m]
+    d = desired if every else desired[m]
+    r = rad if every else rad[m]
+    a = a_max if every else a_max[m]
+    s = v_max if every else v_max[m]
+    margin = np.empty(k)
+    for j in range(k):
+        margin[j] = opt[m[j], MARGIN]
+    holds = np.empty(k, dtype=np.bool_)
+    young_adjustments(m, real, whole, opt, holds)
+    status = np.zeros(k, dtype=np.int64)
+    settled = np.zeros(k, dtype=np.bool_)
+    some = keep_candidates(m, current, desired, a_max, whole, opt, holds, status)
+    if some:
+        todo = np.flatnonzero(status == 2)
+        res = np.full(k, -1, dtype=np.int64)
+        sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_seg,
+                                 wall_half, wall_start, wall_index, todo, p, v, c, s, r,
+                                 margin, excursion, finite_path, res)
+        # 1: keep; 0: not admissible (select); -1: non-finite paths (the caller reports it)
+        for j in todo:
+            status[j] = 1 if res[j] == 1 else (0 if res[j] == 0 else 2)
+            settled[j] = status[j] == 1
+    kind = np.full(k, UNDECIDED, dtype=np.int64)
+    accel = np.zeros((k, 2))
+    tested = np.zeros(k, dtype=np.int64)
+    todo = np.flatnonzero(status == 0)
+    if todo.shape[0]:
+        grow = r + margin
+        decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_radius,
+                     wall_seg, wall_half, wall_start, wall_index, todo, p, v, grow, a, s, holds,
+                     c, d, ring_radii, unit_rings, repair_steps, repair_unit, max_disks, n_sub,
+                     per_second, sliver_depth, kind, accel, tested)
+        apply_decisions(m, status, kind, accel, tested, real, whole, out, settled)
+        apply_braking(m, status, kind, tested, traffic, vel, a_max, dt, real, whole, out,
+                      settled)
+    left = 0
+    for j in range(k):
+        left += not settled[j]
+    return status, kind, accel, tested, settled, left
+
+
+@njit(cache=True)
+def yield_rows(pos, vel, out, rad, a_max, v_max, failed, dt, substeps, margin, walls,
+               wall_half, real, whole):  # pragma: no cover
+    """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans_kernel`) over the
+    table's rows that re-plan with stopping plans (STOPPING and REPLAN) and decided this
+    step (not ``failed``): a robot whose plan would meet another's, or a wall (W, 2, 2)
+    m of half-thickness wall_half (m), at the sum of the radii plus margin (m), brakes
+    instead; it commits that braking acceleration as a selection of status YIELDED, into
+    the table and ``out`` (n, 2) m/s^2. Per row: pos (m), vel (m/s), out (m/s^2), rad
+    (m), a_max (m/s^2), v_max (m/s); the world's dt (s) and substeps."""
+    n = pos.shape[0]
+    take = np.empty(n, dtype=np.bool_)
+    count = 0
+    for i in range(n):
+        take[i] = whole[i, STOPPING] != 0 and whole[i, REPLAN] != 0 and not failed[i]
+        count += take[i]
+    if count == 0:
+        return
+    g = np.flatnonzero(take)
+    every = count == n
+    brake = np.zeros(count, dtype=np.bool_)
+    braking = np.zeros((count, 2))
+    commit_plans_kernel(pos if every else pos[g], vel if every else vel[g],
+                        out if every else out[g], rad if every else rad[g],
+                        a_max if every else a_max[g], v_max if every else v_max[g], dt,
+                        substeps, margin, walls, wall_half, brake, braking)
+    for j in range(count):
+        if brake[j]:
+            i = g[j]
+            commit_row(real, whole, i, braking[j, 0], braking[j, 1], YIELDED, 0)
+            out[i, 0] = braking[j, 0]
+            out[i, 1] = braking[j, 1]

@@ -1,0 +1,159 @@
+"""Reference for the ``nao`` agents' batch step: the step as it ran before its
+bookkeeping was fused into the compiled calls of :mod:`nao_arena.agents._nao_batch`
+(numpy glue between the same kernels), for the tests that check the fused step
+bit for bit."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.agents._nao_columns import (
+    CUR_X,
+    CUR_Y,
+    DETOUR,
+    NO_SELECTION,
+    REPLAN,
+    STATUS,
+    STOPPING,
+    V_PREF,
+    YIELDED,
+    columns_of,
+    liveness_batch,
+)
+from nao_arena.agents._nao_decide import apply_braking, apply_decisions
+from nao_arena.agents._nao_liveness import held_by_standing_kernel
+from nao_arena.agents.goal import goal_seeking_accels
+from nao_arena.agents.nao import (
+    PLAN_MARGIN,
+    _around_walls,
+    _decide,
+    _group_view,
+    _holds,
+    _keep_current,
+    _members,
+    _take_decision,
+    _traffic_mask,
+)
+from nao_arena.sensing import SensingBatch
+from nao_arena.stopping import commit_plans
+
+
+def act_rows_reference(agents: Sequence, batch: SensingBatch,
+                       rows_a: NDArray[np.int64]) -> tuple[NDArray[np.float64], dict]:
+    """The former ``_act_rows``: accelerations (n, 2) m/s^2 and errors by agent."""
+    n = len(rows_a)
+    cols = columns_of(agents)
+    real, whole = cols.real, cols.whole
+    errors: dict[int, Exception] = {}
+    bodies = batch.bodies[rows_a]
+    pos, vel, rad = batch.positions[bodies], batch.velocities[bodies], batch.radii[bodies]
+    a_max, v_max = batch.a_max[bodies], batch.v_max[bodies]
+    goals = batch.goals[rows_a]
+    live = (whole[:, REPLAN] != 0) | (whole[:, STATUS] == NO_SELECTION)
+    out = real[:, CUR_X:CUR_Y + 1].copy()
+    if not live.any():
+        return out, errors
+    held = np.zeros(n, dtype=np.bool_)
+    f = np.ascontiguousarray
+    held_by_standing_kernel(f(batch.nb_start), f(batch.nb_index), f(rows_a), f(batch.bodies),
+                            f(batch.positions), f(batch.velocities), f(batch.radii), f(rad),
+                            f(goals), held)
+    turn = np.empty(n, dtype=np.bool_)
+    liveness_batch(live, f(pos), f(vel), f(goals), f(rad), f(v_max), held, float(batch.dt),
+                   real, whole, cols.opt, turn)
+    for i in np.flatnonzero(turn).tolist():
+        agents[i]._turn_detour()
+    desired = _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
+    traffic_near = _traffic_near_reference(batch, rows_a)
+    current = real[:, CUR_X:CUR_Y + 1].copy()
+    cols.seen = []
+    for group in cols.grid_groups(agents):
+        m = group[live[group]]
+        if not len(m):
+            continue
+        ag0 = agents[int(m[0])]
+        try:
+            pred = f(ag0.predict(ag0.times, batch.everyone()), dtype=np.float64)
+        except Exception as exc:  # noqa: BLE001
+            for i in m.tolist():
+                errors[i] = exc
+            continue
+        excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
+        holds = _holds(cols, m)
+        status = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos, vel,
+                               rad, v_max, current, desired, a_max, holds)
+        decided = (_decide(m, status, ag0, cols, pred, excursions, lists, batch.radii, pos,
+                           vel, rad, a_max, v_max, current, desired, holds)
+                   if lists is not None else None)
+        settled = status == 1
+        if decided is not None:
+            apply_decisions(m, status, *decided, real, whole, out, settled)
+            apply_braking(m, status, decided[0], decided[2], traffic_near, vel, a_max,
+                          float(batch.dt), real, whole, out, settled)
+        for j in np.flatnonzero(~settled).tolist():
+            i = int(m[j])
+            ag = agents[i]
+            try:
+                if decided is not None and status[j] == 0:
+                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
+                                          batch.dt, bool(traffic_near[i]))
+                    if done is not None:
+                        out[i] = done
+                        continue
+                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
+                if status[j] == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
+                                                     float(v_max[i]), path):
+                    continue
+                fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]),
+                                   float(v_max[i]))
+                if fixed is not None:
+                    out[i] = fixed
+                    continue
+                out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
+                                    float(v_max[i]), batch.dt, bool(traffic_near[i]))
+            except Exception as exc:  # noqa: BLE001
+                errors[i] = exc
+    take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
+    if errors:
+        take[list(errors)] = False
+    g = np.flatnonzero(take)
+    if len(g):
+        brake, braking = commit_plans(
+            *_members((pos, vel, out, rad, a_max, v_max), g), batch.dt, batch.substeps,
+            PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
+        if brake.any():
+            yielding = g[brake]
+            cols.commit(yielding, braking[brake], YIELDED, 0)
+            out[yielding] = braking[brake]
+    return out, errors
+
+
+def _traffic_near_reference(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bool_]:
+    is_traffic = _traffic_mask(batch.kinds)
+    if is_traffic is None:
+        return np.zeros(len(rows), dtype=bool)
+    seen = np.concatenate([[0], np.cumsum(is_traffic[batch.nb_index])])
+    return (seen[batch.nb_start[rows + 1]] - seen[batch.nb_start[rows]]) > 0
+
+
+def _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max):
+    targets = goals
+    has_target = None
+    if not np.isfinite(goals).all():
+        lost = ~np.all(np.isfinite(goals), axis=1)
+        targets = goals.copy()
+        has_target = ~lost
+        for i in np.flatnonzero(lost).tolist():
+            route = batch.routes[int(rows_a[i])]
+            if route is not None and len(route):
+                targets[i] = route[-1]
+                has_target[i] = True
+    if len(batch.walls):
+        targets = _around_walls(cols, batch, rows_a, targets, pos)
+    v_pref = cols.opt[:, V_PREF]
+    cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
+    return goal_seeking_accels(targets, pos, vel, a_max, cap, cols.real[:, DETOUR],
+                               has_target=has_target)
