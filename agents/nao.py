@@ -895,12 +895,11 @@ def _act_rows(
             left = len(m)
             settled = np.zeros(len(m), dtype=bool)
         else:
-            nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
+            nb_start, nb_index, *wall_lists = lists  # wall_seg, wall_half, start, index
             status, kind, accel, tested, settled, left = settle_members(
                 m, f(ag0.times, dtype=np.float64), pred, excursions[0], excursions[1],
-                nb_start, nb_index, f(batch.radii, dtype=np.float64), wall_seg, wall_half,
-                wall_start, wall_index, pos, vel, rad, a_max, v_max, current, desired,
-                traffic_near, float(batch.dt),
+                nb_start, nb_index, f(batch.radii, dtype=np.float64), *wall_lists, pos, vel,
+                rad, a_max, v_max, current, desired, traffic_near, float(batch.dt),
                 *selection_settings(a_max if len(m) == len(a_max) else a_max[m]),
                 real, whole, cols.opt, out)
             decided = kind, accel, tested

@@ -426,8 +426,9 @@ def _wall_sets(
 
 
 def _f64(a: Any) -> NDArray[np.float64]:
-    """A contiguous writable float64 array (a copy where needed), as the kernel takes."""
-    return np.require(a, dtype=np.float64, requirements=("C", "W"))
+    """A contiguous float64 array (a copy only where needed: a batch's read-only arrays
+    go to the kernel as they are)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 class ORCAAgent:
@@ -494,13 +495,14 @@ class ORCAAgent:
     @classmethod
     def act_batch(
         cls, agents: Sequence[ORCAAgent], batch: SensingBatch, rows: Sequence[int]
-    ) -> list[NDArray[np.float64] | Exception]:
+    ) -> NDArray[np.float64] | list[NDArray[np.float64] | Exception]:
         """:meth:`act` for many robots at once, in one compiled call from the bulk arrays
-        (the same accelerations, m/s^2). Agents of a subclass with its own ``act`` act
-        robot by robot. Returns one acceleration or exception per row."""
+        (the same accelerations, m/s^2): an array (len(rows), 2). Agents of a subclass
+        with its own ``act`` act robot by robot: then one acceleration or exception per
+        row (a list)."""
         n = len(rows)
         if all(t.act is _ACT for t in set(map(type, agents))):
-            return list(_batch_accelerations(agents, batch, np.asarray(rows, dtype=np.int64)))
+            return _batch_accelerations(agents, batch, np.asarray(rows, dtype=np.int64))
         out: list[NDArray[np.float64] | Exception] = [np.zeros(2)] * n
         todo = []
         for i, ag in enumerate(agents):
@@ -557,19 +559,49 @@ def _batch_accelerations(
     """The kernel on the bulk arrays for ``agents`` at robot rows ``rows``: (n, 2) m/s^2."""
     bodies = _i64(batch.bodies)
     options, has_v_pref, limit = _option_table(agents)
-    grow = _f64(batch.radii)[bodies[rows]] + options[:, _MARGIN]
-    wall_c, wall_r, wall_start, wall_set = _wall_sets(batch.walls, batch.wall_radius, grow)
+    if len(batch.walls):
+        grow = _f64(batch.radii)[bodies[rows]] + options[:, _MARGIN]
+        wall_c, wall_r, wall_start, wall_set = _wall_sets(batch.walls, batch.wall_radius, grow)
+    else:
+        wall_c, wall_r, wall_start, wall_set = _no_wall_sets(len(rows))
     return orca_accelerations(
         _f64(batch.positions), _f64(batch.velocities), _f64(batch.radii),
         _f64(batch.a_max), _f64(batch.v_max), _reactive(batch.kinds), bodies,
-        _f64(batch.goals), np.ones(len(bodies), dtype=np.bool_),
-        _i64(batch.nb_start), _i64(batch.nb_index), rows, wall_c, wall_r, wall_start,
-        wall_set, options, has_v_pref, limit, float(batch.dt))
+        _f64(batch.goals), _every_goal(len(bodies)), _i64(batch.nb_start),
+        _i64(batch.nb_index), rows, wall_c, wall_r, wall_start, wall_set, options,
+        has_v_pref, limit, float(batch.dt))
+
+
+_NO_WALL_SETS: dict[int, tuple[NDArray[Any], ...]] = {}
+_EVERY_GOAL: dict[int, NDArray[np.bool_]] = {}
+
+
+def _no_wall_sets(n: int) -> tuple[NDArray[Any], ...]:
+    """:func:`_wall_sets` of n rows and no walls, memoised per n (shared: the kernel
+    only reads them)."""
+    sets = _NO_WALL_SETS.get(n)
+    if sets is None:
+        if len(_NO_WALL_SETS) > 64:
+            _NO_WALL_SETS.clear()
+        sets = _NO_WALL_SETS[n] = _wall_sets(NO_WALLS[0].reshape(0, 2, 2), NO_WALLS[1],
+                                             np.zeros(n))
+    return sets
+
+
+def _every_goal(n: int) -> NDArray[np.bool_]:
+    """n True values (every robot of a batch has its goal), memoised per n (shared: the
+    kernel only reads them)."""
+    every = _EVERY_GOAL.get(n)
+    if every is None:
+        if len(_EVERY_GOAL) > 64:
+            _EVERY_GOAL.clear()
+        every = _EVERY_GOAL[n] = np.ones(n, dtype=np.bool_)
+    return every
 
 
 def _i64(a: Any) -> NDArray[np.int64]:
-    """A contiguous writable int64 array (a copy where needed), as the kernel takes."""
-    return np.require(a, dtype=np.int64, requirements=("C", "W"))
+    """A contiguous int64 array (a copy only where needed, as :func:`_f64`)."""
+    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 _REACTIVE: list[Any] = [None, None]

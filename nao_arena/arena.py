@@ -69,7 +69,7 @@ from nao_arena.sensing import (
 )
 from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
 from nao_arena.traffic import LaneTraffic
-from nao_arena.world import World, WorldState, clip_accelerations
+from nao_arena.world import World, WorldState, applied_plans
 
 __all__ = ["Arena", "ArenaOptions", "StepRecorder", "StepResult", "make_agent"]
 
@@ -294,10 +294,8 @@ class Arena:
         state = self.state
         assert state is not None
         known = self._known_paths(state) if len(self.traffic.indices) else None
-        plans = np.full((self.world.n, 2), np.nan)
         # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands
-        plans[self.robot_ids] = clip_accelerations(self.commanded[self.robot_ids],
-                                                   self._robot_a_max)
+        plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)
         if self._kinds is None:
             kinds = np.array(self.world.kinds)
             kinds.setflags(write=False)  # read-only and owning its data: agents may cache by it

@@ -516,10 +516,11 @@ class SensingBatch:
     _everyone: Neighbours | None = None
 
     def __post_init__(self) -> None:
+        fields = self.__dict__
         for name in _BATCH_ARRAYS:
-            value = getattr(self, name)
+            value = fields[name]
             if value is not None and value.flags.writeable:
-                setattr(self, name, read_only(value))
+                fields[name] = read_only(value)
         self.routes = ReadOnlyRoutes.of(self.routes)
 
     @classmethod

@@ -67,6 +67,7 @@ from nao_arena.speed_limit import saturation_time, speed_limit_time
 __all__ = [
     "World",
     "WorldState",
+    "applied_plans",
     "clip_accelerations",
     "speed_limit_time",
 ]
@@ -102,6 +103,24 @@ def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
     norm = np.hypot(a[:, 0], a[:, 1])
     scale = np.minimum(1.0, np.asarray(a_max, float) / np.maximum(norm, 1e-300))
     return a * scale[:, None]
+
+
+@njit(cache=True)
+def applied_plans(commanded: FloatArray, rows: NDArray[np.int64], a_max: FloatArray,
+                  n: int) -> FloatArray:  # pragma: no cover
+    """(n, 2) m/s^2: the commanded accelerations of the bodies ``rows`` scaled to
+    |a| <= a_max[j] (m/s^2) as :func:`clip_accelerations` scales them (the same
+    arithmetic), NaN for the other bodies: the accelerations the world applied to the
+    robots (finite commands, as :meth:`World.step` takes them)."""
+    out = np.full((n, 2), np.nan)
+    for j in range(rows.shape[0]):
+        r = rows[j]
+        ax, ay = commanded[r, 0], commanded[r, 1]
+        norm = np.hypot(ax, ay)
+        scale = min(1.0, a_max[j] / max(norm, 1e-300))
+        out[r, 0] = ax * scale
+        out[r, 1] = ay * scale
+    return out
 
 
 @njit(cache=True)

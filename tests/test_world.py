@@ -412,6 +412,24 @@ def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
     assert _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)[0] is False
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_applied_plans_are_the_clipped_commands_bit_for_bit(seed: int) -> None:
+    """applied_plans: the robots' rows of clip_accelerations, the same bits (commands
+    from zero to far beyond a_max, subnormal ones), NaN for every other body."""
+    from nao_arena.world import applied_plans, clip_accelerations
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 40))
+    commanded = rng.normal(0.0, 3.0, (n, 2)) * rng.choice([0.0, 1e-310, 1.0, 1e6], (n, 1))
+    rows = rng.permutation(n)[: int(rng.integers(0, n + 1))].astype(np.int64)
+    a_max = rng.uniform(0.5, 3.0, len(rows))
+    got = applied_plans(commanded, rows, a_max, n)
+    want = np.full((n, 2), np.nan)
+    if len(rows):
+        want[rows] = clip_accelerations(commanded[rows], a_max)
+    assert got.tobytes() == want.tobytes()
+
+
 LEAK_SCRIPT = textwrap.dedent(
     """
     import gc, os, sys
