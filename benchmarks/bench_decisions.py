@@ -4,7 +4,9 @@ Runs one episode of a dense swap (``--map``, ``--size`` robots, seed 0), finds t
 ``--window`` seconds with the most costly re-selections (robots that cannot keep
 their acceleration and are repaired, adjusted or find nothing admissible in the
 compiled decision, ``decide_batch``, rather than take their desired one), records
-that window's calls with copies of their inputs, and
+that window's calls with copies of their inputs (rebuilt from the arguments of the
+compiled step that makes them, ``settle_members``, and checked to give the same
+outcomes), and
 replays them ``--repeat`` times, printing the least time: us per re-selection and
 per agent-step, next to the whole step of the same window in the same run (the
 decisions' share of it), how many robots re-decided and with what outcome, and a
@@ -31,8 +33,11 @@ from typing import Any
 
 import numpy as np
 from bench_crowds import warm_up
+from numpy.typing import NDArray
 
-import nao_arena.agents._nao_decide as decide_module
+import nao_arena.agents.nao as nao_module
+from nao_arena.agents._nao_columns import MARGIN, young_adjustments
+from nao_arena.agents._nao_decide import decide_batch
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.maps import load_map
@@ -48,22 +53,43 @@ def _episode(map_name: str, n: int) -> Arena:
     return arena
 
 
+def _decide_call(args: tuple[Any, ...], holds: NDArray[np.bool_],
+                 status: NDArray[np.int64]) -> tuple[Any, ...] | None:
+    """The ``decide_batch`` call that ``settle_members(*args)`` made inside (copied
+    arguments, fresh outputs), from its arguments, the members' ``holds`` before it ran
+    and the status it returned; None when it decided nothing."""
+    m = args[0]
+    todo = np.flatnonzero(status == 0)
+    if not len(todo):
+        return None
+    every = len(m) == len(args[12])
+    p, v, r, a, s, c, d = (x.copy() if every else x[m] for x in args[12:19])
+    grow = r + args[31][m, MARGIN]
+    copied = tuple(x.copy() if isinstance(x, np.ndarray) else x for x in args[1:12])
+    k = len(m)
+    return (*copied, todo, p, v, grow, a, s, holds, c, d, *args[21:29],
+            np.full(k, Outcome.UNDECIDED, dtype=np.int64), np.zeros((k, 2)),
+            np.zeros(k, dtype=np.int64))
+
+
 def capture(map_name: str, n: int, window: float) -> tuple[list[tuple[Any, ...]], float, int]:
-    """The decide_batch calls (copied arguments) of the episode's densest window (the
-    most re-selections other than the desired acceleration, the first of equals: the
-    same window in every run), the whole
-    step's wall time in that window (s) and its steps. The episode runs twice (the
-    same steps): timed, counting re-selections, then recorded (copies would distort the
+    """The decide_batch calls of the episode's densest window (the most re-selections
+    other than the desired acceleration, the first of equals: the same window in every
+    run), the whole step's wall time in that window (s) and its steps. The calls are
+    made inside the compiled ``settle_members``; each is rebuilt from that call's
+    arguments and checked to give its outcomes. The episode runs twice (the same
+    steps): timed, counting re-selections, then recorded (copies would distort the
     timing)."""
-    original = decide_module.decide_batch
+    original = nao_module.settle_members
     counts: list[int] = []
 
-    def counting(*args: Any) -> None:
-        original(*args)
-        kind, rows = args[-3], args[11]
-        counts[-1] += int(np.count_nonzero(kind[rows] != Outcome.DESIRED))
+    def counting(*args: Any) -> Any:
+        out = original(*args)
+        status, kind = out[0], out[1]
+        counts[-1] += int(np.count_nonzero((status == 0) & (kind != Outcome.DESIRED)))
+        return out
 
-    decide_module.decide_batch = counting
+    nao_module.settle_members = counting
     arena = _episode(map_name, n)
     step_time = []
     try:
@@ -73,45 +99,60 @@ def capture(map_name: str, n: int, window: float) -> tuple[list[tuple[Any, ...]]
             arena.step()
             step_time.append(time.perf_counter() - t0)
     finally:
-        decide_module.decide_batch = original
+        nao_module.settle_members = original
     steps = max(1, min(len(step_time), int(round(window / arena.world.dt))))
     first = int(np.argmax(np.convolve(counts, np.ones(steps, dtype=np.int64), mode="valid")))
     calls: list[tuple[Any, ...]] = []
     now = [0]  # the step being taken
 
-    def recording(*args: Any) -> None:
-        if now[0] >= first:
-            calls.append(tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args))
-        original(*args)
+    def recording(*args: Any) -> Any:
+        if now[0] < first:
+            return original(*args)
+        m, real, whole, opt = args[0], args[29], args[30], args[31]
+        holds = np.empty(len(m), dtype=np.bool_)
+        young_adjustments(m, real, whole, opt, holds)  # before the call commits
+        out = original(*args)
+        call = _decide_call(args, holds, out[0])
+        if call is not None:
+            expected = replay([call], keep=True)[1][0]
+            rows = call[11]
+            if any(not np.array_equal(e[rows], o[rows]) for e, o in zip(expected, out[1:4],
+                                                                          strict=True)):
+                raise AssertionError("a rebuilt decide_batch call gave other outcomes")
+            calls.append(call)
+        return out
 
-    decide_module.decide_batch = recording
+    nao_module.settle_members = recording
     arena = _episode(map_name, n)
     try:
         for now[0] in range(first + steps):
             arena.step()
     finally:
-        decide_module.decide_batch = original
+        nao_module.settle_members = original
     return calls, float(sum(step_time[first:first + steps])), steps
 
 
 def replay(calls: list[tuple[Any, ...]], digest: Any = None,
-           kinds: Counter[str] | None = None) -> float:
+           kinds: Counter[str] | None = None, keep: bool = False) -> Any:
     """Wall time (s) of every call once (fresh outputs); the outcomes go into digest and
-    are counted in kinds."""
+    are counted in kinds; keep: also return each call's outputs (kind, accel, tested)."""
     total = 0.0
+    kept = []
     for args in calls:
         a = list(args)
         a[-3], a[-2], a[-1] = a[-3].copy(), a[-2].copy(), a[-1].copy()  # kind, accel, tested
         t0 = time.perf_counter()
-        decide_module.decide_batch(*a)
+        decide_batch(*a)
         total += time.perf_counter() - t0
+        if keep:
+            kept.append((a[-3], a[-2], a[-1]))
         if digest is not None:
             rows = a[11]
             for out in a[-3:]:
                 digest.update(np.ascontiguousarray(out[rows]).tobytes())
         if kinds is not None:
             kinds.update(Outcome(int(a[-3][k])).name.lower() for k in a[11])
-    return total
+    return (total, kept) if keep else total
 
 
 def main() -> None:
