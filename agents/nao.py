@@ -445,6 +445,11 @@ class NAOAgent:
         ``act`` called robot by robot (the one hook besides the options).
         """
         rows_a = np.asarray(rows, dtype=np.int64)
+        if all(t.act is NAOAgent.act for t in set(map(type, agents))):
+            accels, errors = _act_rows(agents, batch, rows_a)
+            if not errors:
+                return accels
+            return [errors.get(i, accels[i]) for i in range(len(rows_a))]
         out: list[NDArray[np.float64] | Exception | None] = [None] * len(rows_a)
         own = [i for i, ag in enumerate(agents) if type(ag).act is not NAOAgent.act]
         for i in own:
@@ -452,11 +457,6 @@ class NAOAgent:
                 out[i] = agents[i].act(batch.observation(int(rows_a[i])))
             except Exception as exc:  # noqa: BLE001 - the agent's failure
                 out[i] = exc
-        if not own:
-            accels, errors = _act_rows(agents, batch, rows_a)
-            if not errors:
-                return accels
-            return [errors.get(i, accels[i]) for i in range(len(rows_a))]
         rest = [i for i in range(len(rows_a)) if out[i] is None]
         if rest:
             accels, errors = _act_rows([agents[i] for i in rest], batch, rows_a[rest])

@@ -402,7 +402,7 @@ class Arena:
         try:
             results = cls.act_batch(agents, batch, rows)
             if (type(results) is np.ndarray and results.shape == (len(rows), 2)
-                    and results.dtype == np.float64 and np.all(np.isfinite(results))):
+                    and results.dtype == np.float64 and np.isfinite(results).all()):
                 return results.copy(), {}  # the common case of an array of them
             results = list(results)
             if len(results) != len(rows):
