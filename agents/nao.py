@@ -961,12 +961,23 @@ def _desired(
     goals: NDArray[np.float64], pos: NDArray[np.float64], vel: NDArray[np.float64],
     a_max: NDArray[np.float64], v_max: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """The goal-seeking accelerations (n, 2) m/s^2 (:func:`goal_seeking_accels` at
-    min(v_pref, v_max), turned by each agent's detour; agents: the rows of ``cols``)
-    toward the robots' goals; a robot without a finite goal heads for its route's last
-    waypoint, or stands still without one."""
+    """The goal-seeking accelerations (n, 2) m/s^2 (:func:`desired_rows`:
+    goal seeking at min(v_pref, v_max), turned by each agent's detour; agents: the rows
+    of ``cols``) toward the robots' :func:`_heading_targets`."""
+    targets, has_target = _heading_targets(cols, batch, rows_a, goals, pos)
+    return desired_rows(np.ascontiguousarray(targets, dtype=np.float64), has_target, pos, vel,
+                        a_max, v_max, cols.real, cols.opt)
+
+
+def _heading_targets(
+    cols: AgentColumns, batch: SensingBatch, rows_a: NDArray[np.int64],
+    goals: NDArray[np.float64], pos: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Where each robot heads (n, 2) m, and whether it has a target: its goal; a robot
+    without a finite goal heads for its route's last waypoint, or has none (stands
+    still); where a wall stands in the way, the way around it (:func:`_around_walls`)."""
     targets = goals
-    has_target = None
+    has_target = np.ones(len(goals), dtype=np.bool_)
     if not np.isfinite(goals).all():
         lost = ~np.all(np.isfinite(goals), axis=1)
         targets = goals.copy()
@@ -978,10 +989,7 @@ def _desired(
                 has_target[i] = True
     if len(batch.walls):
         targets = _around_walls(cols, batch, rows_a, targets, pos)
-    if has_target is None:
-        has_target = np.ones(len(targets), dtype=np.bool_)
-    return desired_rows(np.ascontiguousarray(targets, dtype=np.float64), has_target, pos, vel,
-                        a_max, v_max, cols.real, cols.opt)
+    return targets, has_target
 
 
 def _around_walls(

@@ -1,7 +1,8 @@
 """Reference for the ``nao`` agents' batch step: the step as it ran before its
 bookkeeping was fused into the compiled calls of :mod:`nao_arena.agents._nao_batch`
-(numpy glue between the same kernels), for the tests that check the fused step
-bit for bit."""
+(numpy glue between the same kernels; the heading targets and the robot-by-robot
+path, which were not fused, are the agent's own), for the tests that check the
+fused step bit for bit."""
 
 from __future__ import annotations
 
@@ -28,14 +29,14 @@ from nao_arena.agents._nao_liveness import held_by_standing_kernel
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.agents.nao import (
     PLAN_MARGIN,
-    _around_walls,
     _decide,
     _group_view,
+    _heading_targets,
     _holds,
     _keep_current,
     _members,
-    _take_decision,
     _traffic_mask,
+    _undecided,
 )
 from nao_arena.sensing import SensingBatch
 from nao_arena.stopping import commit_plans
@@ -93,29 +94,9 @@ def act_rows_reference(agents: Sequence, batch: SensingBatch,
             apply_decisions(m, status, *decided, real, whole, out, settled)
             apply_braking(m, status, decided[0], decided[2], traffic_near, vel, a_max,
                           float(batch.dt), real, whole, out, settled)
-        for j in np.flatnonzero(~settled).tolist():
-            i = int(m[j])
-            ag = agents[i]
-            try:
-                if decided is not None and status[j] == 0:
-                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]),
-                                          batch.dt, bool(traffic_near[i]))
-                    if done is not None:
-                        out[i] = done
-                        continue
-                path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
-                if status[j] == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
-                                                     float(v_max[i]), path):
-                    continue
-                fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]),
-                                   float(v_max[i]))
-                if fixed is not None:
-                    out[i] = fixed
-                    continue
-                out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]),
-                                    float(v_max[i]), batch.dt, bool(traffic_near[i]))
-            except Exception as exc:  # noqa: BLE001
-                errors[i] = exc
+        if not settled.all():
+            _undecided(agents, m, status, settled, decided, errors, out, batch, rows_a,
+                       pred, excursions, vel, a_max, v_max, current, desired, traffic_near)
     take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
     if errors:
         take[list(errors)] = False
@@ -140,19 +121,7 @@ def _traffic_near_reference(batch: SensingBatch, rows: NDArray[np.int64]) -> NDA
 
 
 def _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max):
-    targets = goals
-    has_target = None
-    if not np.isfinite(goals).all():
-        lost = ~np.all(np.isfinite(goals), axis=1)
-        targets = goals.copy()
-        has_target = ~lost
-        for i in np.flatnonzero(lost).tolist():
-            route = batch.routes[int(rows_a[i])]
-            if route is not None and len(route):
-                targets[i] = route[-1]
-                has_target[i] = True
-    if len(batch.walls):
-        targets = _around_walls(cols, batch, rows_a, targets, pos)
+    targets, has_target = _heading_targets(cols, batch, rows_a, goals, pos)
     v_pref = cols.opt[:, V_PREF]
     cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
     return goal_seeking_accels(targets, pos, vel, a_max, cap, cols.real[:, DETOUR],
