@@ -58,8 +58,8 @@ from nao_arena.stopping import commit_plans_kernel
 __all__ = ["BRAKING", "TIME_CONSTANT", "desired_rows", "own_rows", "prepare_rows",
            "settle_members", "yield_rows"]
 
-#: goal seeking's time constant (s) and braking (fraction of a_max), as the ``nao``
-#: agent uses :func:`~nao_arena.agents.goal.goal_seeking_accels`
+#: the ``nao`` agents' goal seeking: time constant (s) and braking (fraction of a_max),
+#: the defaults of :func:`~nao_arena.agents.goal.goal_seeking_accels`
 TIME_CONSTANT = 0.5
 BRAKING = 0.5
 
@@ -78,7 +78,8 @@ def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pra
     sin_off = np.empty(n)
     for i in range(n):
         v_pref = opt[i, V_PREF]
-        # numpy's minimum: NaN if either is (a NaN v_pref is "none")
+        # min(v_pref, v_max) as numpy's minimum (a NaN v_max stays NaN); a NaN v_pref
+        # (none) gives v_max
         cap[i] = v_pref if v_pref < v_max[i] else v_max[i]
         offset[i] = real[i, DETOUR]
         cos_off[i] = math.cos(offset[i])
