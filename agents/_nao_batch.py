@@ -147,7 +147,8 @@ def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_
     heading targets.
 
     Returns (pos, vel, rad, a_max, v_max, goals, live, n_live, out, turn, turns,
-    traffic_near, desired, direct); turns counts turn; n_live 0: desired unset.
+    traffic_near, desired, direct); turns counts turn; desired is unset (the caller's to
+    find) when no row is live, some detour turned or not ``direct``.
     """
     pos, vel, rad, a_max, v_max, own_goals, traffic_near, direct = own_rows(
         rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals, nb_start,
@@ -184,8 +185,10 @@ def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_
             for i in range(n):
                 if whole[i, NAVIGATE] != 0:
                     whole[i, AROUND] = 0
-    desired = desired_rows(own_goals, np.ones(n, dtype=np.bool_), pos, vel, a_max, v_max,
-                           real, opt)
+    desired = out  # unset: the caller finds the targets and the goal seeking itself
+    if direct and turns == 0:
+        desired = desired_rows(own_goals, np.ones(n, dtype=np.bool_), pos, vel, a_max, v_max,
+                               real, opt)
     return (pos, vel, rad, a_max, v_max, own_goals, live, n_live, out, turn, turns,
             traffic_near, desired, direct)
 

@@ -810,15 +810,20 @@ def _own_rows(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[Any, ...]
     robot its position (m), velocity (m/s), radius (m), a_max (m/s^2), v_max (m/s),
     goal (m), whether traffic is among its neighbours; and whether every goal is
     finite."""
+    return own_rows(*_own_inputs(batch, rows_a))
+
+
+def _own_inputs(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[Any, ...]:
+    """The arguments of :func:`~nao_arena.agents._nao_batch.own_rows` (and the first ones
+    of ``prepare_rows``) for the batch rows ``rows_a``, as the kernels take them."""
     f = np.ascontiguousarray
     traffic = _traffic_mask(batch.kinds)
-    return own_rows(
-        f(rows_a, dtype=np.int64), f(batch.bodies, dtype=np.int64),
-        f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
-        f(batch.radii, dtype=np.float64), f(batch.a_max, dtype=np.float64),
-        f(batch.v_max, dtype=np.float64), f(batch.goals, dtype=np.float64),
-        f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
-        _NO_TRAFFIC if traffic is None else traffic)
+    return (f(rows_a, dtype=np.int64), f(batch.bodies, dtype=np.int64),
+            f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
+            f(batch.radii, dtype=np.float64), f(batch.a_max, dtype=np.float64),
+            f(batch.v_max, dtype=np.float64), f(batch.goals, dtype=np.float64),
+            f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
+            _NO_TRAFFIC if traffic is None else traffic)
 
 
 def _group_view(
@@ -851,18 +856,11 @@ def _act_rows(
     real, whole = cols.real, cols.whole
     errors: dict[int, Exception] = {}
     f = np.ascontiguousarray
-    traffic = _traffic_mask(batch.kinds)
     walls = f(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
     wall_half = f(batch.wall_radius, dtype=np.float64)
     (pos, vel, rad, a_max, v_max, goals, live, n_live, out, turn, turns, traffic_near, desired,
-     direct) = prepare_rows(
-        f(rows_a, dtype=np.int64), f(batch.bodies, dtype=np.int64),
-        f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
-        f(batch.radii, dtype=np.float64), f(batch.a_max, dtype=np.float64),
-        f(batch.v_max, dtype=np.float64), f(batch.goals, dtype=np.float64),
-        f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
-        _NO_TRAFFIC if traffic is None else traffic, walls, wall_half, float(batch.dt), real,
-        whole, cols.opt)
+     direct) = prepare_rows(*_own_inputs(batch, rows_a), walls, wall_half, float(batch.dt),
+                            real, whole, cols.opt)
     if not n_live:
         return out, errors  # holds (replan=False) keep their acceleration
     if turns:
