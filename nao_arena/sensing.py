@@ -225,7 +225,7 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
                 near[j] = x
         else:
             near[:c_n].sort()
-        m = 0
+        m = np.int64(0)  # not the literal 0 (see nao_arena.geometry._kernel)
         for i in range(c_n):
             j = near[i]
             dj = _distance_from(positions, j, me, mx, my, use_hypot)

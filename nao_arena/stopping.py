@@ -104,7 +104,7 @@ def _fill_plan(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
     out[0, 0] = px
     out[0, 1] = py
     tau = saturation_time(vx, vy, ax, ay, v_max)
-    px, py, vx, vy, k = _period(px, py, vx, vy, ax, ay, tau, h, substeps, out, 1)
+    px, py, vx, vy, k = _period(px, py, vx, vy, ax, ay, tau, h, substeps, out, np.int64(1))
     limit = out.shape[0] - substeps
     while k <= limit:
         speed = math.hypot(vx, vy)

@@ -15,4 +15,17 @@ The public wrappers live in :mod:`nao_arena.geometry.clearance` and
 :mod:`nao_arena.geometry.selection`. The loops that run per candidate borrow
 their array arguments (:mod:`nao_arena.geometry.borrow`: no reference counting
 per call) and get their scratch arrays from thin wrappers.
+
+Compile time is part of the cost (the first run compiles what it calls), so:
+
+- a compiled function calls another with a constant argument as ``np.int64(0)``
+  or ``np.bool_(False)``, not ``0`` or ``False``: numba compiles a separate
+  version of the callee for every literal value it is called with (a counter
+  that starts at a literal is started the same way, since type inference first
+  sees it as that literal);
+- ``inline="always"`` is kept for small functions called per candidate, and an
+  inlined function inlines no other large one: numba copies the callee's whole
+  intermediate representation for every inlined call site, so nested inlining
+  compiles in minutes (``outside._surely_covered`` is a compiled call, not
+  inlined, for that reason).
 """

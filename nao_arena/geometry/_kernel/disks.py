@@ -110,7 +110,7 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margi
     rows = N * total
     if walls.shape[0]:
         rows += _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max,
-                            per_second, thin, np.empty((0, 4)), 0)
+                            per_second, thin, np.empty((0, 4)), np.int64(0))  # not a literal
     out = np.empty((rows, 4))
     cnt = _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach,
                              a_max, per_second, thin, out)

@@ -136,7 +136,7 @@ def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, 
                                            n, j)
         if end_dist2(Ax, Ay, Bx, By, Cx, Cy, tb - ta) < reach2:
             return True
-        piece_minimum(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, False, buf)
+        piece_minimum(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, np.bool_(False), buf)
         if buf[0] < reach2:
             return True
         ta = tb

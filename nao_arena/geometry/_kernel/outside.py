@@ -128,17 +128,15 @@ def _cover_bins(p0, p1, shrink, cover):
     first = int(math.ceil(lo * (_BINS / 4.0)))
     last = int(math.floor(hi * (_BINS / 4.0)))  # bins first .. last - 1 lie inside
     if last - first >= _BINS:
-        _set_bins(0, _BINS, cover)
-        return
-    if last <= first:
-        return
-    if last <= _BINS:
-        _set_bins(first, last, cover)
+        first, last = 0, _BINS
     elif first >= _BINS:
-        _set_bins(first - _BINS, last - _BINS, cover)
-    else:
-        _set_bins(first, _BINS, cover)
-        _set_bins(0, last - _BINS, cover)
+        first, last = first - _BINS, last - _BINS
+    # the bins first .. last - 1, wrapping round past _BINS: at most two runs, marked by
+    # one call site (each site of an inlined function is compiled again)
+    while last > first:
+        end = min(last, _BINS)
+        _set_bins(first, end, cover)
+        first, last = 0, last - _BINS
 
 
 # what :func:`_mark` did
@@ -191,11 +189,9 @@ def _mark(cx, cy, rho, circ, j, a_max, cover):
     # intersection directions at angles alpha -/+ beta (alpha: towards the disk)
     p_minus = _pseudo_angle(a * ux + h * uy, a * uy - h * ux)
     p_plus = _pseudo_angle(a * ux - h * uy, a * uy + h * ux)
-    shrink = 8.0 * err
-    if j == M:
-        _cover_bins(p_plus, p_minus, shrink, cover)  # outside the limit disc
-    else:
-        _cover_bins(p_minus, p_plus, shrink, cover)
+    if j == M:  # outside the limit disc
+        p_minus, p_plus = p_plus, p_minus
+    _cover_bins(p_minus, p_plus, 8.0 * err, cover)
     return _MARKED
 
 
@@ -271,7 +267,7 @@ _PROBES = 5
 
 
 # inlined into its one caller, _free_arc_points (once per circle visited)
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
@@ -447,7 +443,7 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
     max_out = res.shape[0]
     lower = np.empty(disks.shape[0] + 1)
     order, scale = outside_setup(q, disks, a_max, within, res, lower)
-    outside_advance(q, disks, a_max, covered, res, lower, order, 0, max_out, scale, cand,
+    outside_advance(q, disks, a_max, covered, res, lower, order, np.int64(0), max_out, scale, cand,
                     starts, ends, cover)
     return outside_found(res, within)
 

@@ -60,14 +60,14 @@ def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, wall
     for i in range(N):
         n = first if i == 0 else (i - 1 if i <= first else i)
         j = scan_obstacle(cvx, cvy, x, y, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n,
-                          radius[n], margin, False, buf, res)
+                          radius[n], margin, np.bool_(False), buf, res)
         if res[0] < (radius[n] + margin) ** 2:
             hint[0] = n
             hint[1] = j
             return False, 1
     if W:
-        w = wall_violation(cvx, cvy, x, y, tau, bound, seg_t[-1], walls, wall_r, margin, -1,
-                           buf, res)
+        w = wall_violation(cvx, cvy, x, y, tau, bound, seg_t[-1], walls, wall_r, margin,
+                           np.int64(-1), buf, res)
         if w >= 0:
             hint[0] = N + w
             hint[1] = -1
@@ -77,7 +77,7 @@ def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, wall
 
 @njit(cache=True, error_model="numpy")
 def _bisect_disc(bx, by, gx, gy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b,
-                 radius, walls, wall_r, sweep, margin, buf, res, hint, give_up=math.inf):
+                 radius, walls, wall_r, sweep, margin, buf, res, hint, give_up):
     """Shrink [b, g] (g admissible) onto the boundary within tol: (gx, gy, tests). When
     b starts at the origin of the caller's distances (the slide's a_d), ``give_up``
     stops the search as soon as b is that far from its start: every point left on the
@@ -119,7 +119,7 @@ def bisect_disc(bad, good, tol, a_max, v, v_max, seg_t, seg_c, seg_w, seg_b, rad
     hint = np.full(2, -1, dtype=np.int64)
     return _bisect_disc(bad[0], bad[1], good[0], good[1], tol, a_max, v[0], v[1], v_max,
                         seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, buf,
-                        res, hint)
+                        res, hint, math.inf)
 
 
 @njit(cache=True, error_model="numpy")
@@ -145,7 +145,7 @@ def _sliver_push(x, y, ux, uy, tol, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, s
             hint[1] = -1
             gx, gy, c = _bisect_disc(x, y, px, py, tol, a_max, vx, vy, v_max, seg_t,
                                      seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin,
-                                     buf, res, hint)
+                                     buf, res, hint, math.inf)
             return True, gx, gy, count + c
         step *= 2.0
     return False, 0.0, 0.0, count
@@ -467,7 +467,7 @@ def _ball_search(a_d, disks, reach, tol, a_max, v, v_max, seg_t, seg_c, seg_w, s
     # try_candidates_disc, each candidate as soon as it is final: the circles farther
     # than the admissible one are never visited (same candidates, same order)
     count = 0
-    oi = 0
+    oi = np.int64(0)  # not the literal 0 (see nao_arena.geometry._kernel)
     for row in range(8):
         oi = outside_advance(a_d, disks, a_max, covered, out, lower, order, oi, row, scale,
                              cand, starts, ends, cover)
