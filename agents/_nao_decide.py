@@ -93,7 +93,7 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             vel[k], a_max[k], v_max[k], excursion, finite_path)
         walls, wall_r = nearby_walls(wall_seg, wall_half,
                                      wall_index[wall_start[k]:wall_start[k + 1]],
-                                     pos[k], grow[k], math.inf, True)
+                                     pos[k], grow[k], math.inf, np.bool_(True))
         walls, wall_r = relevant_walls(vel[k], a_max[k], v_max[k], times[-1], walls, wall_r, 0.0)
         if not finite:
             kind[k] = Outcome.UNDECIDED

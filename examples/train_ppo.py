@@ -22,6 +22,7 @@ straight to the goal: about +20).
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import sys
 import time
@@ -97,6 +98,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--shield", action="store_true",
                         help="wrap the env in nao_arena.shield.NAOShield")
     args = parser.parse_args(argv)
+    # the first run compiles the kernels: show its progress (logger nao_arena.kernels)
+    logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
+    logging.getLogger("nao_arena.kernels").setLevel(logging.INFO)
 
     set_random_seed(args.seed)  # python, numpy, torch
     vec = make_env(args.envs, args.seed, args.shield, args.num_cpus)

@@ -59,6 +59,7 @@ from nao_arena.agent import (
     load_agent,
     safe_act,
 )
+from nao_arena.kernels import watch_compiles
 from nao_arena.maps import MapSpec, RobotSpec
 from nao_arena.sensing import (
     Observation,
@@ -70,6 +71,8 @@ from nao_arena.sensing import (
 from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState, applied_plans
+
+watch_compiles()  # the kernels' compiles are timed and logged (logger nao_arena.kernels)
 
 __all__ = ["Arena", "ArenaOptions", "StepRecorder", "StepResult", "make_agent"]
 

@@ -16,14 +16,18 @@ Sub-commands::
     nao-arena maps [--schema]
     nao-arena agents
     nao-arena figures [--out DIR] [--only NAMES]
+    nao-arena compile [--agent AGENT,...] [--jobs N]
     nao-arena --version
 
 An agent is a built-in or plug-in name, ``FILE.py:CLASS`` or
 ``module:CLASS``; ``LABEL=AGENT`` (e.g. ``mine=path/to/mine.py:Mine``) loads
 AGENT and shows it as LABEL in tables, plots and results files.
 
-The first command that runs an episode compiles the numba kernels and caches
-them (about a minute); a note on stderr says so when it happens.
+The first command that runs an episode after installing compiles the numba
+kernels it needs, in one process per core, before the episode starts, and
+caches them; stderr shows the progress. ``nao-arena compile`` compiles every
+kernel ahead of time (for images, clusters and CI). A compile never counts
+against ``--episode-timeout``.
 
 Errors (unknown map, agent, parameter; a number out of its range, e.g.
 ``--time-limit`` must be finite and > 0 s and ``--seed`` >= 0; an output
@@ -47,10 +51,12 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import math
 import os
 import signal
 import sys
+import time
 from collections.abc import Iterable, Iterator
 from importlib import resources
 from pathlib import Path
@@ -59,18 +65,6 @@ from typing import Any
 from nao_arena import __version__
 
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
-COMPILE_NOTE = "compiling geometry kernels (first run only, about a minute) ..."
-KERNEL_MODULES = ("nao_arena.world", "nao_arena.stats", "nao_arena.sensing",
-                  "nao_arena.stopping", "nao_arena.predictors", "nao_arena.agents.goal",
-                  "nao_arena.agents._nao_decide", "nao_arena.agents._nao_liveness",
-                  *(f"nao_arena.geometry._kernel.{name}" for name in (
-                      "quartic", "robot_path", "segment", "exact", "sampled", "relevance",
-                      "disks", "outside", "batch", "search")))
-"""Modules whose numba kernels every episode (``world``, ``stats``, ``sensing``) or the
-``goal``, ``nao`` and ``ao`` agents (``stopping``, ``predictors``, ``agents.goal``,
-``agents._nao_*``, ``geometry._kernel``) compile."""
-
-
 def _err(message: str) -> int:
     print(f"nao-arena: error: {message}", file=sys.stderr)
     return 2
@@ -88,55 +82,83 @@ def _plural(n: int, noun: str) -> str:
 # --------------------------------------------------------------------------- compiling
 
 
-class _CompileNote:
-    """Prints :data:`COMPILE_NOTE` once on stderr when numba starts compiling in this
-    process (a cold or stale kernel cache), as a numba event listener."""
+@contextlib.contextmanager
+def _compile_messages() -> Iterator[None]:
+    """While the block runs: the kernels' compile messages (:mod:`nao_arena.kernels`,
+    INFO) are printed on stderr as ``nao-arena: ...``."""
+    from nao_arena.kernels import LOG, watch_compiles
+
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("nao-arena: %(message)s"))
+    handler.setLevel(logging.INFO)
+    level = LOG.level
+    LOG.addHandler(handler)
+    LOG.setLevel(logging.INFO)
+    watch_compiles()
+    try:
+        yield
+    finally:
+        LOG.removeHandler(handler)
+        LOG.setLevel(level)
+
+
+class _CompileProgress:
+    """``on_done`` of :func:`nao_arena.kernels.compile_ahead`: one line on stderr at
+    most every second (and at the end): kernels done of all, seconds so far."""
 
     def __init__(self) -> None:
-        self.shown = False
+        self.started = time.monotonic()
+        self.shown = -math.inf
 
-    def show(self) -> None:
-        if not self.shown:
-            self.shown = True
-            print(COMPILE_NOTE, file=sys.stderr, flush=True)
-
-    @contextlib.contextmanager
-    def listening(self) -> Iterator[None]:
-        """While the block runs: show the note when a numba compilation starts here."""
-        from numba.core import event
-
-        note = self
-
-        class Listener(event.Listener):
-            def on_start(self, ev: event.Event) -> None:
-                note.show()
-
-            def on_end(self, ev: event.Event) -> None:
-                pass
-
-        with event.install_listener("numba:compile", Listener()):
-            yield
+    def __call__(self, done: int, total: int, key: str) -> None:
+        now = time.monotonic()
+        if done < total and now - self.shown < 1.0:
+            return
+        self.shown = now
+        name = key.partition("(")[0]
+        print(f"nao-arena: compiled {done}/{total} kernels in {now - self.started:.0f} s "
+              f"(last: {name})", file=sys.stderr, flush=True)
 
 
-def kernel_cache_cold(modules: Iterable[str] = KERNEL_MODULES) -> bool:
-    """Whether some of ``modules`` has no numba cache index file yet (``<module>.*.nbi``,
-    where numba caches its ``cache=True`` kernels), i.e. its kernels will be compiled."""
-    import importlib
+def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False) -> None:
+    """Compile the kernels of ``parts`` ahead of time in ``jobs`` processes (default:
+    every core) when the cache lacks some of them (``force``: look at each anyway),
+    with progress on stderr; nothing when they are cached or when the environment sets
+    ``NAO_ARENA_COMPILE_AHEAD=0``."""
+    from nao_arena.kernels import ahead_enabled, compile_ahead, missing_kernels
 
-    from numba.core.dispatcher import Dispatcher
+    if not force and (not ahead_enabled() or not missing_kernels(parts)):
+        return
+    report = compile_ahead(parts, jobs, on_done=_CompileProgress())
+    failed = f"; {len(report.failed)} left to compile when called" if report.failed else ""
+    print(f"nao-arena: {report.kernels} kernels compiled or loaded in {report.seconds:.0f} s "
+          f"with {report.jobs} process{'es' if report.jobs > 1 else ''} (cached for later "
+          f"runs){failed}",
+          file=sys.stderr, flush=True)
 
-    for name in modules:
-        module = importlib.import_module(name)
-        kernels = [f for f in vars(module).values()
-                   if isinstance(f, Dispatcher) and getattr(f, "_cache", None) is not None
-                   and f.__module__ == name]
-        cache = getattr(kernels[0]._cache, "cache_path", None) if kernels else None
-        if cache is None:
-            continue
-        stem = Path(module.__file__ or name).stem
-        if not any(Path(cache).glob(f"{stem}.*.nbi")):
-            return True
-    return False
+
+def _parts(agents: Iterable[str], render: bool = False) -> list[str]:
+    """The kernel parts (:mod:`nao_arena.kernels`) of an episode with these agents."""
+    from nao_arena.kernels import parts_for_agents
+
+    return [*parts_for_agents(agents), *(["render"] if render else [])]
+
+
+def _cmd_compile(args: argparse.Namespace) -> int:
+    from nao_arena.agent import BUILTIN_AGENTS
+    from nao_arena.kernels import RECORD_PARTS, parts_for_agents
+
+    if args.jobs is not None and args.jobs < 1:
+        return _err(f"--jobs: expected an integer >= 1, got {args.jobs}")
+    parts = list(RECORD_PARTS)
+    if args.agent:
+        unknown = [a for a in _split(args.agent) if a not in BUILTIN_AGENTS]
+        if unknown:
+            return _err(f"--agent: expected built-in agents ({', '.join(BUILTIN_AGENTS)}), "
+                        f"got {', '.join(unknown)}")
+        parts = parts_for_agents(_split(args.agent))
+    compile_parts(parts, args.jobs, force=True)
+    return 0
 
 
 def _timeout(text: str) -> float | None:
@@ -325,6 +347,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         recorder = _run_recorder(args, arena, label, overrides)
     except (MapError, ValueError) as exc:
         return _err(str(exc))
+    # compiled before the episode's budget starts (which leaves compiles out anyway)
+    compile_parts(_parts([agent] if agent else [r.agent for r in spec.robots],
+                         render=bool(args.render)))
     try:
         with wall_clock_budget(args.episode_timeout):
             if args.render:
@@ -388,9 +413,9 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             agent_refs={label: ref for label, ref in agents if label != ref}, log=args.log,
         )
         _load_agents(config.reference(a) for a in config.agents)
-        in_other_processes = args.workers > 1 or args.backend == "ray"
-        if in_other_processes and args.address is None and kernel_cache_cold():
-            (getattr(args, "compile_note", None) or _CompileNote()).show()
+        if args.backend == "local" or args.address is None:
+            # compiled once here, before any episode's budget, not in every worker
+            compile_parts(_parts(config.reference(a) for a in config.agents))
         previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
         try:
             result = run_trial(config, progress=None if args.quiet else sys.stderr)
@@ -722,6 +747,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_log_commands(sub)
 
+    comp = sub.add_parser(
+        "compile", help="compile the kernels ahead of time into the cache, on every core")
+    comp.add_argument("--agent", default=None, metavar="AGENT,...",
+                      help="only what episodes with these built-in agents use (default: "
+                           "everything, rendering included)")
+    comp.add_argument("--jobs", type=int, default=None,
+                      help="processes (default: one per core)")
+    comp.set_defaults(func=_cmd_compile)
+
     fig = sub.add_parser("figures", help="draw the paper's geometric figures (PNG)")
     fig.add_argument("--out", default="figures", help="output folder (default: figures)")
     fig.add_argument("--only", default="", help="comma-separated figure names")
@@ -731,9 +765,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    args.compile_note = _CompileNote()
     try:
-        with args.compile_note.listening():
+        with _compile_messages():
             return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`nao-arena maps --schema | head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -7,6 +7,10 @@ that catches it once is still stopped). EpisodeTimeout derives from
 BaseException: the loop's containment of agent failures (which contains
 every other exception but KeyboardInterrupt) lets it through.
 
+The time numba spends compiling kernels inside the block does not count
+(:func:`nao_arena.kernels.compile_seconds`): a cold kernel cache or a busy
+machine while compiling changes no result.
+
 It uses ``SIGALRM`` and ``signal.setitimer(ITIMER_REAL)``; the previous
 SIGALRM handler and timer are restored when the block exits.
 
@@ -26,6 +30,8 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
+
+from nao_arena.kernels import compile_seconds, watch_compiles
 
 __all__ = ["EpisodeTimeout", "budget_available", "wall_clock_budget"]
 
@@ -61,13 +67,20 @@ def wall_clock_budget(seconds: float | None) -> Iterator[bool]:
         yield False
         return
     budget = float(seconds)
+    watch_compiles()
+    started = time.monotonic()
+    compiled_before = compile_seconds()
 
     def expired(signum: int, frame: FrameType | None) -> None:
+        # the budget's time is the wall clock less the kernels' compiles in the meantime
+        left = budget - (time.monotonic() - started - (compile_seconds() - compiled_before))
+        if left > 0.0:
+            signal.setitimer(signal.ITIMER_REAL, left, _REPEAT)
+            return
         raise EpisodeTimeout(budget)
 
     previous_handler = signal.signal(signal.SIGALRM, expired)
     previous_delay, previous_interval = signal.setitimer(signal.ITIMER_REAL, budget, _REPEAT)
-    started = time.monotonic()
     try:
         yield True
     finally:

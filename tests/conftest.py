@@ -64,3 +64,17 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if item.get_closest_marker("installed") is not None:
             item.add_marker(skip)
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """An installed nao_arena whose kernel cache lacks some kernels: compile them all
+    first, on every core (``nao-arena compile``), instead of one by one in the tests."""
+    if REGISTERED:
+        return
+    from nao_arena.kernels import RECORD_PARTS, ahead_enabled, compile_ahead, missing_kernels
+
+    if not ahead_enabled() or not missing_kernels(RECORD_PARTS):
+        return
+    report = compile_ahead(RECORD_PARTS)
+    print(f"\ncompiled {report.kernels} kernels ahead in {report.seconds:.0f} s "
+          f"with {report.jobs} processes", file=sys.stderr)

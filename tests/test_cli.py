@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import sys
@@ -449,14 +450,16 @@ def test_split_agent_and_trial_config_labels(tmp_path):
         TrialConfig(maps=("m",), agents=("a/b",), agent_refs={"a/b": "goal"})
 
 
-def test_compile_note_once_when_numba_compiles(capsys, monkeypatch):
-    """The note is printed once, on stderr, by the command line only, when numba compiles."""
+def test_compile_messages_on_stderr_only_in_the_command_line(capsys, monkeypatch):
+    """The kernels' compile messages are printed on stderr by the command line only."""
     import numba
 
     import nao_arena.cli as cli
+    import nao_arena.kernels as kernels
 
-    numba.njit(lambda x: x + 1)(1)  # a library user compiling: no note
+    numba.njit(lambda x: x + 1)(1)  # a library user compiling: nothing printed
     assert capsys.readouterr().err == ""
+    monkeypatch.setattr(kernels._CLOCK, "last_compile", -math.inf)  # a burst starts
 
     def compiling_command(args):
         numba.njit(lambda x: x + 2)(1)
@@ -466,41 +469,47 @@ def test_compile_note_once_when_numba_compiles(capsys, monkeypatch):
 
     monkeypatch.setattr(cli, "_cmd_agents", compiling_command)
     assert main(["agents"]) == 0
-    assert capsys.readouterr() == ("listed\n", cli.COMPILE_NOTE + "\n")
-    numba.njit(lambda x: x + 4)(1)  # after the command: no listener left
+    out, err = capsys.readouterr()
+    assert out == "listed\n"
+    assert err.count("nao-arena: compiling kernels") == 1
+    numba.njit(lambda x: x + 4)(1)  # after the command: no handler left
     assert capsys.readouterr().err == ""
 
 
-def test_no_compile_note_when_the_kernels_are_cached(capsys):
+def test_no_compile_messages_when_the_kernels_are_cached(capsys):
     argv = ["run", "circle_swap", "--agent", "nao", *TINY, "--time-limit", "1"]
     assert main(argv) == 0  # compiles whatever is not cached yet
     capsys.readouterr()
     assert main(argv) == 0
-    assert "compiling" not in capsys.readouterr().err
+    assert "compil" not in capsys.readouterr().err
 
 
-def test_kernel_cache_cold(tmp_path, monkeypatch):
-    """Cold until numba has written a cache index for the module's kernels."""
-    from nao_arena.cli import kernel_cache_cold
+def test_run_and_trial_compile_ahead_what_they_need(capsys, monkeypatch, tmp_path):
+    """When the cache lacks some of their kernels, run and trial compile those of their
+    agents ahead of time, once, before any episode (in the trial: not in each worker)."""
+    import nao_arena.kernels as kernels
 
-    (tmp_path / "tiny_kernels.py").write_text(
-        "from numba import njit\n\n@njit(cache=True)\ndef double(x):\n    return 2 * x\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    import tiny_kernels
+    calls = []
+    monkeypatch.setattr(kernels, "missing_kernels", lambda parts: ["x"])
 
-    assert kernel_cache_cold(["tiny_kernels"])
-    assert tiny_kernels.double(2) == 4
-    assert not kernel_cache_cold(["tiny_kernels"])
+    def compile_ahead(parts, jobs=None, on_done=None):
+        calls.append(list(parts))
+        on_done(1, 1, "m:k(int64)")
+        return kernels.CompileReport(kernels=1, failed={}, jobs=2, seconds=0.5)
+
+    monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)
+    assert main(["run", "circle_swap", "--agent", "goal", *TINY, "--time-limit", "1"]) == 0
+    assert calls == [["core", "goal"]]
+    assert "nao-arena: compiled 1/1 kernels" in capsys.readouterr().err
+    argv = ["trial", "--map", "circle_swap", "--agent", "goal,nao", "--episodes", "1",
+            "--quiet", *TINY, "--time-limit", "1", "--workers", "2"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    assert calls[1:] == [["core", "goal", "nao"]]
 
 
-def test_compile_note_before_a_trial_in_worker_processes(capsys, monkeypatch, tmp_path):
-    """Workers compile out of the command's sight: it checks the cache itself, once."""
-    import nao_arena.cli as cli
-
-    monkeypatch.setattr(cli, "kernel_cache_cold", lambda: True)
-    argv = ["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
-            *TINY, "--time-limit", "1"]
-    assert main([*argv, "--out", str(tmp_path / "a")]) == 0  # in this process
-    assert cli.COMPILE_NOTE not in capsys.readouterr().err
-    assert main([*argv, "--out", str(tmp_path / "b"), "--workers", "2"]) == 0
-    assert capsys.readouterr().err.count(cli.COMPILE_NOTE) == 1
+def test_compile_refuses_unknown_agents(capsys):
+    assert main(["compile", "--agent", "nao,bogus"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("nao-arena: error: --agent: expected built-in agents")
+    assert "bogus" in err and len(err.splitlines()) == 1
+    assert main(["compile", "--jobs", "0"]) == 2

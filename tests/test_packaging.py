@@ -68,7 +68,8 @@ def test_license_is_an_spdx_string():
 @pytest.mark.slow
 def test_a_plain_install_has_every_file(tmp_path):
     """``pip install .`` (not editable) ships every sub-package, the mapped folders
-    (agents/ as nao_arena.agents, maps/*.yaml as nao_arena.maps_data) and the py.typed marker."""
+    (agents/ as nao_arena.agents, maps/*.yaml as nao_arena.maps_data), the py.typed marker
+    and the kernels' manifest."""
     import shutil
     import subprocess
     import sys
@@ -84,6 +85,8 @@ def test_a_plain_install_has_every_file(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     installed = target / "nao_arena"
     assert (installed / "py.typed").is_file()
+    manifest = (ROOT / "nao_arena" / "kernels.json").read_bytes()
+    assert (installed / "kernels.json").read_bytes() == manifest
     packages = {init.parent.relative_to(ROOT / "nao_arena").as_posix()
                 for init in (ROOT / "nao_arena").rglob("__init__.py")}
     for package in packages:

@@ -22,10 +22,12 @@ Compile time is part of the cost (the first run compiles what it calls), so:
   or ``np.bool_(False)``, not ``0`` or ``False``: numba compiles a separate
   version of the callee for every literal value it is called with (a counter
   that starts at a literal is started the same way, since type inference first
-  sees it as that literal);
+  sees it as that literal). The exception is a literal meant to specialise a
+  hot path: the candidate test scans with ``want_first=False``, so that its
+  version of ``quartic.piece_minimum`` has no first-contact search;
 - ``inline="always"`` is kept for small functions called per candidate, and an
   inlined function inlines no other large one: numba copies the callee's whole
   intermediate representation for every inlined call site, so nested inlining
-  compiles in minutes (``outside._surely_covered`` is a compiled call, not
-  inlined, for that reason).
+  compiles in minutes (``outside._mark`` is a compiled call, not inlined, for
+  that reason).
 """

@@ -136,7 +136,7 @@ def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, 
                                            n, j)
         if end_dist2(Ax, Ay, Bx, By, Cx, Cy, tb - ta) < reach2:
             return True
-        piece_minimum(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, np.bool_(False), buf)
+        piece_minimum(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, False, buf)
         if buf[0] < reach2:
             return True
         ta = tb
@@ -197,7 +197,8 @@ def clearance_kernel(
             out_tfirst[k, n] = out[2]
         for w in range(W):
             wall_scan(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, horizon, walls[w, 0, 0],
-                      walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1], wall_r[w], True, buf, out)
+                      walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1], wall_r[w],
+                      np.bool_(True), buf, out)
             out_clear[k, N + w] = math.sqrt(out[0]) - wall_r[w]
             out_tmin[k, N + w] = out[1]
             out_tfirst[k, N + w] = out[2]

@@ -143,7 +143,7 @@ def _cover_bins(p0, p1, shrink, cover):
 _NOTHING, _MARKED, _ALL_OUTSIDE, _UNPROVABLE = 0, 1, 2, 3
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _mark(cx, cy, rho, circ, j, a_max, cover):
     """Mark in the bit set ``cover`` the bins of the circle (cx, cy, rho) that disk j of
     ``circ`` covers (j == len(circ): the outside of the limit disc |a| <= a_max).
@@ -267,7 +267,7 @@ _PROBES = 5
 
 
 # inlined into its one caller, _free_arc_points (once per circle visited)
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
@@ -518,8 +518,8 @@ def outside_advance(q, disks, a_max, covered, res, lower, order, oi, row, scale,
         # circle i: disk i, or (i = M) the limit circle, which skips no disk
         cx, cy, rho, skip = (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else \
             (0.0, 0.0, a_max, -1)
-        k = _free_arc_points(cx, cy, rho, i < M, q, disks, skip, a_max, cand, 0, starts, ends,
-                             cover)
+        k = _free_arc_points(cx, cy, rho, i < M, q, disks, skip, a_max, cand, np.int64(0),
+                             starts, ends, cover)
         for c in range(max(k, 0)):
             d = vector_norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:

@@ -60,7 +60,7 @@ def ok_disc(x, y, a_max, vx, vy, v_max, seg_t, seg_c, seg_w, seg_b, radius, wall
     for i in range(N):
         n = first if i == 0 else (i - 1 if i <= first else i)
         j = scan_obstacle(cvx, cvy, x, y, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n,
-                          radius[n], margin, np.bool_(False), buf, res)
+                          radius[n], margin, False, buf, res)
         if res[0] < (radius[n] + margin) ** 2:
             hint[0] = n
             hint[1] = j

@@ -69,7 +69,7 @@ __all__ = [
 def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
     """Minimum squared distance (m^2) over t in [0, horizon] from the robot's centre (speed
     already clamped, saturation time tau) to the segment [p, q] (:func:`wall_scan`)."""
-    wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, 0.0, False, buf, out)
+    wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, 0.0, np.bool_(False), buf, out)
     return out[0]
 
 
@@ -408,7 +408,7 @@ def wall_first_contact(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, t_sto
         if _out_of_reach(px, py, qx, qy, travel, wall_r[w]):
             continue
         wall_scan(vx, vy, ax, ay, tau, min(horizon, t_stop, best), px, py, qx, qy, wall_r[w],
-                  True, buf, out)
+                  np.bool_(True), buf, out)
         if out[2] < best:
             best = out[2]
     return best if best < t_stop else math.inf

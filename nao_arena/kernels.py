@@ -1,0 +1,605 @@
+"""The compiled kernels: what compiling them costs, watching it, and compiling ahead of time.
+
+numba compiles a kernel the first time it is called with new argument types and caches
+the machine code on disk (``cache=True``: a ``__pycache__`` folder beside the module, or
+the folder named by ``NUMBA_CACHE_DIR``); later processes load it in milliseconds. The
+first run after installing therefore compiles, and this module makes that visible,
+fair and as short as two or more cores allow:
+
+- :func:`compile_seconds`: wall-clock seconds (s) this process has spent compiling, a
+  compile under way included. The episodes' wall-clock budgets
+  (:mod:`nao_arena.watchdog`) leave that time out, so a cold cache or a busy machine
+  changes no result.
+- Progress: every compile is logged on the logger ``nao_arena.kernels`` (INFO at the
+  first, then at most every :data:`PROGRESS_INTERVAL` s: how many kernels, how long,
+  which one now; DEBUG for each kernel). The command line shows these on stderr.
+- The manifest (``kernels.json`` beside this module): the kernels that episodes of the
+  shipped maps compile, per *part* (``core``: every episode; one part per built-in
+  agent; ``render``), with the kernels each one calls and its measured compile time.
+  :func:`record_manifest` writes it (``python -m nao_arena.kernels record``); a test
+  checks that it lists every kernel those episodes use.
+- :func:`compile_ahead`: compiles the kernels of some parts in several processes, each
+  kernel once its callees are in the cache (so none is compiled twice), longest chain
+  first. ``nao-arena compile`` runs it for every part; ``nao-arena run`` and ``trial``
+  run it for the parts they need when the cache lacks some of them, before any budget
+  starts.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import (
+    FIRST_COMPLETED,
+    Future,
+    ProcessPoolExecutor,
+    ThreadPoolExecutor,
+    wait,
+)
+from dataclasses import dataclass
+from importlib import import_module, resources
+from multiprocessing import get_context
+from typing import Any
+
+__all__ = [
+    "PROGRESS_INTERVAL",
+    "ahead_enabled",
+    "CompileReport",
+    "Kernel",
+    "Manifest",
+    "compile_ahead",
+    "compile_count",
+    "compile_seconds",
+    "load_manifest",
+    "missing_kernels",
+    "parts_for_agents",
+    "record_manifest",
+    "watch_compiles",
+]
+
+LOG = logging.getLogger("nao_arena.kernels")
+
+PROGRESS_INTERVAL = 5.0
+"""Seconds (s, wall clock) between two progress messages of lazy compiles."""
+
+MANIFEST_FILE = "kernels.json"
+
+CORE = "core"
+"""The part every episode compiles (world, statistics, sensing, traffic, predictors)."""
+
+
+# --------------------------------------------------------------------------- the clock
+
+
+class _CompileClock:
+    """A numba ``numba:compile`` event listener: time spent compiling (outermost compiles
+    only, s), the count of kernels compiled, and progress messages on :data:`LOG`.
+
+    numba compiles under one process-wide lock, so events never interleave."""
+
+    def __init__(self) -> None:
+        self.depth = 0
+        self.started = 0.0
+        self.total = 0.0
+        self.count = 0
+        self.last_message = -float("inf")
+        self.last_compile = -float("inf")
+        self.lock = threading.Lock()
+
+    def on_start(self, name: str) -> None:
+        now = time.monotonic()
+        with self.lock:
+            if self.depth == 0:
+                self.started = now
+            self.depth += 1
+            outermost = self.depth == 1
+        if outermost and now - self.last_compile >= PROGRESS_INTERVAL:
+            # the first compile in a while: a cold or stale cache
+            LOG.info(
+                "compiling kernels (the first run after installing; cached for later runs) ..."
+            )
+            self.last_message = now
+        elif now - self.last_message >= PROGRESS_INTERVAL:
+            self.last_message = now
+            LOG.info(
+                "compiling kernels: %d compiled in %.0f s (now %s)",
+                self.count,
+                self.seconds(),
+                name,
+            )
+
+    def on_end(self, name: str) -> None:
+        now = time.monotonic()
+        with self.lock:
+            self.depth -= 1
+            self.count += 1
+            if self.depth == 0:
+                self.total += now - self.started
+            self.last_compile = now
+        LOG.debug("compiled %s", name)
+
+    def seconds(self) -> float:
+        with self.lock:
+            return self.total + (time.monotonic() - self.started if self.depth else 0.0)
+
+
+_CLOCK = _CompileClock()
+_WATCHING = False
+_WATCH_LOCK = threading.Lock()
+
+
+def _kernel_name(data: Mapping[str, Any]) -> str:
+    func = getattr(data.get("dispatcher"), "py_func", None)
+    if func is None:
+        return "?"
+    return f"{func.__module__}.{func.__qualname__}"
+
+
+def watch_compiles() -> None:
+    """Start counting this process's numba compiles (idempotent; imports numba)."""
+    global _WATCHING
+    with _WATCH_LOCK:
+        if _WATCHING:
+            return
+        from numba.core import event
+
+        class Listener(event.Listener):
+            def on_start(self, ev: event.Event) -> None:
+                _CLOCK.on_start(_kernel_name(ev.data))
+
+            def on_end(self, ev: event.Event) -> None:
+                _CLOCK.on_end(_kernel_name(ev.data))
+
+        event.register("numba:compile", Listener())
+        _WATCHING = True
+
+
+def compile_seconds() -> float:
+    """Wall-clock seconds (s) this process has spent compiling kernels since
+    :func:`watch_compiles` (a compile under way included)."""
+    return _CLOCK.seconds()
+
+
+def compile_count() -> int:
+    """How many kernels this process has compiled since :func:`watch_compiles`."""
+    return _CLOCK.count
+
+
+# --------------------------------------------------------------------------- the manifest
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """One compiled version of a kernel: ``module``, function ``name``, argument types
+    (numba reprs, e.g. ``"Array(float64, 1, 'C', False, aligned=True)"``), the kernels it
+    calls (keys), the parts that use it and its compile time (s, its own, without what
+    it calls) when the manifest was recorded."""
+
+    module: str
+    name: str
+    args: tuple[str, ...]
+    calls: tuple[str, ...]
+    parts: tuple[str, ...]
+    seconds: float
+
+    @property
+    def key(self) -> str:
+        return kernel_key(self.module, self.name, self.args)
+
+
+def kernel_key(module: str, name: str, args: Sequence[str]) -> str:
+    """``module:name(arg, ...)``: a kernel version's name in the manifest."""
+    return f"{module}:{name}({', '.join(args)})"
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """The kernels by key (see :class:`Kernel`) and the numba version that compiled them."""
+
+    numba: str
+    kernels: Mapping[str, Kernel]
+
+    def for_parts(self, parts: Iterable[str]) -> dict[str, Kernel]:
+        """The kernels that any of ``parts`` uses, with every kernel they call."""
+        wanted = set(parts)
+        todo = [k for k, kernel in self.kernels.items() if wanted & set(kernel.parts)]
+        out: dict[str, Kernel] = {}
+        while todo:
+            key = todo.pop()
+            if key in out or key not in self.kernels:
+                continue
+            out[key] = self.kernels[key]
+            todo.extend(self.kernels[key].calls)
+        return out
+
+
+def manifest_to_json(manifest: Manifest) -> str:
+    """The manifest as JSON text (sorted, one kernel per entry)."""
+    kernels = {
+        key: {
+            "module": k.module,
+            "name": k.name,
+            "args": list(k.args),
+            "calls": sorted(k.calls),
+            "parts": sorted(k.parts),
+            "seconds": round(k.seconds, 3),
+        }
+        for key, k in sorted(manifest.kernels.items())
+    }
+    return json.dumps({"numba": manifest.numba, "kernels": kernels}, indent=1) + "\n"
+
+
+def manifest_from_json(text: str) -> Manifest:
+    """Read :func:`manifest_to_json`'s text."""
+    data = json.loads(text)
+    kernels = {
+        key: Kernel(
+            module=v["module"],
+            name=v["name"],
+            args=tuple(v["args"]),
+            calls=tuple(v["calls"]),
+            parts=tuple(v["parts"]),
+            seconds=float(v["seconds"]),
+        )
+        for key, v in data["kernels"].items()
+    }
+    return Manifest(numba=str(data["numba"]), kernels=kernels)
+
+
+def load_manifest() -> Manifest:
+    """The shipped manifest (an empty one when the file is missing)."""
+    try:
+        text = resources.files("nao_arena").joinpath(MANIFEST_FILE).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return Manifest(numba="", kernels={})
+    return manifest_from_json(text)
+
+
+def parts_for_agents(agents: Iterable[str]) -> list[str]:
+    """The manifest parts an episode with these agents (built-in names or references)
+    compiles: ``core`` and each built-in agent's own part."""
+    from nao_arena.agent import BUILTIN_AGENTS
+
+    parts = [CORE]
+    for agent in agents:
+        if agent in BUILTIN_AGENTS and agent not in parts:
+            parts.append(agent)
+    return parts
+
+
+def _numba_type(text: str) -> Any:
+    """The numba type whose repr is ``text`` (the reprs the manifest holds: arrays,
+    tuples and scalars)."""
+    from numba.core import types
+
+    names = {name: getattr(types, name) for name in dir(types) if not name.startswith("_")}
+    names.update(bool=types.boolean, literal=types.literal)
+    # Literal[int](0), Literal[bool](True): the type of a constant argument
+    text = re.sub(r"Literal\[(?:int|bool)\]\((-?\d+|True|False)\)", r"literal(\1)", text)
+    return eval(text, {"__builtins__": {}}, names)  # the package's own file, not input
+
+
+def _dispatcher(kernel: Kernel) -> Any:
+    return getattr(import_module(kernel.module), kernel.name)
+
+
+def _signature(kernel: Kernel) -> tuple[Any, ...]:
+    return tuple(_numba_type(a) for a in kernel.args)
+
+
+def _cache_holds(kernel: Kernel) -> bool:
+    """Whether numba's cache holds this kernel version, compiled by this numba for this
+    machine and this source (its index is read; nothing is loaded or compiled)."""
+    dispatcher = _dispatcher(kernel)
+    cache = getattr(dispatcher, "_cache", None)
+    try:
+        key = cache._index_key(_signature(kernel), dispatcher.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except Exception:  # an unknown numba version or no cache: take it as missing
+        return False
+
+
+def ahead_enabled() -> bool:
+    """Whether ``run``, ``trial`` and the test suite compile ahead of time when the cache
+    lacks kernels: yes unless the environment sets ``NAO_ARENA_COMPILE_AHEAD=0`` (then
+    every kernel compiles in the process that first calls it)."""
+    return os.environ.get("NAO_ARENA_COMPILE_AHEAD", "1").strip() != "0"
+
+
+def missing_kernels(parts: Iterable[str], manifest: Manifest | None = None) -> list[str]:
+    """The keys of the kernels of ``parts`` that the cache lacks. Only the kernels that no
+    other one calls are looked up (one calls' machine code holds its callees')."""
+    manifest = load_manifest() if manifest is None else manifest
+    kernels = manifest.for_parts(parts)
+    called = {c for k in kernels.values() for c in k.calls}
+    roots = [k for key, k in kernels.items() if key not in called]
+    return [k.key for k in roots if not _cache_holds(k)]
+
+
+# --------------------------------------------------------------------------- compiling ahead
+
+
+@dataclass(frozen=True)
+class CompileReport:
+    """What :func:`compile_ahead` did: kernels compiled (or loaded from the cache),
+    those that failed (key: error), processes, wall-clock seconds (s)."""
+
+    kernels: int
+    failed: Mapping[str, str]
+    jobs: int
+    seconds: float
+
+
+def _compile_one(module: str, name: str, args: tuple[str, ...]) -> tuple[float, str | None]:
+    """In a worker process: compile one kernel version into the cache (its callees are
+    there already). Returns (CPU seconds, error or None)."""
+    started = time.process_time()
+    kernel = Kernel(module, name, args, (), (), 0.0)
+    try:
+        _dispatcher(kernel).compile(_signature(kernel))
+    except Exception as exc:  # a stale manifest entry: the kernel compiles when called
+        return time.process_time() - started, f"{type(exc).__name__}: {exc}"
+    return time.process_time() - started, None
+
+
+def _chain_seconds(kernels: Mapping[str, Kernel]) -> dict[str, float]:
+    """Per kernel: its compile time plus that of the longest chain of kernels that wait
+    for it (its callers, theirs, ...), s: the order in which to start them."""
+    callers: dict[str, list[str]] = {key: [] for key in kernels}
+    for key, k in kernels.items():
+        for c in k.calls:
+            if c in callers:
+                callers[c].append(key)
+    chain: dict[str, float] = {}
+
+    def visit(key: str) -> float:
+        if key not in chain:
+            chain[key] = 0.0  # a cycle (recursion) counts once
+            chain[key] = kernels[key].seconds + max((visit(c) for c in callers[key]), default=0.0)
+        return chain[key]
+
+    for key in kernels:
+        visit(key)
+    return chain
+
+
+def compile_ahead(
+    parts: Iterable[str],
+    jobs: int | None = None,
+    manifest: Manifest | None = None,
+    on_done: Callable[[int, int, str], None] | None = None,
+) -> CompileReport:
+    """Compile the kernels of ``parts`` into the cache with ``jobs`` processes (default:
+    every core), each kernel after the kernels it calls; ``on_done(done, total, key)``
+    after each. Kernels already cached are only loaded (milliseconds). Progress is also
+    logged on :data:`LOG`."""
+    manifest = load_manifest() if manifest is None else manifest
+    kernels = manifest.for_parts(parts)
+    jobs = max(1, jobs or os.cpu_count() or 1)
+    started = time.monotonic()
+    waiting = {key: {c for c in k.calls if c in kernels and c != key} for key, k in kernels.items()}
+    priority = _chain_seconds(kernels)
+    failed: dict[str, str] = {}
+    done = 0
+    total = len(kernels)
+    LOG.info("compiling %d kernels in %d processes ...", total, jobs)
+    context = get_context("spawn")  # no state of this process's numba is shared
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+        running: dict[Future[tuple[float, str | None]], str] = {}
+        while waiting or running:
+            ready = sorted(
+                (key for key, w in waiting.items() if not w), key=lambda key: -priority[key]
+            )
+            for key in ready[: max(0, 2 * jobs - len(running))]:
+                k = kernels[key]
+                running[pool.submit(_compile_one, k.module, k.name, k.args)] = key
+                del waiting[key]
+            if not running:  # a cycle of calls: start the longest one
+                key = max(waiting, key=lambda key: priority[key])
+                waiting[key] = set()
+                continue
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                key = running.pop(future)
+                _, error = future.result()
+                if error is not None:
+                    failed[key] = error
+                    LOG.debug(
+                        "could not compile %s ahead of time (%s); it compiles when first called",
+                        key,
+                        error,
+                    )
+                done += 1
+                for w in waiting.values():
+                    w.discard(key)
+                LOG.debug("[%d/%d] %s", done, total, key)
+                if on_done is not None:
+                    on_done(done, total, key)
+    return CompileReport(
+        kernels=total, failed=failed, jobs=jobs, seconds=time.monotonic() - started
+    )
+
+
+# --------------------------------------------------------------------------- recording
+
+
+def _loaded_kernels() -> dict[str, tuple[Any, Any, Any]]:
+    """key -> (dispatcher, signature, compile result) of every kernel version compiled
+    or loaded in this process, from nao_arena's modules."""
+    import sys
+
+    from numba.core.dispatcher import Dispatcher
+
+    out: dict[str, tuple[Any, Any, Any]] = {}
+    for module_name, module in list(sys.modules.items()):
+        if not module_name.startswith("nao_arena") or module is None:
+            continue
+        for name, value in list(vars(module).items()):
+            if not isinstance(value, Dispatcher) or value.__module__ != module_name:
+                continue
+            for sig, cres in value.overloads.items():
+                key = kernel_key(module_name, name, [repr(t) for t in sig])
+                out[key] = (value, sig, cres)
+    return out
+
+
+def _record_part(part: str, maps: Sequence[str], steps: int) -> dict[str, Any]:
+    """In a process with an empty cache: run ``steps`` steps of each map with the agent
+    ``part`` (``core``: the ``goal`` agent; ``render``: a few frames to a GIF), and
+    return the kernels compiled, each with what it calls and its own compile time."""
+    import tempfile
+
+    from numba.core import event
+
+    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.maps import load_map
+
+    own: dict[str, float] = {}
+    stack: list[list[Any]] = []
+
+    class Timer(event.Listener):
+        def on_start(self, ev: event.Event) -> None:
+            stack.append([ev.data, time.perf_counter(), 0.0])
+
+        def on_end(self, ev: event.Event) -> None:
+            data, t0, inner = stack.pop()
+            spent = time.perf_counter() - t0
+            func = data["dispatcher"].py_func
+            key = kernel_key(func.__module__, func.__name__, [repr(t) for t in data["args"]])
+            own[key] = own.get(key, 0.0) + spent - inner
+            if stack:
+                stack[-1][2] += spent
+
+    event.register("numba:compile", Timer())
+    agent = "goal" if part in (CORE, "render") else part
+    for name in maps:
+        arena = Arena(load_map(name), ArenaOptions(agent=agent))
+        if part == "render":
+            from nao_arena.render import record_episode
+
+            arena.reset(0)
+            with tempfile.TemporaryDirectory() as folder:
+                record_episode(arena, os.path.join(folder, "x.gif"), max_steps=steps)
+        else:
+            arena.run(0, max_steps=steps)
+    loaded = _loaded_kernels()
+    by_library = {id(cres.library): key for key, (_, _, cres) in loaded.items()}
+    out: dict[str, Any] = {}
+    for key, (_, sig, cres) in loaded.items():
+        linked = getattr(cres.library, "_linking_libraries", ())
+        calls = sorted({by_library[id(lib)] for lib in linked if id(lib) in by_library} - {key})
+        mod, _, rest = key.partition(":")
+        out[key] = {
+            "module": mod,
+            "name": rest.partition("(")[0],
+            "args": [repr(t) for t in sig],
+            "calls": calls,
+            "seconds": own.get(key, 0.0),
+        }
+    return out
+
+
+RECORD_PARTS = (CORE, "nao", "ao", "vo", "orca", "goal", "lane", "render")
+"""The parts :func:`record_manifest` records."""
+
+
+def record_manifest(
+    maps: Sequence[str] | None = None, steps: int = 30, jobs: int | None = None
+) -> Manifest:
+    """Record the manifest: each part in its own process with an empty cache (a
+    temporary ``NUMBA_CACHE_DIR``), over ``maps`` (default: every shipped map; render:
+    one map). Kernels that ``core`` uses belong to ``core`` only."""
+    import tempfile
+
+    import numba
+
+    from nao_arena.maps import available_maps
+
+    maps = list(maps or available_maps())
+    jobs = max(1, jobs or os.cpu_count() or 1)
+    found: dict[str, dict[str, Any]] = {}
+
+    def record(part: str) -> dict[str, Any]:
+        # a process of its own, with an empty cache: every kernel of the part compiles
+        with ProcessPoolExecutor(
+            max_workers=1,
+            mp_context=get_context("spawn"),
+            initializer=_fresh_cache,
+            initargs=(root,),
+        ) as pool:
+            part_maps = maps[:1] if part == "render" else maps
+            return pool.submit(_record_part, part, part_maps, steps).result()
+
+    with tempfile.TemporaryDirectory() as root, ThreadPoolExecutor(jobs) as threads:
+        results = dict(zip(RECORD_PARTS, threads.map(record, RECORD_PARTS), strict=True))
+    core = set(results[CORE])
+    for part, kernels in results.items():
+        for key, entry in kernels.items():
+            if part != CORE and key in core:
+                continue
+            item = found.setdefault(key, {**entry, "parts": set(), "calls": set()})
+            item["parts"].add(part)
+            item["calls"].update(entry["calls"])
+            item["seconds"] = max(item["seconds"], entry["seconds"])
+    # a kernel whose argument types cannot be named (function pointers) compiles when called
+    found = {key: v for key, v in found.items() if _nameable(v["args"])}
+    kernels = {
+        key: Kernel(
+            module=v["module"],
+            name=v["name"],
+            args=tuple(v["args"]),
+            calls=tuple(sorted(c for c in v["calls"] if c in found)),
+            parts=tuple(sorted(v["parts"])),
+            seconds=v["seconds"],
+        )
+        for key, v in found.items()
+    }
+    return Manifest(numba=numba.__version__, kernels=kernels)
+
+
+def _nameable(args: Iterable[str]) -> bool:
+    """Whether every type repr of ``args`` reads back as that type."""
+    try:
+        return all(repr(_numba_type(a)) == a for a in args)
+    except Exception:
+        return False
+
+
+def _fresh_cache(root: str) -> None:
+    """Worker initializer: numba caches into a new folder under ``root``."""
+    import tempfile
+
+    os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(dir=root)
+    import numba
+
+    numba.config.reload_config()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m nao_arena.kernels record [--steps N]``: write the manifest beside
+    this module."""
+    import argparse
+    from pathlib import Path
+
+    from nao_arena.atomic import atomic_write_text
+
+    parser = argparse.ArgumentParser(prog="python -m nao_arena.kernels")
+    parser.add_argument("command", choices=["record"])
+    parser.add_argument("--steps", type=int, default=30)
+    parser.add_argument("--jobs", type=int, default=None)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    manifest = record_manifest(steps=args.steps, jobs=args.jobs)
+    path = Path(__file__).with_name(MANIFEST_FILE)
+    atomic_write_text(path, manifest_to_json(manifest))
+    print(f"wrote {path}: {len(manifest.kernels)} kernels")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,188 @@
+"""The compiled kernels' bookkeeping (nao_arena.kernels): the compile clock, the
+wall-clock budget that leaves compiles out, the manifest, compiling ahead of time."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import textwrap
+import time
+
+import numba
+import pytest
+
+from nao_arena.agent import BUILTIN_AGENTS
+from nao_arena.kernels import (
+    CORE,
+    RECORD_PARTS,
+    Kernel,
+    Manifest,
+    compile_ahead,
+    compile_count,
+    compile_seconds,
+    kernel_key,
+    load_manifest,
+    manifest_from_json,
+    manifest_to_json,
+    missing_kernels,
+    parts_for_agents,
+    watch_compiles,
+)
+from nao_arena.watchdog import EpisodeTimeout, budget_available, wall_clock_budget
+
+
+def _slow_to_compile(n: int = 300):
+    """A new compiled function each call, whose compile takes a while (n branches)."""
+    lines = ["def kernel(x):", "    y = 0.0"]
+    for i in range(n):
+        lines += [f"    if x > {i}.5:", f"        y += math.sqrt(x * {i}.0 + 1.0) / (y + 1.0)"]
+    lines.append("    return y")
+    scope = {"math": math}
+    exec("\n".join(lines), scope)
+    return numba.njit(cache=False)(scope["kernel"])
+
+
+def test_the_clock_counts_compiles():
+    watch_compiles()
+    before, count = compile_seconds(), compile_count()
+    numba.njit(lambda x: x * 3)(2)
+    assert compile_count() == count + 1
+    assert compile_seconds() > before
+
+
+@pytest.mark.skipif(not budget_available(), reason="needs SIGALRM on the main thread")
+def test_a_compile_does_not_count_against_the_budget():
+    """A block whose compile alone takes twice its budget finishes; its other time still
+    counts (so the test can fail both ways)."""
+    watch_compiles()
+    before = compile_seconds()
+    _slow_to_compile()(1.0)
+    budget = (compile_seconds() - before) / 2  # half a compile of the same size, s
+    with wall_clock_budget(budget):
+        time.sleep(0.1 * budget)
+        _slow_to_compile()(1.0)
+        time.sleep(0.1 * budget)
+    with pytest.raises(EpisodeTimeout), wall_clock_budget(budget):
+        _slow_to_compile()(1.0)
+        time.sleep(1.5 * budget)
+    with pytest.raises(EpisodeTimeout), wall_clock_budget(budget):
+        time.sleep(1.5 * budget)
+
+
+def test_the_shipped_manifest_names_real_kernels_and_types():
+    manifest = load_manifest()
+    assert manifest.numba and len(manifest.kernels) > 50
+    from nao_arena.kernels import _dispatcher, _numba_type
+
+    for key, kernel in manifest.kernels.items():
+        assert key == kernel.key
+        assert isinstance(_dispatcher(kernel), numba.core.dispatcher.Dispatcher), key
+        for text in kernel.args:
+            assert repr(_numba_type(text)) == text
+        assert set(kernel.calls) <= set(manifest.kernels), key
+        assert kernel.parts and set(kernel.parts) <= set(RECORD_PARTS), key
+    nao = manifest.for_parts(["nao"])
+    core = manifest.for_parts([CORE])
+    assert set(core) <= set(manifest.for_parts(parts_for_agents(["nao"])))
+    assert not set(nao) <= set(core) and not set(core) <= set(nao)
+
+
+def test_manifest_json_round_trip():
+    k = Kernel("m", "f", ("int64",), ("m:g(int64)",), ("core",), 1.5)
+    g = Kernel("m", "g", ("int64",), (), ("core",), 0.25)
+    manifest = Manifest("0.0", {k.key: k, g.key: g})
+    assert manifest_from_json(manifest_to_json(manifest)) == manifest
+    assert json.loads(manifest_to_json(manifest))["kernels"][k.key]["calls"] == [g.key]
+    assert kernel_key("m", "f", ["int64", "bool"]) == "m:f(int64, bool)"
+    assert set(manifest.for_parts(["core"])) == {k.key, g.key}
+    assert manifest.for_parts(["nao"]) == {}
+
+
+def test_parts_for_agents():
+    assert parts_for_agents(["nao", "nao", "x.py:Mine", "orca"]) == ["core", "nao", "orca"]
+    assert set(BUILTIN_AGENTS) <= set(RECORD_PARTS)
+
+
+def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch):
+    """Kernels compiled ahead in worker processes are in the cache; a fresh process then
+    loads them without compiling; the callee is compiled before its caller."""
+    (tmp_path / "ahead_kernels.py").write_text(textwrap.dedent("""
+        from numba import njit
+
+        @njit(cache=True)
+        def inner(x):
+            return 2.0 * x
+
+        @njit(cache=True)
+        def outer(x):
+            return inner(x) + 1.0
+    """))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    inner = Kernel("ahead_kernels", "inner", ("float64",), (), ("core",), 0.1)
+    outer = Kernel("ahead_kernels", "outer", ("float64",), (inner.key,), ("core",), 0.1)
+    manifest = Manifest(numba.__version__, {inner.key: inner, outer.key: outer})
+    assert missing_kernels(["core"], manifest) == [outer.key]  # only what no kernel calls
+    order = []
+    report = compile_ahead(["core"], jobs=2, manifest=manifest,
+                           on_done=lambda done, total, key: order.append((done, total, key)))
+    assert report.kernels == 2 and not report.failed and report.jobs == 2
+    assert order == [(1, 2, inner.key), (2, 2, outer.key)]
+    assert missing_kernels(["core"], manifest) == []
+    probe = textwrap.dedent("""
+        import sys
+        from numba.core import event
+        compiled = []
+        class L(event.Listener):
+            def on_start(self, ev): compiled.append(ev.data["dispatcher"].py_func.__name__)
+            def on_end(self, ev): pass
+        event.register("numba:compile", L())
+        import ahead_kernels
+        assert ahead_kernels.outer(1.5) == 4.0 and ahead_kernels.inner(1.0) == 2.0
+        print(compiled)
+    """)
+    out = subprocess.run([sys.executable, "-c", probe], cwd=tmp_path, capture_output=True,
+                         text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_a_stale_manifest_entry_is_reported_not_raised(tmp_path, monkeypatch):
+    (tmp_path / "stale_kernels.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef f(x):\n    return x + 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    gone = Kernel("stale_kernels", "g", ("float64",), (), ("core",), 0.1)
+    fine = Kernel("stale_kernels", "f", ("float64",), (), ("core",), 0.1)
+    report = compile_ahead(["core"], jobs=1,
+                           manifest=Manifest("", {gone.key: gone, fine.key: fine}))
+    assert list(report.failed) == [gone.key] and report.kernels == 2
+
+
+@pytest.mark.slow
+@pytest.mark.installed
+def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
+    """Each built-in agent on every shipped map (and a few frames of a GIF) uses only
+    kernels that the manifest lists (else: python -m nao_arena.kernels record), but for
+    those whose argument types cannot be named (function pointers: compiled when called)."""
+    probe = textwrap.dedent("""
+        import json, os, sys, tempfile
+        from nao_arena.agent import BUILTIN_AGENTS
+        from nao_arena.arena import Arena, ArenaOptions
+        from nao_arena.kernels import _loaded_kernels, _nameable
+        from nao_arena.maps import available_maps
+        from nao_arena.render import record_episode
+        for name in available_maps():
+            for agent in BUILTIN_AGENTS:
+                Arena(load_map(name), ArenaOptions(agent=agent)).run(0, max_steps=3)
+        arena = Arena(load_map("crossing"), ArenaOptions(agent="goal"))
+        arena.reset(0)
+        record_episode(arena, os.path.join(sys.argv[1], "x.gif"), max_steps=2)
+        print(json.dumps(sorted(key for key, (_, sig, _) in _loaded_kernels().items()
+                                if _nameable(repr(t) for t in sig))))
+    """).replace("from nao_arena.maps import available_maps",
+                 "from nao_arena.maps import available_maps, load_map")
+    out = subprocess.run([sys.executable, "-c", probe, str(tmp_path)], capture_output=True,
+                         text=True, check=True)
+    used = set(json.loads(out.stdout.splitlines()[-1]))
+    missing = used - set(load_manifest().kernels)
+    assert not missing, f"not in the manifest (python -m nao_arena.kernels record): {missing}"
