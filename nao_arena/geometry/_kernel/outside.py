@@ -143,6 +143,8 @@ def _cover_bins(p0, p1, shrink, cover):
 _NOTHING, _MARKED, _ALL_OUTSIDE, _UNPROVABLE = 0, 1, 2, 3
 
 
+# a compiled call, not inlined: _surely_covered calls it from four places, and every
+# inlined copy would carry its own _cover_bins and _set_bins (a minute of compiling)
 @njit(cache=True, error_model="numpy")
 def _mark(cx, cy, rho, circ, j, a_max, cover):
     """Mark in the bit set ``cover`` the bins of the circle (cx, cy, rho) that disk j of
