@@ -132,6 +132,7 @@ def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False
     report = compile_ahead(parts, jobs, on_done=_CompileProgress())
     failed = f"; {len(report.failed)} left to compile when called" if report.failed else ""
     print(f"nao-arena: {report.kernels} kernels compiled or loaded in {report.seconds:.0f} s "
+          f"({report.cpu_seconds:.0f} s of CPU) "
           f"with {report.jobs} process{'es' if report.jobs > 1 else ''} (cached for later "
           f"runs){failed}",
           file=sys.stderr, flush=True)

@@ -41,6 +41,7 @@ from concurrent.futures import (
     ThreadPoolExecutor,
     wait,
 )
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from importlib import import_module, resources
 from multiprocessing import get_context
@@ -327,12 +328,14 @@ def missing_kernels(parts: Iterable[str], manifest: Manifest | None = None) -> l
 @dataclass(frozen=True)
 class CompileReport:
     """What :func:`compile_ahead` did: kernels compiled (or loaded from the cache),
-    those that failed (key: error), processes, wall-clock seconds (s)."""
+    those that failed or were not reached (key: error), processes, wall-clock seconds
+    (s) and the processes' CPU seconds (s)."""
 
     kernels: int
     failed: Mapping[str, str]
     jobs: int
     seconds: float
+    cpu_seconds: float = 0.0
 
 
 def _compile_one(module: str, name: str, args: tuple[str, ...]) -> tuple[float, str | None]:
@@ -388,14 +391,20 @@ def compile_ahead(
     done = 0
     total = len(kernels)
     LOG.info("compiling %d kernels in %d processes ...", total, jobs)
+    cpu = 0.0
     context = get_context("spawn")  # no state of this process's numba is shared
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+    try:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
+    except (OSError, ValueError) as exc:  # no processes here: compile when called
+        LOG.debug("cannot start processes (%s): kernels compile when first called", exc)
+        return CompileReport(len(kernels), dict.fromkeys(kernels, str(exc)), 0, 0.0)
+    with pool:
         running: dict[Future[tuple[float, str | None]], str] = {}
         while waiting or running:
             ready = sorted(
                 (key for key, w in waiting.items() if not w), key=lambda key: -priority[key]
             )
-            for key in ready[: max(0, 2 * jobs - len(running))]:
+            for key in ready[: max(0, jobs - len(running))]:
                 k = kernels[key]
                 running[pool.submit(_compile_one, k.module, k.name, k.args)] = key
                 del waiting[key]
@@ -406,7 +415,13 @@ def compile_ahead(
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
                 key = running.pop(future)
-                _, error = future.result()
+                try:
+                    seconds, error = future.result()
+                except BrokenProcessPool as exc:  # a worker died: the rest compile when called
+                    failed.update(dict.fromkeys([key, *waiting, *running.values()], str(exc)))
+                    LOG.debug("a compile process died (%s)", exc)
+                    return CompileReport(total, failed, jobs, time.monotonic() - started, cpu)
+                cpu += seconds
                 if error is not None:
                     failed[key] = error
                     LOG.debug(
@@ -420,9 +435,7 @@ def compile_ahead(
                 LOG.debug("[%d/%d] %s", done, total, key)
                 if on_done is not None:
                     on_done(done, total, key)
-    return CompileReport(
-        kernels=total, failed=failed, jobs=jobs, seconds=time.monotonic() - started
-    )
+    return CompileReport(total, failed, jobs, time.monotonic() - started, cpu)
 
 
 # --------------------------------------------------------------------------- recording

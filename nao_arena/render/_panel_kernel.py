@@ -169,7 +169,7 @@ def wall_clearances(grid: np.ndarray, v: np.ndarray, v_max: float, horizon: floa
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, windows, n, r, level,
            buf, out):
     """Whether neighbour n's exact clearance (radius r m) is below ``level`` (m) for the

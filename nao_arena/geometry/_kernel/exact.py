@@ -94,7 +94,7 @@ def scan_obstacle(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, 
     return -1
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, reach):
     """Cheap prune: whether robot and obstacle n are so far apart at the start of piece j
     (finite) that they cannot come within ``reach`` (m) during it: the robot moves at most
@@ -109,7 +109,7 @@ def piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n,
     return cx * cx + cy * cy > bound * bound
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
     """Robot minus obstacle n from time ta within piece j (which starts at t0), as
     A s^2 + B s + C (s = time since ta): (Ax, Ay, Bx, By, Cx, Cy)."""

@@ -171,7 +171,7 @@ def piece_minimum(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     out[2] = first
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def end_dist2(ax, ay, bx, by, cx, cy, h):
     """The smaller of |A s^2 + B s + C|^2 at s = 0 and s = h (when finite): the minimum
     :func:`piece_minimum` finds is at most this (it starts from these same two values)."""

@@ -17,7 +17,7 @@ from nao_arena.speed_limit import saturation_time
 __all__ = ["candidate_setup", "robot_state"]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def robot_state(vx, vy, ax, ay, tau, ta):
     """Robot (acceleration, velocity, position) at time ta under the saturation model."""
     if ta < tau:
