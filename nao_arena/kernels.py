@@ -297,7 +297,7 @@ def _cache_holds(kernel: Kernel) -> bool:
     """Whether numba's cache holds this kernel version, compiled by this numba for this
     machine and this source (its index is read; nothing is loaded or compiled)."""
     dispatcher = _dispatcher(kernel)
-    cache = getattr(dispatcher, "_cache", None)
+    cache: Any = getattr(dispatcher, "_cache", None)
     try:
         key = cache._index_key(_signature(kernel), dispatcher.targetctx.codegen())
         return key in cache._cache_file._load_index()

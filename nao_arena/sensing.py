@@ -238,7 +238,8 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
             m = max_neighbours
         if start[k] + m > index.shape[0]:
             grown = np.empty(max(2 * index.shape[0], start[k] + m), dtype=np.int64)
-            grown[:start[k]] = index[:start[k]]
+            for c in range(start[k]):  # no broadcasting (its checks compile long)
+                grown[c] = index[c]
             index = grown
         for i in range(m):
             index[start[k] + i] = cand[order[i]]
@@ -441,7 +442,8 @@ def _stable_order(key, m, order, scratch):
         in_scratch = not in_scratch
         width *= 2
     if in_scratch:
-        order[:m] = scratch[:m]
+        for i in range(m):  # element by element: no broadcasting (its checks compile long)
+            order[i] = scratch[i]
 
 
 def read_only(array: NDArray) -> NDArray:

@@ -200,7 +200,8 @@ def _near_pairs(pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: fl
                 if dx * dx + dy * dy <= reach * reach:
                     if m == index.shape[0]:
                         grown = np.empty(2 * m, dtype=np.int64)
-                        grown[:m] = index
+                        for c in range(m):  # no broadcasting (its checks compile long)
+                            grown[c] = index[c]
                         index = grown
                     index[m] = j
                     m += 1

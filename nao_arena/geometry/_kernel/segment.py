@@ -440,7 +440,9 @@ def relevant_walls(v, a_max, v_max, horizon, walls, wall_r, margin):
     k = 0
     for w in range(W):
         if keep[w]:
-            out_w[k] = walls[w]
+            for e in range(2):  # element by element: no broadcasting (its checks compile long)
+                out_w[k, e, 0] = walls[w, e, 0]
+                out_w[k, e, 1] = walls[w, e, 1]
             out_r[k] = wall_r[w]
             k += 1
     return out_w, out_r
