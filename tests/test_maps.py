@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from nao_arena.maps import (
     LAYOUTS,
@@ -206,6 +207,9 @@ BAD_CASES = {
     "bad_parameter_value.yaml": ("parameters.n", "expected a number, bool or string"),
     "not_a_mapping.yaml": ("(top level)", "expected a mapping"),
     "invalid_yaml.yaml": ("line 3, column 1", "expected valid YAML"),
+    "alias_bomb.yaml": ("line 1, column 4", "an anchor (&name): a map holds plain data"),
+    "duplicate_key.yaml": ("line 3, column 56", "the key 'radius' twice in one mapping"),
+    "deep_nesting.yaml": ("line 1, column 58", "at most 50 levels of nesting"),
     "wall_without_type.yaml": ("walls[0]", "expected a 'type' key"),
     "robots_not_a_list.yaml": ("robots", "expected a list, got 'abc'"),
     # bounds that keep a map from hanging or exhausting memory
@@ -428,3 +432,21 @@ def test_maps_package_parts_use_only_public_names() -> None:
     for name in maps.__all__:
         assert getattr(maps, name) is not None
     assert importlib.import_module("nao_arena.maps.loader").load_map is maps.load_map
+
+
+def test_yaml_aliases_are_refused_before_they_expand() -> None:
+    """A few hundred bytes of nested aliases (9^9 strings once expanded) are refused at
+    their first anchor, not expanded; so are an alias alone and a merge key."""
+    with pytest.raises(MapError, match="anchor"):
+        load_map(BAD / "alias_bomb.yaml")
+    from nao_arena.maps.loader import parse_yaml
+
+    for text in ("a: *x", "a: &x 1\nb: *x", "a: &x {k: 1}\nb: {<<: *x}"):
+        with pytest.raises(yaml.YAMLError, match="anchor|alias"):
+            parse_yaml(text)
+    assert parse_yaml("a: {k: [1, 2]}\nb: 'x'") == {"a": {"k": [1, 2]}, "b": "x"}
+    with pytest.raises(yaml.YAMLError, match="twice"):
+        parse_yaml("a: 1\nb: 2\na: 3")
+    assert parse_yaml("[" * 50 + "]" * 50) is not None
+    with pytest.raises(yaml.YAMLError, match="nesting"):
+        parse_yaml("[" * 51 + "]" * 51)

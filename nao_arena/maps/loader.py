@@ -42,7 +42,7 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
         if not sep or not key.strip():
             raise MapError(f"parameter override {item!r}: expected name=value")
         try:
-            out[key.strip()] = yaml.safe_load(value) if value.strip() else ""
+            out[key.strip()] = parse_yaml(value) if value.strip() else ""
         except yaml.YAMLError:
             out[key.strip()] = value
     return out
@@ -51,7 +51,7 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
 def _coerce(file: str, name: str, default: Any, value: Any) -> Any:
     if isinstance(value, str) and not isinstance(default, str):
         try:
-            value = yaml.safe_load(value)
+            value = parse_yaml(value)
         except yaml.YAMLError:
             pass
     path = f"parameters.{name}"
@@ -288,6 +288,57 @@ def _resolve(source: str | Path) -> tuple[str, str]:
     return f"maps/{text_source}.yaml", res.read_text(encoding="utf-8")
 
 
+MAX_YAML_DEPTH = 50
+"""Nesting levels a map file may have (the shipped maps use at most 6)."""
+
+
+class MapYamlLoader(yaml.SafeLoader):
+    """YAML for map files, which hold plain data: no anchors or aliases (a few hundred
+    bytes of nested aliases expand to gigabytes), no key twice in a mapping, at most
+    :data:`MAX_YAML_DEPTH` levels of nesting. Each breach is a ``yaml.YAMLError`` with
+    the line and column."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self.depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
+            kind = "an alias (*name)" if isinstance(event, yaml.AliasEvent) else \
+                "an anchor (&name)"
+            raise yaml.composer.ComposerError(
+                None, None, f"{kind}: a map holds plain data, without anchors or aliases",
+                event.start_mark)
+        self.depth += 1
+        try:
+            if self.depth > MAX_YAML_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None, None, f"at most {MAX_YAML_DEPTH} levels of nesting",
+                    event.start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        seen: set[Any] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if isinstance(key, (str, int, float, bool)) or key is None:
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"the key {key!r} twice in one mapping",
+                        key_node.start_mark)
+                seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
+def parse_yaml(text: str) -> Any:
+    """The data of a map's YAML text (or of a parameter's value), read with
+    :class:`MapYamlLoader`. Raises ``yaml.YAMLError``."""
+    return yaml.load(text, Loader=MapYamlLoader)  # a SafeLoader: plain data only
+
+
 def load_map(
     source: str | Path, rng: np.random.Generator | None = None, **overrides: Any
 ) -> MapSpec:
@@ -299,7 +350,7 @@ def load_map(
     """
     file, text = _resolve(source)
     try:
-        data = yaml.safe_load(text)
+        data = parse_yaml(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "(top level)"
