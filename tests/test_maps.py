@@ -210,6 +210,7 @@ BAD_CASES = {
     "alias_bomb.yaml": ("line 1, column 4", "an anchor (&name): a map holds plain data"),
     "duplicate_key.yaml": ("line 3, column 56", "the key 'radius' twice in one mapping"),
     "deep_nesting.yaml": ("line 1, column 58", "at most 50 levels of nesting"),
+    "not_utf8.yaml": ("byte 43", "expected UTF-8 text (invalid start byte)"),
     "wall_without_type.yaml": ("walls[0]", "expected a 'type' key"),
     "robots_not_a_list.yaml": ("robots", "expected a list, got 'abc'"),
     # bounds that keep a map from hanging or exhausting memory

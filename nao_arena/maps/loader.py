@@ -278,7 +278,13 @@ def _resolve(source: str | Path) -> tuple[str, str]:
     if looks_like_path:
         if not path.is_file():
             raise MapError(f"{text_source}: no such map file")
-        return text_source, path.read_text(encoding="utf-8")
+        try:
+            return text_source, path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise MapError(f"{text_source}: byte {exc.start}: expected UTF-8 text "
+                           f"({exc.reason})") from None
+        except OSError as exc:
+            raise MapError(f"{text_source}: cannot be read ({exc.strerror or exc})") from None
     res = _shipped() / f"{text_source}.yaml"
     if not res.is_file():
         raise MapError(
