@@ -104,7 +104,8 @@ def _compile_messages() -> Iterator[None]:
 
 class _CompileProgress:
     """``on_done`` of :func:`nao_arena.kernels.compile_ahead`: one line on stderr at
-    most every second (and at the end): kernels done of all, seconds so far."""
+    most every :data:`~nao_arena.kernels.PROGRESS_INTERVAL` s (and at the end): kernels
+    done of all, seconds so far."""
 
     def __init__(self) -> None:
         self.started = time.monotonic()
@@ -112,7 +113,9 @@ class _CompileProgress:
 
     def __call__(self, done: int, total: int, key: str) -> None:
         now = time.monotonic()
-        if done < total and now - self.shown < 1.0:
+        from nao_arena.kernels import PROGRESS_INTERVAL
+
+        if done < total and now - self.shown < PROGRESS_INTERVAL:
             return
         self.shown = now
         name = key.partition("(")[0]
@@ -125,11 +128,13 @@ def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False
     every core) when the cache lacks some of them (``force``: look at each anyway),
     with progress on stderr; nothing when they are cached or when the environment sets
     ``NAO_ARENA_COMPILE_AHEAD=0``."""
-    from nao_arena.kernels import ahead_enabled, compile_ahead, missing_kernels
+    from nao_arena.kernels import compile_ahead, ensure_compiled
 
-    if not force and (not ahead_enabled() or not missing_kernels(parts)):
+    progress = _CompileProgress()
+    report = (compile_ahead(parts, jobs, on_done=progress) if force
+              else ensure_compiled(parts, jobs, on_done=progress))
+    if report is None:
         return
-    report = compile_ahead(parts, jobs, on_done=_CompileProgress())
     failed = f"; {len(report.failed)} left to compile when called" if report.failed else ""
     print(f"nao-arena: {report.kernels} kernels compiled or loaded in {report.seconds:.0f} s "
           f"({report.cpu_seconds:.0f} s of CPU) "

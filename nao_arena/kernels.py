@@ -27,6 +27,7 @@ fair and as short as two or more cores allow:
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import os
@@ -54,6 +55,7 @@ __all__ = [
     "Kernel",
     "Manifest",
     "compile_ahead",
+    "ensure_compiled",
     "compile_count",
     "compile_seconds",
     "load_manifest",
@@ -252,8 +254,9 @@ def manifest_from_json(text: str) -> Manifest:
     return Manifest(numba=str(data["numba"]), kernels=kernels)
 
 
+@functools.cache
 def load_manifest() -> Manifest:
-    """The shipped manifest (an empty one when the file is missing)."""
+    """The shipped manifest (an empty one when the file is missing), read once."""
     try:
         text = resources.files("nao_arena").joinpath(MANIFEST_FILE).read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -276,13 +279,19 @@ def parts_for_agents(agents: Iterable[str]) -> list[str]:
 def _numba_type(text: str) -> Any:
     """The numba type whose repr is ``text`` (the reprs the manifest holds: arrays,
     tuples and scalars)."""
+    # Literal[int](0), Literal[bool](True): the type of a constant argument
+    text = re.sub(r"Literal\[(?:int|bool)\]\((-?\d+|True|False)\)", r"literal(\1)", text)
+    return eval(text, {"__builtins__": {}}, _type_names())  # the package's own file
+
+
+@functools.cache
+def _type_names() -> dict[str, Any]:
+    """The names a numba type's repr uses (numba.core.types, bool, literal)."""
     from numba.core import types
 
     names = {name: getattr(types, name) for name in dir(types) if not name.startswith("_")}
     names.update(bool=types.boolean, literal=types.literal)
-    # Literal[int](0), Literal[bool](True): the type of a constant argument
-    text = re.sub(r"Literal\[(?:int|bool)\]\((-?\d+|True|False)\)", r"literal(\1)", text)
-    return eval(text, {"__builtins__": {}}, names)  # the package's own file, not input
+    return names
 
 
 def _dispatcher(kernel: Kernel) -> Any:
@@ -436,6 +445,19 @@ def compile_ahead(
                 if on_done is not None:
                     on_done(done, total, key)
     return CompileReport(total, failed, jobs, time.monotonic() - started, cpu)
+
+
+def ensure_compiled(
+    parts: Iterable[str],
+    jobs: int | None = None,
+    on_done: Callable[[int, int, str], None] | None = None,
+) -> CompileReport | None:
+    """:func:`compile_ahead` for ``parts`` when the cache lacks some of their kernels and
+    :func:`ahead_enabled`; None (nothing done) otherwise."""
+    parts = list(parts)
+    if not ahead_enabled() or not missing_kernels(parts):
+        return None
+    return compile_ahead(parts, jobs, on_done=on_done)
 
 
 # --------------------------------------------------------------------------- recording

@@ -71,10 +71,10 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     first, on every core (``nao-arena compile``), instead of one by one in the tests."""
     if REGISTERED:
         return
-    from nao_arena.kernels import RECORD_PARTS, ahead_enabled, compile_ahead, missing_kernels
+    from nao_arena.kernels import RECORD_PARTS, ensure_compiled
 
-    if not ahead_enabled() or not missing_kernels(RECORD_PARTS):
+    report = ensure_compiled(RECORD_PARTS)
+    if report is None:
         return
-    report = compile_ahead(RECORD_PARTS)
     print(f"\ncompiled {report.kernels} kernels ahead in {report.seconds:.0f} s "
           f"with {report.jobs} processes", file=sys.stderr)
