@@ -59,7 +59,9 @@ __all__ = [
     "AgentFault",
     "PanelAgent",
     "ShowsPanel",
+    "TooManyFaults",
     "available_agents",
+    "check_agent_class",
     "describe",
     "load_agent",
     "safe_act",
@@ -124,7 +126,12 @@ class AgentFault:
 
 
 class AgentError(RuntimeError):
-    """An agent could not be made ready for an episode: its constructor or ``reset`` raised."""
+    """An agent could not be made ready for an episode (its constructor or ``reset``
+    raised), or its faults failed the episode (:class:`TooManyFaults`)."""
+
+
+class TooManyFaults(AgentError):
+    """The agents of an episode faulted more often than its ``max_faults`` allows."""
 
 
 def describe(exc: BaseException) -> str:
@@ -190,22 +197,38 @@ def available_agents() -> dict[str, str]:
 
 
 def load_agent(ref: str) -> type:
-    """The agent class named by ``ref`` (built-in name, FILE.py:Class, module:Class, plug-in)."""
+    """The agent class named by ``ref`` (built-in name, FILE.py:Class, module:Class,
+    plug-in); ValueError if there is none, or if what it names is not a class with
+    ``reset`` and ``act`` methods (checked before anything is constructed)."""
     if ref in BUILTIN_AGENTS:
         module_name, cls = BUILTIN_AGENTS[ref].split(":")
         return _load_from_module(module_name, cls)
     if ":" in ref:
         target, cls = ref.rsplit(":", 1)
         if target.endswith(".py") or "/" in target or "\\" in target:
-            return _load_from_file(target, cls)
-        return _load_from_module(target, cls)
+            return check_agent_class(ref, _load_from_file(target, cls))
+        return check_agent_class(ref, _load_from_module(target, cls))
     plugins = _plugins()
     if ref in plugins:
-        return plugins[ref].load()
+        return check_agent_class(ref, plugins[ref].load())
     raise ValueError(
         f"unknown agent {ref!r}; expected one of {', '.join(available_agents())}, "
         "a path/to/file.py:ClassName or a package.module:ClassName"
     )
+
+
+def check_agent_class(ref: str, cls: object) -> type:
+    """``cls`` if it is a class with callable ``reset`` and ``act`` (the agent protocol);
+    else ValueError naming ``ref`` and what is missing."""
+    if not isinstance(cls, type):
+        raise ValueError(f"agent {ref}: expected a class with reset(spec, rng) and act(obs) "
+                         f"methods, got {type(cls).__name__} {cls!r}")
+    missing = [m for m in ("reset", "act") if not callable(getattr(cls, m, None))]
+    if missing:
+        raise ValueError(f"agent {ref}: class {cls.__name__} is not an agent: it has no "
+                         f"{' and no '.join(missing)} method (an agent needs "
+                         "reset(spec, rng) and act(obs))")
+    return cls
 
 
 def safe_act(

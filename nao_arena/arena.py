@@ -44,6 +44,7 @@ import dataclasses
 import hashlib
 import inspect
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -55,6 +56,8 @@ from nao_arena.agent import (
     UNCONTAINED,
     AgentError,
     AgentFault,
+    TooManyFaults,
+    check_agent_class,
     describe,
     load_agent,
     safe_act,
@@ -86,7 +89,9 @@ class ArenaOptions:
     known_path_horizon (s) / known_path_samples: the true future paths of
     traffic handed to agents; agent: if set, replaces every robot's agent
     (built-in name or plug-in reference) and agent_options are passed to
-    the agents' constructors; stats: statistics thresholds.
+    the agents' constructors; stats: statistics thresholds; max_faults: the
+    episode fails (:class:`~nao_arena.agent.TooManyFaults` from :meth:`Arena.step`)
+    once its agents have faulted more than this many times (None: never).
     """
 
     sensing_range: float | None = None
@@ -96,6 +101,14 @@ class ArenaOptions:
     agent: str | None = None
     agent_options: Mapping[str, Any] = field(default_factory=dict)
     stats: StatsConfig = field(default_factory=StatsConfig)
+    max_faults: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.max_faults is not None and (isinstance(self.max_faults, bool) or
+                                            not isinstance(self.max_faults, int) or
+                                            self.max_faults < 0):
+            raise ValueError(f"max_faults: expected an integer >= 0 or None, "
+                             f"got {self.max_faults!r}")
 
 
 @dataclass(frozen=True)
@@ -132,7 +145,7 @@ def make_agent(
     ``agent_options_for``, only to that agent); ``options`` (from the caller) are
     passed as given and take precedence.
     """
-    cls = load_agent(ref) if isinstance(ref, str) else ref
+    cls = load_agent(ref) if isinstance(ref, str) else check_agent_class(ref.__name__, ref)
     try:
         params = inspect.signature(cls).parameters
     except (TypeError, ValueError):
@@ -143,6 +156,13 @@ def make_agent(
         kwargs["predictor"] = robot.predictor
     kwargs.update(options or {})
     return cls(**kwargs)
+
+
+def _end_if_forked(pid: int) -> None:
+    """End this process at once if it is not ``pid``: a process an agent forked while
+    acting returns from ``act`` here, and the episode is not its to run."""
+    if os.getpid() != pid:
+        os._exit(0)
 
 
 class Arena:
@@ -343,8 +363,10 @@ class Arena:
             single = [k for k in single if k not in actions]
             batched = {cls: [k for k in rows if k not in actions]
                        for cls, rows in batched.items()}
+        pid = os.getpid()
         for k in single:
             acc, fault = safe_act(self.agents[k], batch.observation(k), self.agent_names[k])
+            _end_if_forked(pid)
             commanded[self.robot_ids[k]] = acc
             if fault is not None:
                 found[k] = fault
@@ -352,12 +374,20 @@ class Arena:
             if not rows:
                 continue
             accs, faults_of = self._act_batch(cls, batch, list(rows))
+            _end_if_forked(pid)
             commanded[self.robot_ids[rows]] = accs
             found.update(faults_of)
         for k in sorted(found):
             fault = found[k]
             faults.append(fault)
             self.stats.record_fault(fault.time, int(self.robot_ids[k]), fault.message)
+        limit = self.options.max_faults
+        if faults and limit is not None and len(self.stats.faults) > limit:
+            first = self.stats.faults[0]
+            raise TooManyFaults(
+                f"{len(self.stats.faults)} agent faults by t = {state.time:.1f} s, more than "
+                f"the {limit} allowed (max_faults); the first: robot "
+                f"{first.name} at t = {first.time:.1f} s: {first.message}")
         idx = self.traffic.indices
         if len(idx):
             commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)

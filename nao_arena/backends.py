@@ -9,6 +9,7 @@ backend, so the same seeds give the same files whichever backend ran them.
 
 ``local`` (default): ``workers`` processes of this machine ("spawn"
 context), or this process when ``workers == 1``. Nothing to install or start.
+The worker processes die with this one (Linux), e.g. when it is killed.
 
 ``ray``: each task is a Ray task (``num_cpus=1``). ``address=None`` starts a
 private local Ray instance with ``workers`` CPUs (or uses the one this
@@ -31,6 +32,8 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from types import ModuleType, TracebackType
 from typing import Any, Generic, TypeVar
+
+from nao_arena.isolation import die_with_parent
 
 __all__ = [
     "BACKENDS",
@@ -103,8 +106,8 @@ class LocalBackend(Backend[T, R]):
                 finished(task, fn(task))
             return
         ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)),
-                                 mp_context=ctx) as pool:
+        with ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)), mp_context=ctx,
+                                 initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
             pending: dict[Future[R], T] = {}
             try:
                 pending = {pool.submit(fn, t): t for t in tasks}

@@ -3,11 +3,11 @@
 Sub-commands::
 
     nao-arena run MAP [--agent [LABEL=]AGENT] [--seed S] [--set key=value ...]
-                  [--time-limit S] [--episode-timeout S]
+                  [--time-limit S] [--episode-timeout S] [--max-faults N]
                   [--render human | --render gif|mp4 --out FILE] [--json FILE] [--log FILE]
     nao-arena trial --map MAP[,MAP...] --agent [LABEL=]A[,[LABEL=]B...] --episodes N
                     --seed S --workers W --out DIR [--csv] [--set key=value ...]
-                    [--time-limit S] [--episode-timeout S]
+                    [--time-limit S] [--episode-timeout S] [--max-faults N]
                     [--backend local|ray [--address ADDR]] [--log [all|contacts]]
     nao-arena report DIR [--out PLOTS_DIR]
     nao-arena replay LOG [--robot R] [--at T [--png FILE]]
@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
 import logging
 import math
 import os
@@ -194,6 +195,7 @@ _RANGES = {  # option -> (expectation, test) of the numbers of `run` and `trial`
     "fps": ("a finite number > 0", lambda v: 0 < v < math.inf),
     "episodes": ("an integer >= 1", lambda v: v >= 1),
     "workers": ("an integer >= 1", lambda v: v >= 1),
+    "max_faults": ("an integer >= 0", lambda v: v >= 0),
 }
 
 
@@ -318,9 +320,11 @@ def _map_origin(name: str, source: str) -> str:
 def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.agent import AgentError, describe
     from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.isolation import EpisodeProcessEnded, run_isolated
+    from nao_arena.kernels import preload
     from nao_arena.maps import MapError
     from nao_arena.trials import make_map, split_agent
-    from nao_arena.watchdog import EpisodeTimeout, wall_clock_budget
+    from nao_arena.watchdog import EpisodeTimeout
 
     record = None
     if problem := _bad_number(args) or _render_problem(args):
@@ -347,15 +351,57 @@ def _cmd_run(args: argparse.Namespace) -> int:
         overrides = _overrides(args.set)
         if "seed" in overrides:
             return _err("set the seed with --seed (it seeds the map and the agents)")
-        spec = make_map(args.map, args.seed, overrides, args.time_limit)
+        spec = make_map(args.map, args.seed, overrides, args.time_limit,
+                        trusted=args.trust_map,
+                        agents={label: agent} if label and agent and label != agent else None)
         _load_agents([agent] if agent else [r.agent for r in spec.robots])
-        arena = Arena(spec, ArenaOptions(agent=agent))
+        arena = Arena(spec, ArenaOptions(agent=agent, max_faults=args.max_faults))
         recorder = _run_recorder(args, arena, label, overrides)
     except (MapError, ValueError) as exc:
         return _err(str(exc))
-    # compiled before the episode's budget starts (which leaves compiles out anyway)
-    compile_parts(_parts([agent] if agent else [r.agent for r in spec.robots],
-                         render=bool(args.render)))
+    parts = _parts([agent] if agent else [r.agent for r in spec.robots],
+                   render=bool(args.render))
+    # compiled and loaded before the episode's budget starts (which leaves compiles out
+    # anyway), here, so that the episode's process starts warm
+    compile_parts(parts)
+    preload(parts)
+
+    def episode(_: None) -> tuple[int, str, str]:
+        if sys.stdout is sys.__stdout__ and sys.stderr is sys.__stderr__:
+            return _run_episode(args, arena, spec, label, recorder, record), "", ""
+        # this process's streams are replaced (a test, a notebook): what the episode's
+        # process prints comes back here
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = _run_episode(args, arena, spec, label, recorder, record)
+        return code, out.getvalue(), err.getvalue()
+
+    try:
+        code, out, err = run_isolated(episode, None, args.episode_timeout)
+    except (AgentError, EpisodeTimeout, EpisodeProcessEnded) as exc:
+        return _err(describe(exc))
+    sys.stdout.write(out)
+    sys.stderr.write(err)
+    return code
+
+
+def _faults_warning(summary: Any, robots: int) -> str:
+    """The loud line under an episode whose agents faulted."""
+    names = sorted({f.name for f in summary.faults})
+    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    return (f"nao-arena: warning: {len(summary.faults)} of {summary.steps * robots} "
+            f"robot-steps were agent faults ({_plural(len(names), 'robot')}: {shown}); in "
+            "those steps the robot got zero acceleration, so the table does not show its "
+            "agent's own behaviour. --max-faults N fails an episode past N faults")
+
+
+def _run_episode(args: argparse.Namespace, arena: Any, spec: Any, label: str | None,
+                 recorder: Any, record: Any) -> int:
+    """``run``'s episode and its output, in the episode's own process (see
+    :mod:`nao_arena.isolation`); returns the exit status."""
+    from nao_arena.agent import AgentError, describe
+    from nao_arena.watchdog import EpisodeTimeout, wall_clock_budget
+
     try:
         with wall_clock_budget(args.episode_timeout):
             if args.render:
@@ -378,6 +424,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
           f"{len(summary.faults)}")
     for f in summary.faults[:5]:
         print(f"  fault t={f.time:.1f} s {f.name}: {f.message}")
+    if summary.faults:
+        print(_faults_warning(summary, len(arena.robots)), file=sys.stderr)
     if args.json:
         try:
             summary.write_json(args.json)
@@ -417,6 +465,7 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             retry_failed=args.retry_failed, backend=args.backend, address=args.address,
             episode_timeout=args.episode_timeout,
             agent_refs={label: ref for label, ref in agents if label != ref}, log=args.log,
+            max_faults=args.max_faults, trust_map=args.trust_map,
         )
         _load_agents(config.reference(a) for a in config.agents)
         if args.backend == "local" or args.address is None:
@@ -678,6 +727,13 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--episode-timeout", type=_timeout, default=600.0, metavar="S",
                    help="wall-clock budget of an episode (s; default 600; 0 or none: no "
                         "budget): an episode that exceeds it fails (a trial goes on)")
+    p.add_argument("--trust-map", action="store_true",
+                   help="let the map name code as its robots' agents (path/to/file.py:Class "
+                        "or module:Class); without it such a map is refused: it would run "
+                        "that code")
+    p.add_argument("--max-faults", type=int, default=None, metavar="N",
+                   help="an episode whose agents fault (raise, or return no finite "
+                        "acceleration) more than N times fails (default: never)")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -201,7 +201,9 @@ class EnvOptions:
     first controlled one); keep_finished: agents stay in ``agents`` until the
     episode ends (see "Agents that finish"); position_margin (m): None, or
     positions clipped to the map's bounds grown by this margin (see
-    "Observation bounds").
+    "Observation bounds"); trust_map: the map may name code (``FILE.py:Class``,
+    ``module:Class``) as its robots' agents; named_agents: agent names the map may use
+    (name -> agent reference); see :func:`nao_arena.maps.load_map`.
     """
 
     controlled: str | Sequence[str | int] = "all"
@@ -225,6 +227,8 @@ class EnvOptions:
     selected: str | int | None = None
     keep_finished: bool = False
     position_margin: float | None = None
+    trust_map: bool = False
+    named_agents: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.position_margin is not None and not (
@@ -387,7 +391,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.map_source = map
         self.render_mode = render_mode
         spec = self._load(self.map_params)
-        self._declared = frozenset(load_map(map).parameters)
+        self._declared = frozenset(spec.parameters)
         self._install(spec)
         robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots)]
         self._controlled = self._resolve_controlled(self.options.controlled, robot_names)
@@ -410,7 +414,8 @@ class NaoArenaParallelEnv(ParallelEnv):
     # ------------------------------------------------------------------ setup
 
     def _load(self, params: Mapping[str, Any]) -> MapSpec:
-        spec = load_map(self.map_source, **params)
+        spec = load_map(self.map_source, trusted=self.options.trust_map,
+                        agents=self.options.named_agents, **params)
         if self.options.time_limit is not None:
             episode = spec.episode.model_copy(update={"time_limit": float(self.options.time_limit)})
             spec = spec.model_copy(update={"episode": episode})

@@ -61,6 +61,7 @@ __all__ = [
     "load_manifest",
     "missing_kernels",
     "parts_for_agents",
+    "preload",
     "record_manifest",
     "watch_compiles",
 ]
@@ -329,6 +330,31 @@ def missing_kernels(parts: Iterable[str], manifest: Manifest | None = None) -> l
     called = {c for k in kernels.values() for c in k.calls}
     roots = [k for key, k in kernels.items() if key not in called]
     return [k.key for k in roots if not _cache_holds(k)]
+
+
+def preload(parts: Iterable[str]) -> int:
+    """Load the kernels of ``parts`` into this process now (from the cache, or compiled
+    if the cache lacks them), so that the episodes that follow, and the processes forked
+    from this one to run them (:mod:`nao_arena.isolation`), start warm. Only the kernels
+    that no other one calls are loaded (one's machine code holds its callees'); a stale
+    manifest entry is skipped (it compiles when called). Returns how many were loaded."""
+    kernels = load_manifest().for_parts(parts)
+    called = {c for k in kernels.values() for c in k.calls}
+    loaded = 0
+    for key, kernel in kernels.items():
+        if key in called or key in _PRELOADED:
+            continue
+        try:
+            _dispatcher(kernel).compile(_signature(kernel))
+        except Exception:  # noqa: BLE001 - a stale manifest entry compiles when called
+            LOG.debug("cannot preload %s", key)
+        _PRELOADED.add(key)
+        loaded += 1
+    return loaded
+
+
+_PRELOADED: set[str] = set()
+"""The manifest keys :func:`preload` has loaded in this process."""
 
 
 # --------------------------------------------------------------------------- compiling ahead

@@ -46,6 +46,9 @@ class EpisodeTimeout(BaseException):
         super().__init__(f"episode exceeded its wall-clock budget of {seconds:g} s")
         self.seconds = seconds
 
+    def __reduce__(self) -> tuple[type[EpisodeTimeout], tuple[float]]:
+        return EpisodeTimeout, (self.seconds,)
+
 
 def budget_available() -> bool:
     """Whether :func:`wall_clock_budget` is enforced here (SIGALRM, on the main thread)."""

@@ -290,7 +290,7 @@ def test_agent_references_that_fail_to_load_are_one_line_errors(capsys, tmp_path
         (f"{missing}:Agent", "no such file"),
     ]:
         path = _map_with_robot(tmp_path, agent=f"'{ref}'")
-        assert main(["run", path]) == 2, ref
+        assert main(["run", path, "--trust-map"]) == 2, ref
         assert f"agent {ref}: " in (err := _one_line_error(capsys)) and expected in err
         assert main(["trial", "--map", "circle_swap", "--agent", ref, "--quiet",
                      "--out", str(tmp_path / "res"), *TINY]) == 2, ref

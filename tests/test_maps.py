@@ -234,12 +234,12 @@ BAD_CASES = {
     "nan_time_limit.yaml": ("episode.time_limit", "expected a finite number, got nan"),
     # names checked when the map loads
     "unknown_agent.yaml": (
-        "robots[0].agent", "expected one of nao, ao, vo, orca, goal, lane, a "
-        "path/to/file.py:ClassName or a package.module:ClassName, got 'superbot'",
+        "robots[0].agent", "expected one of nao, ao, vo, orca, goal, lane, or a name given "
+        "with --agent NAME=REFERENCE, got 'superbot'",
     ),
     "unknown_options_agent.yaml": (
-        "robots[0].agent_options_for", "expected one of nao, ao, vo, orca, goal, lane, a "
-        "path/to/file.py:ClassName or a package.module:ClassName, got 'naoo'",
+        "robots[0].agent_options_for", "expected one of nao, ao, vo, orca, goal, lane, or a "
+        "name given with --agent NAME=REFERENCE, got 'naoo'",
     ),
     "unknown_predictor.yaml": (
         "layouts[0].robot.predictor", "expected one of constant_velocity, "
@@ -379,13 +379,56 @@ def test_agent_references_and_plugins_pass_the_map_check(monkeypatch) -> None:
     refs = ["path/to/mine.py:Mine", "some.module:Agent", "lane"]
     data = {"bounds": {"min": [-9, -9], "max": [9, 9]},
             "robots": [{**robot, "start": [2 * i, 0], "agent": a} for i, a in enumerate(refs)]}
-    assert [r.agent for r in map_from_dict(data).robots] == refs
+    assert [r.agent for r in map_from_dict(data, trusted=True).robots] == refs
     data["robots"].append({**robot, "start": [-4, 0], "agent": "myplug"})
     with pytest.raises(MapError, match=r"robots\[3\]\.agent: expected one of"):
-        map_from_dict(data)
+        map_from_dict(data, trusted=True)
     monkeypatch.setattr(agent_module, "_plugins",
                         lambda: {"myplug": SimpleNamespace(value="pkg.mod:Cls")})
-    assert map_from_dict(data).robots[3].agent == "myplug"
+    assert map_from_dict(data, trusted=True).robots[3].agent == "myplug"
+
+
+@pytest.mark.parametrize("field", ["agent", "agent_options_for"])
+@pytest.mark.parametrize("ref", ["subprocess:Popen", "path/to/mine.py:Mine", "os:system"])
+def test_a_map_naming_code_is_refused_unless_trusted(field, ref) -> None:
+    robot = {"start": [0, 0], "goal": [1, 1], field: ref}
+    data = {"bounds": {"min": [-9, -9], "max": [9, 9]}, "robots": [robot]}
+    with pytest.raises(MapError) as info:
+        map_from_dict(data)
+    message = str(info.value)
+    assert message.startswith(f"<dict>: robots[0].{field}: expected an agent name")
+    assert repr(ref) in message and "--trust-map" in message and "\n" not in message
+    assert getattr(map_from_dict(data, trusted=True).robots[0], field) == ref
+    # a name the user gave stands for its reference
+    robot[field] = "mine"
+    named = map_from_dict(data, agents={"mine": ref}).robots[0]
+    assert getattr(named, field) == ref
+    # through a parameter: the map's own default is refused, the caller's value is not
+    data = {"bounds": data["bounds"], "parameters": {"who": ref},
+            "robots": [{**robot, field: "$who"}]}
+    with pytest.raises(MapError, match="--trust-map"):
+        map_from_dict(data)
+    assert getattr(map_from_dict(data, who=ref).robots[0], field) == ref
+
+
+def test_running_a_map_that_names_code_runs_no_code(tmp_path) -> None:
+    """The audit's map: a robot whose agent is subprocess:Popen with a shell command."""
+    marker = tmp_path / "ran"
+    path = tmp_path / "evil.yaml"
+    path.write_text(
+        "bounds: {min: [-5, -5], max: [5, 5]}\n"
+        "robots:\n"
+        "  - start: [0, 0]\n"
+        "    goal: [1, 1]\n"
+        "    agent: 'subprocess:Popen'\n"
+        f"    agent_options: {{args: 'touch {marker}', shell: true}}\n")
+    from nao_arena.cli import main
+
+    assert main(["run", str(path), "--time-limit", "0.5"]) == 2
+    assert not marker.exists()
+    # trusted, Popen is still refused before it is constructed: it is no agent class
+    assert main(["run", str(path), "--time-limit", "0.5", "--trust-map"]) == 2
+    assert not marker.exists()
 
 
 def test_unknown_agent_from_a_parameter_names_the_field() -> None:

@@ -162,6 +162,10 @@ def test_crashed_episode_is_recorded(tmp_path):
         "class Broken:\n"
         "    def __init__(self):\n"
         "        raise RuntimeError('cannot start')\n"
+        "    def reset(self, spec, rng):\n"
+        "        pass\n"
+        "    def act(self, obs):\n"
+        "        return obs.velocity\n"
     )
     agent = f"{bad}:Broken"
     config = small(tmp_path / "out", agents=("goal", agent), episodes=1)

@@ -5,6 +5,7 @@ names, body counts, geometry: inside the bounds, clear of walls, no overlaps).""
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,6 @@ from nao_arena.maps.schema import (
     MapFile,
     MapSpec,
     RobotSpec,
-    RobotTemplate,
     SegmentWall,
 )
 
@@ -346,13 +346,26 @@ def parse_yaml(text: str) -> Any:
 
 
 def load_map(
-    source: str | Path, rng: np.random.Generator | None = None, **overrides: Any
+    source: str | Path,
+    rng: np.random.Generator | None = None,
+    *,
+    trusted: bool = False,
+    agents: Mapping[str, str] | None = None,
+    **overrides: Any,
 ) -> MapSpec:
     """Load and validate a map by shipped name (e.g. "roundabout") or file path.
 
     overrides: values for the map's declared ``parameters``. rng: the
     Generator given to layout builders (default: seeded with the map's
     ``seed`` parameter, or 0). Raises :class:`MapError`.
+
+    A map is data: its robots may name built-in agents, the agents of the
+    ``nao_arena.agents`` entry point group, and the names in ``agents`` (name ->
+    agent reference, given by the user: ``--agent NAME=path/to/file.py:Class``);
+    an agent reference in a parameter override is the caller's and allowed too.
+    A code reference the map itself holds (``path/to/file.py:Class``,
+    ``module:Class``) is a :class:`MapError` unless ``trusted`` (``--trust-map``):
+    loading it would run its code.
     """
     file, text = _resolve(source)
     try:
@@ -363,7 +376,8 @@ def load_map(
         problem = getattr(exc, "problem", None) or str(exc)
         raise MapError(f"{file}: {where}: expected valid YAML ({problem})") from None
     default_name = Path(file).name.removesuffix(".yaml").removesuffix(".yml")
-    return map_from_dict(data, file, rng=rng, default_name=default_name, **overrides)
+    return map_from_dict(data, file, rng=rng, default_name=default_name, trusted=trusted,
+                         agents=agents, **overrides)
 
 
 def map_from_dict(
@@ -371,9 +385,13 @@ def map_from_dict(
     source: str = "<dict>",
     rng: np.random.Generator | None = None,
     default_name: str = "map",
+    *,
+    trusted: bool = False,
+    agents: Mapping[str, str] | None = None,
     **overrides: Any,
 ) -> MapSpec:
-    """Validate a map given as plain data (as parsed from YAML); see :func:`load_map`."""
+    """Validate a map given as plain data (as parsed from YAML); see :func:`load_map`
+    (``trusted`` and ``agents`` too)."""
     file = source
     if not isinstance(data, dict):
         raise field_error(file, "(top level)", f"expected a mapping, got {show_value(data)}")
@@ -385,7 +403,8 @@ def map_from_dict(
         mf = MapFile.model_validate(body)
     except ValidationError as exc:
         raise validation_error(file, exc, body, MapFile) from None
-    _check_names(file, mf)
+    callers = {v for v in overrides.values() if isinstance(v, str)}
+    mf = _check_names(file, mf, AgentNames(trusted, dict(agents or {}), frozenset(callers)))
     if rng is None:
         seed = params.get("seed", 0)
         rng = np.random.default_rng(seed if isinstance(seed, int) and seed >= 0 else 0)
@@ -418,34 +437,80 @@ def map_from_dict(
     return spec
 
 
-def _check_names(file: str, mf: MapFile) -> None:
-    """Every robot's and layout template's agent and predictor names a known one.
+@dataclass(frozen=True)
+class AgentNames:
+    """What agent names a map may use beyond the built-in and entry-point ones:
+    trusted: any code reference; named: the user's names -> agent references;
+    callers: the caller's own parameter values (a reference among them is allowed)."""
 
-    Agents given as ``FILE.py:Class`` or ``module:Class`` are checked when loaded.
-    """
+    trusted: bool = False
+    named: Mapping[str, str] = field(default_factory=dict)
+    callers: frozenset[str] = frozenset()
+
+
+def _is_code_reference(name: str) -> bool:
+    return ":" in name
+
+
+def _check_names(file: str, mf: MapFile, names: AgentNames) -> MapFile:
+    """Every robot's and layout template's agent and predictor names a known one; the
+    user's names (``names.named``) replaced by their references. A code reference
+    (``FILE.py:Class``, ``module:Class``) the map holds is refused unless trusted (see
+    :func:`load_map`); it is loaded, and checked, when the episode starts."""
     from nao_arena.agent import BUILTIN_AGENTS, available_agents
     from nao_arena.predictors import PREDICTORS
 
-    templates: list[tuple[str, RobotTemplate]] = [
-        (f"robots[{i}]", r) for i, r in enumerate(mf.robots)
-    ] + [(f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(mf.layouts)]
     agents: dict[str, str] | None = None
-    for where, t in templates:
-        for field, name in (("agent", t.agent), ("agent_options_for", t.agent_options_for)):
-            if name is None or name in BUILTIN_AGENTS or ":" in name:
-                continue
-            agents = available_agents() if agents is None else agents
-            if name not in agents:
-                raise field_error(
-                    file, f"{where}.{field}",
-                    f"expected one of {', '.join(agents)}, a path/to/file.py:ClassName or a "
-                    f"package.module:ClassName, got {name!r}",
-                )
+
+    def resolve(where: str, name: str | None) -> str | None:
+        nonlocal agents
+        if name is None or name in BUILTIN_AGENTS:
+            return name
+        if name in names.named:
+            return names.named[name]
+        if _is_code_reference(name):
+            if names.trusted or name in names.callers:
+                return name
+            raise field_error(
+                file, where,
+                f"expected an agent name (built-in, plug-in, or one given with --agent "
+                f"NAME=REFERENCE), got the code reference {name!r}: a map is data, and "
+                "loading this would run code the map names; if you trust this map, run "
+                "it with --trust-map (Python: load_map(..., trusted=True))")
+        agents = available_agents() if agents is None else agents
+        if name not in agents:
+            raise field_error(
+                file, where,
+                f"expected one of {', '.join([*agents, *names.named])}, or a name given "
+                f"with --agent NAME=REFERENCE, got {name!r}")
+        return name
+
+    robots = []
+    for i, r in enumerate(mf.robots):
+        robots.append(_resolved(r, f"robots[{i}]", resolve))
+    layouts = []
+    for i, lay in enumerate(mf.layouts):
+        robot = _resolved(lay.robot, f"layouts[{i}].robot", resolve)
+        layouts.append(lay if robot is lay.robot else lay.model_copy(update={"robot": robot}))
+    for where, t in [(f"robots[{i}]", r) for i, r in enumerate(robots)] + [
+            (f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(layouts)]:
         if t.predictor not in PREDICTORS:
             raise field_error(
                 file, f"{where}.predictor",
                 f"expected one of {', '.join(PREDICTORS)}, got {t.predictor!r}",
             )
+    return mf.model_copy(update={"robots": robots, "layouts": layouts})
+
+
+def _resolved(t: Any, where: str, resolve: Any) -> Any:
+    """Robot (template) ``t`` with its agent names resolved (itself if none changed)."""
+    update = {}
+    for name in ("agent", "agent_options_for"):
+        value = getattr(t, name)
+        new = resolve(f"{where}.{name}", value)
+        if new != value:
+            update[name] = new
+    return t.model_copy(update=update) if update else t
 
 
 def _check_total(file: str, path: str, total: int, these: str) -> None:

@@ -35,7 +35,7 @@ __all__ = [
 
 
 FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed",
-                           "episode_timeout", "log"})
+                           "episode_timeout", "log", "trust_map"})
 """Settings that do not change results: they may differ from the ``trial.json`` of the
 output folder (``episodes`` may also grow)."""
 
@@ -65,7 +65,10 @@ class TrialConfig:
     wall-clock budget (s; None or 0: none), an episode that exceeds it is
     recorded as failed (``EpisodeTimeout: ...``) and the trial goes on (see
     :mod:`nao_arena.watchdog` for where it is enforced); log: write episode logs
-    (:data:`LOG_MODES`; None: none; see :mod:`nao_arena.trials`).
+    (:data:`LOG_MODES`; None: none; see :mod:`nao_arena.trials`); max_faults: an
+    episode whose agents fault more often fails (``TooManyFaults: ...``; None: never);
+    trust_map: the maps may name code as their robots' agents (``--trust-map``; see
+    :func:`nao_arena.maps.load_map`; the agents' labels are names they may use).
     """
 
     maps: tuple[str, ...]
@@ -83,6 +86,8 @@ class TrialConfig:
     episode_timeout: float | None = 600.0
     agent_refs: Mapping[str, str] = field(default_factory=dict)
     log: str | None = None
+    max_faults: int | None = None
+    trust_map: bool = False
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -109,6 +114,10 @@ class TrialConfig:
         if self.episode_timeout is not None and not 0 <= self.episode_timeout < math.inf:
             raise ValueError(f"episode timeout: expected a number of s >= 0 (0: none), "
                              f"got {self.episode_timeout}")
+        if self.max_faults is not None and (isinstance(self.max_faults, bool) or not
+                                            isinstance(self.max_faults, int) or
+                                            self.max_faults < 0):
+            raise ValueError(f"max faults: expected an integer >= 0, got {self.max_faults!r}")
         if self.log is not None and self.log not in LOG_MODES:
             raise ValueError(f"log: expected one of {', '.join(LOG_MODES)} (or none), got "
                              f"{self.log!r}")
@@ -136,7 +145,8 @@ class EpisodeTask:
     not part of its key); agent_ref: the agent reference to load (None:
     ``agent`` itself; not part of its key, ``trial.json`` records it); log: which
     episodes write a log (:data:`LOG_MODES`; None: none) and log_path: where (neither
-    is part of its key).
+    is part of its key); max_faults: see :class:`TrialConfig` (part of its key when set);
+    trust_map and named_agents: what the map may name (see :func:`make_map`).
     """
 
     map: str
@@ -150,13 +160,19 @@ class EpisodeTask:
     agent_ref: str | None = None
     log: str | None = None
     log_path: str | None = None
+    max_faults: int | None = None
+    trust_map: bool = False
+    named_agents: Mapping[str, str] = field(default_factory=dict)
 
     def key(self) -> dict[str, Any]:
         """What identifies the episode's result (compared on resume)."""
-        return {
+        key = {
             "map": self.map, "agent": self.agent, "episode": self.episode, "seed": self.seed,
             "overrides": dict(self.overrides), "time_limit": self.time_limit,
         }
+        if self.max_faults is not None:
+            key["max_faults"] = self.max_faults
+        return key
 
 
 @dataclass
@@ -236,14 +252,17 @@ def map_overrides(
 
 def make_map(
     name: str, seed: int | None, overrides: Mapping[str, Any] | None = None,
-    time_limit: float | None = None,
+    time_limit: float | None = None, *, trusted: bool = False,
+    agents: Mapping[str, str] | None = None,
 ) -> MapSpec:
     """Load map ``name`` with ``overrides``; ``seed`` becomes its ``seed`` parameter if it
-    declares one; ``time_limit`` (s) replaces its episode time limit if given."""
+    declares one; ``time_limit`` (s) replaces its episode time limit if given; ``trusted``
+    and ``agents``: what its robots may name (see :func:`nao_arena.maps.load_map`)."""
     params = dict(overrides or {})
-    if seed is not None and "seed" in load_map(name).parameters:
+    if seed is not None and "seed" in load_map(name, trusted=trusted, agents=agents,
+                                               **params).parameters:
         params["seed"] = seed
-    spec = load_map(name, **params)
+    spec = load_map(name, trusted=trusted, agents=agents, **params)
     if time_limit is not None:
         episode = spec.episode.model_copy(update={"time_limit": float(time_limit)})
         spec = spec.model_copy(update={"episode": episode})
@@ -277,6 +296,8 @@ def grid_tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) ->
             path=str(episode_path(config.out, m, a, e)), episode_timeout=config.episode_timeout,
             agent_ref=config.agent_refs.get(a), log=config.log,
             log_path=str(log_path(config.out, m, a, e)) if config.log else None,
+            max_faults=config.max_faults, trust_map=config.trust_map,
+            named_agents=dict(config.agent_refs),
         )
         for m in config.maps
         for a in config.agents

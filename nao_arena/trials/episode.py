@@ -12,6 +12,8 @@ from typing import Any
 from nao_arena.agent import describe
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.atomic import atomic_write_text
+from nao_arena.isolation import run_isolated
+from nao_arena.kernels import parts_for_agents, preload
 from nao_arena.trials.config import EpisodeTask, make_map
 from nao_arena.watchdog import wall_clock_budget
 
@@ -69,23 +71,57 @@ def _lacks_log(task: EpisodeTask, rec: Mapping[str, Any]) -> bool:
 def compute_episode(task: EpisodeTask) -> dict[str, Any]:
     """Run one episode; returns its record (what the episode's result file holds).
 
-    This is what every backend executes, wherever it runs: it writes no file
-    but the episode's log (``task.log``; the record's ``log`` names it relative
-    to the results folder, null without one; ``log_error``: why it could not be
-    written). An exception while loading the map, building the arena or running is
+    This is what every backend executes, wherever it runs. The episode runs in a
+    process of its own, forked from this one and watched from here
+    (:func:`nao_arena.isolation.run_isolated`): whatever an agent does to its process
+    (ends it, forks, ignores the budget's alarm, leaves threads running) fails this
+    episode only. This process loads the episode's kernels first (once; see
+    :func:`nao_arena.kernels.preload`), so neither that warm-up nor a compile counts
+    against ``task.episode_timeout``.
+
+    It writes no file but the episode's log (``task.log``; the record's ``log`` names it
+    relative to the results folder, null without one; ``log_error``: why it could not
+    be written). An exception while loading the map, building the arena or running is
     recorded (``error``: its type and message, ``result``: null) instead of
-    propagating; so is exceeding ``task.episode_timeout`` (``EpisodeTimeout:
-    episode exceeded its wall-clock budget of N s``). Only KeyboardInterrupt
-    propagates. The record's ``wall_time_s`` is informative only (it is in
-    no results table).
+    propagating; so are exceeding ``task.episode_timeout`` (``EpisodeTimeout:
+    episode exceeded its wall-clock budget of N s``) and the episode's process ending
+    without a result (``EpisodeProcessEnded: ...``). Only KeyboardInterrupt
+    propagates. The record's ``wall_time_s`` is informative only (it is in no results
+    table).
     """
     start = time.perf_counter()
-    record: dict[str, Any] = {"format": FORMAT, "key": task.key(), "error": None, "result": None}
+    _warm_up(task)
+    try:
+        record = run_isolated(_compute_here, task, task.episode_timeout)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - a failing episode must not stop the trial
+        record = _record(task)
+        record["error"] = describe(exc)
+    record["wall_time_s"] = time.perf_counter() - start
+    return record
+
+
+def _record(task: EpisodeTask) -> dict[str, Any]:
+    return {"format": FORMAT, "key": task.key(), "error": None, "result": None}
+
+
+def _warm_up(task: EpisodeTask) -> None:
+    """Load the kernels of the task's agent into this process (once per agent), so that
+    the episode's process starts warm."""
+    preload(parts_for_agents([task.agent_ref or task.agent]))
+
+
+def _compute_here(task: EpisodeTask) -> dict[str, Any]:
+    """:func:`compute_episode` in this process (no isolation), without ``wall_time_s``."""
+    record = _record(task)
     recorder = None
     try:
         with wall_clock_budget(task.episode_timeout):
-            spec = make_map(task.map, task.seed, task.overrides, task.time_limit)
-            arena = Arena(spec, ArenaOptions(agent=task.agent_ref or task.agent))
+            spec = make_map(task.map, task.seed, task.overrides, task.time_limit,
+                            trusted=task.trust_map, agents=task.named_agents)
+            arena = Arena(spec, ArenaOptions(agent=task.agent_ref or task.agent,
+                                             max_faults=task.max_faults))
             recorder = _episode_recorder(task, arena)
             record["result"] = arena.run(task.seed).to_dict()
     except KeyboardInterrupt:
@@ -94,7 +130,6 @@ def compute_episode(task: EpisodeTask) -> dict[str, Any]:
         record["error"] = describe(exc)
     if recorder is not None and _wants_log(task.log, record["result"]):
         _write_episode_log(task, recorder, arena, record)
-    record["wall_time_s"] = time.perf_counter() - start
     return record
 
 

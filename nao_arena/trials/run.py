@@ -18,7 +18,6 @@ from typing import Any, TextIO
 from nao_arena.agent import load_agent
 from nao_arena.atomic import atomic_write_text
 from nao_arena.backends import make_backend
-from nao_arena.maps import load_map
 from nao_arena.trials.config import (
     FREE_SETTINGS,
     EpisodeTask,
@@ -115,7 +114,8 @@ def _validate(config: TrialConfig) -> dict[str, dict[str, Any]]:
     """Check maps, overrides and agents before running anything; per-map overrides."""
     per_map = map_overrides(config.maps, config.overrides)
     for m in config.maps:
-        make_map(m, 0, per_map[m], config.time_limit)
+        make_map(m, 0, per_map[m], config.time_limit, trusted=config.trust_map,
+                 agents=config.agent_refs)
     for a in config.agents:
         load_agent(config.reference(a))
     return per_map
@@ -244,7 +244,8 @@ def _run_locked(
     bar.resumed = bar.done
     if progress is not None and config.episodes > 1:
         for m in config.maps:
-            if "seed" not in load_map(m, **per_map[m]).parameters:
+            if "seed" not in make_map(m, None, per_map[m], trusted=config.trust_map,
+                                      agents=config.agent_refs).parameters:
                 progress.write(f"note: map {m} declares no seed parameter: its episodes "
                                "differ only by the agents' seeds\n")
     if progress is not None and len(todo) < len(tasks):
