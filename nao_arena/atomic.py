@@ -11,6 +11,7 @@ recordings) goes through this module; only a trial folder's lock file does not.
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -19,6 +20,7 @@ __all__ = [
     "atomic_write_text",
     "atomic_write_with",
     "replace_synced",
+    "remove_stale",
     "temporary_sibling",
 ]
 
@@ -26,14 +28,59 @@ __all__ = [
 def temporary_sibling(path: str | Path, suffix: str = ".tmp") -> tuple[int, str]:
     """(fd, name) of a new temporary file next to ``path`` (its folder is created if
     missing) with the permissions an ordinary new file gets (mkstemp's 0600 widened to
-    0666 minus the umask). The caller owns the descriptor."""
+    0666 minus the umask). The caller owns the descriptor.
+
+    Its name, ``.<name>.<pid>.<random><suffix>``, holds the writing process's id: the
+    temporary files of ``path`` left by a process that was killed before it could remove
+    them are removed first (see :func:`remove_stale`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    remove_stale(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=suffix,
+                               dir=path.parent)
     umask = os.umask(0o022)
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)
     return fd, tmp
+
+
+def remove_stale(path: str | Path) -> list[Path]:
+    """Remove the temporary files of ``path`` (see :func:`temporary_sibling`) whose writing
+    process has ended (e.g. it was killed during a long write); returns them."""
+    path = Path(path)
+    pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.")
+    removed = []
+    try:
+        entries = list(path.parent.iterdir()) if path.parent.is_dir() else []
+    except OSError:
+        return removed
+    for entry in entries:
+        match = pattern.match(entry.name)
+        if match is None or _alive(int(match.group(1))):
+            continue
+        try:
+            entry.unlink()
+        except OSError:
+            continue
+        removed.append(entry)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (one that is not ours to signal counts)."""
+    if pid == os.getpid() or os.name == "nt":  # Windows: os.kill would end it
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    try:  # Linux: a zombie (ended, not yet reaped) has ended
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return True
+    return state not in ("Z", "X")
 
 
 def _fsync_file(name: str | Path) -> None:

@@ -190,7 +190,7 @@ def _overrides(items: list[str] | None) -> dict[str, Any]:
 
 _RANGES = {  # option -> (expectation, test) of the numbers of `run` and `trial`
     "seed": ("an integer >= 0", lambda v: v >= 0),
-    "time_limit": ("a finite number of seconds > 0", lambda v: 0 < v < math.inf),
+    "time_limit": ("a number of seconds > 0 and <= 100000", lambda v: 0 < v <= 1e5),
     "max_steps": ("an integer >= 1", lambda v: v >= 1),
     "fps": ("a finite number > 0", lambda v: 0 < v < math.inf),
     "episodes": ("an integer >= 1", lambda v: v >= 1),
@@ -320,6 +320,7 @@ def _map_origin(name: str, source: str) -> str:
 def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.agent import AgentError, describe
     from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.atomic import remove_stale
     from nao_arena.isolation import EpisodeProcessEnded, run_isolated
     from nao_arena.kernels import preload
     from nao_arena.maps import MapError
@@ -376,10 +377,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
             code = _run_episode(args, arena, spec, label, recorder, record)
         return code, out.getvalue(), err.getvalue()
 
+    previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
     try:
         code, out, err = run_isolated(episode, None, args.episode_timeout)
     except (AgentError, EpisodeTimeout, EpisodeProcessEnded) as exc:
         return _err(describe(exc))
+    except KeyboardInterrupt:
+        print("\ninterrupted: the episode was stopped; no output file was written",
+              file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        # what the episode's process was writing when it was stopped (temporary files)
+        for path in (args.json, args.log, args.out):
+            if path:
+                remove_stale(path)
     sys.stdout.write(out)
     sys.stderr.write(err)
     return code
@@ -833,6 +845,23 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # the reader went away (`nao-arena maps --schema | head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as exc:  # a file or folder that cannot be read or written, a full disk
+        return _err(_os_error(exc, args))
+    except MemoryError:
+        return _err("out of memory: the map or the settings ask for more than this machine "
+                    "has (fewer robots, a shorter episode or a longer dt need less)")
+
+
+def _os_error(exc: OSError, args: argparse.Namespace) -> str:
+    """One line for an OSError no command handled: the file, what failed, and for a trial
+    what is kept."""
+    where = exc.filename if exc.filename is not None else "a file"
+    what = exc.strerror or type(exc).__name__
+    text = f"{where}: cannot be written or read ({what})"
+    if args.command == "trial":
+        text += (f"; the episodes finished so far are kept in {Path(args.out) / 'episodes'}: "
+                 "free space (or fix the folder) and run the same command again to resume")
+    return text
 
 
 if __name__ == "__main__":

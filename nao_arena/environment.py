@@ -138,7 +138,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, ArenaOptions, StepResult
 from nao_arena.geometry.clearance import path_clearance
-from nao_arena.maps import MapSpec, load_map
+from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Neighbours, neighbour_lists
@@ -417,8 +417,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         spec = load_map(self.map_source, trusted=self.options.trust_map,
                         agents=self.options.named_agents, **params)
         if self.options.time_limit is not None:
-            episode = spec.episode.model_copy(update={"time_limit": float(self.options.time_limit)})
-            spec = spec.model_copy(update={"episode": episode})
+            spec = with_time_limit(spec, self.options.time_limit)
         return spec
 
     def _install(self, spec: MapSpec) -> None:

@@ -792,6 +792,14 @@ def _from_table(path: Path, table: pa.Table, meta: dict[str, Any]) -> EpisodeLog
             times=None if r.get("times") is None else grids[int(r["times"])],
             margin=float(r.get("margin", 0.0)),
             v_pref=None if r.get("v_pref") is None else float(r["v_pref"])))
+    if [r.body for r in robots] != list(range(spec.n_robots)):
+        raise LogError(f"{path}: corrupt episode log (its robot list names bodies "
+                       f"{[r.body for r in robots]}, expected the map's {spec.n_robots} "
+                       f"robots, bodies 0 .. {spec.n_robots - 1})")
+    if len(meta["summary"].get("robots", [])) != spec.n_robots:
+        raise LogError(f"{path}: corrupt episode log (its summary has "
+                       f"{len(meta['summary'].get('robots', []))} robots, expected the map's "
+                       f"{spec.n_robots})")
     ids = np.array([r.body for r in robots], dtype=np.intp)
     n_robots = len(robots)
     status = _codes(table.column("status"), STATUSES, f"{path}: column status")

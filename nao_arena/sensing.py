@@ -447,12 +447,26 @@ def _stable_order(key, m, order, scratch):
 
 
 def read_only(array: NDArray) -> NDArray:
-    """``array`` itself if it is read-only, else a read-only view of it (no copy)."""
-    if not array.flags.writeable:
+    """``array`` itself if no one can write into its memory, else a copy of it that no one
+    can: read-only, in memory an immutable ``bytes`` object owns (``setflags(write=True)``
+    raises ValueError on it and on every view of it, and no ``.base`` leads to writable
+    memory). What agents sense is made of these: they share no writable memory with the
+    arena."""
+    if _frozen(array):
         return array
-    view = array.view()
-    view.setflags(write=False)
-    return view
+    data = np.ascontiguousarray(array)
+    frozen = np.frombuffer(data.tobytes(), dtype=data.dtype).reshape(data.shape)
+    return frozen
+
+
+def _frozen(array: NDArray) -> bool:
+    """Whether ``array`` is read-only and its memory belongs to a ``bytes`` object."""
+    if array.flags.writeable:
+        return False
+    base = array.base
+    while isinstance(base, np.ndarray):
+        base = base.base
+    return isinstance(base, bytes)
 
 
 class ReadOnlyRoutes(tuple):
@@ -474,7 +488,7 @@ _BATCH_ARRAYS = ("positions", "velocities", "accelerations", "radii", "a_max", "
 """The array fields of :class:`SensingBatch` (made read-only)."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class SensingBatch:
     """Every robot's view at one control step, as bulk arrays (world frame, m, m/s, m/s^2).
 
@@ -488,11 +502,14 @@ class SensingBatch:
     builds the :class:`Observation` a per-robot agent sees; batched agents read the
     arrays directly.
 
-    Every array the batch holds is read-only (a writable one given to the
-    constructor is replaced by a read-only view of it, no copy), and so is
-    every view of it handed out (an observation's position, goal, walls ...):
-    an agent that writes into what it senses gets ValueError (a fault) and
-    cannot change the arena's state. ``routes`` is a :class:`ReadOnlyRoutes` tuple.
+    The batch is frozen (assigning an attribute raises), and every array it holds
+    is read-only in memory no one can write (see :func:`read_only`: an array given
+    to the constructor is copied unless it already is), and so is every view of it
+    handed out (an observation's position, goal, walls ...): an agent that writes
+    into what it senses gets an exception (a fault), whether it writes, calls
+    ``setflags(write=True)`` on an array or on its ``.base``, or assigns an
+    attribute; it cannot change the arena's state, another agent's senses or the
+    episode's record. ``routes`` is a :class:`ReadOnlyRoutes` tuple.
     """
 
     time: float
@@ -521,9 +538,9 @@ class SensingBatch:
         fields = self.__dict__
         for name in _BATCH_ARRAYS:
             value = fields[name]
-            if value is not None and value.flags.writeable:
+            if value is not None:
                 fields[name] = read_only(value)
-        self.routes = ReadOnlyRoutes.of(self.routes)
+        fields["routes"] = ReadOnlyRoutes.of(self.routes)
 
     @classmethod
     def of_observation(cls, obs: Observation) -> SensingBatch:
@@ -567,7 +584,7 @@ class SensingBatch:
     def everyone(self) -> Neighbours:
         """All bodies as one :class:`Neighbours` (row i = body i): predict once, index per robot."""
         if self._everyone is None:
-            self._everyone = Neighbours(
+            self.__dict__["_everyone"] = Neighbours(
                 ids=np.arange(len(self.positions), dtype=np.int64),
                 kinds=tuple(self.kinds),
                 positions=self.positions,

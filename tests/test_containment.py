@@ -39,6 +39,23 @@ def swap(n: int = 4, **params) -> object:
 # --------------------------------------------------------------------------- read-only senses
 
 
+def _reaches_writable_memory(array: np.ndarray) -> bool:
+    """Whether ``array``, or anything along its ``.base`` chain, can be made writable."""
+    node: object = array
+    while node is not None:
+        if isinstance(node, np.ndarray):
+            try:
+                node.setflags(write=True)
+            except ValueError:
+                node = node.base
+                continue
+            return True
+        if isinstance(node, memoryview):
+            return not node.readonly
+        return not isinstance(node, bytes)
+    return False
+
+
 def test_observations_and_batch_are_read_only():
     arena = Arena(swap(), ArenaOptions(agent="goal"))
     arena.reset(0)
@@ -46,23 +63,85 @@ def test_observations_and_batch_are_read_only():
     for name in ("positions", "velocities", "accelerations", "radii", "a_max", "v_max",
                  "kinds", "plans", "path_times", "bodies", "goals", "walls", "wall_radius",
                  "nb_start", "nb_index"):
-        assert not getattr(batch, name).flags.writeable, name
+        array = getattr(batch, name)
+        assert not array.flags.writeable, name
+        assert not _reaches_writable_memory(array), name
     assert isinstance(batch.routes, tuple)
-    # a batch made from writable arrays and a list of routes holds read-only views of them
+    # a batch made from writable arrays and a list of routes holds frozen copies of them
     route, goals = np.zeros((3, 2)), np.zeros((4, 2))
     other = dataclasses.replace(batch, goals=goals, routes=[route, None, None, None])
-    assert not other.goals.flags.writeable and np.shares_memory(other.goals, goals)
+    assert not other.goals.flags.writeable and not np.shares_memory(other.goals, goals)
     assert isinstance(other.routes, tuple) and not other.routes[0].flags.writeable
+    assert not _reaches_writable_memory(other.routes[0])
     assert goals.flags.writeable and route.flags.writeable
     obs = batch.observation(0)
     for arr in (obs.position, obs.velocity, obs.acceleration, obs.goal, obs.walls,
                 obs.wall_radius, obs.neighbours.ids, obs.neighbours.path_times):
         assert not arr.flags.writeable
+        assert not _reaches_writable_memory(arr)
     everyone = batch.everyone()
     assert not everyone.positions.flags.writeable and not everyone.plans.flags.writeable
-    # the arena's own state is not frozen (views only: no copy either)
+    # the arena's own state is not frozen, and the senses share no memory with it
     assert arena.state.positions.flags.writeable
-    assert np.shares_memory(batch.positions, arena.state.positions)
+    for mine, senses in ((arena.state.positions, batch.positions),
+                         (arena.world.radii, batch.radii), (arena.world.a_max, batch.a_max),
+                         (arena.world.v_max, batch.v_max)):
+        assert not np.shares_memory(senses, mine)
+    # nor can an attribute of the batch be replaced
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        batch.goals = np.zeros((4, 2))  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        obs.goal = np.zeros(2)  # type: ignore[misc]
+
+
+def test_an_agent_cannot_fake_its_results_through_what_it_senses(tmp_path):
+    """The audit's attack: ``obs.goal.setflags(write=True); obs.goal[:] = obs.position``
+    made every robot "succeed" at once; walls were overwritten the same way, and the
+    limits through ``batch.a_max.base``. Each attempt is now a fault that changes nothing."""
+    cheater = plugin(tmp_path, "cheater", """
+        class Cheater:
+            def reset(self, spec, rng):
+                pass
+
+            def act(self, obs):
+                for array in (obs.goal, obs.walls, obs.position):
+                    node = array
+                    while node is not None:
+                        try:
+                            node.setflags(write=True)
+                        except (ValueError, AttributeError):
+                            pass
+                        node = getattr(node, "base", None)
+                obs.goal[:] = obs.position
+                return np.zeros(2)
+
+        class BatchCheater:
+            def reset(self, spec, rng):
+                pass
+
+            def act(self, obs):
+                return np.zeros(2)
+
+            @classmethod
+            def act_batch(cls, agents, batch, rows):
+                for name in ("goals", "a_max", "v_max", "radii", "walls"):
+                    base = getattr(batch, name).base
+                    try:
+                        base.setflags(write=True)
+                        base[...] = 0.0
+                    except (ValueError, AttributeError, TypeError):
+                        pass
+                batch.goals = batch.positions[batch.bodies]
+                return np.zeros((len(rows), 2))
+        """)
+    for cls in ("Cheater", "BatchCheater"):
+        arena = Arena(load_map("crossing"), ArenaOptions(agent=f"{cheater}:{cls}"))
+        goals, a_max = arena.goals.copy(), arena.world.a_max.copy()
+        summary = arena.run(0, max_steps=20)
+        assert not any(r.success for r in summary.robots), cls
+        assert len(summary.faults) == 20 * len(arena.robots), cls
+        np.testing.assert_array_equal(arena.goals, goals)
+        np.testing.assert_array_equal(arena.world.a_max, a_max)
 
 
 def test_in_place_write_is_a_fault_and_changes_nothing(tmp_path):

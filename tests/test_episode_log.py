@@ -302,6 +302,32 @@ def test_other_versions_and_tampered_logs_are_refused(goal_log, tmp_path):
         read_log(path)
 
 
+@pytest.mark.parametrize("edit", ["cut", "swapped", "summary"])
+def test_a_log_whose_robot_list_does_not_match_its_map_is_refused(goal_log, tmp_path, capsys,
+                                                                 edit):
+    """A cut robot list made replay fail with IndexError, and explain accept the log."""
+    from nao_arena.cli import main
+
+    def change(meta):
+        if edit == "cut":
+            meta["robots"] = meta["robots"][:-1]
+        elif edit == "swapped":
+            meta["robots"][0]["body"], meta["robots"][1]["body"] = 1, 0
+        else:
+            meta["summary"]["robots"] = meta["summary"]["robots"][:1]
+
+    path = _rewrite(goal_log, tmp_path / f"{edit}.parquet", change)
+    with pytest.raises(LogError) as excinfo:
+        read_log(path)
+    assert "corrupt episode log" in _one_line_error(excinfo, path)
+    for command in (["replay", str(path), "--at", "1", "--png", str(tmp_path / "f.png")],
+                    ["explain", str(path)]):
+        assert main(command) == 2, command
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("nao-arena: error: ") and "\n" not in err
+        assert "corrupt episode log" in err
+
+
 def test_a_failed_write_leaves_the_old_log(goal_log, tmp_path, monkeypatch):
     target = tmp_path / "keep.parquet"
     target.write_bytes(b"old")

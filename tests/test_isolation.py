@@ -332,3 +332,104 @@ def test_a_trial_records_max_faults_in_its_settings(tmp_path, hostile):
     assert settings["max_faults"] == 2
     (record,) = [json.loads(p.read_text()) for p in (tmp_path / "out" / "episodes").glob("*")]
     assert record["key"]["max_faults"] == 2 and record["error"].startswith("TooManyFaults")
+
+
+# --------------------------------------------------------------------------- killed writers
+
+
+def _temporaries(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+@pytest.mark.parametrize("how", [signal.SIGTERM, signal.SIGKILL])
+def test_a_killed_recording_leaves_no_temporary_file(tmp_path, how):
+    out = tmp_path / "episode.gif"
+    cmd = [sys.executable, "-m", "nao_arena.cli", "run", "circle_swap", "--set", "n=8",
+           "--render", "gif", "--out", str(out)]
+    process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and not _temporaries(tmp_path):
+        time.sleep(0.1)
+    assert _temporaries(tmp_path), "the recording never started"
+    process.send_signal(how)
+    _, err = process.communicate(timeout=60)
+    assert not out.exists()
+    if how == signal.SIGTERM:
+        assert process.returncode == 130
+        assert b"interrupted" in err and b"Traceback" not in err
+        assert _temporaries(tmp_path) == []
+    else:
+        # nothing can clean up after SIGKILL: the next write to that file does
+        from nao_arena.atomic import remove_stale
+
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not remove_stale(out):
+            time.sleep(0.1)
+        assert _temporaries(tmp_path) == []
+
+
+def test_temporary_files_of_live_writers_are_kept(tmp_path):
+    from nao_arena.atomic import remove_stale, temporary_sibling
+
+    target = tmp_path / "x.json"
+    fd, mine = temporary_sibling(target)
+    os.close(fd)
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        alive = tmp_path / f".x.json.{sleeper.pid}.abc.tmp"
+        alive.write_text("")
+        dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True).stdout.strip()
+        stale = tmp_path / f".x.json.{dead}.abc.tmp"
+        stale.write_text("")
+        other = tmp_path / f".y.json.{dead}.abc.tmp"
+        other.write_text("")
+        assert remove_stale(target) == [stale]
+        assert alive.exists() and Path(mine).exists() and other.exists()
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+
+
+# --------------------------------------------------------------------------- files
+
+
+def test_a_full_disk_during_a_trial_is_one_line(tmp_path, monkeypatch, capsys):
+    import errno
+
+    import nao_arena.trials.run as trial_run
+
+    def full(task, record):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), task.path)
+
+    monkeypatch.setattr(trial_run, "write_record", full)
+    out = tmp_path / "out"
+    assert main(["trial", "--map", "circle_swap", "--set", "n=2", "--agent", "goal",
+                 "--episodes", "1", "--time-limit", "1", "--out", str(out), "--quiet"]) == 2
+    err = one_line(capsys)
+    assert err.startswith("nao-arena: error: ") and "No space left on device" in err
+    assert "run the same command again to resume" in err
+
+
+@pytest.mark.parametrize("command", [["figures", "--out", "/proc/nao-arena-x"],
+                                     ["trial", "--map", "circle_swap", "--agent", "goal",
+                                      "--out", "/proc/nao-arena-x"]])
+def test_an_output_folder_that_cannot_be_made_is_one_line(command, capsys):
+    assert main(command) == 2
+    err = one_line(capsys)
+    assert err.startswith("nao-arena: error: /proc/nao-arena-x")
+
+
+def test_absurd_time_limits_are_refused(capsys):
+    for value in ("1e300", "1e6"):
+        assert main(["run", "circle_swap", "--time-limit", value]) == 2
+        assert one_line(capsys).startswith("nao-arena: error: --time-limit: expected a "
+                                           "number of seconds > 0 and <= 100000")
+    # a time limit within bounds but too many control periods for the map's dt
+    from nao_arena.maps import MapError, with_time_limit
+
+    spec = load_map("circle_swap")
+    spec = spec.model_copy(update={"physics": spec.physics.model_copy(update={"dt": 0.01})})
+    assert with_time_limit(spec, 10_000.0).episode.time_limit == 10_000.0
+    with pytest.raises(MapError, match="at most 1000000 control periods"):
+        with_time_limit(spec, 10_000.1)

@@ -209,6 +209,13 @@ BAD_CASES = {
     "invalid_yaml.yaml": ("line 3, column 1", "expected valid YAML"),
     "alias_bomb.yaml": ("line 1, column 4", "an anchor (&name): a map holds plain data"),
     "duplicate_key.yaml": ("line 3, column 56", "the key 'radius' twice in one mapping"),
+    "tiny_dt.yaml": ("physics.dt", "expected a number >= 0.001, got 1e-09"),
+    "huge_dt.yaml": ("physics.dt", "expected a number <= 1000000.0, got 1e+300"),
+    "many_neighbours.yaml": ("sensing.max_neighbours",
+                             "expected a number <= 10000, got 1000000000"),
+    "too_many_steps.yaml": ("episode.time_limit", "expected at most 1000000 control periods "
+                            "per episode (time_limit / physics.dt), got 5000 s / 0.001 s"),
+    "huge_bounds.yaml": ("bounds.min[0]", "expected a number >= -1000000.0, got -1e+300"),
     "deep_nesting.yaml": ("line 1, column 58", "at most 50 levels of nesting"),
     "not_utf8.yaml": ("byte 43", "expected UTF-8 text (invalid start byte)"),
     "wall_without_type.yaml": ("walls[0]", "expected a 'type' key"),

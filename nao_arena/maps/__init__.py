@@ -121,13 +121,24 @@ expected a positive number, got -1``.
 
 from nao_arena.maps.errors import MapError
 from nao_arena.maps.layouts import LAYOUTS, LayoutContext, Placement, register_layout
-from nao_arena.maps.loader import available_maps, load_map, map_from_dict, parse_overrides
+from nao_arena.maps.loader import (
+    available_maps,
+    load_map,
+    map_from_dict,
+    parse_overrides,
+    with_time_limit,
+)
 from nao_arena.maps.reference import format_reference, sections
 from nao_arena.maps.schema import (
     MAX_BODIES,
+    MAX_DT,
     MAX_ITERATIONS,
+    MAX_MAGNITUDE,
+    MAX_STEPS,
     MAX_SUBSTEPS,
+    MAX_TIME_LIMIT,
     MAX_TRIES,
+    MIN_DT,
     BodySpec,
     Bounds,
     CircleLaneSpec,
@@ -148,9 +159,14 @@ from nao_arena.maps.schema import (
 __all__ = [
     "LAYOUTS",
     "MAX_BODIES",
+    "MAX_DT",
     "MAX_ITERATIONS",
+    "MAX_MAGNITUDE",
+    "MAX_STEPS",
     "MAX_SUBSTEPS",
+    "MAX_TIME_LIMIT",
     "MAX_TRIES",
+    "MIN_DT",
     "BodySpec",
     "Bounds",
     "CircleLaneSpec",
@@ -175,6 +191,7 @@ __all__ = [
     "map_from_dict",
     "parse_overrides",
     "register_layout",
+    "with_time_limit",
 ]
 
 # earlier private names, still used by the tests

@@ -19,6 +19,8 @@ from nao_arena.maps.errors import MapError, field_error, show_value, validation_
 from nao_arena.maps.layouts import LAYOUTS, LayoutContext
 from nao_arena.maps.schema import (
     MAX_BODIES,
+    MAX_STEPS,
+    MAX_TIME_LIMIT,
     Bounds,
     LayoutSpec,
     MapFile,
@@ -28,7 +30,7 @@ from nao_arena.maps.schema import (
 )
 
 __all__ = ["available_maps", "load_map", "map_from_dict", "parse_overrides",
-           "point_segment_distances", "segment_distances_xy"]
+           "point_segment_distances", "segment_distances_xy", "with_time_limit"]
 
 
 # --------------------------------------------------------------------------- parameters
@@ -434,6 +436,7 @@ def map_from_dict(
         traffic=traffic, physics=mf.physics, episode=mf.episode, sensing=mf.sensing,
     )
     _check_geometry(file, spec, origins)
+    _check_steps(file, "episode.time_limit", spec)
     return spec
 
 
@@ -511,6 +514,30 @@ def _resolved(t: Any, where: str, resolve: Any) -> Any:
         if new != value:
             update[name] = new
     return t.model_copy(update=update) if update else t
+
+
+def _check_steps(file: str, path: str, spec: MapSpec) -> None:
+    """At most :data:`MAX_STEPS` control periods in an episode of ``spec``."""
+    steps = spec.episode.time_limit / spec.physics.dt
+    if steps > MAX_STEPS:
+        raise field_error(
+            file, path,
+            f"expected at most {MAX_STEPS} control periods per episode (time_limit / "
+            f"physics.dt), got {spec.episode.time_limit:g} s / {spec.physics.dt:g} s = "
+            f"{steps:.3g}")
+
+
+def with_time_limit(spec: MapSpec, seconds: float) -> MapSpec:
+    """``spec`` with its episode time limit (s) replaced; :class:`MapError` (naming
+    ``time_limit``) unless 0 < seconds <= :data:`MAX_TIME_LIMIT` with at most
+    :data:`MAX_STEPS` control periods."""
+    if not 0 < seconds <= MAX_TIME_LIMIT:
+        raise MapError(f"time_limit: expected a number of s > 0 and <= {MAX_TIME_LIMIT:g}, "
+                       f"got {seconds:g}")
+    episode = spec.episode.model_copy(update={"time_limit": float(seconds)})
+    spec = spec.model_copy(update={"episode": episode})
+    _check_steps(spec.source, "time_limit", spec)
+    return spec
 
 
 def _check_total(file: str, path: str, total: int, these: str) -> None:

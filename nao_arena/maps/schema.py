@@ -11,6 +11,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -26,7 +27,12 @@ from nao_arena.traffic import CircleLane, FollowerParams, PolylineLane
 __all__ = [
     "MAX_BODIES",
     "MAX_ITERATIONS",
+    "MAX_DT",
+    "MAX_MAGNITUDE",
+    "MAX_STEPS",
     "MAX_SUBSTEPS",
+    "MAX_TIME_LIMIT",
+    "MIN_DT",
     "MAX_TRIES",
     "BodyCount",
     "BodySpec",
@@ -62,6 +68,16 @@ MAX_ITERATIONS = 1000
 """Most solver iterations per physics step (``physics.iterations``)."""
 MAX_TRIES = 1_000_000
 """Most random draws of the ``crowd`` builder (``max_tries``)."""
+MAX_MAGNITUDE = 1e6
+"""Largest magnitude of any number in a map (coordinates in m, speeds in m/s, ...)."""
+MIN_DT = 1e-3
+"""Shortest control period ``physics.dt`` (s)."""
+MAX_DT = 1.0
+"""Longest control period ``physics.dt`` (s)."""
+MAX_TIME_LIMIT = 1e5
+"""Longest episode ``episode.time_limit`` (s, about 28 h)."""
+MAX_STEPS = 1_000_000
+"""Most control periods in an episode (``episode.time_limit / physics.dt``)."""
 
 
 def _no_bool_number(value: Any) -> Any:
@@ -77,7 +93,17 @@ def _no_bool_integer(value: Any) -> Any:
     return value
 
 
-Num = Annotated[float, BeforeValidator(_no_bool_number), Field(allow_inf_nan=False)]
+def _within_magnitude(value: float) -> float:
+    """At most :data:`MAX_MAGNITUDE` either way (checked after finiteness)."""
+    if value > MAX_MAGNITUDE:
+        raise PydanticKnownError("less_than_equal", {"le": MAX_MAGNITUDE})
+    if value < -MAX_MAGNITUDE:
+        raise PydanticKnownError("greater_than_equal", {"ge": -MAX_MAGNITUDE})
+    return value
+
+
+Num = Annotated[float, BeforeValidator(_no_bool_number), Field(allow_inf_nan=False),
+                AfterValidator(_within_magnitude)]
 Pos = Annotated[Num, Field(gt=0)]
 NonNeg = Annotated[Num, Field(ge=0)]
 Vec2 = tuple[Num, Num]
@@ -289,7 +315,7 @@ class TrafficGroup(StrictModel):
 class Physics(StrictModel):
     """Control period dt (s), physics substeps per period, contact material, solver."""
 
-    dt: Pos = 0.1
+    dt: Annotated[Num, Field(ge=MIN_DT, le=MAX_DT)] = 0.1
     substeps: Annotated[PosInt, Field(le=MAX_SUBSTEPS)] = 10
     elasticity: Annotated[Num, Field(ge=0, le=1)] = 0.2
     friction: NonNeg = 0.0
@@ -300,7 +326,7 @@ class Physics(StrictModel):
 class Episode(StrictModel):
     """Time limit (s) and goal tolerance (m)."""
 
-    time_limit: Pos = 60.0
+    time_limit: Annotated[Pos, Field(le=MAX_TIME_LIMIT)] = 60.0
     goal_tolerance: Pos = 0.3
 
 
@@ -308,7 +334,7 @@ class Sensing(StrictModel):
     """What robots sense: neighbours within ``range`` (m), at most ``max_neighbours``."""
 
     range: Pos = 30.0
-    max_neighbours: PosInt | None = None
+    max_neighbours: BodyCount | None = None
 
 
 class LayoutSpec(StrictModel):

@@ -16,7 +16,7 @@ import numpy as np
 
 from nao_arena.agent import available_agents
 from nao_arena.backends import BACKENDS
-from nao_arena.maps import MapError, MapSpec, load_map
+from nao_arena.maps import MapError, MapSpec, load_map, with_time_limit
 
 __all__ = [
     "FREE_SETTINGS",
@@ -263,10 +263,7 @@ def make_map(
                                                **params).parameters:
         params["seed"] = seed
     spec = load_map(name, trusted=trusted, agents=agents, **params)
-    if time_limit is not None:
-        episode = spec.episode.model_copy(update={"time_limit": float(time_limit)})
-        spec = spec.model_copy(update={"episode": episode})
-    return spec
+    return spec if time_limit is None else with_time_limit(spec, time_limit)
 
 
 def _slug(text: str) -> str:
