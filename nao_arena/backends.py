@@ -17,6 +17,9 @@ process is already connected to); an address (``auto``, ``HOST:PORT``,
 ``ray://HOST:10001``) connects to an existing cluster, whose CPUs then set
 the parallelism. Ray is imported only by this backend (``pip install
 nao-arena[ray]``) and shut down at the end only if the backend started it.
+A cluster that loses a node mid-trial runs that node's episodes again on the
+others (up to :data:`RAY_RETRIES` times each): episodes are deterministic, so
+the results equal those of an undisturbed run.
 """
 
 from __future__ import annotations
@@ -53,6 +56,9 @@ BACKENDS: tuple[str, ...] = ("local", "ray")
 """The backend names accepted by :func:`make_backend` (and ``--backend``)."""
 
 RAY_MISSING = "the ray backend needs `pip install nao-arena[ray]`"
+
+RAY_RETRIES = 3
+"""How often Ray runs a task again after losing its node or worker process."""
 
 _RESUME = "the episodes finished so far are kept: run the same command again to resume"
 
@@ -219,7 +225,9 @@ class RayBackend(Backend[T, R]):
             return
         self.prepare()
         ray = self.ray
-        remote = ray.remote(num_cpus=1)(_ray_entry())
+        # a task whose node (or worker process) is lost is run again elsewhere, up to
+        # RAY_RETRIES times; an episode is deterministic, so its result is the same
+        remote = ray.remote(num_cpus=1, max_retries=RAY_RETRIES)(_ray_entry())
         drop = _shadowing_dirs(self.address)
         window = self.window
         if window is None:

@@ -179,10 +179,10 @@ TINY = ["--set", "n=2"]
 @pytest.mark.parametrize(
     ("option", "value", "expected"),
     [
-        ("--time-limit", "nan", "a finite number of seconds > 0, got nan"),
-        ("--time-limit", "inf", "a finite number of seconds > 0, got inf"),
-        ("--time-limit", "-1", "a finite number of seconds > 0, got -1.0"),
-        ("--time-limit", "0", "a finite number of seconds > 0, got 0.0"),
+        ("--time-limit", "nan", "a number of seconds > 0 and <= 100000, got nan"),
+        ("--time-limit", "inf", "a number of seconds > 0 and <= 100000, got inf"),
+        ("--time-limit", "-1", "a number of seconds > 0 and <= 100000, got -1.0"),
+        ("--time-limit", "0", "a number of seconds > 0 and <= 100000, got 0.0"),
         ("--seed", "-1", "an integer >= 0, got -1"),
         ("--max-steps", "0", "an integer >= 1, got 0"),
         ("--fps", "0", "a finite number > 0, got 0.0"),
@@ -199,10 +199,10 @@ def test_run_rejects_numbers_out_of_range(capsys, tmp_path, option, value, expec
 @pytest.mark.parametrize(
     ("option", "value", "expected"),
     [
-        ("--time-limit", "nan", "a finite number of seconds > 0, got nan"),
-        ("--time-limit", "inf", "a finite number of seconds > 0, got inf"),
-        ("--time-limit", "-1", "a finite number of seconds > 0, got -1.0"),
-        ("--time-limit", "0", "a finite number of seconds > 0, got 0.0"),
+        ("--time-limit", "nan", "a number of seconds > 0 and <= 100000, got nan"),
+        ("--time-limit", "inf", "a number of seconds > 0 and <= 100000, got inf"),
+        ("--time-limit", "-1", "a number of seconds > 0 and <= 100000, got -1.0"),
+        ("--time-limit", "0", "a number of seconds > 0 and <= 100000, got 0.0"),
         ("--seed", "-1", "an integer >= 0, got -1"),
         ("--episodes", "0", "an integer >= 1, got 0"),
         ("--workers", "0", "an integer >= 1, got 0"),

@@ -169,6 +169,12 @@ def fingerprint(name: str) -> str:
     for cosmetic in ("render_size", "selected"):
         del options[cosmetic]
     del options["arena"]["stats"]  # thresholds of the statistics, not of the rewards
+    # settings added after these versions, left out at the value that changes nothing
+    for section, key, neutral in ((options, "trust_map", False),
+                                  (options, "named_agents", {}),
+                                  (options["arena"], "max_faults", None)):
+        if section[key] == neutral:
+            del section[key]
     data = {
         "map": yaml.safe_load((files("nao_arena.maps_data") / f"{module.MAP}.yaml").read_text()),
         "options": options,

@@ -190,3 +190,39 @@ def test_cli_backend_ray_resume_and_address(ray_session, local_run, tmp_path, ca
     assert "6 episodes run, 0 already done" in proc.stdout
     assert_same_results(out, joined)
     assert ray.is_initialized() and ray.cluster_resources().get("CPU") == 2
+
+
+def test_a_cluster_that_loses_a_node_gives_the_same_results(ray, local_run, tmp_path):
+    """A trial on a Ray cluster of two worker nodes (Ray's own test cluster, on this
+    machine): one node is killed once the first episode is in, mid-trial; its episodes run
+    again on the other, and every result file equals the undisturbed local run's."""
+    from ray.cluster_utils import Cluster
+
+    if ray.is_initialized():
+        ray.shutdown()
+    out, summary = local_run
+    cluster = Cluster(initialize_head=True, head_node_args={
+        "num_cpus": 0, "include_dashboard": False})
+    try:
+        kept = cluster.add_node(num_cpus=1)
+        lost = cluster.add_node(num_cpus=1)
+        cluster.wait_for_nodes()
+        ray.init(address=cluster.address, logging_level=logging.ERROR)
+        nodes_before = {n["NodeID"] for n in ray.nodes() if n["Alive"]}
+        killed: list[str] = []
+
+        def on_episode(record: dict) -> None:
+            if not killed:
+                cluster.remove_node(lost, allow_graceful=False)
+                killed.append(lost.node_id)
+
+        result = run_trial(grid(tmp_path, backend="ray", workers=2), progress=None,
+                           on_episode=on_episode)
+        assert killed and killed[0] in nodes_before
+        alive = {n["NodeID"] for n in ray.nodes() if n["Alive"]}
+        assert killed[0] not in alive and kept.node_id in alive
+        assert result.ran == 6 and result.summary == summary
+        assert_same_results(out, tmp_path)
+    finally:
+        ray.shutdown()
+        cluster.shutdown()
