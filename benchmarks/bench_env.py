@@ -65,7 +65,7 @@ def main() -> None:
     args = parser.parse_args()
     rows = []
     for label, map_name, kwargs in SCENES:
-        env = parallel_env(map_name, time_limit=1e6, **kwargs)
+        env = parallel_env(map_name, time_limit=1e4, **kwargs)
         env.reset(seed=0)
         arena = Arena(env.spec, env.options.arena)
         rng = np.random.default_rng(0)

@@ -65,8 +65,8 @@ def main() -> None:
     args = parser.parse_args()
     rows = []
     for label, map_name, kwargs in SCENES:
-        bare = parallel_env(map_name, time_limit=1e6, **kwargs)
-        shielded = NAOShield(parallel_env(map_name, time_limit=1e6, **kwargs))
+        bare = parallel_env(map_name, time_limit=1e4, **kwargs)
+        shielded = NAOShield(parallel_env(map_name, time_limit=1e4, **kwargs))
         agents = bare.possible_agents
         rng = np.random.default_rng(0)
         norm = rng.uniform(-1.0, 1.0, (args.steps, len(agents), 2)).astype(np.float32)

@@ -32,12 +32,16 @@ against ``--episode-timeout``.
 Errors (unknown map, agent, parameter; a number out of its range, e.g.
 ``--time-limit`` must be finite and > 0 s and ``--seed`` >= 0; an output
 file or folder that cannot be written) are printed on stderr as one line
-``nao-arena: error: ...`` naming what was expected, exit status 2. ``run``
-also exits 2 with a one-line error when an agent's constructor or reset
-raises, or when the episode exceeds its wall-clock budget
-(``--episode-timeout``, default 600 s; 0 or none: no budget); a trial
-records such episodes as failed and goes on. ``run --render human`` needs a
-display (and refuses ``--out``).
+``nao-arena: error: ...`` naming what was expected, exit status 2; so is a
+file that cannot be read or written (a full disk included). ``run`` also exits
+2 with a one-line error when an agent's constructor or reset raises, when the
+episode exceeds its wall-clock budget (``--episode-timeout``, default 600 s;
+0 or none: no budget), when its agents fault more than ``--max-faults`` times,
+or when the episode's process ends without a result (each episode runs in a
+process of its own, see :mod:`nao_arena.isolation`); a trial records such
+episodes as failed and goes on. A map that names code as an agent is refused
+unless ``--trust-map`` (see :func:`nao_arena.maps.load_map`). ``run --render
+human`` needs a display (and refuses ``--out``).
 
 Episode logs (:mod:`nao_arena.episode_log`): ``run --log FILE`` writes the
 episode's log; ``trial --log`` one per episode into ``DIR/logs`` (``--log
