@@ -18,9 +18,15 @@ pettingzoo or pygame until a name needs them)::
 - the geometry functions and :class:`AccelLimits` (:mod:`nao_arena.geometry`).
 """
 
+from pathlib import Path as _Path
 from typing import TYPE_CHECKING
 
+from nao_arena import _checkout
+
 __version__ = "0.1.0"
+
+_checkout.install(_Path(__file__).resolve().parent)
+del _Path
 
 if TYPE_CHECKING:
     from nao_arena.agent import Agent

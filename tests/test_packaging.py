@@ -29,12 +29,12 @@ def test_import_exports_only_its_api():
     import subprocess
     import sys
 
-    from conftest import REGISTERED
+    from conftest import PLAIN_CHECKOUT
 
     code = ("import json, nao_arena; print(json.dumps([nao_arena.__all__, "
             "[n for n in dir(nao_arena) if not n.startswith('_')]]))")
     # from tests/: the installed package, or (plain checkout) the repository's
-    env = dict(os.environ, PYTHONPATH=str(ROOT)) if REGISTERED else None
+    env = dict(os.environ, PYTHONPATH=str(ROOT)) if PLAIN_CHECKOUT else None
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, cwd=ROOT / "tests", env=env)
     exported, public = json.loads(proc.stdout)
@@ -120,17 +120,18 @@ def plain_python(tmp_path: Path) -> Path:
 
 @pytest.mark.slow
 def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
-    """``python -m pytest`` from the repository without installing nao_arena: tests/conftest.py
-    registers agents/ and maps/ as nao_arena.agents and nao_arena.maps_data, and skips the
-    tests marked ``installed``."""
+    """``python -m pytest`` from the repository without installing nao_arena: nao_arena finds
+    agents/ and maps/ as nao_arena.agents and nao_arena.maps_data by itself, and the tests
+    marked ``installed`` skip."""
     import os
     import subprocess
 
     python = plain_python(tmp_path)
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
-    plain = subprocess.run([str(python), "-c", "import nao_arena.agents"], cwd=ROOT, env=env,
-                           capture_output=True, text=True, check=False)
-    assert "No module named 'nao_arena.agents'" in plain.stderr  # not installed there
+    plain = subprocess.run([str(python), "-c", "import nao_arena.agents as a; print(a.__file__)"],
+                           cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+    assert plain.returncode == 0, plain.stderr  # not installed there, found in the checkout
+    assert plain.stdout.strip() == str(ROOT / "agents" / "__init__.py")
     proc = subprocess.run(
         [str(python), "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",
          "tests/test_front_door.py", "tests/test_borrow.py"],
@@ -141,11 +142,34 @@ def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
     assert "test_borrow.py:" in proc.stdout and "needs nao_arena installed" in proc.stdout
 
 
-def test_conftest_maps_the_folders_as_pyproject_does():
-    from conftest import MAPPED
+def test_a_checkout_maps_the_folders_as_pyproject_does():
+    from nao_arena._checkout import FOLDERS
 
     tomllib = pytest.importorskip("tomllib")
     mapping = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"][
         "package-dir"]
-    assert {name: ROOT / folder for name, folder in mapping.items()
-            if name != "nao_arena"} == MAPPED
+    assert {name: folder for name, folder in mapping.items() if name != "nao_arena"} == FOLDERS
+
+
+def test_a_checkout_works_like_an_install(tmp_path):
+    """From a clone that is not installed, ``import nao_arena`` finds its maps and agents
+    (the installed or editable copy of this environment hidden)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in repr(f).lower()]\n"
+        "sys.path[:] = [p for p in sys.path if 'site-packages' in p or 'lib/python' in p]\n"
+        f"sys.path.insert(0, {str(ROOT)!r})\n"
+        "import nao_arena\n"
+        "assert nao_arena.__file__.startswith(sys.path[0]), nao_arena.__file__\n"
+        "env = nao_arena.parallel_env('crossing')\n"
+        "from nao_arena.agent import load_agent\n"
+        "import inspect\n"
+        "print(len(env.possible_agents), inspect.getfile(load_agent('orca')))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    robots, orca = proc.stdout.split()
+    assert int(robots) == 12 and orca == str(ROOT / "agents" / "orca.py")
