@@ -55,8 +55,15 @@ from nao_arena.geometry._kernel.batch import sampled_admissible_batch
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import commit_plans_kernel
 
-__all__ = ["BRAKING", "TIME_CONSTANT", "desired_rows", "own_rows", "prepare_rows",
-           "settle_members", "yield_rows"]
+__all__ = [
+    "BRAKING",
+    "TIME_CONSTANT",
+    "desired_rows",
+    "own_rows",
+    "prepare_rows",
+    "settle_members",
+    "yield_rows",
+]
 
 #: the ``nao`` agents' goal seeking: time constant (s) and braking (fraction of a_max),
 #: the defaults of :func:`~nao_arena.agents.goal.goal_seeking_accels`
@@ -85,14 +92,38 @@ def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pra
         cos_off[i] = math.cos(offset[i])
         sin_off[i] = math.sin(offset[i])
     out = np.empty((n, 2))
-    goal_seeking_kernel(targets, pos, vel, a_max, cap, offset, cos_off, sin_off,
-                        np.full(n, TIME_CONSTANT), BRAKING, APPROACH_GAIN, has_target, out)
+    goal_seeking_kernel(
+        targets,
+        pos,
+        vel,
+        a_max,
+        cap,
+        offset,
+        cos_off,
+        sin_off,
+        np.full(n, TIME_CONSTANT),
+        BRAKING,
+        APPROACH_GAIN,
+        has_target,
+        out,
+    )
     return out
 
 
 @njit(cache=True)
-def own_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals,
-             nb_start, nb_index, traffic):  # pragma: no cover
+def own_rows(
+    rows,
+    bodies,
+    positions,
+    velocities,
+    radii,
+    body_a_max,
+    body_v_max,
+    goals,
+    nb_start,
+    nb_index,
+    traffic,
+):  # pragma: no cover
     """Each robot's own state, one row per batch row of ``rows``, gathered from the body
     arrays (``bodies``: each batch row's body): position (m), velocity (m/s), radius (m),
     a_max (m/s^2), v_max (m/s), its goal (goals (R, 2) m, batch rows), whether traffic
@@ -128,9 +159,25 @@ def own_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_max,
 
 
 @njit(cache=True)
-def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals,
-                 nb_start, nb_index, traffic, walls, wall_half, dt, real, whole,
-                 opt):  # pragma: no cover
+def prepare_rows(
+    rows,
+    bodies,
+    positions,
+    velocities,
+    radii,
+    body_a_max,
+    body_v_max,
+    goals,
+    nb_start,
+    nb_index,
+    traffic,
+    walls,
+    wall_half,
+    dt,
+    real,
+    whole,
+    opt,
+):  # pragma: no cover
     """The start of a batch's step for the table's rows (agent i drives batch row rows[i]).
 
     The robots' own state (:func:`own_rows`); ``live``: the rows that decide this step
@@ -151,8 +198,18 @@ def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_
     find) when no row is live, some detour turned or not ``direct``.
     """
     pos, vel, rad, a_max, v_max, own_goals, traffic_near, direct = own_rows(
-        rows, bodies, positions, velocities, radii, body_a_max, body_v_max, goals, nb_start,
-        nb_index, traffic)
+        rows,
+        bodies,
+        positions,
+        velocities,
+        radii,
+        body_a_max,
+        body_v_max,
+        goals,
+        nb_start,
+        nb_index,
+        traffic,
+    )
     n = rows.shape[0]
     live = np.empty(n, dtype=np.bool_)
     out = np.empty((n, 2))
@@ -164,21 +221,40 @@ def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_
         out[i, 1] = real[i, CUR_Y]
     turn = np.zeros(n, dtype=np.bool_)
     if n_live == 0:
-        return (pos, vel, rad, a_max, v_max, own_goals, live, n_live, out, turn, 0,
-                traffic_near, out, direct)
+        return (
+            pos,
+            vel,
+            rad,
+            a_max,
+            v_max,
+            own_goals,
+            live,
+            n_live,
+            out,
+            turn,
+            0,
+            traffic_near,
+            out,
+            direct,
+        )
     held = np.empty(n, dtype=np.bool_)
-    held_by_standing_kernel(nb_start, nb_index, rows, bodies, positions, velocities, radii, rad,
-                            own_goals, held)
+    held_by_standing_kernel(
+        nb_start, nb_index, rows, bodies, positions, velocities, radii, rad, own_goals, held
+    )
     liveness_batch(live, pos, vel, own_goals, rad, v_max, held, dt, real, whole, opt, turn)
     turns = 0
     for i in range(n):
         turns += turn[i]
     if direct and walls.shape[0]:
         for i in range(n):
-            if (whole[i, NAVIGATE] != 0 and math.isfinite(pos[i, 0])
-                    and math.isfinite(pos[i, 1])
-                    and not segment_clear(pos[i, 0], pos[i, 1], own_goals[i, 0],
-                                          own_goals[i, 1], walls, wall_half, rad[i])):
+            if (
+                whole[i, NAVIGATE] != 0
+                and math.isfinite(pos[i, 0])
+                and math.isfinite(pos[i, 1])
+                and not segment_clear(
+                    pos[i, 0], pos[i, 1], own_goals[i, 0], own_goals[i, 1], walls, wall_half, rad[i]
+                )
+            ):
                 direct = False
                 break
         if direct:
@@ -187,18 +263,63 @@ def prepare_rows(rows, bodies, positions, velocities, radii, body_a_max, body_v_
                     whole[i, AROUND] = 0
     desired = out  # unset: the caller finds the targets and the goal seeking itself
     if direct and turns == 0:
-        desired = desired_rows(own_goals, np.ones(n, dtype=np.bool_), pos, vel, a_max, v_max,
-                               real, opt)
-    return (pos, vel, rad, a_max, v_max, own_goals, live, n_live, out, turn, turns,
-            traffic_near, desired, direct)
+        desired = desired_rows(
+            own_goals, np.ones(n, dtype=np.bool_), pos, vel, a_max, v_max, real, opt
+        )
+    return (
+        pos,
+        vel,
+        rad,
+        a_max,
+        v_max,
+        own_goals,
+        live,
+        n_live,
+        out,
+        turn,
+        turns,
+        traffic_near,
+        desired,
+        direct,
+    )
 
 
 @njit(cache=True)
-def settle_members(m, times, pred, excursion, finite_path, nb_start, nb_index, nb_radius,
-                   wall_seg, wall_half, wall_start, wall_index, pos, vel, rad, a_max, v_max,
-                   current, desired, traffic, dt, ring_radii, unit_rings, repair_steps,
-                   repair_unit, max_disks, n_sub, per_second, sliver_depth, real, whole, opt,
-                   out):  # pragma: no cover
+def settle_members(
+    m,
+    times,
+    pred,
+    excursion,
+    finite_path,
+    nb_start,
+    nb_index,
+    nb_radius,
+    wall_seg,
+    wall_half,
+    wall_start,
+    wall_index,
+    pos,
+    vel,
+    rad,
+    a_max,
+    v_max,
+    current,
+    desired,
+    traffic,
+    dt,
+    ring_radii,
+    unit_rings,
+    repair_steps,
+    repair_unit,
+    max_disks,
+    n_sub,
+    per_second,
+    sliver_depth,
+    real,
+    whole,
+    opt,
+    out,
+):  # pragma: no cover
     """The decisions of the members m (rows of the agents' table; they share the
     predictions ``pred`` at ``times`` and see the obstacles of the member CSR lists, as
     :func:`~nao_arena.agents._nao_decide.decide_batch` reads them).
@@ -241,9 +362,27 @@ def settle_members(m, times, pred, excursion, finite_path, nb_start, nb_index, n
     if some:
         todo = np.flatnonzero(status == 2)
         res = np.full(k, -1, dtype=np.int64)
-        sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_seg,
-                                 wall_half, wall_start, wall_index, todo, p, v, c, s, r,
-                                 margin, excursion, finite_path, res)
+        sampled_admissible_batch(
+            times,
+            pred,
+            nb_start,
+            nb_index,
+            nb_radius,
+            wall_seg,
+            wall_half,
+            wall_start,
+            wall_index,
+            todo,
+            p,
+            v,
+            c,
+            s,
+            r,
+            margin,
+            excursion,
+            finite_path,
+            res,
+        )
         # 1: keep; 0: not admissible (select); -1: non-finite paths (the caller reports it)
         for j in todo:
             status[j] = 1 if res[j] == 1 else (0 if res[j] == 0 else 2)
@@ -254,13 +393,41 @@ def settle_members(m, times, pred, excursion, finite_path, nb_start, nb_index, n
     todo = np.flatnonzero(status == 0)
     if todo.shape[0]:
         grow = r + margin
-        decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_radius,
-                     wall_seg, wall_half, wall_start, wall_index, todo, p, v, grow, a, s, holds,
-                     c, d, ring_radii, unit_rings, repair_steps, repair_unit, max_disks, n_sub,
-                     per_second, sliver_depth, kind, accel, tested)
+        decide_batch(
+            times,
+            pred,
+            excursion,
+            finite_path,
+            nb_start,
+            nb_index,
+            nb_radius,
+            wall_seg,
+            wall_half,
+            wall_start,
+            wall_index,
+            todo,
+            p,
+            v,
+            grow,
+            a,
+            s,
+            holds,
+            c,
+            d,
+            ring_radii,
+            unit_rings,
+            repair_steps,
+            repair_unit,
+            max_disks,
+            n_sub,
+            per_second,
+            sliver_depth,
+            kind,
+            accel,
+            tested,
+        )
         apply_decisions(m, status, kind, accel, tested, real, whole, out, settled)
-        apply_braking(m, status, kind, tested, traffic, vel, a_max, dt, real, whole, out,
-                      settled)
+        apply_braking(m, status, kind, tested, traffic, vel, a_max, dt, real, whole, out, settled)
     left = 0
     for j in range(k):
         left += not settled[j]
@@ -268,8 +435,9 @@ def settle_members(m, times, pred, excursion, finite_path, nb_start, nb_index, n
 
 
 @njit(cache=True)
-def yield_rows(pos, vel, out, rad, a_max, v_max, failed, dt, substeps, margin, walls,
-               wall_half, real, whole):  # pragma: no cover
+def yield_rows(
+    pos, vel, out, rad, a_max, v_max, failed, dt, substeps, margin, walls, wall_half, real, whole
+):  # pragma: no cover
     """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans_kernel`) over the
     table's rows that re-plan with stopping plans (STOPPING and REPLAN) and decided this
     step (not ``failed``): a robot whose plan would meet another's, or a wall (W, 2, 2)
@@ -289,10 +457,21 @@ def yield_rows(pos, vel, out, rad, a_max, v_max, failed, dt, substeps, margin, w
     every = count == n
     brake = np.zeros(count, dtype=np.bool_)
     braking = np.zeros((count, 2))
-    commit_plans_kernel(pos if every else pos[g], vel if every else vel[g],
-                        out if every else out[g], rad if every else rad[g],
-                        a_max if every else a_max[g], v_max if every else v_max[g], dt,
-                        substeps, margin, walls, wall_half, brake, braking)
+    commit_plans_kernel(
+        pos if every else pos[g],
+        vel if every else vel[g],
+        out if every else out[g],
+        rad if every else rad[g],
+        a_max if every else a_max[g],
+        v_max if every else v_max[g],
+        dt,
+        substeps,
+        margin,
+        walls,
+        wall_half,
+        brake,
+        braking,
+    )
     for j in range(count):
         if brake[j]:
             i = g[j]

@@ -105,13 +105,14 @@ class AgentColumns:
             self.whole[i, SEEN] = len(self.seen)
             self.seen.append(src.seen[view])
 
-    def commit(self, r: int | NDArray[np.int64], accel: NDArray[np.float64], status: int,
-               tested: int) -> None:
+    def commit(
+        self, r: int | NDArray[np.int64], accel: NDArray[np.float64], status: int, tested: int
+    ) -> None:
         """A full selection (status code, candidates tested) of ``accel`` (2,) m/s^2 for
         row r (or of accel (k, 2) for the rows r (k,)): it becomes the current
         acceleration and its age restarts."""
-        self.real[r, SEL_X:SEL_Y + 1] = accel
-        self.real[r, CUR_X:CUR_Y + 1] = accel
+        self.real[r, SEL_X : SEL_Y + 1] = accel
+        self.real[r, CUR_X : CUR_Y + 1] = accel
         self.real[r, AGE] = 0.0
         self.whole[r, STATUS] = status
         self.whole[r, TESTED] = tested
@@ -124,8 +125,13 @@ class AgentColumns:
         code = int(self.whole[r, STATUS])
         sel = None
         if code != NO_SELECTION:
-            sel = Selection(self.real[r, SEL_X:SEL_Y + 1].copy(), SELECTION_LABELS[code], None,
-                            math.inf, int(self.whole[r, TESTED]))
+            sel = Selection(
+                self.real[r, SEL_X : SEL_Y + 1].copy(),
+                SELECTION_LABELS[code],
+                None,
+                math.inf,
+                int(self.whole[r, TESTED]),
+            )
         self.selections[r] = sel
         self.whole[r, CACHED] = 1
         return sel
@@ -135,7 +141,7 @@ class AgentColumns:
         if sel is None:
             self.whole[r, STATUS] = NO_SELECTION
         else:
-            self.real[r, SEL_X:SEL_Y + 1] = sel.accel
+            self.real[r, SEL_X : SEL_Y + 1] = sel.accel
             self.whole[r, STATUS] = SELECTION_LABELS.index(sel.status)
             self.whole[r, TESTED] = sel.evaluations
         self.selections[r] = sel
@@ -149,8 +155,10 @@ class AgentColumns:
             keys: dict[tuple[str, bytes], list[int]] = {}
             for i, ag in enumerate(members):
                 keys.setdefault((ag.predictor_name, ag.times.tobytes()), []).append(i)
-            self._grid_groups = (self.version,
-                                 [np.asarray(m, dtype=np.int64) for m in keys.values()])
+            self._grid_groups = (
+                self.version,
+                [np.asarray(m, dtype=np.int64) for m in keys.values()],
+            )
         return self._grid_groups[1]
 
 
@@ -230,8 +238,10 @@ class Choice(Column):
 
     def __set__(self, ag: Any, value: Any) -> None:
         if value not in self.labels:
-            raise ValueError(f"{self.name}: expected one of "
-                             f"{', '.join(repr(v) for v in self.labels)}, got {value!r}")
+            raise ValueError(
+                f"{self.name}: expected one of "
+                f"{', '.join(repr(v) for v in self.labels)}, got {value!r}"
+            )
         ag._cols.whole[ag._row, self.index] = self.labels.index(value)
 
 
@@ -242,10 +252,10 @@ class Acceleration:
     def __get__(self, ag: Any, owner: type | None = None) -> Any:
         if ag is None:
             return self
-        return ag._cols.real[ag._row, CUR_X:CUR_Y + 1]
+        return ag._cols.real[ag._row, CUR_X : CUR_Y + 1]
 
     def __set__(self, ag: Any, value: Any) -> None:
-        ag._cols.real[ag._row, CUR_X:CUR_Y + 1] = value
+        ag._cols.real[ag._row, CUR_X : CUR_Y + 1] = value
 
 
 class GridAttribute:
@@ -272,8 +282,11 @@ def young_adjustments(m, real, whole, opt, holds):  # pragma: no cover
     desired one (last selection "adjusted", not settling, AGE < reselect_after)."""
     for j in range(m.shape[0]):
         i = m[j]
-        holds[j] = (whole[i, STATUS] == ADJUSTED_SELECTION and whole[i, SETTLING] == 0
-                    and real[i, AGE] < opt[i, RESELECT] - 1e-9)
+        holds[j] = (
+            whole[i, STATUS] == ADJUSTED_SELECTION
+            and whole[i, SETTLING] == 0
+            and real[i, AGE] < opt[i, RESELECT] - 1e-9
+        )
 
 
 @njit(cache=True)
@@ -320,8 +333,9 @@ def detour_row(r, far, crawling, dt, to_goal, held, real, whole, opt):  # pragma
 
 
 @njit(cache=True)
-def liveness_batch(live, positions, velocities, goals, radii, v_max, held, dt, real, whole,
-                   opt, turn):  # pragma: no cover
+def liveness_batch(
+    live, positions, velocities, goals, radii, v_max, held, dt, real, whole, opt, turn
+):  # pragma: no cover
     """One step (dt s) of the bookkeeping of the rows with ``live``: the detours
     (:func:`detour_row`; turn[r] = 1 where the detour turns once more), SETTLING (within
     goal_zone of the goal) and AGE. Per row: position (m), velocity (m/s), goal (m),
@@ -332,7 +346,16 @@ def liveness_batch(live, positions, velocities, goals, radii, v_max, held, dt, r
             continue
         speed = math.hypot(velocities[r, 0], velocities[r, 1])
         to_goal = math.hypot(goals[r, 0] - positions[r, 0], goals[r, 1] - positions[r, 1])
-        turn[r] = detour_row(r, to_goal > 4 * radii[r], speed < 0.25 * v_max[r], dt, to_goal,
-                             held[r], real, whole, opt)
+        turn[r] = detour_row(
+            r,
+            to_goal > 4 * radii[r],
+            speed < 0.25 * v_max[r],
+            dt,
+            to_goal,
+            held[r],
+            real,
+            whole,
+            opt,
+        )
         whole[r, SETTLING] = to_goal <= opt[r, GOAL_ZONE]
         real[r, AGE] += dt

@@ -47,10 +47,21 @@ from nao_arena.geometry.selection import (
     _unit_rings,
 )
 
-__all__ = ["ADJUSTED", "DESIRED", "INFEASIBLE", "REPAIRED", "UNDECIDED", "apply_braking",
-           "apply_decisions", "decide",
-           "decide_batch", "keep_candidates", "member_lists", "ring_radii_rows",
-           "selection_settings"]
+__all__ = [
+    "ADJUSTED",
+    "DESIRED",
+    "INFEASIBLE",
+    "REPAIRED",
+    "UNDECIDED",
+    "apply_braking",
+    "apply_decisions",
+    "decide",
+    "decide_batch",
+    "keep_candidates",
+    "member_lists",
+    "ring_radii_rows",
+    "selection_settings",
+]
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
 UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
@@ -61,10 +72,39 @@ INFEASIBLE = Outcome.INFEASIBLE  # nothing admissible found: the caller's fallba
 
 
 @njit(cache=True)
-def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_radius, wall_seg,
-                 wall_half, wall_start, wall_index, rows, pos, vel, grow, a_max, v_max, repair,
-                 current, desired, ring_radii, unit_rings, repair_steps, repair_unit,
-                 max_disks, n_sub, per_second, sliver_depth, kind, accel, tested):
+def decide_batch(
+    times,
+    pred,
+    excursion,
+    finite_path,
+    nb_start,
+    nb_index,
+    nb_radius,
+    wall_seg,
+    wall_half,
+    wall_start,
+    wall_index,
+    rows,
+    pos,
+    vel,
+    grow,
+    a_max,
+    v_max,
+    repair,
+    current,
+    desired,
+    ring_radii,
+    unit_rings,
+    repair_steps,
+    repair_unit,
+    max_disks,
+    n_sub,
+    per_second,
+    sliver_depth,
+    kind,
+    accel,
+    tested,
+):
     """Re-select for the robots ``rows`` (indices into the per-robot arrays).
 
     Robot k sees the bodies nb_index[nb_start[k]:nb_start[k + 1]] (world-frame
@@ -89,11 +129,27 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
             kind[k] = Outcome.UNDECIDED
             continue
         c, w, b, rad, finite = relevant_sampled_paths(
-            times, pred, nb_index[nb_start[k]:nb_start[k + 1]], pos[k], nb_radius, grow[k],
-            vel[k], a_max[k], v_max[k], excursion, finite_path)
-        walls, wall_r = nearby_walls(wall_seg, wall_half,
-                                     wall_index[wall_start[k]:wall_start[k + 1]],
-                                     pos[k], grow[k], math.inf, np.bool_(True))
+            times,
+            pred,
+            nb_index[nb_start[k] : nb_start[k + 1]],
+            pos[k],
+            nb_radius,
+            grow[k],
+            vel[k],
+            a_max[k],
+            v_max[k],
+            excursion,
+            finite_path,
+        )
+        walls, wall_r = nearby_walls(
+            wall_seg,
+            wall_half,
+            wall_index[wall_start[k] : wall_start[k + 1]],
+            pos[k],
+            grow[k],
+            math.inf,
+            np.bool_(True),
+        )
         walls, wall_r = relevant_walls(vel[k], a_max[k], v_max[k], times[-1], walls, wall_r, 0.0)
         if not finite:
             kind[k] = Outcome.UNDECIDED
@@ -104,26 +160,66 @@ def decide_batch(times, pred, excursion, finite_path, nb_start, nb_index, nb_rad
         if repair[k]:
             prev = current[k]
             want = desired[k]
-            if (math.isfinite(prev[0]) and math.isfinite(prev[1]) and math.isfinite(want[0])
-                    and math.isfinite(want[1])):
-                found, x, y, _ = repair_relevant(prev, want, a_max[k], repair_steps,
-                                                 repair_unit, vel[k], v_max[k], times, c, w, b,
-                                                 rad, walls, wall_r, sweep)
+            if (
+                math.isfinite(prev[0])
+                and math.isfinite(prev[1])
+                and math.isfinite(want[0])
+                and math.isfinite(want[1])
+            ):
+                found, x, y, _ = repair_relevant(
+                    prev,
+                    want,
+                    a_max[k],
+                    repair_steps,
+                    repair_unit,
+                    vel[k],
+                    v_max[k],
+                    times,
+                    c,
+                    w,
+                    b,
+                    rad,
+                    walls,
+                    wall_r,
+                    sweep,
+                )
                 if found:
                     kind[k] = Outcome.REPAIRED
                     accel[k, 0] = x
                     accel[k, 1] = y
                     continue
         # select_acceleration: the desired acceleration projected onto the limit disc
-        dx, dy = onto_disc(desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
-                            desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0, a_max[k])
+        dx, dy = onto_disc(
+            desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
+            desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0,
+            a_max[k],
+        )
         a_d = np.empty(2)
         a_d[0] = dx
         a_d[1] = dy
         tol = max(1e-3, 1e-9 * max(a_max[k], 1.0))
         status, x, y, count = select_relevant(
-            a_d, vel[k], a_max[k], v_max[k], times, c, w, b, rad, walls, wall_r, sweep, 0.0, tol,
-            ring_radii[k], unit_rings, max_disks, n_sub, per_second, sliver_depth * a_max[k])
+            a_d,
+            vel[k],
+            a_max[k],
+            v_max[k],
+            times,
+            c,
+            w,
+            b,
+            rad,
+            walls,
+            wall_r,
+            sweep,
+            0.0,
+            tol,
+            ring_radii[k],
+            unit_rings,
+            max_disks,
+            n_sub,
+            per_second,
+            sliver_depth * a_max[k],
+        )
         tested[k] = count
         if status == Outcome.DESIRED:
             kind[k] = Outcome.DESIRED
@@ -158,12 +254,20 @@ _last_radii: tuple[bytes, NDArray[np.float64]] = (b"", np.zeros((0, _RINGS)))
 
 
 def decide(
-    times: NDArray[np.float64], pred: NDArray[np.float64],
+    times: NDArray[np.float64],
+    pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray, ...], nb_radius: NDArray[np.float64], rows: NDArray[np.int64],
-    pos: NDArray[np.float64], vel: NDArray[np.float64], grow: NDArray[np.float64],
-    a_max: NDArray[np.float64], v_max: NDArray[np.float64], repair: NDArray[np.bool_],
-    current: NDArray[np.float64], desired: NDArray[np.float64],
+    lists: tuple[NDArray, ...],
+    nb_radius: NDArray[np.float64],
+    rows: NDArray[np.int64],
+    pos: NDArray[np.float64],
+    vel: NDArray[np.float64],
+    grow: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    repair: NDArray[np.bool_],
+    current: NDArray[np.float64],
+    desired: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
     """:func:`decide_batch` with the settings :func:`~nao_arena.geometry.select_acceleration`
     and :func:`~nao_arena.geometry.repair_acceleration` use by default. lists: the CSR
@@ -176,12 +280,31 @@ def decide(
     accel = np.zeros((n, 2))
     tested = np.zeros(n, dtype=np.int64)
     decide_batch(
-        np.ascontiguousarray(times, dtype=np.float64), pred, excursions[0], excursions[1],
-        nb_start, nb_index, np.ascontiguousarray(nb_radius), wall_seg, wall_half, wall_start,
-        wall_index, rows, np.ascontiguousarray(pos), np.ascontiguousarray(vel),
-        np.ascontiguousarray(grow), np.ascontiguousarray(a_max), np.ascontiguousarray(v_max),
-        repair, np.ascontiguousarray(current), np.ascontiguousarray(desired),
-        *selection_settings(a_max), kind, accel, tested)
+        np.ascontiguousarray(times, dtype=np.float64),
+        pred,
+        excursions[0],
+        excursions[1],
+        nb_start,
+        nb_index,
+        np.ascontiguousarray(nb_radius),
+        wall_seg,
+        wall_half,
+        wall_start,
+        wall_index,
+        rows,
+        np.ascontiguousarray(pos),
+        np.ascontiguousarray(vel),
+        np.ascontiguousarray(grow),
+        np.ascontiguousarray(a_max),
+        np.ascontiguousarray(v_max),
+        repair,
+        np.ascontiguousarray(current),
+        np.ascontiguousarray(desired),
+        *selection_settings(a_max),
+        kind,
+        accel,
+        tested,
+    )
     return kind, accel, tested
 
 
@@ -189,8 +312,16 @@ def selection_settings(a_max: NDArray[np.float64]) -> tuple[Any, ...]:
     """The arguments ring_radii .. sliver_depth of :func:`decide_batch` for robots of
     limits a_max (m/s^2): the settings :func:`~nao_arena.geometry.select_acceleration`
     and :func:`~nao_arena.geometry.repair_acceleration` use by default."""
-    return (ring_radii_rows(a_max), _unit_rings(_RINGS, _RING_POINTS), _REPAIR_STEPS,
-            _REPAIR_UNIT, _MAX_DISKS, _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH)
+    return (
+        ring_radii_rows(a_max),
+        _unit_rings(_RINGS, _RING_POINTS),
+        _REPAIR_STEPS,
+        _REPAIR_UNIT,
+        _MAX_DISKS,
+        _DISKS_PER_PIECE,
+        _DISKS_PER_SECOND,
+        _SLIVER_DEPTH,
+    )
 
 
 @njit(cache=True)
@@ -204,8 +335,7 @@ def keep_candidates(members, current, desired, a_max, whole, opt, holds, status)
     for j in range(members.shape[0]):
         i = members[j]
         band = 0.0 if whole[i, SETTLING] != 0 else opt[i, KEEP_BAND]
-        near = (math.hypot(current[i, 0] - desired[i, 0], current[i, 1] - desired[i, 1])
-                <= band)
+        near = math.hypot(current[i, 0] - desired[i, 0], current[i, 1] - desired[i, 1]) <= band
         inside = not (math.hypot(current[i, 0], current[i, 1]) > a_max[i] * (1 + 1e-9))
         status[j] = 2 if (near or holds[j]) and inside else 0
         count += status[j] == 2
@@ -237,8 +367,9 @@ def apply_decisions(members, status, kind, accel, tested, real, whole, out, sett
 
 
 @njit(cache=True)
-def apply_braking(members, status, kind, tested, traffic, vel, a_max, dt, real, whole, out,
-                  settled):
+def apply_braking(
+    members, status, kind, tested, traffic, vel, a_max, dt, real, whole, out, settled
+):
     """For the members j with status[j] 0 whose :func:`decide` outcome is INFEASIBLE and
     whose fallback is braking (option ``infeasible`` "brake", or "auto" without traffic
     among the neighbours, traffic[i]): what :meth:`NAOAgent._fallback` and

@@ -18,8 +18,9 @@ HOLD_GAP = 1.0
 
 
 @njit(cache=True)
-def held_by_standing_kernel(nb_start, nb_index, rows, bodies, positions, velocities, radii,
-                            rad, goals, out):
+def held_by_standing_kernel(
+    nb_start, nb_index, rows, bodies, positions, velocities, radii, rad, goals, out
+):
     """Per robot i (batch row rows[i], body bodies[rows[i]], radius rad[i] m, goal
     goals[i] m): out[i] = its nearest sensed neighbour (the first of its list
     nb_index[nb_start[row]:nb_start[row + 1]]) stands still (below STILL_SPEED m/s)
@@ -37,10 +38,10 @@ def held_by_standing_kernel(nb_start, nb_index, rows, bodies, positions, velocit
         px = positions[own, 0]
         py = positions[own, 1]
         near = nb_index[start]
-        gap = (math.hypot(positions[near, 0] - px, positions[near, 1] - py)
-               - radii[near] - rad[i])
-        if not (math.hypot(velocities[near, 0], velocities[near, 1]) < STILL_SPEED
-                and gap < HOLD_GAP):
+        gap = math.hypot(positions[near, 0] - px, positions[near, 1] - py) - radii[near] - rad[i]
+        if not (
+            math.hypot(velocities[near, 0], velocities[near, 1]) < STILL_SPEED and gap < HOLD_GAP
+        ):
             continue
         ax = goals[i, 0] - px
         ay = goals[i, 1] - py
@@ -49,8 +50,7 @@ def held_by_standing_kernel(nb_start, nb_index, rows, bodies, positions, velocit
             other = nb_index[e]
             rx = positions[other, 0] - px
             ry = positions[other, 1] - py
-            if (math.hypot(rx, ry) - radii[other] - rad[i] < HOLD_GAP
-                    and rx * ax + ry * ay < 0.0):
+            if math.hypot(rx, ry) - radii[other] - rad[i] < HOLD_GAP and rx * ax + ry * ay < 0.0:
                 boxed = True
                 break
         out[i] = not boxed

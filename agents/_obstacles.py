@@ -37,8 +37,10 @@ def observed_discs(obs: Observation, margin: float, sensing_range: float) -> Dis
         rad.append(wr[near])
         reactive.append(np.zeros(int(near.sum()), dtype=bool))
     return Discs(
-        np.concatenate(pos).reshape(-1, 2), np.concatenate(vel).reshape(-1, 2),
-        np.concatenate(rad), np.concatenate(reactive),
+        np.concatenate(pos).reshape(-1, 2),
+        np.concatenate(vel).reshape(-1, 2),
+        np.concatenate(rad),
+        np.concatenate(reactive),
     )
 
 

@@ -26,10 +26,14 @@ def goal_target(obs: Observation) -> NDArray[np.float64] | None:
 
 
 def goal_seeking_accels(
-    targets: NDArray[np.float64], positions: NDArray[np.float64],
-    velocities: NDArray[np.float64], a_max: NDArray[np.float64],
-    speed_cap: NDArray[np.float64], heading_offset: Sequence[float] | None = None,
-    time_constant: float | NDArray[np.float64] = 0.5, braking: float = 0.5,
+    targets: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    velocities: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    speed_cap: NDArray[np.float64],
+    heading_offset: Sequence[float] | None = None,
+    time_constant: float | NDArray[np.float64] = 0.5,
+    braking: float = 0.5,
     approach_gain: float = APPROACH_GAIN,
     has_target: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64]:
@@ -59,11 +63,20 @@ def goal_seeking_accels(
     has = np.ones(n, dtype=np.bool_) if has_target is None else f(has_target, dtype=np.bool_)
     out = np.empty((n, 2))
     goal_seeking_kernel(
-        f(targets, dtype=np.float64).reshape(n, 2), f(positions, dtype=np.float64),
-        f(velocities, dtype=np.float64), f(a_max, dtype=np.float64),
-        f(speed_cap, dtype=np.float64), offsets, cos_off, sin_off,
+        f(targets, dtype=np.float64).reshape(n, 2),
+        f(positions, dtype=np.float64),
+        f(velocities, dtype=np.float64),
+        f(a_max, dtype=np.float64),
+        f(speed_cap, dtype=np.float64),
+        offsets,
+        cos_off,
+        sin_off,
         _per_row(time_constant, n),
-        float(braking), float(approach_gain), has, out)
+        float(braking),
+        float(approach_gain),
+        has,
+        out,
+    )
     return out
 
 
@@ -75,8 +88,21 @@ def _per_row(value: float | NDArray[np.float64], n: int) -> NDArray[np.float64]:
 
 
 @njit(cache=True)
-def goal_seeking_kernel(targets, positions, velocities, a_max, speed_cap, offset, cos_off,
-                         sin_off, tau, braking, approach_gain, has_target, out):
+def goal_seeking_kernel(
+    targets,
+    positions,
+    velocities,
+    a_max,
+    speed_cap,
+    offset,
+    cos_off,
+    sin_off,
+    tau,
+    braking,
+    approach_gain,
+    has_target,
+    out,
+):
     """:func:`goal_seeking_accels` row by row into ``out`` (n, 2) m/s^2; the heading
     offsets (rad) come with their cosines and sines."""
     for i in range(targets.shape[0]):
@@ -110,8 +136,12 @@ def goal_seeking_kernel(targets, positions, velocities, a_max, speed_cap, offset
 
 
 def goal_seeking_accel(
-    obs: Observation, v_pref: float | None = None, time_constant: float = 0.5,
-    braking: float = 0.5, heading_offset: float = 0.0, approach_gain: float = APPROACH_GAIN,
+    obs: Observation,
+    v_pref: float | None = None,
+    time_constant: float = 0.5,
+    braking: float = 0.5,
+    heading_offset: float = 0.0,
+    approach_gain: float = APPROACH_GAIN,
 ) -> NDArray[np.float64]:
     """:func:`goal_seeking_accels` of one robot (2,) m/s^2: toward its
     :func:`goal_target` (none: stand still) at speeds up to min(v_pref, v_max) m/s."""
@@ -119,10 +149,16 @@ def goal_seeking_accel(
     speed_cap = obs.v_max if v_pref is None else min(v_pref, obs.v_max)
     return goal_seeking_accels(
         _NO_TARGET if target is None else np.asarray(target, dtype=np.float64)[None],
-        obs.position[None], obs.velocity[None], np.array([obs.a_max], dtype=np.float64),
+        obs.position[None],
+        obs.velocity[None],
+        np.array([obs.a_max], dtype=np.float64),
         np.array([speed_cap], dtype=np.float64),
-        (heading_offset,) if heading_offset else None, time_constant, braking,
-        approach_gain, _NONE if target is None else None)[0]
+        (heading_offset,) if heading_offset else None,
+        time_constant,
+        braking,
+        approach_gain,
+        _NONE if target is None else None,
+    )[0]
 
 
 _NO_TARGET = np.zeros((1, 2))
@@ -158,12 +194,21 @@ class GoalAgent:
             return [_act_one(ag, batch, k) for ag, k in zip(agents, rows_a.tolist(), strict=True)]
         bodies = batch.bodies[rows_a]
         v_max = batch.v_max[bodies]
-        cap = np.array([v if ag.v_pref is None else min(ag.v_pref, v)
-                        for ag, v in zip(agents, v_max.tolist(), strict=True)])
+        cap = np.array(
+            [
+                v if ag.v_pref is None else min(ag.v_pref, v)
+                for ag, v in zip(agents, v_max.tolist(), strict=True)
+            ]
+        )
         tau = np.array([ag.time_constant for ag in agents], dtype=np.float64)
-        acc = goal_seeking_accels(batch.goals[rows_a], batch.positions[bodies],
-                                  batch.velocities[bodies], batch.a_max[bodies], cap,
-                                  time_constant=tau)
+        acc = goal_seeking_accels(
+            batch.goals[rows_a],
+            batch.positions[bodies],
+            batch.velocities[bodies],
+            batch.a_max[bodies],
+            cap,
+            time_constant=tau,
+        )
         return list(acc)
 
 

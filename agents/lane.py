@@ -23,8 +23,13 @@ class LaneAgent:
     """Options: speed (m/s), time_headway (s), min_gap (m), lane_width (m): bodies whose
     centre is within lane_width / 2 of the centreline count as in the lane."""
 
-    def __init__(self, speed: float | None = None, time_headway: float = 1.0,
-                 min_gap: float = 2.0, lane_width: float = 3.0) -> None:
+    def __init__(
+        self,
+        speed: float | None = None,
+        time_headway: float = 1.0,
+        min_gap: float = 2.0,
+        lane_width: float = 3.0,
+    ) -> None:
         self.speed = speed
         self.time_headway = time_headway
         self.min_gap = min_gap
@@ -55,8 +60,12 @@ class LaneAgent:
         if obs.goal is not None:
             # slow down to stop at the goal (braking at half a_max)
             speed = min(speed, float(np.sqrt(obs.a_max * np.hypot(*(obs.goal - obs.position)))))
-        params = FollowerParams(speed=max(min(speed, obs.v_max), 1e-6), a_max=obs.a_max,
-                                time_headway=self.time_headway, min_gap=self.min_gap)
+        params = FollowerParams(
+            speed=max(min(speed, obs.v_max), 1e-6),
+            a_max=obs.a_max,
+            time_headway=self.time_headway,
+            min_gap=self.min_gap,
+        )
         nb = obs.neighbours
         leader = None
         if len(nb):
@@ -68,6 +77,13 @@ class LaneAgent:
         if leader is None:
             return follower_accel(lane, params, obs.dt, obs.position, obs.velocity, obs.radius)
         return follower_accel(
-            lane, params, obs.dt, obs.position, obs.velocity, obs.radius,
-            nb.positions[leader], nb.velocities[leader], float(nb.radii[leader]),
+            lane,
+            params,
+            obs.dt,
+            obs.position,
+            obs.velocity,
+            obs.radius,
+            nb.positions[leader],
+            nb.velocities[leader],
+            float(nb.radii[leader]),
         )

@@ -225,8 +225,9 @@ class NAOAgent:
         switch_side_after: float = 20.0,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
-            raise ValueError("infeasible: expected 'auto', 'latest_contact' or 'brake', "
-                             f"got {infeasible!r}")
+            raise ValueError(
+                f"infeasible: expected 'auto', 'latest_contact' or 'brake', got {infeasible!r}"
+            )
         self._cols = AgentColumns(1)
         self._row = 0
         self._cols.members = (self,)
@@ -242,8 +243,10 @@ class NAOAgent:
         self.stopping_plans = bool(stopping_plans)
         self.switch_side_after = float(switch_side_after)
         if not self.switch_side_after > 0.0:
-            raise ValueError("switch_side_after: expected a positive number of seconds "
-                             f"(inf: never), got {switch_side_after!r}")
+            raise ValueError(
+                "switch_side_after: expected a positive number of seconds "
+                f"(inf: never), got {switch_side_after!r}"
+            )
         if not (math.isfinite(self.goal_zone) and self.goal_zone >= 0.0):
             raise ValueError(f"goal_zone: expected a distance >= 0 (m), got {goal_zone!r}")
         if samples is None:
@@ -286,8 +289,12 @@ class NAOAgent:
         self._cols.set_selection(self._row, sel)
 
     @property
-    def _seen(self) -> tuple[SensingBatch, int, NDArray[np.float64],
-                             tuple[NDArray[np.float64], NDArray[np.bool_]]] | None:
+    def _seen(
+        self,
+    ) -> (
+        tuple[SensingBatch, int, NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.bool_]]]
+        | None
+    ):
         """What the last step saw: (batch, robot row, predictions, their excursions)."""
         cols, r = self._cols, self._row
         view = int(cols.whole[r, SEEN])
@@ -321,8 +328,11 @@ class NAOAgent:
         times = self.times
         if self._grid_checked is not times:
             self._grid_regular = bool(
-                len(times) >= 2 and times[0] == 0.0 and np.all(np.diff(times) > 0)
-                and np.all(np.isfinite(times)))
+                len(times) >= 2
+                and times[0] == 0.0
+                and np.all(np.diff(times) > 0)
+                and np.all(np.isfinite(times))
+            )
             self._grid_checked = times
         return self._grid_regular
 
@@ -349,30 +359,64 @@ class NAOAgent:
         step)."""
         times = self.times
         grow = radius + self.margin
-        if not (self._regular_grid() and math.isfinite(velocity[0])
-                and math.isfinite(velocity[1])):
-            return obstacle_paths(times, predicted[idx], nb_radii[idx] + grow, position, walls,
-                                  wall_radius + grow, self.sensing_range)
+        if not (self._regular_grid() and math.isfinite(velocity[0]) and math.isfinite(velocity[1])):
+            return obstacle_paths(
+                times,
+                predicted[idx],
+                nb_radii[idx] + grow,
+                position,
+                walls,
+                wall_radius + grow,
+                self.sensing_range,
+            )
         c, w, b, rad, finite = relevant_sampled_paths(
-            times, predicted, idx, position, nb_radii, grow, velocity,
-            float(a_max) * (1.0 + 1e-9), float(v_max), excursions[0], excursions[1])
+            times,
+            predicted,
+            idx,
+            position,
+            nb_radii,
+            grow,
+            velocity,
+            float(a_max) * (1.0 + 1e-9),
+            float(v_max),
+            excursions[0],
+            excursions[1],
+        )
         if not finite:
             raise ValueError("centers: expected finite values")
-        wall_rel, wall_r = relative_walls(walls, wall_radius + grow, position,
-                                          self.sensing_range)
-        wall_rel, wall_r = relevant_walls(velocity, float(a_max) * (1.0 + 1e-9), float(v_max),
-                                          float(times[-1]), wall_rel, wall_r, 0.0)
+        wall_rel, wall_r = relative_walls(walls, wall_radius + grow, position, self.sensing_range)
+        wall_rel, wall_r = relevant_walls(
+            velocity,
+            float(a_max) * (1.0 + 1e-9),
+            float(v_max),
+            float(times[-1]),
+            wall_rel,
+            wall_r,
+            0.0,
+        )
         return PiecewisePath(times, c, w, b, rad, wall_rel, wall_r)
 
     def _select(
-        self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
-        a_max: float, v_max: float, dt: float, traffic: bool = False,
+        self,
+        desired: NDArray[np.float64],
+        velocity: NDArray[np.float64],
+        path: PiecewisePath,
+        a_max: float,
+        v_max: float,
+        dt: float,
+        traffic: bool = False,
     ) -> NDArray[np.float64]:
         """The full selection (m/s^2); becomes the current acceleration. traffic: whether
         non-reactive traffic is among the neighbours (``infeasible="auto"`` then dodges)."""
-        sel = select_acceleration(desired, velocity, path, _limits(a_max), v_max=v_max,
-                                  with_clearance=False,
-                                  fallback=self._fallback(velocity, a_max, dt, traffic))
+        sel = select_acceleration(
+            desired,
+            velocity,
+            path,
+            _limits(a_max),
+            v_max=v_max,
+            with_clearance=False,
+            fallback=self._fallback(velocity, a_max, dt, traffic),
+        )
         return self._commit(sel)
 
     def _fallback(
@@ -384,8 +428,7 @@ class NAOAgent:
         does the same for many robots.)"""
         if _brakes_when_infeasible(self, traffic):
             speed = float(np.hypot(*velocity))
-            return (np.zeros(2) if speed == 0.0
-                    else velocity * (-min(a_max, speed / dt) / speed))
+            return np.zeros(2) if speed == 0.0 else velocity * (-min(a_max, speed / dt) / speed)
         return None
 
     def _commit(self, sel: Selection) -> NDArray[np.float64]:
@@ -397,16 +440,21 @@ class NAOAgent:
         return self.current.copy()
 
     def _repair(
-        self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
-        a_max: float, v_max: float,
+        self,
+        desired: NDArray[np.float64],
+        velocity: NDArray[np.float64],
+        path: PiecewisePath,
+        a_max: float,
+        v_max: float,
     ) -> NDArray[np.float64] | None:
         """For a young adjustment that has become inadmissible: a nearby admissible
         acceleration (m/s^2, :func:`repair_acceleration`), which becomes the current one
         without restarting the adjustment's age; None: select in full."""
         if not self._holds_adjustment():
             return None
-        fixed = repair_acceleration(self.current, desired, velocity, path, _limits(a_max),
-                                    v_max=v_max)
+        fixed = repair_acceleration(
+            self.current, desired, velocity, path, _limits(a_max), v_max=v_max
+        )
         if fixed is not None:
             self.current = fixed
         return fixed
@@ -419,8 +467,9 @@ class NAOAgent:
     def act(self, obs: Observation) -> NDArray[np.float64]:
         """The robot's acceleration (m/s^2): :meth:`act_batch` for the one-robot batch of
         ``obs`` (:meth:`SensingBatch.of_observation`); raises what that reports."""
-        out, errors = _act_rows([self], SensingBatch.of_observation(obs),
-                                np.zeros(1, dtype=np.int64))
+        out, errors = _act_rows(
+            [self], SensingBatch.of_observation(obs), np.zeros(1, dtype=np.int64)
+        )
         if errors:
             raise errors[0]
         return out[0]
@@ -468,9 +517,14 @@ class NAOAgent:
         """What the viewer's acceleration panel shows of this agent (its time grid,
         predictor, margin, v_pref, detour and the status of its last selection)."""
         code = int(self._cols.whole[self._row, STATUS])
-        return PanelAgent(times=self.times, predict=self.predict, margin=self.margin,
-                          v_pref=self.v_pref, detour=float(self.detour),
-                          status=None if code == NO_SELECTION else SELECTION_LABELS[code])
+        return PanelAgent(
+            times=self.times,
+            predict=self.predict,
+            margin=self.margin,
+            v_pref=self.v_pref,
+            detour=float(self.detour),
+            status=None if code == NO_SELECTION else SELECTION_LABELS[code],
+        )
 
     def last_obstacles(self) -> PiecewisePath | None:
         """The obstacles of the agent's last step (None before its first): its
@@ -483,33 +537,55 @@ class NAOAgent:
         """Whether ``accel`` (2,) m/s^2 is within a_max and keeps the robot of ``obs`` clear
         of every obstacle the agent would see there (its keep test; changes nothing)."""
         batch = SensingBatch.of_observation(obs)
-        pred = np.ascontiguousarray(self.predict(self.times, batch.everyone()),
-                                    dtype=np.float64)
+        pred = np.ascontiguousarray(self.predict(self.times, batch.everyone()), dtype=np.float64)
         path = self._paths_of(batch, 0, pred, path_excursions(pred))
-        return self._admissible(np.asarray(accel, dtype=np.float64), batch.velocities[0],
-                                obs.a_max, obs.v_max, path)
+        return self._admissible(
+            np.asarray(accel, dtype=np.float64), batch.velocities[0], obs.a_max, obs.v_max, path
+        )
 
     def _paths_of(
-        self, batch: SensingBatch, k: int, pred: NDArray[np.float64],
+        self,
+        batch: SensingBatch,
+        k: int,
+        pred: NDArray[np.float64],
         excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
     ) -> PiecewisePath:
         """:meth:`_relevant_paths` of robot k of ``batch`` (predictions ``pred`` of every
         body, with their :func:`path_excursions`)."""
         body = int(batch.bodies[k])
-        return self._relevant_paths(pred, excursions, batch.neighbour_ids(k), batch.radii,
-                                    batch.positions[body], float(batch.radii[body]),
-                                    batch.walls, batch.wall_radius, batch.velocities[body],
-                                    float(batch.a_max[body]), float(batch.v_max[body]))
+        return self._relevant_paths(
+            pred,
+            excursions,
+            batch.neighbour_ids(k),
+            batch.radii,
+            batch.positions[body],
+            float(batch.radii[body]),
+            batch.walls,
+            batch.wall_radius,
+            batch.velocities[body],
+            float(batch.a_max[body]),
+            float(batch.v_max[body]),
+        )
 
-    def _detour_step(self, far: bool, crawling: bool, dt: float, to_goal: float,
-                     held: bool = True) -> None:
+    def _detour_step(
+        self, far: bool, crawling: bool, dt: float, to_goal: float, held: bool = True
+    ) -> None:
         """One step (dt s) of the liveness bookkeeping (module docstring, Liveness) from
         precomputed tests: far from the goal, crawling (below v_max / 4), the distance
         to the goal (m), and held (its nearest neighbour stands still close by: only such
         time counts toward switching sides); :func:`detour_row` on the agent's row."""
         cols = self._cols
-        if detour_row(self._row, bool(far), bool(crawling), float(dt), float(to_goal),
-                      bool(held), cols.real, cols.whole, cols.opt):
+        if detour_row(
+            self._row,
+            bool(far),
+            bool(crawling),
+            float(dt),
+            float(to_goal),
+            bool(held),
+            cols.real,
+            cols.whole,
+            cols.opt,
+        ):
             self._turn_detour()
 
     def _turn_detour(self) -> None:
@@ -518,7 +594,11 @@ class NAOAgent:
         self.detour += self.side * float(self.rng.uniform(np.pi / 6, np.pi / 3))
 
     def _admissible(
-        self, a: NDArray[np.float64], v: NDArray[np.float64], a_max: float, v_max: float,
+        self,
+        a: NDArray[np.float64],
+        v: NDArray[np.float64],
+        a_max: float,
+        v_max: float,
         path: PiecewisePath,
     ) -> bool:
         """Whether acceleration a (m/s^2) is within a_max and keeps the robot (velocity v m/s,
@@ -529,8 +609,13 @@ class NAOAgent:
             return True
         ok = np.empty(1, dtype=bool)
         admissible_kernel(
-            v[None].copy(), a[None].copy(), v_max, *path.arrays,
-            piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok,
+            v[None].copy(),
+            a[None].copy(),
+            v_max,
+            *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration),
+            0.0,
+            ok,
         )
         return bool(ok[0])
 
@@ -551,12 +636,19 @@ class NAOAgent:
         (``reselect_after``) and the result becomes the current acceleration."""
         want = _desired_rows(desired, 1)
         out, status = NAOAgent.nearest_admissible_batch(
-            [self], SensingBatch.of_observation(obs), [0], want)
+            [self], SensingBatch.of_observation(obs), [0], want
+        )
         return out[0], status[0]
 
     def _nearest_on(
-        self, desired: NDArray[np.float64], velocity: NDArray[np.float64], path: PiecewisePath,
-        a_max: float, v_max: float, dt: float, traffic: bool,
+        self,
+        desired: NDArray[np.float64],
+        velocity: NDArray[np.float64],
+        path: PiecewisePath,
+        a_max: float,
+        v_max: float,
+        dt: float,
+        traffic: bool,
     ) -> tuple[NDArray[np.float64], str]:
         """:meth:`nearest_admissible` on the robot's obstacle paths ``path`` (velocity m/s,
         limits a_max m/s^2 and v_max m/s, control period dt s; traffic: whether traffic is
@@ -573,7 +665,10 @@ class NAOAgent:
 
     @classmethod
     def nearest_admissible_batch(
-        cls, agents: Sequence[NAOAgent], batch: SensingBatch, rows: Sequence[int],
+        cls,
+        agents: Sequence[NAOAgent],
+        batch: SensingBatch,
+        rows: Sequence[int],
         desired: NDArray[np.float64],
     ) -> tuple[NDArray[np.float64], list[str]]:
         """:meth:`nearest_admissible` for many robots at once (same results): agent i
@@ -589,38 +684,78 @@ class NAOAgent:
         cols = columns_of(agents)
         pos, vel, rad, a_max, v_max, _, traffic_near, _ = _own_rows(batch, rows_a)
         cols.real[:, AGE] += batch.dt
-        previous = cols.real[:, CUR_X:CUR_Y + 1].copy()
+        previous = cols.real[:, CUR_X : CUR_Y + 1].copy()
         cols.seen = []
         for m in cols.grid_groups(agents):
             ag0 = agents[int(m[0])]
-            pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()),
-                                        dtype=np.float64)
+            pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()), dtype=np.float64)
             excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
             # the keep test with the desired accelerations as the ones to keep
             every = np.ones(len(m), dtype=bool)
-            keep = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos, vel,
-                                 rad, v_max, want, want, a_max, every)
+            keep = _keep_current(
+                m,
+                ag0,
+                cols,
+                pred,
+                excursions,
+                lists,
+                batch.radii,
+                pos,
+                vel,
+                rad,
+                v_max,
+                want,
+                want,
+                a_max,
+                every,
+            )
             holds = _holds(cols, m)
-            decided = (_decide(m, keep, ag0, cols, pred, excursions, lists, batch.radii, pos,
-                               vel, rad, a_max, v_max, previous, want, holds)
-                       if lists is not None else None)
+            decided = (
+                _decide(
+                    m,
+                    keep,
+                    ag0,
+                    cols,
+                    pred,
+                    excursions,
+                    lists,
+                    batch.radii,
+                    pos,
+                    vel,
+                    rad,
+                    a_max,
+                    v_max,
+                    previous,
+                    want,
+                    holds,
+                )
+                if lists is not None
+                else None
+            )
             for j, (i, st) in enumerate(zip(m.tolist(), keep.tolist(), strict=True)):
                 ag = agents[i]
                 if st == 1:
-                    cols.real[i, CUR_X:CUR_Y + 1] = want[i]
+                    cols.real[i, CUR_X : CUR_Y + 1] = want[i]
                     out[i], status[i] = want[i], "kept"
                     continue
                 if decided is not None and st == 0:
-                    done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch.dt,
-                                          bool(traffic_near[i]))
+                    done = _take_decision(
+                        ag, decided, j, vel[i], float(a_max[i]), batch.dt, bool(traffic_near[i])
+                    )
                     if done is not None:
                         out[i], status[i] = done, _KIND_STATUS[int(decided[0][j])]
                         continue
                 # undecided here: robot by robot
                 path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
-                out[i], status[i] = ag._nearest_on(want[i], vel[i], path, float(a_max[i]),
-                                                   float(v_max[i]), batch.dt,
-                                                   bool(traffic_near[i]))
+                out[i], status[i] = ag._nearest_on(
+                    want[i],
+                    vel[i],
+                    path,
+                    float(a_max[i]),
+                    float(v_max[i]),
+                    batch.dt,
+                    bool(traffic_near[i]),
+                )
         return out, status
 
 
@@ -629,8 +764,10 @@ def _desired_rows(desired: Any, n: int) -> NDArray[np.float64]:
     else ValueError."""
     want = np.array(desired, dtype=np.float64)
     if want.shape != (n, 2) and not (n == 1 and want.shape == (2,)):
-        raise ValueError(f"desired: expected {'(2,) or ' if n == 1 else ''}({n}, 2) "
-                         f"accelerations (m/s^2), got shape {want.shape}")
+        raise ValueError(
+            f"desired: expected {'(2,) or ' if n == 1 else ''}({n}, 2) "
+            f"accelerations (m/s^2), got shape {want.shape}"
+        )
     if not np.all(np.isfinite(want)):
         raise ValueError(f"desired: expected finite accelerations (m/s^2), got {want.tolist()}")
     return want.reshape(n, 2)
@@ -640,8 +777,12 @@ SHIELD_STATUSES: tuple[str, ...] = ("kept", "repaired", "adjusted", "infeasible"
 """How :meth:`NAOAgent.nearest_admissible` found its acceleration (see there)."""
 
 _SELECTION_STATUS = {"desired": "kept", "adjusted": "adjusted", "infeasible": "infeasible"}
-_KIND_STATUS = {REPAIRED: "repaired", DESIRED: "kept", ADJUSTED: "adjusted",
-                INFEASIBLE: "infeasible"}
+_KIND_STATUS = {
+    REPAIRED: "repaired",
+    DESIRED: "kept",
+    ADJUSTED: "adjusted",
+    INFEASIBLE: "infeasible",
+}
 
 
 _LIMITS: dict[float, AccelLimits] = {}
@@ -658,17 +799,29 @@ def _limits(a_max: float) -> AccelLimits:
 
 
 def _obstacle_lists(
-    m: NDArray[np.int64], cols: AgentColumns, batch: SensingBatch, rows: NDArray[np.int64],
-    pos: NDArray[np.float64], rad: NDArray[np.float64],
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
-           NDArray[np.int64], NDArray[np.int64]]:
+    m: NDArray[np.int64],
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows: NDArray[np.int64],
+    pos: NDArray[np.float64],
+    rad: NDArray[np.float64],
+) -> tuple[
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+]:
     """The obstacles each member (rows m of the agents' table) sees, as CSR lists
     (members' order): neighbours (nb_start, nb_index: body indices), then the walls in
     its range (wall_seg (W, 2, 2) m and wall_half (W,) m: every wall's ends and
     half-thickness; wall_start, wall_index)."""
-    nb_start, nb_index = member_lists(np.ascontiguousarray(batch.nb_start, dtype=np.int64),
-                                      np.ascontiguousarray(batch.nb_index, dtype=np.int64),
-                                      np.ascontiguousarray(rows[m], dtype=np.int64))
+    nb_start, nb_index = member_lists(
+        np.ascontiguousarray(batch.nb_start, dtype=np.int64),
+        np.ascontiguousarray(batch.nb_index, dtype=np.int64),
+        np.ascontiguousarray(rows[m], dtype=np.int64),
+    )
     wall_start = np.zeros(len(m) + 1, dtype=np.int64)
     walls = np.ascontiguousarray(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
     half = np.ascontiguousarray(batch.wall_radius, dtype=np.float64)
@@ -694,12 +847,21 @@ def _holds(cols: AgentColumns, m: NDArray[np.int64]) -> NDArray[np.bool_]:
 
 
 def _keep_current(
-    m: NDArray[np.int64], ag0: NAOAgent, cols: AgentColumns, pred: NDArray[np.float64],
+    m: NDArray[np.int64],
+    ag0: NAOAgent,
+    cols: AgentColumns,
+    pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray[Any], ...] | None, nb_radius: NDArray[np.float64],
-    pos: NDArray[np.float64], vel: NDArray[np.float64], rad: NDArray[np.float64],
-    v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
-    a_max: NDArray[np.float64], holds: NDArray[np.bool_],
+    lists: tuple[NDArray[Any], ...] | None,
+    nb_radius: NDArray[np.float64],
+    pos: NDArray[np.float64],
+    vel: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    current: NDArray[np.float64],
+    desired: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    holds: NDArray[np.bool_],
 ) -> NDArray[np.int64]:
     """Per member (rows m of the agents' table, ag0's time grid): 1 keep the current
     acceleration (within keep_band of the desired one, or 0 while settling, and
@@ -707,10 +869,16 @@ def _keep_current(
     lists: :func:`_obstacle_lists` (None: an irregular time grid, nothing decided here);
     holds: per member, whether it holds a young adjustment."""
     status = np.zeros(len(m), dtype=np.int64)
-    some = keep_candidates(m, np.ascontiguousarray(current, dtype=np.float64),
-                           np.ascontiguousarray(desired, dtype=np.float64),
-                           np.ascontiguousarray(a_max, dtype=np.float64), cols.whole, cols.opt,
-                           np.ascontiguousarray(holds, dtype=np.bool_), status)
+    some = keep_candidates(
+        m,
+        np.ascontiguousarray(current, dtype=np.float64),
+        np.ascontiguousarray(desired, dtype=np.float64),
+        np.ascontiguousarray(a_max, dtype=np.float64),
+        cols.whole,
+        cols.opt,
+        np.ascontiguousarray(holds, dtype=np.bool_),
+        status,
+    )
     if lists is None or some == 0:
         return status
     nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
@@ -718,9 +886,21 @@ def _keep_current(
     res = np.full(len(m), -1, dtype=np.int64)
     f = np.ascontiguousarray
     sampled_admissible_batch(
-        f(ag0.times, dtype=np.float64), pred, nb_start, nb_index, f(nb_radius), wall_seg,
-        wall_half, wall_start, wall_index, todo, *_members((pos, vel, current, v_max, rad), m),
-        cols.opt[m, MARGIN], excursions[0], excursions[1], res,
+        f(ag0.times, dtype=np.float64),
+        pred,
+        nb_start,
+        nb_index,
+        f(nb_radius),
+        wall_seg,
+        wall_half,
+        wall_start,
+        wall_index,
+        todo,
+        *_members((pos, vel, current, v_max, rad), m),
+        cols.opt[m, MARGIN],
+        excursions[0],
+        excursions[1],
+        res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
     status[todo] = np.where(res[todo] == 1, 1, np.where(res[todo] == 0, 0, 2))
@@ -735,11 +915,21 @@ def _members(arrays: tuple[NDArray[Any], ...], m: NDArray[np.int64]) -> list[NDA
 
 
 def _decide(
-    m: NDArray[np.int64], status: NDArray[np.int64], ag0: NAOAgent, cols: AgentColumns,
-    pred: NDArray[np.float64], excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray[Any], ...], nb_radius: NDArray[np.float64], pos: NDArray[np.float64],
-    vel: NDArray[np.float64], rad: NDArray[np.float64], a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64], current: NDArray[np.float64], desired: NDArray[np.float64],
+    m: NDArray[np.int64],
+    status: NDArray[np.int64],
+    ag0: NAOAgent,
+    cols: AgentColumns,
+    pred: NDArray[np.float64],
+    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    lists: tuple[NDArray[Any], ...],
+    nb_radius: NDArray[np.float64],
+    pos: NDArray[np.float64],
+    vel: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    current: NDArray[np.float64],
+    desired: NDArray[np.float64],
     holds: NDArray[np.bool_],
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None:
     """The repairs (of the young adjustments, ``holds``) and selections of the members
@@ -750,8 +940,22 @@ def _decide(
     if len(todo) == 0:
         return None
     p, v, r, a, s, c, d = _members((pos, vel, rad, a_max, v_max, current, desired), m)
-    return decide(ag0.times, pred, excursions, lists, nb_radius, todo, p, v,
-                  r + cols.opt[m, MARGIN], a, s, holds, c, d)
+    return decide(
+        ag0.times,
+        pred,
+        excursions,
+        lists,
+        nb_radius,
+        todo,
+        p,
+        v,
+        r + cols.opt[m, MARGIN],
+        a,
+        s,
+        holds,
+        c,
+        d,
+    )
 
 
 def _brakes_when_infeasible(agent: NAOAgent, traffic: bool) -> bool:
@@ -761,8 +965,13 @@ def _brakes_when_infeasible(agent: NAOAgent, traffic: bool) -> bool:
 
 
 def _take_decision(
-    ag: NAOAgent, decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]],
-    j: int, velocity: NDArray[np.float64], a_max: float, dt: float, traffic: bool,
+    ag: NAOAgent,
+    decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]],
+    j: int,
+    velocity: NDArray[np.float64],
+    a_max: float,
+    dt: float,
+    traffic: bool,
 ) -> NDArray[np.float64] | None:
     """Apply member j's outcome of :func:`_decide` to its agent, as :meth:`NAOAgent._repair`
     and :meth:`NAOAgent._select` would: the acceleration (m/s^2), or None when it is left
@@ -772,7 +981,7 @@ def _take_decision(
     kd = int(kind[j])
     cols, r = ag._cols, ag._row
     if kd == REPAIRED:
-        cols.real[r, CUR_X:CUR_Y + 1] = accel[j]
+        cols.real[r, CUR_X : CUR_Y + 1] = accel[j]
         return accel[j].copy()
     if kd == DESIRED or kd == ADJUSTED:
         cols.commit(r, accel[j], kd, int(tested[j]))
@@ -818,17 +1027,29 @@ def _own_inputs(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[Any, ..
     of ``prepare_rows``) for the batch rows ``rows_a``, as the kernels take them."""
     f = np.ascontiguousarray
     traffic = _traffic_mask(batch.kinds)
-    return (f(rows_a, dtype=np.int64), f(batch.bodies, dtype=np.int64),
-            f(batch.positions, dtype=np.float64), f(batch.velocities, dtype=np.float64),
-            f(batch.radii, dtype=np.float64), f(batch.a_max, dtype=np.float64),
-            f(batch.v_max, dtype=np.float64), f(batch.goals, dtype=np.float64),
-            f(batch.nb_start, dtype=np.int64), f(batch.nb_index, dtype=np.int64),
-            _NO_TRAFFIC if traffic is None else traffic)
+    return (
+        f(rows_a, dtype=np.int64),
+        f(batch.bodies, dtype=np.int64),
+        f(batch.positions, dtype=np.float64),
+        f(batch.velocities, dtype=np.float64),
+        f(batch.radii, dtype=np.float64),
+        f(batch.a_max, dtype=np.float64),
+        f(batch.v_max, dtype=np.float64),
+        f(batch.goals, dtype=np.float64),
+        f(batch.nb_start, dtype=np.int64),
+        f(batch.nb_index, dtype=np.int64),
+        _NO_TRAFFIC if traffic is None else traffic,
+    )
 
 
 def _group_view(
-    m: NDArray[np.int64], ag0: NAOAgent, cols: AgentColumns, batch: SensingBatch,
-    rows_a: NDArray[np.int64], pos: NDArray[np.float64], rad: NDArray[np.float64],
+    m: NDArray[np.int64],
+    ag0: NAOAgent,
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    pos: NDArray[np.float64],
+    rad: NDArray[np.float64],
     pred: NDArray[np.float64],
 ) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], tuple[NDArray[Any], ...] | None]:
     """What the agents of rows m (ag0's predictor and time grid) decide from, given the
@@ -839,8 +1060,7 @@ def _group_view(
     cols.whole[m, SEEN] = len(cols.seen)
     cols.whole[m, ROW] = rows_a[m]
     cols.seen.append((batch, pred, excursions))
-    lists = (_obstacle_lists(m, cols, batch, rows_a, pos, rad)
-             if ag0._regular_grid() else None)
+    lists = _obstacle_lists(m, cols, batch, rows_a, pos, rad) if ag0._regular_grid() else None
     return excursions, lists
 
 
@@ -858,9 +1078,24 @@ def _act_rows(
     f = np.ascontiguousarray
     walls = f(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
     wall_half = f(batch.wall_radius, dtype=np.float64)
-    (pos, vel, rad, a_max, v_max, goals, live, n_live, out, turn, turns, traffic_near, desired,
-     direct) = prepare_rows(*_own_inputs(batch, rows_a), walls, wall_half, float(batch.dt),
-                            real, whole, cols.opt)
+    (
+        pos,
+        vel,
+        rad,
+        a_max,
+        v_max,
+        goals,
+        live,
+        n_live,
+        out,
+        turn,
+        turns,
+        traffic_near,
+        desired,
+        direct,
+    ) = prepare_rows(
+        *_own_inputs(batch, rows_a), walls, wall_half, float(batch.dt), real, whole, cols.opt
+    )
     if not n_live:
         return out, errors  # holds (replan=False) keep their acceleration
     if turns:
@@ -887,28 +1122,93 @@ def _act_rows(
         excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
         if lists is None:
             # an irregular time grid: the keep test's first part only, the rest below
-            status = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos,
-                                   vel, rad, v_max, current, desired, a_max, _holds(cols, m))
+            status = _keep_current(
+                m,
+                ag0,
+                cols,
+                pred,
+                excursions,
+                lists,
+                batch.radii,
+                pos,
+                vel,
+                rad,
+                v_max,
+                current,
+                desired,
+                a_max,
+                _holds(cols, m),
+            )
             decided = None
             left = len(m)
             settled = np.zeros(len(m), dtype=bool)
         else:
             nb_start, nb_index, *wall_lists = lists  # wall_seg, wall_half, start, index
             status, kind, accel, tested, settled, left = settle_members(
-                m, f(ag0.times, dtype=np.float64), pred, excursions[0], excursions[1],
-                nb_start, nb_index, f(batch.radii, dtype=np.float64), *wall_lists, pos, vel,
-                rad, a_max, v_max, current, desired, traffic_near, float(batch.dt),
+                m,
+                f(ag0.times, dtype=np.float64),
+                pred,
+                excursions[0],
+                excursions[1],
+                nb_start,
+                nb_index,
+                f(batch.radii, dtype=np.float64),
+                *wall_lists,
+                pos,
+                vel,
+                rad,
+                a_max,
+                v_max,
+                current,
+                desired,
+                traffic_near,
+                float(batch.dt),
                 *selection_settings(a_max if len(m) == len(a_max) else a_max[m]),
-                real, whole, cols.opt, out)
+                real,
+                whole,
+                cols.opt,
+                out,
+            )
             decided = kind, accel, tested
         if left:
-            _undecided(agents, m, status, settled, decided, errors, out, batch, rows_a,
-                       pred, excursions, vel, a_max, v_max, current, desired, traffic_near)
+            _undecided(
+                agents,
+                m,
+                status,
+                settled,
+                decided,
+                errors,
+                out,
+                batch,
+                rows_a,
+                pred,
+                excursions,
+                vel,
+                a_max,
+                v_max,
+                current,
+                desired,
+                traffic_near,
+            )
     failed = np.zeros(len(rows_a), dtype=np.bool_)
     if errors:
         failed[list(errors)] = True
-    yield_rows(pos, vel, out, rad, a_max, v_max, failed, float(batch.dt), int(batch.substeps),
-               PLAN_MARGIN, walls, wall_half, real, whole)
+    yield_rows(
+        pos,
+        vel,
+        out,
+        rad,
+        a_max,
+        v_max,
+        failed,
+        float(batch.dt),
+        int(batch.substeps),
+        PLAN_MARGIN,
+        walls,
+        wall_half,
+        real,
+        whole,
+    )
     return out, errors
 
 
@@ -916,14 +1216,23 @@ _NO_TRAFFIC = np.zeros(0, dtype=np.bool_)
 
 
 def _undecided(
-    agents: Sequence[NAOAgent], m: NDArray[np.int64], status: NDArray[np.int64],
+    agents: Sequence[NAOAgent],
+    m: NDArray[np.int64],
+    status: NDArray[np.int64],
     settled: NDArray[np.bool_],
     decided: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]] | None,
-    errors: dict[int, Exception], out: NDArray[np.float64], batch: SensingBatch,
-    rows_a: NDArray[np.int64], pred: NDArray[np.float64],
-    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]], vel: NDArray[np.float64],
-    a_max: NDArray[np.float64], v_max: NDArray[np.float64], current: NDArray[np.float64],
-    desired: NDArray[np.float64], traffic_near: NDArray[np.bool_],
+    errors: dict[int, Exception],
+    out: NDArray[np.float64],
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    pred: NDArray[np.float64],
+    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    vel: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    current: NDArray[np.float64],
+    desired: NDArray[np.float64],
+    traffic_near: NDArray[np.bool_],
 ) -> None:
     """The members m (rows of the agents' table) that the compiled calls left
     unsettled, robot by robot: the fallback of an outcome that is not braking
@@ -935,41 +1244,66 @@ def _undecided(
         ag = agents[i]
         try:
             if decided is not None and status[j] == 0:
-                done = _take_decision(ag, decided, j, vel[i], float(a_max[i]), batch.dt,
-                                      bool(traffic_near[i]))
+                done = _take_decision(
+                    ag, decided, j, vel[i], float(a_max[i]), batch.dt, bool(traffic_near[i])
+                )
                 if done is not None:
                     out[i] = done
                     continue
             path = ag._paths_of(batch, int(rows_a[i]), pred, excursions)
-            if status[j] == 2 and ag._admissible(current[i], vel[i], float(a_max[i]),
-                                                 float(v_max[i]), path):
+            if status[j] == 2 and ag._admissible(
+                current[i], vel[i], float(a_max[i]), float(v_max[i]), path
+            ):
                 continue  # kept: out holds the current acceleration
             fixed = ag._repair(desired[i], vel[i], path, float(a_max[i]), float(v_max[i]))
             if fixed is not None:
                 out[i] = fixed
                 continue
-            out[i] = ag._select(desired[i], vel[i], path, float(a_max[i]), float(v_max[i]),
-                                batch.dt, bool(traffic_near[i]))
+            out[i] = ag._select(
+                desired[i],
+                vel[i],
+                path,
+                float(a_max[i]),
+                float(v_max[i]),
+                batch.dt,
+                bool(traffic_near[i]),
+            )
         except Exception as exc:  # noqa: BLE001 - the agent's failure
             errors[i] = exc
 
 
 def _desired(
-    cols: AgentColumns, batch: SensingBatch, rows_a: NDArray[np.int64],
-    goals: NDArray[np.float64], pos: NDArray[np.float64], vel: NDArray[np.float64],
-    a_max: NDArray[np.float64], v_max: NDArray[np.float64],
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    goals: NDArray[np.float64],
+    pos: NDArray[np.float64],
+    vel: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """The goal-seeking accelerations (n, 2) m/s^2 (:func:`desired_rows`:
     goal seeking at min(v_pref, v_max), turned by each agent's detour; agents: the rows
     of ``cols``) toward the robots' :func:`_heading_targets`."""
     targets, has_target = _heading_targets(cols, batch, rows_a, goals, pos)
-    return desired_rows(np.ascontiguousarray(targets, dtype=np.float64), has_target, pos, vel,
-                        a_max, v_max, cols.real, cols.opt)
+    return desired_rows(
+        np.ascontiguousarray(targets, dtype=np.float64),
+        has_target,
+        pos,
+        vel,
+        a_max,
+        v_max,
+        cols.real,
+        cols.opt,
+    )
 
 
 def _heading_targets(
-    cols: AgentColumns, batch: SensingBatch, rows_a: NDArray[np.int64],
-    goals: NDArray[np.float64], pos: NDArray[np.float64],
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    goals: NDArray[np.float64],
+    pos: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Where each robot heads (n, 2) m, and whether it has a target: its goal; a robot
     without a finite goal heads for its route's last waypoint, or has none (stands
@@ -991,8 +1325,11 @@ def _heading_targets(
 
 
 def _around_walls(
-    cols: AgentColumns, batch: SensingBatch, rows_a: NDArray[np.int64],
-    targets: NDArray[np.float64], pos: NDArray[np.float64],
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    targets: NDArray[np.float64],
+    pos: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """The heading targets (n, 2) m of the robots whose agents (rows of ``cols``)
     ``navigate``: their targets, or where a wall stands between, the way around it
@@ -1038,6 +1375,20 @@ class AOAgent(NAOAgent):
         stopping_plans: bool = True,
         switch_side_after: float = 20.0,
     ) -> None:
-        super().__init__(horizon, samples, "constant_acceleration", margin, keep_band, v_pref,
-                         sensing_range, detour_after, replan, reselect_after, infeasible,
-                         goal_zone, navigate, stopping_plans, switch_side_after)
+        super().__init__(
+            horizon,
+            samples,
+            "constant_acceleration",
+            margin,
+            keep_band,
+            v_pref,
+            sensing_range,
+            detour_after,
+            replan,
+            reselect_after,
+            infeasible,
+            goal_zone,
+            navigate,
+            stopping_plans,
+            switch_side_after,
+        )

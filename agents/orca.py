@@ -61,7 +61,8 @@ def _fma(typingctx, x, y, z):  # type: ignore[no-untyped-def]
     def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
         double = ir.DoubleType()
         fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(double, [double, double, double]), "llvm.fma.f64")
+            builder.module, ir.FunctionType(double, [double, double, double]), "llvm.fma.f64"
+        )
         return builder.call(fn, args)
 
     return sig, codegen
@@ -255,9 +256,28 @@ def _before(da, ia, db, ib):
 
 
 @njit(cache=True, error_model="numpy")
-def orca_accelerations(positions, velocities, radii, a_max, v_max, reactive, bodies, goals,
-                       has_goal, nb_start, nb_index, rows, wall_c, wall_r, wall_start,
-                       wall_set, options, has_v_pref, limit, dt):
+def orca_accelerations(
+    positions,
+    velocities,
+    radii,
+    a_max,
+    v_max,
+    reactive,
+    bodies,
+    goals,
+    has_goal,
+    nb_start,
+    nb_index,
+    rows,
+    wall_c,
+    wall_r,
+    wall_start,
+    wall_set,
+    options,
+    has_v_pref,
+    limit,
+    dt,
+):
     """ORCA accelerations (len(rows), 2) m/s^2 of the robots ``rows`` (robot order).
 
     Bodies (N): positions (N, 2) m, velocities (N, 2) m/s, radii, a_max, v_max (N,),
@@ -349,8 +369,9 @@ def orca_accelerations(positions, velocities, radii, a_max, v_max, reactive, bod
             order[q] = c
         for q in range(taken):
             c = order[q]
-            x, y, ex, ey = _half_plane(cp[c, 0], cp[c, 1], vx - cv[c, 0], vy - cv[c, 1],
-                                       cr[c], vx, vy, horizon, dt, cs[c])
+            x, y, ex, ey = _half_plane(
+                cp[c, 0], cp[c, 1], vx - cv[c, 0], vy - cv[c, 1], cr[c], vx, vy, horizon, dt, cs[c]
+            )
             lp[q, 0] = x
             lp[q, 1] = y
             ld[q, 0] = ex
@@ -395,15 +416,15 @@ def orca_accelerations(positions, velocities, radii, a_max, v_max, reactive, bod
 
 def _number(name: str, value: Any, low: float, strict: bool, unit: str) -> float:
     """``value`` as a float > low (strict) or >= low; else ValueError naming the option."""
-    bad = isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
-                                                                   np.floating))
+    bad = isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))
     if not bad:
         x = float(value)
         bad = math.isnan(x) or (x <= low if strict else x < low)
     if bad:
         rel = ">" if strict else ">="
-        raise ValueError(f"orca option {name}: expected a number {rel} {low:g} ({unit}), "
-                         f"got {value!r}")
+        raise ValueError(
+            f"orca option {name}: expected a number {rel} {low:g} ({unit}), got {value!r}"
+        )
     return x
 
 
@@ -413,16 +434,24 @@ def _wall_sets(
     """The wall discs per grown radius (m) the rows have: centres, radii, set starts and
     each row's set (-1: no walls)."""
     if not len(walls):
-        return (NO_WALLS[0], NO_WALLS[1], np.zeros(1, dtype=np.int64),
-                np.full(len(grow), -1, dtype=np.int64))
+        return (
+            NO_WALLS[0],
+            NO_WALLS[1],
+            np.zeros(1, dtype=np.int64),
+            np.full(len(grow), -1, dtype=np.int64),
+        )
     values = list(dict.fromkeys(grow.tolist()))
     parts = [wall_discs_memo(walls, wall_radius, g) for g in values]
     start = np.zeros(len(parts) + 1, dtype=np.int64)
     np.cumsum([len(r) for _, r in parts], out=start[1:])
     which = {g: s for s, g in enumerate(values)}
     wall_set = np.array([which[g] for g in grow.tolist()], dtype=np.int64)
-    return (np.concatenate([c for c, _ in parts]).reshape(-1, 2),
-            np.concatenate([r for _, r in parts]), start, wall_set)
+    return (
+        np.concatenate([c for c, _ in parts]).reshape(-1, 2),
+        np.concatenate([r for _, r in parts]),
+        start,
+        wall_set,
+    )
 
 
 def _f64(a: Any) -> NDArray[np.float64]:
@@ -436,8 +465,13 @@ class ORCAAgent:
     max_neighbours."""
 
     def __init__(
-        self, horizon: float = 3.0, margin: float = 0.05, v_pref: float | None = None,
-        time_constant: float = 0.3, sensing_range: float = 30.0, max_neighbours: int = 16,
+        self,
+        horizon: float = 3.0,
+        margin: float = 0.05,
+        v_pref: float | None = None,
+        time_constant: float = 0.3,
+        sensing_range: float = 30.0,
+        max_neighbours: int = 16,
     ) -> None:
         self.horizon = _number("horizon", horizon, 0.0, True, "s")
         margin_ = _number("margin", margin, -math.inf, False, "m")
@@ -453,8 +487,10 @@ class ORCAAgent:
             except TypeError:
                 count = -1
             if isinstance(max_neighbours, bool) or count < 0:
-                raise ValueError("orca option max_neighbours: expected an integer >= 0 or "
-                                 f"None (all), got {max_neighbours!r}")
+                raise ValueError(
+                    "orca option max_neighbours: expected an integer >= 0 or "
+                    f"None (all), got {max_neighbours!r}"
+                )
             max_neighbours = count
         self.max_neighbours = max_neighbours
 
@@ -473,23 +509,42 @@ class ORCAAgent:
         """The ORCA acceleration (m/s^2) of the robot ``obs`` describes."""
         nb = obs.neighbours
         m = len(nb)
-        positions = _f64(np.concatenate([np.reshape(obs.position, (1, 2)),
-                                         np.reshape(nb.positions, (m, 2))]))
-        velocities = _f64(np.concatenate([np.reshape(obs.velocity, (1, 2)),
-                                          np.reshape(nb.velocities, (m, 2))]))
+        positions = _f64(
+            np.concatenate([np.reshape(obs.position, (1, 2)), np.reshape(nb.positions, (m, 2))])
+        )
+        velocities = _f64(
+            np.concatenate([np.reshape(obs.velocity, (1, 2)), np.reshape(nb.velocities, (m, 2))])
+        )
         radii = _f64(np.concatenate([[obs.radius], np.reshape(nb.radii, m)]))
         reactive = np.array([False] + [k == "robot" for k in nb.kinds], dtype=np.bool_)
         target = goal_target(obs)
         goals = _f64(np.zeros((1, 2)) if target is None else np.reshape(target, (1, 2)))
         options, has_v_pref, limit = _options_of([self])
         wall_c, wall_r, wall_start, wall_set = _wall_sets(
-            obs.walls, obs.wall_radius, np.array([obs.radius + self.margin]))
+            obs.walls, obs.wall_radius, np.array([obs.radius + self.margin])
+        )
         acc = orca_accelerations(
-            positions, velocities, radii, _f64(np.full(m + 1, obs.a_max)),
-            _f64(np.full(m + 1, obs.v_max)), reactive, np.zeros(1, dtype=np.int64), goals,
-            np.array([target is not None]), np.array([0, m], dtype=np.int64),
-            np.arange(1, m + 1, dtype=np.int64), np.zeros(1, dtype=np.int64),
-            wall_c, wall_r, wall_start, wall_set, options, has_v_pref, limit, float(obs.dt))
+            positions,
+            velocities,
+            radii,
+            _f64(np.full(m + 1, obs.a_max)),
+            _f64(np.full(m + 1, obs.v_max)),
+            reactive,
+            np.zeros(1, dtype=np.int64),
+            goals,
+            np.array([target is not None]),
+            np.array([0, m], dtype=np.int64),
+            np.arange(1, m + 1, dtype=np.int64),
+            np.zeros(1, dtype=np.int64),
+            wall_c,
+            wall_r,
+            wall_start,
+            wall_set,
+            options,
+            has_v_pref,
+            limit,
+            float(obs.dt),
+        )
         return acc[0]
 
     @classmethod
@@ -514,16 +569,18 @@ class ORCAAgent:
             except Exception as exc:  # noqa: BLE001 - the agent's failure
                 out[i] = exc
         if todo:
-            acc = _batch_accelerations([agents[i] for i in todo], batch,
-                                       np.asarray(rows, dtype=np.int64)[todo])
+            acc = _batch_accelerations(
+                [agents[i] for i in todo], batch, np.asarray(rows, dtype=np.int64)[todo]
+            )
             for j, i in enumerate(todo):
                 out[i] = acc[j]
         return out
 
 
 _ACT = ORCAAgent.act
-_OPTIONS = operator.attrgetter("horizon", "margin", "v_pref", "time_constant",
-                               "sensing_range", "max_neighbours")
+_OPTIONS = operator.attrgetter(
+    "horizon", "margin", "v_pref", "time_constant", "sensing_range", "max_neighbours"
+)
 
 
 _Table = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]
@@ -565,11 +622,27 @@ def _batch_accelerations(
     else:
         wall_c, wall_r, wall_start, wall_set = _no_wall_sets(len(rows))
     return orca_accelerations(
-        _f64(batch.positions), _f64(batch.velocities), _f64(batch.radii),
-        _f64(batch.a_max), _f64(batch.v_max), _reactive(batch.kinds), bodies,
-        _f64(batch.goals), _every_goal(len(bodies)), _i64(batch.nb_start),
-        _i64(batch.nb_index), rows, wall_c, wall_r, wall_start, wall_set, options,
-        has_v_pref, limit, float(batch.dt))
+        _f64(batch.positions),
+        _f64(batch.velocities),
+        _f64(batch.radii),
+        _f64(batch.a_max),
+        _f64(batch.v_max),
+        _reactive(batch.kinds),
+        bodies,
+        _f64(batch.goals),
+        _every_goal(len(bodies)),
+        _i64(batch.nb_start),
+        _i64(batch.nb_index),
+        rows,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_set,
+        options,
+        has_v_pref,
+        limit,
+        float(batch.dt),
+    )
 
 
 _NO_WALL_SETS: dict[int, tuple[NDArray[Any], ...]] = {}
@@ -583,8 +656,7 @@ def _no_wall_sets(n: int) -> tuple[NDArray[Any], ...]:
     if sets is None:
         if len(_NO_WALL_SETS) > 64:
             _NO_WALL_SETS.clear()
-        sets = _NO_WALL_SETS[n] = _wall_sets(NO_WALLS[0].reshape(0, 2, 2), NO_WALLS[1],
-                                             np.zeros(n))
+        sets = _NO_WALL_SETS[n] = _wall_sets(NO_WALLS[0].reshape(0, 2, 2), NO_WALLS[1], np.zeros(n))
     return sets
 
 

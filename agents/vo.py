@@ -27,8 +27,13 @@ class VOAgent:
     time_constant (s), sensing_range (m)."""
 
     def __init__(
-        self, horizon: float = 3.0, margin: float = 0.05, v_pref: float | None = None,
-        rings: int = 8, angles: int = 32, time_constant: float = 0.3,
+        self,
+        horizon: float = 3.0,
+        margin: float = 0.05,
+        v_pref: float | None = None,
+        rings: int = 8,
+        angles: int = 32,
+        time_constant: float = 0.3,
         sensing_range: float = 30.0,
     ) -> None:
         self.times = np.linspace(0.0, horizon, 2)

@@ -103,6 +103,7 @@ class PhaseClock:
                 out = inner(agents, batch_, rows_)
                 sums["act_batch"] += clock() - t0
                 return out
+
             # the arena's checks run as they are; only the class's act_batch is timed
             return act_batch(SimpleNamespace(act_batch=call), batch, rows)
 
@@ -155,8 +156,7 @@ def warm_up(agent: str) -> None:
     _WARM.add(agent)
 
 
-def time_episode(spec: MapSpec, agent: str, seed: int, seconds: float,
-                 window: float) -> Timing:
+def time_episode(spec: MapSpec, agent: str, seed: int, seconds: float, window: float) -> Timing:
     """The first ``seconds`` simulated seconds of an episode timed step by step (and
     phase by phase, :class:`PhaseClock`), after :func:`warm_up` and one untimed step
     of this scene."""
@@ -179,8 +179,9 @@ def time_episode(spec: MapSpec, agent: str, seed: int, seconds: float,
     per = 1e6 / robots
     by_phase = {name: per * total / len(w) for name, total in phases.sums.items()}
     by_phase["rest"] = per * float(w.mean()) - sum(by_phase[p] for p in PHASES)
-    return Timing(len(w), robots, per * float(w.mean()), per * float(sums.max()) / span,
-                  arena.done, by_phase)
+    return Timing(
+        len(w), robots, per * float(w.mean()), per * float(sums.max()) / span, arena.done, by_phase
+    )
 
 
 @dataclass(frozen=True)
@@ -203,6 +204,7 @@ def scaling(sizes: list[int], costs: list[float]) -> tuple[list[float], float]:
     k = float(np.polyfit(np.log(sizes), np.log(costs), 1)[0])
     return ratios, k
 
+
 def _agents(text: str) -> list[tuple[str, str]]:
     """``label=ref`` or ``ref`` items, comma separated: (label, ref) pairs."""
     out = []
@@ -218,10 +220,12 @@ def _sizes(text: str) -> list[int]:
 
 def print_rows(rows: list[Row]) -> None:
     """The rows: whole step (mean, worst window, both over goal's) and mean by phase."""
-    header = (f"{'scene':36} {'agent':8} {'robots':>6} {'steps':>6} {'ended':>5} "
-              f"{'mean us':>9} {'worst us':>9} {'mean/goal':>9} {'worst/goal':>10} | "
-              f"{'sense':>7} {'agents':>7} {'(act_b)':>7} {'physics':>7} {'stats':>7} "
-              f"{'rest':>7}")
+    header = (
+        f"{'scene':36} {'agent':8} {'robots':>6} {'steps':>6} {'ended':>5} "
+        f"{'mean us':>9} {'worst us':>9} {'mean/goal':>9} {'worst/goal':>10} | "
+        f"{'sense':>7} {'agents':>7} {'(act_b)':>7} {'physics':>7} {'stats':>7} "
+        f"{'rest':>7}"
+    )
     print(header)
     print("-" * len(header))
     for r in rows:
@@ -229,10 +233,14 @@ def print_rows(rows: list[Row]) -> None:
         base = next((b.timing for b in rows if b.scene == r.scene and b.agent == "goal"), None)
         ratio_mean = f"{t.mean_us / base.mean_us:9.2f}" if base else f"{'-':>9}"
         ratio_worst = f"{t.worst_us / base.worst_us:10.2f}" if base else f"{'-':>10}"
-        phases = " ".join(f"{t.phases[p]:7.1f}" for p in
-                          ("sense", "agents", "act_batch", "physics", "stats", "rest"))
-        print(f"{r.scene:36} {r.agent:8} {t.robots:6d} {t.steps:6d} {str(t.ended):>5} "
-              f"{t.mean_us:9.1f} {t.worst_us:9.1f} {ratio_mean} {ratio_worst} | {phases}")
+        phases = " ".join(
+            f"{t.phases[p]:7.1f}"
+            for p in ("sense", "agents", "act_batch", "physics", "stats", "rest")
+        )
+        print(
+            f"{r.scene:36} {r.agent:8} {t.robots:6d} {t.steps:6d} {str(t.ended):>5} "
+            f"{t.mean_us:9.1f} {t.worst_us:9.1f} {ratio_mean} {ratio_worst} | {phases}"
+        )
 
 
 def print_scaling(rows: list[Row], sizes: list[int]) -> None:
@@ -245,26 +253,41 @@ def print_scaling(rows: list[Row], sizes: list[int]) -> None:
     order = sorted(set(sizes))
     parts = ("whole", "sense", "agents", "act_batch", "physics", "stats")
     steps = [f"{a}->{b}" for a, b in pairwise(order)]
-    print(f"\ncost per agent-step against n, dense_swap_perturbed n = "
-          f"{', '.join(map(str, order))}: mean ratio between consecutive sizes; k of "
-          f"cost ~ n^k (least squares on log-log over those {len(order)} sizes; "
-          f"k = 0: total cost linear in n)")
-    header = (f"{'agent':8} " + " ".join(f"{s:>10}" for s in steps) + " | "
-              + " ".join(f"{'k ' + p:>11}" for p in parts))
+    print(
+        f"\ncost per agent-step against n, dense_swap_perturbed n = "
+        f"{', '.join(map(str, order))}: mean ratio between consecutive sizes; k of "
+        f"cost ~ n^k (least squares on log-log over those {len(order)} sizes; "
+        f"k = 0: total cost linear in n)"
+    )
+    header = (
+        f"{'agent':8} "
+        + " ".join(f"{s:>10}" for s in steps)
+        + " | "
+        + " ".join(f"{'k ' + p:>11}" for p in parts)
+    )
     print(header)
     print("-" * len(header))
     agents = list(dict.fromkeys(r.agent for r in rows))
     for agent in agents:
-        by_n = {int(r.scene.split("n=")[1]): r.timing for r in rows
-                if r.agent == agent and r.scene.startswith("dense_swap")}
+        by_n = {
+            int(r.scene.split("n=")[1]): r.timing
+            for r in rows
+            if r.agent == agent and r.scene.startswith("dense_swap")
+        }
         if any(n not in by_n for n in order):
             continue
         timings = [by_n[n] for n in order]
         ratios, _ = scaling(order, [t.mean_us for t in timings])
-        ks = [scaling(order, [t.mean_us if p == "whole" else t.phases[p] for t in timings])[1]
-              for p in parts]
-        print(f"{agent:8} " + " ".join(f"{x:10.2f}" for x in ratios) + " | "
-              + " ".join(f"{k:11.2f}" for k in ks))
+        ks = [
+            scaling(order, [t.mean_us if p == "whole" else t.phases[p] for t in timings])[1]
+            for p in parts
+        ]
+        print(
+            f"{agent:8} "
+            + " ".join(f"{x:10.2f}" for x in ratios)
+            + " | "
+            + " ".join(f"{k:11.2f}" for k in ks)
+        )
 
 
 def main() -> None:
@@ -272,24 +295,30 @@ def main() -> None:
     parser.add_argument("--sizes", default="100,300", help="dense swap robot counts")
     parser.add_argument("--streams", default="20", help="crossing streams: robots per stream")
     parser.add_argument("--agents", default="nao,orca,goal")
-    parser.add_argument("--seconds", type=float, default=60.0,
-                        help="simulated seconds timed per episode (at most)")
-    parser.add_argument("--window", type=float, default=10.0,
-                        help="simulated seconds of the worst window")
+    parser.add_argument(
+        "--seconds", type=float, default=60.0, help="simulated seconds timed per episode (at most)"
+    )
+    parser.add_argument(
+        "--window", type=float, default=10.0, help="simulated seconds of the worst window"
+    )
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     sizes = _sizes(args.sizes)
     scenes = [(f"dense_swap_perturbed n={n}", swap_spec(n)) for n in sizes]
-    scenes += [(f"crossing_streams_perturbed n={n}x2",
-                load_map("crossing_streams_perturbed", n=n)) for n in _sizes(args.streams)]
+    scenes += [
+        (f"crossing_streams_perturbed n={n}x2", load_map("crossing_streams_perturbed", n=n))
+        for n in _sizes(args.streams)
+    ]
     rows: list[Row] = []
     for scene, spec in scenes:
         for label, ref in _agents(args.agents):
             t = time_episode(spec, ref, args.seed, args.seconds, args.window)
             rows.append(Row(scene, label, t))
             print(f"# {scene} {label}: {t.steps} steps, {t.mean_us:.1f} us", flush=True)
-    print("\nmean and worst-window us per agent-step of the whole step | mean us per "
-          "agent-step by phase (act_b: the agents' act_batch, within agents)")
+    print(
+        "\nmean and worst-window us per agent-step of the whole step | mean us per "
+        "agent-step by phase (act_b: the agents' act_batch, within agents)"
+    )
     print_rows(rows)
     print_scaling(rows, sizes)
 

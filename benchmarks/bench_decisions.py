@@ -53,8 +53,9 @@ def _episode(map_name: str, n: int) -> Arena:
     return arena
 
 
-def _decide_call(args: tuple[Any, ...], holds: NDArray[np.bool_],
-                 status: NDArray[np.int64]) -> tuple[Any, ...] | None:
+def _decide_call(
+    args: tuple[Any, ...], holds: NDArray[np.bool_], status: NDArray[np.int64]
+) -> tuple[Any, ...] | None:
     """The ``decide_batch`` call that ``settle_members(*args)`` made inside (copied
     arguments, fresh outputs), from its arguments, the members' ``holds`` before it ran
     and the status it returned; None when it decided nothing."""
@@ -67,9 +68,22 @@ def _decide_call(args: tuple[Any, ...], holds: NDArray[np.bool_],
     grow = r + args[31][m, MARGIN]
     copied = tuple(x.copy() if isinstance(x, np.ndarray) else x for x in args[1:12])
     k = len(m)
-    return (*copied, todo, p, v, grow, a, s, holds, c, d, *args[21:29],
-            np.full(k, Outcome.UNDECIDED, dtype=np.int64), np.zeros((k, 2)),
-            np.zeros(k, dtype=np.int64))
+    return (
+        *copied,
+        todo,
+        p,
+        v,
+        grow,
+        a,
+        s,
+        holds,
+        c,
+        d,
+        *args[21:29],
+        np.full(k, Outcome.UNDECIDED, dtype=np.int64),
+        np.zeros((k, 2)),
+        np.zeros(k, dtype=np.int64),
+    )
 
 
 def capture(map_name: str, n: int, window: float) -> tuple[list[tuple[Any, ...]], float, int]:
@@ -116,8 +130,10 @@ def capture(map_name: str, n: int, window: float) -> tuple[list[tuple[Any, ...]]
         if call is not None:
             expected = replay([call], keep=True)[1][0]
             rows = call[11]
-            if any(not np.array_equal(e[rows], o[rows]) for e, o in zip(expected, out[1:4],
-                                                                          strict=True)):
+            if any(
+                not np.array_equal(e[rows], o[rows])
+                for e, o in zip(expected, out[1:4], strict=True)
+            ):
                 raise AssertionError("a rebuilt decide_batch call gave other outcomes")
             calls.append(call)
         return out
@@ -129,11 +145,15 @@ def capture(map_name: str, n: int, window: float) -> tuple[list[tuple[Any, ...]]
             arena.step()
     finally:
         nao_module.settle_members = original
-    return calls, float(sum(step_time[first:first + steps])), steps
+    return calls, float(sum(step_time[first : first + steps])), steps
 
 
-def replay(calls: list[tuple[Any, ...]], digest: Any = None,
-           kinds: Counter[str] | None = None, keep: bool = False) -> Any:
+def replay(
+    calls: list[tuple[Any, ...]],
+    digest: Any = None,
+    kinds: Counter[str] | None = None,
+    keep: bool = False,
+) -> Any:
     """Wall time (s) of every call once (fresh outputs); the outcomes go into digest and
     are counted in kinds; keep: also return each call's outputs (kind, accel, tested)."""
     total = 0.0
@@ -170,14 +190,20 @@ def main() -> None:
     best = min(replay(calls) for _ in range(max(1, args.repeat)))
     rows = sum(len(c[11]) for c in calls)
     agent_steps = steps * args.size
-    print(f"{args.map} n={args.size}: densest {steps} steps ({agent_steps} agent-steps), "
-          f"{len(calls)} decide_batch calls, {rows} re-selections "
-          f"({', '.join(f'{k} {v}' for k, v in sorted(kinds.items()))})")
-    print(f"replayed (least of {args.repeat}): {best * 1e3:.2f} ms = "
-          f"{best * 1e6 / max(rows, 1):.2f} us per re-selection, "
-          f"{best * 1e6 / agent_steps:.2f} us per agent-step")
-    print(f"whole step in that window (same run): {whole * 1e6 / agent_steps:.2f} us per "
-          f"agent-step; the decisions' share {best / whole:.2f}")
+    print(
+        f"{args.map} n={args.size}: densest {steps} steps ({agent_steps} agent-steps), "
+        f"{len(calls)} decide_batch calls, {rows} re-selections "
+        f"({', '.join(f'{k} {v}' for k, v in sorted(kinds.items()))})"
+    )
+    print(
+        f"replayed (least of {args.repeat}): {best * 1e3:.2f} ms = "
+        f"{best * 1e6 / max(rows, 1):.2f} us per re-selection, "
+        f"{best * 1e6 / agent_steps:.2f} us per agent-step"
+    )
+    print(
+        f"whole step in that window (same run): {whole * 1e6 / agent_steps:.2f} us per "
+        f"agent-step; the decisions' share {best / whole:.2f}"
+    )
     print(f"outcomes hash {digest.hexdigest()[:16]}")
 
 

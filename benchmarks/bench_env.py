@@ -32,11 +32,17 @@ from nao_arena.environment import parallel_env
 
 SCENES: list[tuple[str, str, dict[str, Any]]] = [
     ("roundabout, 1 controlled", "roundabout", {"controlled": ["west_east"]}),
-    ("circle_swap n=30, 29 NAO + 1", "circle_swap",
-     {"n": 30, "radius": 10.0, "controlled": ["swap0"]}),
+    (
+        "circle_swap n=30, 29 NAO + 1",
+        "circle_swap",
+        {"n": 30, "radius": 10.0, "controlled": ["swap0"]},
+    ),
     ("circle_swap n=30, all", "circle_swap", {"n": 30, "radius": 10.0}),
-    ("circle_swap n=30, all, NAO block", "circle_swap",
-     {"n": 30, "radius": 10.0, "nao_features": True}),
+    (
+        "circle_swap n=30, all, NAO block",
+        "circle_swap",
+        {"n": 30, "radius": 10.0, "nao_features": True},
+    ),
 ]
 
 
@@ -88,13 +94,17 @@ def main() -> None:
             bare = min(bare, time_bare(arena, bare_actions, 0))
             wrapped = min(wrapped, time_env(env, env_actions, 0))
         rows.append((label, bare, wrapped, len(env.possible_agents)))
-    head = (f"{'scene':34s} {'bare ms/step':>12s} {'env ms/step':>12s} {'env/bare':>9s} "
-            f"{'us/agent':>9s}")
+    head = (
+        f"{'scene':34s} {'bare ms/step':>12s} {'env ms/step':>12s} {'env/bare':>9s} "
+        f"{'us/agent':>9s}"
+    )
     print(head)
     print("-" * len(head))
     for label, bare, wrapped, m in rows:
-        print(f"{label:34s} {bare * 1e3:12.3f} {wrapped * 1e3:12.3f} {wrapped / bare:9.2f} "
-              f"{(wrapped - bare) * 1e6 / m:9.1f}")
+        print(
+            f"{label:34s} {bare * 1e3:12.3f} {wrapped * 1e3:12.3f} {wrapped / bare:9.2f} "
+            f"{(wrapped - bare) * 1e6 / m:9.1f}"
+        )
 
 
 if __name__ == "__main__":

@@ -63,14 +63,19 @@ def episode(scene: str, folder: Path | None) -> tuple[float, float, str, int, in
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--scenes", default=",".join(SCENES),
-                        help=f"comma-separated, from {', '.join(SCENES)}")
+    parser.add_argument(
+        "--scenes", default=",".join(SCENES), help=f"comma-separated, from {', '.join(SCENES)}"
+    )
     args = parser.parse_args()
-    print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}; "
-          f"{args.repeats} runs of each scene unlogged and logged, alternating; medians")
-    head = (f"{'scene':15s} {'robots':>6s} {'bodies':>6s} {'rows':>5s} {'plain s':>8s} "
-            f"{'logged s':>8s} {'overhead':>9s} {'(fastest)':>9s} {'write s':>7s} "
-            f"{'B/robot-step':>12s} {'B/body-step':>11s} {'read s':>7s}")
+    print(
+        f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}; "
+        f"{args.repeats} runs of each scene unlogged and logged, alternating; medians"
+    )
+    head = (
+        f"{'scene':15s} {'robots':>6s} {'bodies':>6s} {'rows':>5s} {'plain s':>8s} "
+        f"{'logged s':>8s} {'overhead':>9s} {'(fastest)':>9s} {'write s':>7s} "
+        f"{'B/robot-step':>12s} {'B/body-step':>11s} {'read s':>7s}"
+    )
     print(head)
     print("-" * len(head))
     with tempfile.TemporaryDirectory() as tmp:
@@ -91,10 +96,12 @@ def main() -> None:
             robots = len(log.robots)
             p, q = statistics.median(plain), statistics.median(logged)
             fastest = 100 * (min(logged) - min(plain)) / min(plain)
-            print(f"{scene:15s} {robots:6d} {bodies:6d} {rows:5d} {p:8.3f} {q:8.3f} "
-                  f"{100 * (q - p) / p:8.1f}% {fastest:8.1f}% {statistics.median(ends):7.3f} "
-                  f"{size / (robots * rows):12.1f} {size / (bodies * rows):11.1f} "
-                  f"{read:7.3f}")
+            print(
+                f"{scene:15s} {robots:6d} {bodies:6d} {rows:5d} {p:8.3f} {q:8.3f} "
+                f"{100 * (q - p) / p:8.1f}% {fastest:8.1f}% {statistics.median(ends):7.3f} "
+                f"{size / (robots * rows):12.1f} {size / (bodies * rows):11.1f} "
+                f"{read:7.3f}"
+            )
 
 
 if __name__ == "__main__":

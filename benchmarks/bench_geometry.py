@@ -47,8 +47,10 @@ def main() -> None:
     t = np.linspace(0, 4, 40)
     v = np.array([2.0, 0.5])
     print("clearance evaluations (K candidates x N obstacles x T samples per second), one core")
-    print(f"{'K':>6} {'N':>4} {'T':>4} {'exact':>10} {'admissible':>11} {'numpy@samples':>14} "
-          f"{'exact/numpy':>12}")
+    print(
+        f"{'K':>6} {'N':>4} {'T':>4} {'exact':>10} {'admissible':>11} {'numpy@samples':>14} "
+        f"{'exact/numpy':>12}"
+    )
     for k, n in ((1000, 10), (1000, 30), (200, 100)):
         c = _scene(rng, n, t)
         path = sampled_path(t, c, 1.0)
@@ -58,15 +60,22 @@ def main() -> None:
         sweep = piece_sweep(path.t, path.velocity, path.acceleration)
         ok = np.empty(k, dtype=bool)
         vv = np.ascontiguousarray(np.broadcast_to(v, a.shape))
-        dt_adm = _timeit(lambda a=a, path=path, sweep=sweep, ok=ok, vv=vv: admissible_kernel(
-            vv, a, np.inf, *path.arrays, sweep, 0.0, ok))
+        dt_adm = _timeit(
+            lambda a=a, path=path, sweep=sweep, ok=ok, vv=vv: admissible_kernel(
+                vv, a, np.inf, *path.arrays, sweep, 0.0, ok
+            )
+        )
         dt_np = _timeit(lambda a=a, c=c: numpy_samples_only(a, v, t, c, 1.0))
-        print(f"{k:>6} {n:>4} {len(t):>4} {evals / dt_exact:>10.3g} {evals / dt_adm:>11.3g} "
-              f"{evals / dt_np:>14.3g} {dt_np / dt_exact:>12.2f}")
+        print(
+            f"{k:>6} {n:>4} {len(t):>4} {evals / dt_exact:>10.3g} {evals / dt_adm:>11.3g} "
+            f"{evals / dt_np:>14.3g} {dt_np / dt_exact:>12.2f}"
+        )
     print()
     print("selection: nearest admissible acceleration, T = 40, a_max = 3 m/s^2 (200 scenes)")
-    print(f"{'N':>4} {'median ms':>10} {'p90 ms':>8} {'max ms':>8} {'desired':>8} "
-          f"{'adjusted':>9} {'infeasible':>11} {'vs 1 exact clearance':>21}")
+    print(
+        f"{'N':>4} {'median ms':>10} {'p90 ms':>8} {'max ms':>8} {'desired':>8} "
+        f"{'adjusted':>9} {'infeasible':>11} {'vs 1 exact clearance':>21}"
+    )
     limits = AccelLimits(3.0)
     for n in (10, 30):
         times, status = [], {"desired": 0, "adjusted": 0, "infeasible": 0}
@@ -85,9 +94,11 @@ def main() -> None:
             one.append(time.perf_counter() - start)
         ms = 1e3 * np.array(times)
         ratio = np.median(times) / np.median(one)
-        print(f"{n:>4} {np.median(ms):>10.3f} {np.percentile(ms, 90):>8.3f} {ms.max():>8.3f} "
-              f"{status['desired']:>8} {status['adjusted']:>9} {status['infeasible']:>11} "
-              f"{ratio:>20.1f}x")
+        print(
+            f"{n:>4} {np.median(ms):>10.3f} {np.percentile(ms, 90):>8.3f} {ms.max():>8.3f} "
+            f"{status['desired']:>8} {status['adjusted']:>9} {status['infeasible']:>11} "
+            f"{ratio:>20.1f}x"
+        )
 
 
 if __name__ == "__main__":

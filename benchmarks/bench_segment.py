@@ -70,10 +70,14 @@ def main() -> None:
     accels = rng.uniform(-1.5, 1.5, (k, 2))
     vv = np.ascontiguousarray(np.broadcast_to(v, accels.shape))
     print(f"K = {k} candidates, horizon {HORIZON} s, v_max {V_MAX} m/s, robot radius {RADIUS} m")
-    print("evaluations = candidates x walls per second (one core); speedup = disc chain time / "
-          "segment time; loss = max over candidates of exact minus disc-chain clearance (m)")
-    print(f"{'W':>3} {'length m':>9} {'discs':>6} {'clear seg':>10} {'clear discs':>12} "
-          f"{'speedup':>7} {'adm seg':>9} {'adm discs':>10} {'speedup':>7} {'loss m':>7}")
+    print(
+        "evaluations = candidates x walls per second (one core); speedup = disc chain time / "
+        "segment time; loss = max over candidates of exact minus disc-chain clearance (m)"
+    )
+    print(
+        f"{'W':>3} {'length m':>9} {'discs':>6} {'clear seg':>10} {'clear discs':>12} "
+        f"{'speedup':>7} {'adm seg':>9} {'adm discs':>10} {'speedup':>7} {'loss m':>7}"
+    )
     for w, length in ((1, 2.0), (1, 6.0), (4, 6.0), (12, 4.0)):
         walls = _walls(rng, w, length)
         half = np.full(w, HALF)
@@ -86,24 +90,40 @@ def main() -> None:
         tmin = np.empty_like(clear)
         tfirst = np.empty_like(clear)
         disc_ok = np.empty(k, dtype=bool)
-        dt_seg = per_call(lambda walls=walls, half=half, seg_out=seg_out: _segment_clearances(
-            v, accels, V_MAX, walls, half, HORIZON, seg_out))
-        dt_disc = per_call(lambda path=path, clear=clear, tmin=tmin, tfirst=tfirst: (
-            clearance_kernel(vv, accels, V_MAX, *path.arrays, clear, tmin, tfirst)))
-        dt_seg_adm = per_call(lambda walls=walls, half=half, seg_ok=seg_ok: _segment_admissible(
-            v, accels, V_MAX, walls, half, RADIUS, HORIZON, seg_ok))
-        dt_disc_adm = per_call(lambda path=path, sweep=sweep, disc_ok=disc_ok: admissible_kernel(
-            vv, accels, V_MAX, *path.arrays, sweep, 0.0, disc_ok))
+        dt_seg = per_call(
+            lambda walls=walls, half=half, seg_out=seg_out: _segment_clearances(
+                v, accels, V_MAX, walls, half, HORIZON, seg_out
+            )
+        )
+        dt_disc = per_call(
+            lambda path=path, clear=clear, tmin=tmin, tfirst=tfirst: clearance_kernel(
+                vv, accels, V_MAX, *path.arrays, clear, tmin, tfirst
+            )
+        )
+        dt_seg_adm = per_call(
+            lambda walls=walls, half=half, seg_ok=seg_ok: _segment_admissible(
+                v, accels, V_MAX, walls, half, RADIUS, HORIZON, seg_ok
+            )
+        )
+        dt_disc_adm = per_call(
+            lambda path=path, sweep=sweep, disc_ok=disc_ok: admissible_kernel(
+                vv, accels, V_MAX, *path.arrays, sweep, 0.0, disc_ok
+            )
+        )
         # the disc chain is conservative: its clearance (to grown discs) never exceeds the
         # exact surface clearance; the gap is what the chain gives away
         exact_clear = seg_out - RADIUS
         loss = (exact_clear - clear.min(axis=1)).max()
         evals = k * w
-        print(f"{w:>3} {length:>9.1f} {len(radii):>6} {evals / dt_seg:>10.3g} "
-              f"{evals / dt_disc:>12.3g} {dt_disc / dt_seg:>7.1f} {evals / dt_seg_adm:>9.3g} "
-              f"{evals / dt_disc_adm:>10.3g} {dt_disc_adm / dt_seg_adm:>7.1f} {loss:>7.3f}")
-        print(f"{'':>4}admitted: segment {int(seg_ok.sum())} / {k}, disc chain "
-              f"{int(disc_ok.sum())} / {k}")
+        print(
+            f"{w:>3} {length:>9.1f} {len(radii):>6} {evals / dt_seg:>10.3g} "
+            f"{evals / dt_disc:>12.3g} {dt_disc / dt_seg:>7.1f} {evals / dt_seg_adm:>9.3g} "
+            f"{evals / dt_disc_adm:>10.3g} {dt_disc_adm / dt_seg_adm:>7.1f} {loss:>7.3f}"
+        )
+        print(
+            f"{'':>4}admitted: segment {int(seg_ok.sum())} / {k}, disc chain "
+            f"{int(disc_ok.sum())} / {k}"
+        )
 
 
 if __name__ == "__main__":

@@ -34,14 +34,15 @@ def crowds(n: int) -> dict[str, np.ndarray]:
     return {"circle": ring, "packed": packed, "half": half}
 
 
-def sorted_then_cut(bodies: np.ndarray, pos: np.ndarray, reach: float,
-                    k: int) -> tuple[np.ndarray, np.ndarray]:
+def sorted_then_cut(
+    bodies: np.ndarray, pos: np.ndarray, reach: float, k: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Every body within range, sorted, then the first k of each list (CSR)."""
     start, index = neighbour_lists(bodies, pos, reach, None)
     counts = np.minimum(np.diff(start), k)
     out_start = np.zeros(len(bodies) + 1, dtype=np.int64)
     np.cumsum(counts, out=out_start[1:])
-    keep = np.concatenate([index[start[i]:start[i] + counts[i]] for i in range(len(bodies))])
+    keep = np.concatenate([index[start[i] : start[i] + counts[i]] for i in range(len(bodies))])
     return out_start, keep
 
 
@@ -59,12 +60,9 @@ def main() -> None:
             got = neighbour_lists(bodies, pos, args.range, args.k)
             ref = sorted_then_cut(bodies, pos, args.range, args.k)
             assert all(np.array_equal(a, b) for a, b in zip(got, ref, strict=True))
-            rings = per_call(partial(neighbour_lists, bodies, pos, args.range, args.k),
-                                     0.5) / n
-            full = per_call(partial(neighbour_lists, bodies, pos, args.range, None),
-                                    0.5) / n
-            print(f"{n:>6} {name:8} {1e6 * rings:>8.2f} {1e6 * full:>9.2f} "
-                  f"{full / rings:>10.1f}x")
+            rings = per_call(partial(neighbour_lists, bodies, pos, args.range, args.k), 0.5) / n
+            full = per_call(partial(neighbour_lists, bodies, pos, args.range, None), 0.5) / n
+            print(f"{n:>6} {name:8} {1e6 * rings:>8.2f} {1e6 * full:>9.2f} {full / rings:>10.1f}x")
 
 
 if __name__ == "__main__":

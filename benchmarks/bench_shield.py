@@ -42,8 +42,9 @@ def time_bare(env: Any, actions: list[dict[str, np.ndarray]], seed: int) -> floa
     return (time.perf_counter() - t0) / len(actions)
 
 
-def time_shielded(env: NAOShield, actions: list[dict[str, np.ndarray]],
-                  seed: int) -> tuple[float, float]:
+def time_shielded(
+    env: NAOShield, actions: list[dict[str, np.ndarray]], seed: int
+) -> tuple[float, float]:
     """Seconds per step in the shield's own part, and in the whole shielded step."""
     env.reset(seed=seed)
     in_shield = 0.0
@@ -80,15 +81,31 @@ def main() -> None:
             best_shield, best_total = min(best_shield, own), min(best_total, total)
         n = len(agents)
         statuses = dict(sorted(shielded.statuses.items()))
-        rows.append((label, n, args.steps, 1e6 * best_bare / n, 1e6 * best_shield / n,
-                     best_shield / best_bare, 1e6 * best_total / n, statuses))
-    print(f"{'scene':<18} {'agents':>6} {'steps':>5} {'env us/ag-step':>14} "
-          f"{'shield us/ag-step':>17} {'shield/env':>10} {'shielded step':>13}  statuses")
+        rows.append(
+            (
+                label,
+                n,
+                args.steps,
+                1e6 * best_bare / n,
+                1e6 * best_shield / n,
+                best_shield / best_bare,
+                1e6 * best_total / n,
+                statuses,
+            )
+        )
+    print(
+        f"{'scene':<18} {'agents':>6} {'steps':>5} {'env us/ag-step':>14} "
+        f"{'shield us/ag-step':>17} {'shield/env':>10} {'shielded step':>13}  statuses"
+    )
     for label, n, steps, env_us, shield_us, ratio, total_us, statuses in rows:
-        print(f"{label:<18} {n:>6} {steps:>5} {env_us:>14.1f} {shield_us:>17.1f} "
-              f"{ratio:>10.2f} {total_us:>13.1f}  {statuses}")
-    print("us per agent-step, best of the repeats; shield/env: the shield's own part over "
-          "the bare env step; shielded step: the shield and the env step it calls")
+        print(
+            f"{label:<18} {n:>6} {steps:>5} {env_us:>14.1f} {shield_us:>17.1f} "
+            f"{ratio:>10.2f} {total_us:>13.1f}  {statuses}"
+        )
+    print(
+        "us per agent-step, best of the repeats; shield/env: the shield's own part over "
+        "the bare env step; shielded step: the shield and the env step it calls"
+    )
 
 
 if __name__ == "__main__":

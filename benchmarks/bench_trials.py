@@ -26,8 +26,14 @@ from nao_arena.trials import TrialConfig, run_trial
 def measure(episodes: int, workers: int, seed: int) -> tuple[float, float, float]:
     """(wall time s, mean simulated episode duration s, mean in-episode wall time s)."""
     with tempfile.TemporaryDirectory() as tmp:
-        config = TrialConfig(maps=("roundabout",), agents=("nao",), episodes=episodes,
-                             seed=seed, workers=workers, out=Path(tmp))
+        config = TrialConfig(
+            maps=("roundabout",),
+            agents=("nao",),
+            episodes=episodes,
+            seed=seed,
+            workers=workers,
+            out=Path(tmp),
+        )
         start = time.perf_counter()
         run_trial(config, progress=None)
         wall = time.perf_counter() - start
@@ -45,25 +51,31 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     spec = load_map("roundabout")
-    print(f"roundabout: {spec.n_robots} robots (nao), {sum(g.count for g in spec.traffic)} "
-          f"traffic vehicles, time limit {spec.episode.time_limit:g} s (the map's own), "
-          f"dt {spec.physics.dt:g} s; {args.episodes} episodes per run; "
-          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} before the runs")
+    print(
+        f"roundabout: {spec.n_robots} robots (nao), {sum(g.count for g in spec.traffic)} "
+        f"traffic vehicles, time limit {spec.episode.time_limit:g} s (the map's own), "
+        f"dt {spec.physics.dt:g} s; {args.episodes} episodes per run; "
+        f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} before the runs"
+    )
     # warm-up: numba caches and imports in this process
     measure(1, 1, args.seed + 1)
     rates: dict[int, float] = {}
     for w in (int(x) for x in args.workers.split(",")):
         wall, sim, per_episode = measure(args.episodes, w, args.seed)
         rates[w] = args.episodes / wall * 60.0
-        print(f"workers {w}: {wall:6.1f} s wall, {rates[w]:6.1f} episodes/min "
-              f"(mean simulated episode {sim:.1f} s, {per_episode:.2f} s wall inside a worker, "
-              f"{sim / per_episode:.1f}x real time)")
+        print(
+            f"workers {w}: {wall:6.1f} s wall, {rates[w]:6.1f} episodes/min "
+            f"(mean simulated episode {sim:.1f} s, {per_episode:.2f} s wall inside a worker, "
+            f"{sim / per_episode:.1f}x real time)"
+        )
     if 1 in rates:
         for w, r in rates.items():
             if w != 1:
                 print(f"scaling {w} workers / 1 worker: {r / rates[1]:.2f}x")
-    print(f"load average after the runs {os.getloadavg()[0]:.2f} (other processes on the "
-          "machine distort the scaling)")
+    print(
+        f"load average after the runs {os.getloadavg()[0]:.2f} (other processes on the "
+        "machine distort the scaling)"
+    )
 
 
 if __name__ == "__main__":

@@ -68,9 +68,15 @@ def main() -> None:
     rng = np.random.default_rng(0)
     acts = rng.uniform(-1, 1, (args.steps, args.copies * n, 2)).astype(np.float32)
     env_steps = args.steps * args.copies
-    vecs = {cpus: ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(make()), args.copies,
-                                        num_cpus=cpus, base_class="gymnasium")
-            for cpus in (0, 2)}
+    vecs = {
+        cpus: ss.concat_vec_envs_v1(
+            ss.pettingzoo_env_to_vec_env_v1(make()),
+            args.copies,
+            num_cpus=cpus,
+            base_class="gymnasium",
+        )
+        for cpus in (0, 2)
+    }
     best = {"bare": np.inf, 0: np.inf, 2: np.inf}
     try:
         for r in range(args.repeats):
@@ -83,17 +89,26 @@ def main() -> None:
         for vec in vecs.values():
             vec.close()
 
-    print(f"{args.env}: {n} agents, keep_finished=True; {args.copies} copies in the vector "
-          f"env; {env_steps} env steps ({env_steps * n} agent-steps) per runner, best of "
-          f"{args.repeats}")
-    print(f"{'runner':<22} {'env steps':>9} {'s':>7} {'env steps/s':>11} "
-          f"{'agent-steps/s':>13} {'x bare':>7}")
+    print(
+        f"{args.env}: {n} agents, keep_finished=True; {args.copies} copies in the vector "
+        f"env; {env_steps} env steps ({env_steps * n} agent-steps) per runner, best of "
+        f"{args.repeats}"
+    )
+    print(
+        f"{'runner':<22} {'env steps':>9} {'s':>7} {'env steps/s':>11} "
+        f"{'agent-steps/s':>13} {'x bare':>7}"
+    )
     base = env_steps / best["bare"]
-    for key, label in (("bare", "bare parallel env"), (0, "vec, num_cpus=0"),
-                       (2, "vec, num_cpus=2")):
+    for key, label in (
+        ("bare", "bare parallel env"),
+        (0, "vec, num_cpus=0"),
+        (2, "vec, num_cpus=2"),
+    ):
         rate = env_steps / best[key]
-        print(f"{label:<22} {env_steps:>9} {best[key]:>7.2f} {rate:>11.0f} {rate * n:>13.0f} "
-              f"{rate / base:>7.2f}")
+        print(
+            f"{label:<22} {env_steps:>9} {best[key]:>7.2f} {rate:>11.0f} {rate * n:>13.0f} "
+            f"{rate / base:>7.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -54,8 +54,14 @@ def scene(name: str, seed: int, params: dict) -> str:
 
 def run_episode(python: str, spec: str, seed: int) -> dict:
     """One timed episode of the map ``spec`` (JSON) in a fresh process of ``python``."""
-    out = subprocess.run([python, "-c", EPISODE, str(seed)], input=spec, capture_output=True,
-                         text=True, check=False, cwd="/")
+    out = subprocess.run(
+        [python, "-c", EPISODE, str(seed)],
+        input=spec,
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd="/",
+    )
     if out.returncode != 0:
         raise SystemExit(f"{python}: episode seed {seed} failed:\n{out.stderr[-2000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -71,9 +77,13 @@ def main(argv: list[str] | None = None) -> int:
     pythons = {"after": sys.executable}
     if args.before_python:
         pythons = {"before": args.before_python, **pythons}
-    print(f"{'map':<18} {'seed':>4} " + " ".join(
-        f"{k + ' s':>9} {'ms/step':>8} {k + ' arrived':>15} {k + ' contacts':>15}"
-        for k in pythons))
+    print(
+        f"{'map':<18} {'seed':>4} "
+        + " ".join(
+            f"{k + ' s':>9} {'ms/step':>8} {k + ' arrived':>15} {k + ' contacts':>15}"
+            for k in pythons
+        )
+    )
     for name in args.maps.split(","):
         walls: dict[str, list[float]] = {k: [] for k in pythons}
         per_step: dict[str, list[float]] = {k: [] for k in pythons}
@@ -84,18 +94,23 @@ def main(argv: list[str] | None = None) -> int:
                 res = run_episode(python, spec, seed)
                 walls[label].append(res["wall"])
                 per_step[label].append(res["wall"] / res["steps"])
-                row.append(f"{res['wall']:>9.2f} {1e3 * res['wall'] / res['steps']:>8.2f} "
-                           f"{res['arrived']:>7}/{res['robots']:<7} {res['contacts']:>15}")
+                row.append(
+                    f"{res['wall']:>9.2f} {1e3 * res['wall'] / res['steps']:>8.2f} "
+                    f"{res['arrived']:>7}/{res['robots']:<7} {res['contacts']:>15}"
+                )
             print(f"{name:<18} {seed:>4} " + " ".join(row), flush=True)
         if "before" in walls:
             ratios = [b / a for b, a in zip(walls["before"], walls["after"], strict=True)]
-            step_ratios = [b / a for b, a in zip(per_step["before"], per_step["after"],
-                                                 strict=True)]
-            print(f"{name:<18} before/after over {len(ratios)} episodes: episode wall time "
-                  f"median {statistics.median(ratios):.1f}x (range {min(ratios):.1f}-"
-                  f"{max(ratios):.1f}x; total {sum(walls['before']):.1f} s -> "
-                  f"{sum(walls['after']):.1f} s), per step median "
-                  f"{statistics.median(step_ratios):.1f}x")
+            step_ratios = [
+                b / a for b, a in zip(per_step["before"], per_step["after"], strict=True)
+            ]
+            print(
+                f"{name:<18} before/after over {len(ratios)} episodes: episode wall time "
+                f"median {statistics.median(ratios):.1f}x (range {min(ratios):.1f}-"
+                f"{max(ratios):.1f}x; total {sum(walls['before']):.1f} s -> "
+                f"{sum(walls['after']):.1f} s), per step median "
+                f"{statistics.median(step_ratios):.1f}x"
+            )
         else:
             print(f"{name:<18} total {sum(walls['after']):.1f} s over {len(seeds)} episodes")
     return 0

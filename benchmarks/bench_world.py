@@ -66,8 +66,9 @@ def bare_space(world: World) -> tuple[pymunk.Space, list[pymunk.Body]]:
     return space, bodies
 
 
-def goal_seeking(world: World, goals: np.ndarray, pos: np.ndarray, vel: np.ndarray,
-                 rng: np.random.Generator) -> np.ndarray:
+def goal_seeking(
+    world: World, goals: np.ndarray, pos: np.ndarray, vel: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
     """Proportional goal seeking plus a little noise (m/s^2): the robots' commands."""
     to_goal = goals - pos
     dist = np.hypot(*to_goal.T)
@@ -93,13 +94,20 @@ def run(spec: MapSpec, steps: int, with_stats: bool, seed: int) -> tuple[float, 
     no_goal = np.zeros(world.n, dtype=bool)
     stats = None
     if with_stats:
-        stats = EpisodeStats(world.radii, world.kinds, world.names, world.wall_segments(),
-                             world.dt, velocities=world.velocities)
+        stats = EpisodeStats(
+            world.radii,
+            world.kinds,
+            world.names,
+            world.wall_segments(),
+            world.dt,
+            velocities=world.velocities,
+        )
     state = world.state()
     bare = spent = 0.0
     for _ in range(steps):
-        for body, p, v in zip(bodies, state.positions.tolist(), state.velocities.tolist(),
-                              strict=True):
+        for body, p, v in zip(
+            bodies, state.positions.tolist(), state.velocities.tolist(), strict=True
+        ):
             body.position = p
             body.velocity = v
         t0 = time.perf_counter()
@@ -110,8 +118,15 @@ def run(spec: MapSpec, steps: int, with_stats: bool, seed: int) -> tuple[float, 
         t0 = time.perf_counter()
         new = world.step(a)
         if stats is not None:
-            stats.update(state.time, state.positions, new.positions, new.velocities, a, no_goal,
-                         substeps=world.substep_positions)
+            stats.update(
+                state.time,
+                state.positions,
+                new.positions,
+                new.velocities,
+                a,
+                no_goal,
+                substeps=world.substep_positions,
+            )
         spent += time.perf_counter() - t0
         state = new
     return bare / steps, spent / steps
@@ -119,8 +134,12 @@ def run(spec: MapSpec, steps: int, with_stats: bool, seed: int) -> tuple[float, 
 
 def warm_up() -> None:
     """Load (or compile) the numba kernels of the statistics outside any timing."""
-    stats = EpisodeStats([0.3, 0.3], ["robot", "robot"], dt=0.1,
-                         walls=(np.array([[[0.0, -1.0], [0.0, 1.0]]]), np.array([0.05])))
+    stats = EpisodeStats(
+        [0.3, 0.3],
+        ["robot", "robot"],
+        dt=0.1,
+        walls=(np.array([[[0.0, -1.0], [0.0, 1.0]]]), np.array([0.05])),
+    )
     p = np.array([[-0.5, 0.0], [0.5, 0.0]])
     for k in range(3):
         stats.update(0.1 * k, p, p * 0.5, -p, np.zeros((2, 2)), np.zeros(2, bool))
@@ -146,22 +165,28 @@ def main() -> None:
     parser.add_argument("--scenes", nargs="+", default=["crowd", "circle_swap"])
     args = parser.parse_args()
     warm_up()
-    print(f"pymunk {pymunk.version}; dt 0.1 s, 10 substeps; best of {args.repeats} x "
-          f"{args.steps} steps")
+    print(
+        f"pymunk {pymunk.version}; dt 0.1 s, 10 substeps; best of {args.repeats} x "
+        f"{args.steps} steps"
+    )
     print("us per body-step: bare pymunk, world.step, world.step + stats.update, and the")
     print("difference (stats alone); ratios to bare pymunk in the same run")
     print("target: world+stats/bare <= 3 at N = 100")
-    header = (f"{'scene':<12}{'N':>5}{'bare':>8}{'world':>8}{'+stats':>8}{'stats':>8}"
-              f"{'world/bare':>12}{'world+stats/bare':>18}")
+    header = (
+        f"{'scene':<12}{'N':>5}{'bare':>8}{'world':>8}{'+stats':>8}{'stats':>8}"
+        f"{'world/bare':>12}{'world+stats/bare':>18}"
+    )
     print(header)
     print("-" * len(header))
     for kind in args.scenes:
         for n in args.sizes:
             r = measure(kind, n, args.steps, args.repeats)
             per = {k: v / n * 1e6 for k, v in r.items()}
-            print(f"{kind:<12}{n:>5}{per['bare']:>8.2f}{per['world']:>8.2f}{per['stats']:>8.2f}"
-                  f"{per['stats'] - per['world']:>8.2f}"
-                  f"{r['world'] / r['bare']:>12.2f}{r['stats'] / r['bare']:>18.2f}")
+            print(
+                f"{kind:<12}{n:>5}{per['bare']:>8.2f}{per['world']:>8.2f}{per['stats']:>8.2f}"
+                f"{per['stats'] - per['world']:>8.2f}"
+                f"{r['world'] / r['bare']:>12.2f}{r['stats'] / r['bare']:>18.2f}"
+            )
 
 
 if __name__ == "__main__":

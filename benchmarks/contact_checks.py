@@ -28,21 +28,31 @@ def seeds_of(text: str) -> list[int]:
 
 def episode(map_name: str, agent: str, seed: int) -> tuple[int, int, int]:
     """(contacts with the substep check, with the step-end check, steps) of one episode."""
-    spec = load_map(map_name, **({"seed": seed} if "seed" in load_map(map_name).parameters
-                                 else {}))
+    spec = load_map(map_name, **({"seed": seed} if "seed" in load_map(map_name).parameters else {}))
     arena = Arena(spec, ArenaOptions(agent=agent))
     state = arena.reset(seed)
-    ends = EpisodeStats(arena.world.radii, arena.world.kinds, arena.world.names,
-                        walls=(arena.walls, arena.wall_radius), dt=arena.world.dt,
-                        velocities=state.velocities)
+    ends = EpisodeStats(
+        arena.world.radii,
+        arena.world.kinds,
+        arena.world.names,
+        walls=(arena.walls, arena.wall_radius),
+        dt=arena.world.dt,
+        velocities=state.velocities,
+    )
     steps = 0
     while not arena.done:
         before = arena.state
         result = arena.step()
         reached = np.zeros(arena.world.n, dtype=bool)
         reached[arena.robot_ids] = arena.reached
-        ends.update(before.time, before.positions, result.state.positions,
-                    result.state.velocities, result.commanded, reached)
+        ends.update(
+            before.time,
+            before.positions,
+            result.state.positions,
+            result.state.velocities,
+            result.commanded,
+            reached,
+        )
         steps += 1
     return len(arena.stats.contacts), len(ends.contacts), steps
 
@@ -53,8 +63,10 @@ def main() -> None:
     parser.add_argument("--agents", default="goal,orca")
     parser.add_argument("--seeds", default="0-9", help="range, e.g. 0-9")
     args = parser.parse_args()
-    print(f"{'map':<12} {'agent':<6} {'episodes':>8} {'substep check':>14} "
-          f"{'step-end check':>15} {'episodes differing':>19}")
+    print(
+        f"{'map':<12} {'agent':<6} {'episodes':>8} {'substep check':>14} "
+        f"{'step-end check':>15} {'episodes differing':>19}"
+    )
     for map_name in args.maps.split(","):
         for agent in args.agents.split(","):
             sub = ends = differ = 0
@@ -62,8 +74,7 @@ def main() -> None:
             for seed in seeds:
                 a, b, _ = episode(map_name, agent, seed)
                 sub, ends, differ = sub + a, ends + b, differ + (a != b)
-            print(f"{map_name:<12} {agent:<6} {len(seeds):>8} {sub:>14} {ends:>15} "
-                  f"{differ:>19}")
+            print(f"{map_name:<12} {agent:<6} {len(seeds):>8} {sub:>14} {ends:>15} {differ:>19}")
 
 
 if __name__ == "__main__":

@@ -70,8 +70,15 @@ def run_episode(name: str, seed: int, agent: str, overrides: dict) -> Outcome:
     walls = sum(c.kind_b == "wall" for c in summary.contacts)
     robots = sum(c.kind_a == "robot" and c.kind_b == "robot" for c in summary.contacts)
     ended = arena.time < arena.spec.episode.time_limit - 1e-9
-    return Outcome(len(summary.robots), sum(r.at_goal_at_end for r in summary.robots),
-                   ended, arena.time, robots, walls, time.perf_counter() - start)
+    return Outcome(
+        len(summary.robots),
+        sum(r.at_goal_at_end for r in summary.robots),
+        ended,
+        arena.time,
+        robots,
+        walls,
+        time.perf_counter() - start,
+    )
 
 
 def _key(name: str, seed: int, agent: str, overrides: dict) -> str:
@@ -114,22 +121,34 @@ def summary_row(name: str, agent: str, runs: list[Outcome]) -> str:
     robots = sum(r.robots for r in runs)
     missing = sum(r.robots - r.at_goal for r in runs if not r.all_at_goal)
     timeouts = n - len(done)
-    return (f"| `{name}` | {agent} | {n} | {_share(len(done), n)} | {_times(done)} | "
-            f"{_share(sum(x > 0 for x in rr), n)}, {sum(rr)} events | "
-            f"{_share(sum(x > 0 for x in rw), n)}, {sum(rw)} events | "
-            f"{_share(timeouts, n)}; {missing}/{robots} robots not at their goals |")
+    return (
+        f"| `{name}` | {agent} | {n} | {_share(len(done), n)} | {_times(done)} | "
+        f"{_share(sum(x > 0 for x in rr), n)}, {sum(rr)} events | "
+        f"{_share(sum(x > 0 for x in rw), n)}, {sum(rw)} events | "
+        f"{_share(timeouts, n)}; {missing}/{robots} robots not at their goals |"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=20,
-                        help="seeds 0 .. SEEDS-1 of each _perturbed map")
+    parser.add_argument(
+        "--seeds", type=int, default=20, help="seeds 0 .. SEEDS-1 of each _perturbed map"
+    )
     parser.add_argument("--agents", default=",".join(AGENTS))
     parser.add_argument("--maps", default=",".join(SCENES), help="scenes (symmetric names)")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="map parameter overrides for every map, e.g. n=4")
-    parser.add_argument("--json", default=None, metavar="FILE",
-                        help="append each episode's outcome; skip the episodes already there")
+    parser.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="map parameter overrides for every map, e.g. n=4",
+    )
+    parser.add_argument(
+        "--json",
+        default=None,
+        metavar="FILE",
+        help="append each episode's outcome; skip the episodes already there",
+    )
     args = parser.parse_args()
     if args.seeds < 1:
         parser.error(f"--seeds: expected a positive number of seeds, got {args.seeds}")
@@ -162,20 +181,32 @@ def main() -> None:
                 cells.append(f"{out.cell():>{width + 10}}")
             print(f"{name:28} {seed:>4}  " + "  ".join(cells), flush=True)
     print()
-    print("| map | agent | episodes | all at their goals at once | time until then (s) | "
-          "episodes with robot-robot contact | episodes with robot-wall contact | "
-          "timed out |")
+    print(
+        "| map | agent | episodes | all at their goals at once | time until then (s) | "
+        "episodes with robot-robot contact | episodes with robot-wall contact | "
+        "timed out |"
+    )
     print("| --- | --- | ---: | --- | --- | --- | --- | --- |")
     for (name, agent), runs in results.items():
         print(summary_row(name, agent, runs))
     minutes = (time.perf_counter() - start) / 60.0
-    print(f"\n({ran} episodes run in {math.floor(minutes)} min {60 * (minutes % 1):.0f} s"
-          f"{f', {len(done)} read from {path}' if done else ''})")
-    walls = {agent: [o.seconds for (_, a), runs in results.items() if a == agent for o in runs]
-             for agent in agents}
-    print("wall time per episode (s): " + "; ".join(
-        f"{agent} median {statistics.median(w):.1f}, max {max(w):.1f}"
-        for agent, w in walls.items() if w))
+    print(
+        f"\n({ran} episodes run in {math.floor(minutes)} min {60 * (minutes % 1):.0f} s"
+        f"{f', {len(done)} read from {path}' if done else ''})"
+    )
+    walls = {
+        agent: [o.seconds for (_, a), runs in results.items() if a == agent for o in runs]
+        for agent in agents
+    }
+    print(
+        "wall time per episode (s): "
+        + "; ".join(
+            f"{agent} median {statistics.median(w):.1f}, max {max(w):.1f}"
+            for agent, w in walls.items()
+            if w
+        )
+    )
+
 
 if __name__ == "__main__":
     main()

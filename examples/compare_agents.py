@@ -32,8 +32,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--map", default="crossing", help="shipped map name or map file")
     parser.add_argument("--episodes", type=int, default=5, help="episodes per agent")
     parser.add_argument("--seed", type=int, default=0, help="the trial's root seed")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="map parameters, e.g. n=4")
+    parser.add_argument(
+        "--set", nargs="*", default=[], metavar="KEY=VALUE", help="map parameters, e.g. n=4"
+    )
     parser.add_argument("--time-limit", type=float, default=None, metavar="S")
     parser.add_argument("--workers", type=int, default=1, help="local worker processes")
     parser.add_argument("--out", default="results/compare", help="results folder")
@@ -43,8 +44,12 @@ def main(argv: list[str] | None = None) -> None:
         maps=(args.map,),
         agents=("nao", "orca", "goal", "polite"),  # the names tables and plots show
         agent_refs={"polite": POLITE},  # label -> what is loaded
-        episodes=args.episodes, seed=args.seed, workers=args.workers, out=Path(args.out),
-        overrides=parse_overrides(args.set), time_limit=args.time_limit,
+        episodes=args.episodes,
+        seed=args.seed,
+        workers=args.workers,
+        out=Path(args.out),
+        overrides=parse_overrides(args.set),
+        time_limit=args.time_limit,
     )
     result = run_trial(config)
     print(format_table(result.summary, legend=False))

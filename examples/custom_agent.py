@@ -55,15 +55,17 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description="One episode of the Polite agent.")
     parser.add_argument("--map", default="crossing", help="shipped map name or map file")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="map parameters, e.g. n=4")
+    parser.add_argument(
+        "--set", nargs="*", default=[], metavar="KEY=VALUE", help="map parameters, e.g. n=4"
+    )
     parser.add_argument("--time-limit", type=float, default=None, metavar="S")
     args = parser.parse_args(argv)
 
     spec = load_map(args.map, **parse_overrides(args.set))
     if args.time_limit is not None:
-        spec = spec.model_copy(update={"episode": spec.episode.model_copy(
-            update={"time_limit": args.time_limit})})
+        spec = spec.model_copy(
+            update={"episode": spec.episode.model_copy(update={"time_limit": args.time_limit})}
+        )
     # the same reference as on the command line: FILE.py:CLASS
     arena = Arena(spec, ArenaOptions(agent=f"{Path(__file__).resolve()}:Polite"))
     summary = arena.run(args.seed)

@@ -26,10 +26,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--map", default="roundabout", help="shipped map name or map file")
     parser.add_argument("--agent", default=None, help="agent of the robots (default: the map's)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="map parameters, e.g. n=4")
-    parser.add_argument("--seconds", type=float, default=20.0,
-                        help="simulated seconds to record (at most the episode)")
+    parser.add_argument(
+        "--set", nargs="*", default=[], metavar="KEY=VALUE", help="map parameters, e.g. n=4"
+    )
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        default=20.0,
+        help="simulated seconds to record (at most the episode)",
+    )
     parser.add_argument("--fps", type=float, default=10.0, help="frames per simulated second")
     parser.add_argument("--out", default="roundabout.gif", help="a .gif or .mp4 file")
     args = parser.parse_args(argv)

@@ -53,8 +53,7 @@ class Returns(BaseCallback):
         self.returns: list[float] = []
 
     def _on_step(self) -> bool:
-        self.returns += [float(i["episode"]["r"]) for i in self.locals["infos"]
-                         if "episode" in i]
+        self.returns += [float(i["episode"]["r"]) for i in self.locals["infos"] if "episode" in i]
         return True
 
 
@@ -65,8 +64,10 @@ def load_shield() -> Any:
     except ImportError as exc:
         if exc.name != "nao_arena.shield":
             raise  # the shield is there but something it needs is not
-        sys.exit(f"--shield needs nao_arena.shield.NAOShield (a wrapper of a parallel env: "
-                 f"NAOShield(parallel_env)), which this installation does not have ({exc})")
+        sys.exit(
+            f"--shield needs nao_arena.shield.NAOShield (a wrapper of a parallel env: "
+            f"NAOShield(parallel_env)), which this installation does not have ({exc})"
+        )
     return NAOShield
 
 
@@ -89,14 +90,23 @@ def make_env(envs: int, seed: int, shield: bool = False, num_cpus: int = 0) -> V
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--timesteps", type=int, default=20_000,
-                        help="agent-steps to train (default: %(default)s, about a minute)")
+    parser.add_argument(
+        "--timesteps",
+        type=int,
+        default=20_000,
+        help="agent-steps to train (default: %(default)s, about a minute)",
+    )
     parser.add_argument("--envs", type=int, default=2, help="copies of the env")
-    parser.add_argument("--num-cpus", type=int, default=0,
-                        help="worker processes for the copies (0: in this process)")
+    parser.add_argument(
+        "--num-cpus",
+        type=int,
+        default=0,
+        help="worker processes for the copies (0: in this process)",
+    )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--shield", action="store_true",
-                        help="wrap the env in nao_arena.shield.NAOShield")
+    parser.add_argument(
+        "--shield", action="store_true", help="wrap the env in nao_arena.shield.NAOShield"
+    )
     args = parser.parse_args(argv)
     # the first run compiles the kernels: show its progress (logger nao_arena.kernels)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
@@ -104,8 +114,17 @@ def main(argv: list[str] | None = None) -> int:
 
     set_random_seed(args.seed)  # python, numpy, torch
     vec = make_env(args.envs, args.seed, args.shield, args.num_cpus)
-    model = PPO("MlpPolicy", vec, n_steps=128, batch_size=256, n_epochs=4,
-                learning_rate=3e-4, gamma=0.99, device="cpu", verbose=0)
+    model = PPO(
+        "MlpPolicy",
+        vec,
+        n_steps=128,
+        batch_size=256,
+        n_epochs=4,
+        learning_rate=3e-4,
+        gamma=0.99,
+        device="cpu",
+        verbose=0,
+    )
     returns = Returns()
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.timesteps, callback=returns)
@@ -114,14 +133,18 @@ def main(argv: list[str] | None = None) -> int:
 
     agents = len(crowd_v0.parallel_env(**ENV_KWARGS).possible_agents)
     steps = model.num_timesteps
-    print(f"crowd_v0, {agents} agents x {args.envs} envs: {steps} agent-steps "
-          f"({steps // agents} env steps) in {wall:.1f} s: {steps / wall:.0f} agent-steps/s, "
-          f"{steps / agents / wall:.0f} env steps/s (PPO updates included)")
+    print(
+        f"crowd_v0, {agents} agents x {args.envs} envs: {steps} agent-steps "
+        f"({steps // agents} env steps) in {wall:.1f} s: {steps / wall:.0f} agent-steps/s, "
+        f"{steps / agents / wall:.0f} env steps/s (PPO updates included)"
+    )
     done = returns.returns
     if done:
         q = max(1, len(done) // 4)
-        print(f"{len(done)} agent-episodes; mean return of the first {q}: "
-              f"{sum(done[:q]) / q:.1f}, of the last {q}: {sum(done[-q:]) / q:.1f}")
+        print(
+            f"{len(done)} agent-episodes; mean return of the first {q}: "
+            f"{sum(done[:q]) / q:.1f}, of the last {q}: {sum(done[-q:]) / q:.1f}"
+        )
     # the last update's values, recorded after the last log dump
     logged = model.logger.name_to_value
     losses = {name: float(logged[f"train/{name}"]) for name in LOSSES}

@@ -84,10 +84,22 @@ __all__ = [
 ]
 
 _GEOMETRY = (
-    "AccelLimits", "ao_boundary", "ao_boundary_paper", "ao_clearance", "ao_path",
-    "bao_boundary", "nao_boundary", "nao_clearance", "nao_query", "path_boundary",
-    "path_clearance", "repair_acceleration", "sampled_path", "select_acceleration",
-    "vo_clearance", "vo_cone",
+    "AccelLimits",
+    "ao_boundary",
+    "ao_boundary_paper",
+    "ao_clearance",
+    "ao_path",
+    "bao_boundary",
+    "nao_boundary",
+    "nao_clearance",
+    "nao_query",
+    "path_boundary",
+    "path_clearance",
+    "repair_acceleration",
+    "sampled_path",
+    "select_acceleration",
+    "vo_clearance",
+    "vo_cone",
 )
 
 _EXPORTS: dict[str, str] = {

@@ -30,13 +30,15 @@ class CheckoutFinder(MetaPathFinder):
     def __init__(self, folders: Mapping[str, Path]) -> None:
         self.folders = dict(folders)
 
-    def find_spec(self, fullname: str, path: Sequence[str] | None = None,
-                  target: ModuleType | None = None) -> ModuleSpec | None:
+    def find_spec(
+        self, fullname: str, path: Sequence[str] | None = None, target: ModuleType | None = None
+    ) -> ModuleSpec | None:
         folder = self.folders.get(fullname)
         if folder is None:
             return None
         return importlib.util.spec_from_file_location(
-            fullname, folder / "__init__.py", submodule_search_locations=[str(folder)])
+            fullname, folder / "__init__.py", submodule_search_locations=[str(folder)]
+        )
 
 
 def install(package_dir: Path) -> bool:
@@ -45,7 +47,8 @@ def install(package_dir: Path) -> bool:
     root = package_dir.parent
     folders = {name: root / folder for name, folder in FOLDERS.items()}
     if any((package_dir / name.rpartition(".")[2]).is_dir() for name in FOLDERS) or not all(
-            (folder / "__init__.py").is_file() for folder in folders.values()):
+        (folder / "__init__.py").is_file() for folder in folders.values()
+    ):
         return False
     if any(isinstance(f, CheckoutFinder) for f in sys.meta_path):
         return True

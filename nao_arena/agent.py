@@ -221,13 +221,17 @@ def check_agent_class(ref: str, cls: object) -> type:
     """``cls`` if it is a class with callable ``reset`` and ``act`` (the agent protocol);
     else ValueError naming ``ref`` and what is missing."""
     if not isinstance(cls, type):
-        raise ValueError(f"agent {ref}: expected a class with reset(spec, rng) and act(obs) "
-                         f"methods, got {type(cls).__name__} {cls!r}")
+        raise ValueError(
+            f"agent {ref}: expected a class with reset(spec, rng) and act(obs) "
+            f"methods, got {type(cls).__name__} {cls!r}"
+        )
     missing = [m for m in ("reset", "act") if not callable(getattr(cls, m, None))]
     if missing:
-        raise ValueError(f"agent {ref}: class {cls.__name__} is not an agent: it has no "
-                         f"{' and no '.join(missing)} method (an agent needs "
-                         "reset(spec, rng) and act(obs))")
+        raise ValueError(
+            f"agent {ref}: class {cls.__name__} is not an agent: it has no "
+            f"{' and no '.join(missing)} method (an agent needs "
+            "reset(spec, rng) and act(obs))"
+        )
     return cls
 
 
@@ -243,9 +247,11 @@ def safe_act(
     except BaseException as exc:  # noqa: BLE001 - any agent failure is contained
         return np.zeros(2), AgentFault(obs.time, obs.robot_id, name, describe(exc))
     if out.shape != (2,):
-        return np.zeros(2), AgentFault(obs.time, obs.robot_id, name,
-                                       f"expected an acceleration of shape (2,), got {out.shape}")
+        return np.zeros(2), AgentFault(
+            obs.time, obs.robot_id, name, f"expected an acceleration of shape (2,), got {out.shape}"
+        )
     if not np.all(np.isfinite(out)):
-        return np.zeros(2), AgentFault(obs.time, obs.robot_id, name,
-                                       f"non-finite acceleration {out.tolist()}")
+        return np.zeros(2), AgentFault(
+            obs.time, obs.robot_id, name, f"non-finite acceleration {out.tolist()}"
+        )
     return out, None

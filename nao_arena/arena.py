@@ -104,11 +104,14 @@ class ArenaOptions:
     max_faults: int | None = None
 
     def __post_init__(self) -> None:
-        if self.max_faults is not None and (isinstance(self.max_faults, bool) or
-                                            not isinstance(self.max_faults, int) or
-                                            self.max_faults < 0):
-            raise ValueError(f"max_faults: expected an integer >= 0 or None, "
-                             f"got {self.max_faults!r}")
+        if self.max_faults is not None and (
+            isinstance(self.max_faults, bool)
+            or not isinstance(self.max_faults, int)
+            or self.max_faults < 0
+        ):
+            raise ValueError(
+                f"max_faults: expected an integer >= 0 or None, got {self.max_faults!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -129,15 +132,14 @@ class StepRecorder(Protocol):
     def begin(self, arena: Arena, seed: int | None) -> None:
         """The arena was just reset with ``seed``: its state, agents and statistics are fresh."""
 
-    def step(self, arena: Arena, sensing: SensingBatch, result: StepResult,
-             actions: Mapping[int, Any]) -> None:
+    def step(
+        self, arena: Arena, sensing: SensingBatch, result: StepResult, actions: Mapping[int, Any]
+    ) -> None:
         """One step ended: what the robots sensed before it, its result, the external
         actions (robot index -> acceleration) that replaced agents."""
 
 
-def make_agent(
-    ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | None = None
-) -> Any:
+def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | None = None) -> Any:
     """Instantiate the agent ``ref`` (a reference, or the class it names) for ``robot``.
 
     The robot's predictor and the map's ``agent_options`` for it are passed
@@ -177,26 +179,26 @@ class Arena:
         self.robots = list(spec.robots)
         self.agent_names = [self.options.agent or r.agent for r in self.robots]
         # what agents sense is read-only (see SensingBatch): goals, routes, walls, times
-        self.goals = read_only(
-            np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
-        self.routes = ReadOnlyRoutes.of([None if r.route is None else np.array(r.route, float)
-                                         for r in self.robots])
+        self.goals = read_only(np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
+        self.routes = ReadOnlyRoutes.of(
+            [None if r.route is None else np.array(r.route, float) for r in self.robots]
+        )
         walls, wall_radius = self.world.wall_segments()
         self.walls, self.wall_radius = read_only(walls), read_only(wall_radius)
-        self.path_times = read_only(np.linspace(
-            0.0, self.options.known_path_horizon, self.options.known_path_samples
-        ))
+        self.path_times = read_only(
+            np.linspace(0.0, self.options.known_path_horizon, self.options.known_path_samples)
+        )
         self._bodies = read_only(np.array(self.robot_ids, dtype=np.int64))
         self._radii = read_only(self.world.radii)
         self._a_max = read_only(self.world.a_max)
         self._v_max = read_only(self.world.v_max)
         self._robot_a_max = self.world.a_max[self.robot_ids]
         self.sensing_range = (
-            spec.sensing.range if self.options.sensing_range is None
-            else self.options.sensing_range
+            spec.sensing.range if self.options.sensing_range is None else self.options.sensing_range
         )
         self.max_neighbours = (
-            spec.sensing.max_neighbours if self.options.max_neighbours is None
+            spec.sensing.max_neighbours
+            if self.options.max_neighbours is None
             else self.options.max_neighbours
         )
         self.agents: list[Any] = []
@@ -219,8 +221,17 @@ class Arena:
         hash recomputed from a replay of the world's commands since its reset (the
         arena hashes the world's state after each reset and step)."""
         self.__dict__.update(state)
-        for name in ("goals", "walls", "wall_radius", "path_times", "_bodies", "_radii",
-                     "_a_max", "_v_max", "_kinds"):
+        for name in (
+            "goals",
+            "walls",
+            "wall_radius",
+            "path_times",
+            "_bodies",
+            "_radii",
+            "_a_max",
+            "_v_max",
+            "_kinds",
+        ):
             if getattr(self, name) is not None:
                 setattr(self, name, read_only(getattr(self, name)))
         self.routes = ReadOnlyRoutes(None if r is None else read_only(r) for r in self.routes)
@@ -242,8 +253,9 @@ class Arena:
         self.state = self.world.reset()
         seeds = np.random.SeedSequence(seed).spawn(len(self.robots))
         self.agents = []
-        for k, (robot, name, ss) in enumerate(zip(self.robots, self.agent_names, seeds,
-                                                   strict=True)):
+        for k, (robot, name, ss) in enumerate(
+            zip(self.robots, self.agent_names, seeds, strict=True)
+        ):
             cls = load_agent(name)
             stage = "constructor"
             try:
@@ -254,13 +266,18 @@ class Arena:
                 raise
             except BaseException as exc:  # noqa: BLE001 - reported as the episode's error
                 who = robot.name or f"robot {k}"
-                raise AgentError(f"agent {name!r} of {who}: its {stage} raised "
-                                 f"{describe(exc)}") from exc
+                raise AgentError(
+                    f"agent {name!r} of {who}: its {stage} raised {describe(exc)}"
+                ) from exc
             self.agents.append(agent)
         self.stats = EpisodeStats(
-            self.world.radii, self.world.kinds, self.world.names,
-            walls=(self.walls, self.wall_radius), dt=self.world.dt,
-            config=self.options.stats, velocities=self.state.velocities,
+            self.world.radii,
+            self.world.kinds,
+            self.world.names,
+            walls=(self.walls, self.wall_radius),
+            dt=self.world.dt,
+            config=self.options.stats,
+            velocities=self.state.velocities,
             goals=self._body_goals(),
         )
         self.commanded = np.zeros((self.world.n, 2))
@@ -275,6 +292,7 @@ class Arena:
         goals = np.full((self.world.n, 2), np.nan)
         goals[self.robot_ids] = self.goals
         return goals
+
     def _hash_state(self, state: WorldState) -> None:
         """Add a state's positions (m) and velocities (m/s), body order, float64 bytes
         to the trajectory hash."""
@@ -324,15 +342,32 @@ class Arena:
             kinds.setflags(write=False)  # read-only and owning its data: agents may cache by it
             self._kinds = kinds
         start, index = neighbour_lists(
-            self.robot_ids, state.positions, self.sensing_range, self.max_neighbours,
+            self.robot_ids,
+            state.positions,
+            self.sensing_range,
+            self.max_neighbours,
         )
         return SensingBatch(
-            time=state.time, dt=self.world.dt, positions=state.positions,
-            velocities=state.velocities, accelerations=state.accelerations, radii=self._radii,
-            a_max=self._a_max, v_max=self._v_max, kinds=self._kinds, plans=plans,
-            known_paths=known, path_times=self.path_times, bodies=self._bodies, goals=self.goals,
-            routes=self.routes, walls=self.walls, wall_radius=self.wall_radius,
-            nb_start=start, nb_index=index, substeps=self.world.substeps,
+            time=state.time,
+            dt=self.world.dt,
+            positions=state.positions,
+            velocities=state.velocities,
+            accelerations=state.accelerations,
+            radii=self._radii,
+            a_max=self._a_max,
+            v_max=self._v_max,
+            kinds=self._kinds,
+            plans=plans,
+            known_paths=known,
+            path_times=self.path_times,
+            bodies=self._bodies,
+            goals=self.goals,
+            routes=self.routes,
+            walls=self.walls,
+            wall_radius=self.wall_radius,
+            nb_start=start,
+            nb_index=index,
+            substeps=self.world.substeps,
         )
 
     def observations(self) -> list[Observation]:
@@ -356,13 +391,14 @@ class Arena:
         batched, single = self._dispatch()
         for k, acc in actions.items():
             if not 0 <= k < len(self.robot_ids):
-                raise ValueError(f"actions: robot index {k} is not one of the "
-                                 f"{len(self.robot_ids)} robots (0 .. {len(self.robot_ids) - 1})")
+                raise ValueError(
+                    f"actions: robot index {k} is not one of the "
+                    f"{len(self.robot_ids)} robots (0 .. {len(self.robot_ids) - 1})"
+                )
             commanded[self.robot_ids[k]] = acc
         if actions:
             single = [k for k in single if k not in actions]
-            batched = {cls: [k for k in rows if k not in actions]
-                       for cls, rows in batched.items()}
+            batched = {cls: [k for k in rows if k not in actions] for cls, rows in batched.items()}
         pid = os.getpid()
         for k in single:
             acc, fault = safe_act(self.agents[k], batch.observation(k), self.agent_names[k])
@@ -387,7 +423,8 @@ class Arena:
             raise TooManyFaults(
                 f"{len(self.stats.faults)} agent faults by t = {state.time:.1f} s, more than "
                 f"the {limit} allowed (max_faults); the first: robot "
-                f"{first.name} at t = {first.time:.1f} s: {first.message}")
+                f"{first.name} at t = {first.time:.1f} s: {first.message}"
+            )
         idx = self.traffic.indices
         if len(idx):
             commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)
@@ -399,7 +436,12 @@ class Arena:
         reached = np.zeros(self.world.n, dtype=bool)
         reached[self.robot_ids] = self.reached
         contacts = self.stats.update(
-            state.time, before, new_state.positions, new_state.velocities, commanded, reached,
+            state.time,
+            before,
+            new_state.positions,
+            new_state.velocities,
+            commanded,
+            reached,
             substeps=self.world.substep_positions,
         )
         result = StepResult(new_state.time, new_state, commanded, contacts, faults)
@@ -434,8 +476,12 @@ class Arena:
         agents = [self.agents[k] for k in rows]
         try:
             results = cls.act_batch(agents, batch, rows)
-            if (type(results) is np.ndarray and results.shape == (len(rows), 2)
-                    and results.dtype == np.float64 and np.isfinite(results).all()):
+            if (
+                type(results) is np.ndarray
+                and results.shape == (len(rows), 2)
+                and results.dtype == np.float64
+                and np.isfinite(results).all()
+            ):
                 return results.copy(), {}  # the common case of an array of them
             results = list(results)
             if len(results) != len(rows):
@@ -446,8 +492,9 @@ class Arena:
             raise
         except BaseException as exc:  # noqa: BLE001 - any agent failure is contained
             results = [exc] * len(rows)
-        if all(type(r) is np.ndarray and r.shape == (2,) and r.dtype == np.float64
-               for r in results):
+        if all(
+            type(r) is np.ndarray and r.shape == (2,) and r.dtype == np.float64 for r in results
+        ):
             # the common case, checked at once
             accs = np.array(results)
             if np.all(np.isfinite(accs)):
@@ -468,11 +515,12 @@ class Arena:
                 continue
             if acc.shape != (2,):
                 faults[k] = AgentFault(
-                    batch.time, k, name,
-                    f"expected an acceleration of shape (2,), got {acc.shape}")
+                    batch.time, k, name, f"expected an acceleration of shape (2,), got {acc.shape}"
+                )
             elif not (math.isfinite(acc[0]) and math.isfinite(acc[1])):
-                faults[k] = AgentFault(batch.time, k, name,
-                                       f"non-finite acceleration {acc.tolist()}")
+                faults[k] = AgentFault(
+                    batch.time, k, name, f"non-finite acceleration {acc.tolist()}"
+                )
             else:
                 accs[i] = acc
         return accs, faults
@@ -489,5 +537,6 @@ class Arena:
     def summary(self) -> EpisodeSummary:
         """The episode so far (see :meth:`EpisodeStats.summary`), with its trajectory hash."""
         assert self.stats is not None
-        return dataclasses.replace(self.stats.summary(),
-                                   trajectory_hash=self._trajectory.hexdigest())
+        return dataclasses.replace(
+            self.stats.summary(), trajectory_hash=self._trajectory.hexdigest()
+        )

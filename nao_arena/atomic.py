@@ -36,8 +36,9 @@ def temporary_sibling(path: str | Path, suffix: str = ".tmp") -> tuple[int, str]
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=suffix,
-                               dir=path.parent)
+    fd, tmp = tempfile.mkstemp(
+        prefix=f".{path.name}.{os.getpid()}.", suffix=suffix, dir=path.parent
+    )
     umask = os.umask(0o022)
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)
@@ -116,8 +117,7 @@ def replace_synced(tmp: str | Path, path: str | Path) -> None:
     _fsync_folder(Path(path).parent)
 
 
-def atomic_write_with(path: str | Path, write: Callable[[str], None],
-                      suffix: str = ".tmp") -> None:
+def atomic_write_with(path: str | Path, write: Callable[[str], None], suffix: str = ".tmp") -> None:
     """Call ``write(tmp)`` for a temporary name next to ``path`` (ending in ``suffix``,
     for writers that go by the file name), then move the file onto ``path``."""
     fd, tmp = temporary_sibling(path, suffix=suffix)
@@ -132,6 +132,7 @@ def atomic_write_with(path: str | Path, write: Callable[[str], None],
 
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Write text (UTF-8, newlines as given) to ``path`` atomically."""
+
     def write(tmp: str) -> None:
         with open(tmp, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)

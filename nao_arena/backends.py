@@ -73,8 +73,9 @@ class Backend(ABC, Generic[T, R]):
     name = "backend"
 
     @abstractmethod
-    def run(self, fn: Callable[[T], R], tasks: Sequence[T],
-            finished: Callable[[T, R], None]) -> None:
+    def run(
+        self, fn: Callable[[T], R], tasks: Sequence[T], finished: Callable[[T, R], None]
+    ) -> None:
         """Call ``fn(task)`` for every task; ``finished(task, result)`` here, as each ends.
 
         An exception from ``finished`` (or KeyboardInterrupt) cancels the tasks
@@ -90,8 +91,12 @@ class Backend(ABC, Generic[T, R]):
     def __enter__(self) -> Backend[T, R]:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.close()
 
 
@@ -105,15 +110,20 @@ class LocalBackend(Backend[T, R]):
             raise ValueError(f"workers: expected >= 1, got {workers}")
         self.workers = workers
 
-    def run(self, fn: Callable[[T], R], tasks: Sequence[T],
-            finished: Callable[[T, R], None]) -> None:
+    def run(
+        self, fn: Callable[[T], R], tasks: Sequence[T], finished: Callable[[T, R], None]
+    ) -> None:
         if self.workers == 1 or len(tasks) <= 1:
             for task in tasks:
                 finished(task, fn(task))
             return
         ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)), mp_context=ctx,
-                                 initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+        with ProcessPoolExecutor(
+            max_workers=min(self.workers, len(tasks)),
+            mp_context=ctx,
+            initializer=die_with_parent,
+            initargs=(os.getpid(),),
+        ) as pool:
             pending: dict[Future[R], T] = {}
             try:
                 pending = {pool.submit(fn, t): t for t in tasks}
@@ -192,8 +202,9 @@ class RayBackend(Backend[T, R]):
 
     name = "ray"
 
-    def __init__(self, workers: int = 1, address: str | None = None,
-                 window: int | None = None) -> None:
+    def __init__(
+        self, workers: int = 1, address: str | None = None, window: int | None = None
+    ) -> None:
         if workers < 1:
             raise ValueError(f"workers: expected >= 1, got {workers}")
         self.workers = workers
@@ -219,8 +230,9 @@ class RayBackend(Backend[T, R]):
             raise BackendError(f"cannot start or connect to {where}: {exc}") from exc
         self.started = True
 
-    def run(self, fn: Callable[[T], R], tasks: Sequence[T],
-            finished: Callable[[T, R], None]) -> None:
+    def run(
+        self, fn: Callable[[T], R], tasks: Sequence[T], finished: Callable[[T, R], None]
+    ) -> None:
         if not tasks:
             return
         self.prepare()
@@ -265,8 +277,9 @@ class RayBackend(Backend[T, R]):
             self.started = False
 
 
-def make_backend(name: str = "local", workers: int = 1,
-                 address: str | None = None) -> Backend[Any, Any]:
+def make_backend(
+    name: str = "local", workers: int = 1, address: str | None = None
+) -> Backend[Any, Any]:
     """The backend ``name`` (see :data:`BACKENDS`); ValueError for an unknown name or an
     ``address`` without Ray, BackendError if Ray is needed but not installed."""
     if name == "local":

@@ -70,6 +70,8 @@ from typing import Any
 from nao_arena import __version__
 
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
+
+
 def _err(message: str) -> int:
     print(f"nao-arena: error: {message}", file=sys.stderr)
     return 2
@@ -124,8 +126,12 @@ class _CompileProgress:
             return
         self.shown = now
         name = key.partition("(")[0]
-        print(f"nao-arena: compiled {done}/{total} kernels in {now - self.started:.0f} s "
-              f"(last: {name})", file=sys.stderr, flush=True)
+        print(
+            f"nao-arena: compiled {done}/{total} kernels in {now - self.started:.0f} s "
+            f"(last: {name})",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False) -> None:
@@ -136,16 +142,22 @@ def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False
     from nao_arena.kernels import compile_ahead, ensure_compiled
 
     progress = _CompileProgress()
-    report = (compile_ahead(parts, jobs, on_done=progress) if force
-              else ensure_compiled(parts, jobs, on_done=progress))
+    report = (
+        compile_ahead(parts, jobs, on_done=progress)
+        if force
+        else ensure_compiled(parts, jobs, on_done=progress)
+    )
     if report is None:
         return
     failed = f"; {len(report.failed)} left to compile when called" if report.failed else ""
-    print(f"nao-arena: {report.kernels} kernels compiled or loaded in {report.seconds:.0f} s "
-          f"({report.cpu_seconds:.0f} s of CPU) "
-          f"with {report.jobs} process{'es' if report.jobs > 1 else ''} (cached for later "
-          f"runs){failed}",
-          file=sys.stderr, flush=True)
+    print(
+        f"nao-arena: {report.kernels} kernels compiled or loaded in {report.seconds:.0f} s "
+        f"({report.cpu_seconds:.0f} s of CPU) "
+        f"with {report.jobs} process{'es' if report.jobs > 1 else ''} (cached for later "
+        f"runs){failed}",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 def _parts(agents: Iterable[str], render: bool = False) -> list[str]:
@@ -165,8 +177,10 @@ def _cmd_compile(args: argparse.Namespace) -> int:
     if args.agent:
         unknown = [a for a in _split(args.agent) if a not in BUILTIN_AGENTS]
         if unknown:
-            return _err(f"--agent: expected built-in agents ({', '.join(BUILTIN_AGENTS)}), "
-                        f"got {', '.join(unknown)}")
+            return _err(
+                f"--agent: expected built-in agents ({', '.join(BUILTIN_AGENTS)}), "
+                f"got {', '.join(unknown)}"
+            )
         parts = parts_for_agents(_split(args.agent))
     compile_parts(parts, args.jobs, force=True)
     return 0
@@ -182,7 +196,8 @@ def _timeout(text: str) -> float | None:
         value = float("nan")
     if not 0 <= value < float("inf"):
         raise argparse.ArgumentTypeError(
-            f"expected a number of seconds >= 0 (0 or none: no budget), got {text!r}")
+            f"expected a number of seconds >= 0 (0 or none: no budget), got {text!r}"
+        )
     return value or None
 
 
@@ -243,8 +258,9 @@ def _load_agents(refs: Iterable[str]) -> None:
             raise
         except Exception as exc:  # noqa: BLE001 - plug-in code may raise anything on import
             first = (str(exc).splitlines() or [""])[0]
-            raise ValueError(f"agent {ref}: cannot be loaded ({type(exc).__name__}: {first})"
-                             ) from exc
+            raise ValueError(
+                f"agent {ref}: cannot be loaded ({type(exc).__name__}: {first})"
+            ) from exc
 
 
 # --------------------------------------------------------------------------- figures
@@ -256,8 +272,10 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     names = args.only.split(",") if args.only else None
     unknown = [n for n in names or [] if n not in FIGURES]
     if unknown:
-        print(f"unknown figure(s): {', '.join(unknown)}; choose from {', '.join(FIGURES)}",
-              file=sys.stderr)
+        print(
+            f"unknown figure(s): {', '.join(unknown)}; choose from {', '.join(FIGURES)}",
+            file=sys.stderr,
+        )
         return 2
     for path in write_figures(args.out, names):
         print(path)
@@ -269,23 +287,45 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
 def episode_table(summary: Any, agents: list[str]) -> str:
     """An episode's per-robot results (an EpisodeSummary) as an aligned text table."""
-    head = ["robot", "agent", "success", "goal s", "path m", "collisions", "near misses",
-            "min sep m", "min TTC s", "adj/s"]
+    head = [
+        "robot",
+        "agent",
+        "success",
+        "goal s",
+        "path m",
+        "collisions",
+        "near misses",
+        "min sep m",
+        "min TTC s",
+        "adj/s",
+    ]
 
     def num(v: float, spec: str) -> str:
         return format(v, spec) if v == v and abs(v) != float("inf") else "-"
 
     body = [
-        [r.name, agents[k] if k < len(agents) else "?", "yes" if r.success else "no",
-         num(r.time_to_goal, ".1f"), num(r.path_length, ".1f"), str(r.collisions),
-         str(r.near_misses), num(r.min_separation, ".3f"), num(r.min_ttc, ".2f"),
-         num(r.adjustment_rate, ".2f")]
+        [
+            r.name,
+            agents[k] if k < len(agents) else "?",
+            "yes" if r.success else "no",
+            num(r.time_to_goal, ".1f"),
+            num(r.path_length, ".1f"),
+            str(r.collisions),
+            str(r.near_misses),
+            num(r.min_separation, ".3f"),
+            num(r.min_ttc, ".2f"),
+            num(r.adjustment_rate, ".2f"),
+        ]
         for k, r in enumerate(summary.robots)
     ]
     widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head))]
-    lines = ["  ".join(c.ljust(w) if i < 3 else c.rjust(w)
-                       for i, (c, w) in enumerate(zip(row, widths, strict=True))).rstrip()
-             for row in [head, *body]]
+    lines = [
+        "  ".join(
+            c.ljust(w) if i < 3 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(row, widths, strict=True))
+        ).rstrip()
+        for row in [head, *body]
+    ]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)
 
@@ -306,11 +346,15 @@ def _render_problem(args: argparse.Namespace) -> str | None:
     if args.render == "human":
         if args.out:
             kind = "mp4" if args.out.lower().endswith(".mp4") else "gif"
-            return (f"--render human shows a window and writes no file: drop --out, or "
-                    f"record with --render {kind} --out {args.out}")
+            return (
+                f"--render human shows a window and writes no file: drop --out, or "
+                f"record with --render {kind} --out {args.out}"
+            )
         if why := _no_display():
-            return (f"--render human: cannot open a window: {why}; record the episode "
-                    "instead with --render gif --out FILE.gif (or mp4)")
+            return (
+                f"--render human: cannot open a window: {why}; record the episode "
+                "instead with --render gif --out FILE.gif (or mp4)"
+            )
     return None
 
 
@@ -337,15 +381,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.render:
         if args.render in RENDER_SUFFIX and not args.out:
             return _err(f"--render {args.render} needs --out FILE{RENDER_SUFFIX[args.render]}")
-        if args.out and args.render in RENDER_SUFFIX and \
-                not args.out.lower().endswith(RENDER_SUFFIX[args.render]):
-            return _err(f"--render {args.render}: expected --out ending in "
-                        f"{RENDER_SUFFIX[args.render]}, got {args.out}")
+        if (
+            args.out
+            and args.render in RENDER_SUFFIX
+            and not args.out.lower().endswith(RENDER_SUFFIX[args.render])
+        ):
+            return _err(
+                f"--render {args.render}: expected --out ending in "
+                f"{RENDER_SUFFIX[args.render]}, got {args.out}"
+            )
         try:
             from nao_arena.render import record_episode as record
         except ImportError as exc:
-            return _err(f"--render {args.render}: rendering is not available in this "
-                        f"installation (cannot import nao_arena.render: {exc})")
+            return _err(
+                f"--render {args.render}: rendering is not available in this "
+                f"installation (cannot import nao_arena.render: {exc})"
+            )
     elif args.out:
         return _err("--out is the recording's file: use it with --render gif|mp4")
     for path in (args.json, args.out if args.render in RENDER_SUFFIX else None, args.log):
@@ -356,16 +407,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
         overrides = _overrides(args.set)
         if "seed" in overrides:
             return _err("set the seed with --seed (it seeds the map and the agents)")
-        spec = make_map(args.map, args.seed, overrides, args.time_limit,
-                        trusted=args.trust_map,
-                        agents={label: agent} if label and agent and label != agent else None)
+        spec = make_map(
+            args.map,
+            args.seed,
+            overrides,
+            args.time_limit,
+            trusted=args.trust_map,
+            agents={label: agent} if label and agent and label != agent else None,
+        )
         _load_agents([agent] if agent else [r.agent for r in spec.robots])
         arena = Arena(spec, ArenaOptions(agent=agent, max_faults=args.max_faults))
         recorder = _run_recorder(args, arena, label, overrides)
     except (MapError, ValueError) as exc:
         return _err(str(exc))
-    parts = _parts([agent] if agent else [r.agent for r in spec.robots],
-                   render=bool(args.render))
+    parts = _parts([agent] if agent else [r.agent for r in spec.robots], render=bool(args.render))
     # compiled and loaded before the episode's budget starts (which leaves compiles out
     # anyway), here, so that the episode's process starts warm
     compile_parts(parts)
@@ -387,8 +442,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except (AgentError, EpisodeTimeout, EpisodeProcessEnded) as exc:
         return _err(describe(exc))
     except KeyboardInterrupt:
-        print("\ninterrupted: the episode was stopped; no output file was written",
-              file=sys.stderr)
+        print("\ninterrupted: the episode was stopped; no output file was written", file=sys.stderr)
         return 130
     finally:
         signal.signal(signal.SIGTERM, previous)
@@ -405,14 +459,17 @@ def _faults_warning(summary: Any, robots: int) -> str:
     """The loud line under an episode whose agents faulted."""
     names = sorted({f.name for f in summary.faults})
     shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
-    return (f"nao-arena: warning: {len(summary.faults)} of {summary.steps * robots} "
-            f"robot-steps were agent faults ({_plural(len(names), 'robot')}: {shown}); in "
-            "those steps the robot got zero acceleration, so the table does not show its "
-            "agent's own behaviour. --max-faults N fails an episode past N faults")
+    return (
+        f"nao-arena: warning: {len(summary.faults)} of {summary.steps * robots} "
+        f"robot-steps were agent faults ({_plural(len(names), 'robot')}: {shown}); in "
+        "those steps the robot got zero acceleration, so the table does not show its "
+        "agent's own behaviour. --max-faults N fails an episode past N faults"
+    )
 
 
-def _run_episode(args: argparse.Namespace, arena: Any, spec: Any, label: str | None,
-                 recorder: Any, record: Any) -> int:
+def _run_episode(
+    args: argparse.Namespace, arena: Any, spec: Any, label: str | None, recorder: Any, record: Any
+) -> int:
     """``run``'s episode and its output, in the episode's own process (see
     :mod:`nao_arena.isolation`); returns the exit status."""
     from nao_arena.agent import AgentError, describe
@@ -431,13 +488,14 @@ def _run_episode(args: argparse.Namespace, arena: Any, spec: Any, label: str | N
         return _err(describe(exc))
     agents = [label or name for name in arena.agent_names]
     n_traffic = arena.world.n - len(arena.robots)
-    print(f"map {spec.name} ({_map_origin(args.map, spec.source)}), seed {args.seed}, "
-          f"{_plural(len(arena.robots), 'robot')}, {_plural(n_traffic, 'traffic vehicle')}; "
-          f"{_plural(summary.steps, 'step')}, {summary.duration:.1f} s")
+    print(
+        f"map {spec.name} ({_map_origin(args.map, spec.source)}), seed {args.seed}, "
+        f"{_plural(len(arena.robots), 'robot')}, {_plural(n_traffic, 'traffic vehicle')}; "
+        f"{_plural(summary.steps, 'step')}, {summary.duration:.1f} s"
+    )
     print(episode_table(summary, agents))
     robot_contacts = [c for c in summary.contacts if "robot" in (c.kind_a, c.kind_b)]
-    print(f"contacts involving robots: {len(robot_contacts)}; agent faults: "
-          f"{len(summary.faults)}")
+    print(f"contacts involving robots: {len(robot_contacts)}; agent faults: {len(summary.faults)}")
     for f in summary.faults[:5]:
         print(f"  fault t={f.time:.1f} s {f.name}: {f.message}")
     if summary.faults:
@@ -475,13 +533,23 @@ def _cmd_trial(args: argparse.Namespace) -> int:
     try:
         agents = [split_agent(a) for a in _split(args.agent)]
         config = TrialConfig(
-            maps=_split(args.map), agents=tuple(label for label, _ in agents),
-            episodes=args.episodes, seed=args.seed, workers=args.workers, out=Path(args.out),
-            overrides=_overrides(args.set), time_limit=args.time_limit, csv=args.csv,
-            retry_failed=args.retry_failed, backend=args.backend, address=args.address,
+            maps=_split(args.map),
+            agents=tuple(label for label, _ in agents),
+            episodes=args.episodes,
+            seed=args.seed,
+            workers=args.workers,
+            out=Path(args.out),
+            overrides=_overrides(args.set),
+            time_limit=args.time_limit,
+            csv=args.csv,
+            retry_failed=args.retry_failed,
+            backend=args.backend,
+            address=args.address,
             episode_timeout=args.episode_timeout,
-            agent_refs={label: ref for label, ref in agents if label != ref}, log=args.log,
-            max_faults=args.max_faults, trust_map=args.trust_map,
+            agent_refs={label: ref for label, ref in agents if label != ref},
+            log=args.log,
+            max_faults=args.max_faults,
+            trust_map=args.trust_map,
         )
         _load_agents(config.reference(a) for a in config.agents)
         if args.backend == "local" or args.address is None:
@@ -495,8 +563,11 @@ def _cmd_trial(args: argparse.Namespace) -> int:
     except (MapError, ValueError, BackendError) as exc:
         return _err(str(exc))
     except KeyboardInterrupt:
-        print(f"\ninterrupted: finished episodes are kept in {Path(args.out) / 'episodes'}; "
-              "run the same command again to resume", file=sys.stderr)
+        print(
+            f"\ninterrupted: finished episodes are kept in {Path(args.out) / 'episodes'}; "
+            "run the same command again to resume",
+            file=sys.stderr,
+        )
         return 130
     print(format_table(result.summary))
     print(f"{result.ran} episodes run, {result.skipped} already done; results in {args.out}")
@@ -536,14 +607,18 @@ def _cmd_maps(args: argparse.Namespace) -> int:
         n_traffic = sum(g.count for g in spec.traffic)
         desc = " ".join(spec.description.split())
         params = ", ".join(f"{k}={v}" for k, v in spec.parameters.items()) or "none"
-        print(f"{name}: {_plural(spec.n_robots, 'robot')}, {n_traffic} traffic, "
-              f"{spec.episode.time_limit:g} s")
+        print(
+            f"{name}: {_plural(spec.n_robots, 'robot')}, {n_traffic} traffic, "
+            f"{spec.episode.time_limit:g} s"
+        )
         if desc:
             print(f"    {desc}")
         print(f"    parameters: {params}")
-    print("(any map file can be given by its path, e.g. path/to/my_map.yaml; the shipped "
-          f"ones are in {resources.files('nao_arena.maps_data')}; the format: "
-          "nao-arena maps --schema)")
+    print(
+        "(any map file can be given by its path, e.g. path/to/my_map.yaml; the shipped "
+        f"ones are in {resources.files('nao_arena.maps_data')}; the format: "
+        "nao-arena maps --schema)"
+    )
     return 0
 
 
@@ -555,25 +630,35 @@ def _cmd_agents(args: argparse.Namespace) -> int:
     for name, ref in found.items():
         origin = "built-in" if name in BUILTIN_AGENTS else "plug-in"
         print(f"{name.ljust(width)}  {origin:8s}  {ref}")
-    print("(also: path/to/file.py:ClassName or package.module:ClassName; LABEL=AGENT shows "
-          "it as LABEL in tables and files)")
+    print(
+        "(also: path/to/file.py:ClassName or package.module:ClassName; LABEL=AGENT shows "
+        "it as LABEL in tables and files)"
+    )
     return 0
 
 
 # --------------------------------------------------------------------------- episode logs
 
 
-def _run_recorder(args: argparse.Namespace, arena: Any, label: str | None,
-                  overrides: dict[str, Any]) -> Any:
+def _run_recorder(
+    args: argparse.Namespace, arena: Any, label: str | None, overrides: dict[str, Any]
+) -> Any:
     """With ``run --log``: an episode recorder set on the arena (else None)."""
     if not args.log:
         return None
     from nao_arena.episode_log import EpisodeRecorder
 
     recorder = EpisodeRecorder(
-        context={"command": "run", "map": args.map, "seed": args.seed,
-                 "overrides": overrides, "time_limit": args.time_limit, "agent": args.agent},
-        labels=[label or name for name in arena.agent_names])
+        context={
+            "command": "run",
+            "map": args.map,
+            "seed": args.seed,
+            "overrides": overrides,
+            "time_limit": args.time_limit,
+            "agent": args.agent,
+        },
+        labels=[label or name for name in arena.agent_names],
+    )
     arena.recorder = recorder
     return recorder
 
@@ -585,15 +670,18 @@ def _write_run_log(path: str, recorder: Any, arena: Any) -> int:
         write_log(recorder.finish(arena), path)
     except OSError as exc:
         return _err(f"{path}: cannot be written ({exc.strerror or exc})")
-    print(f"wrote {path} (replay it: nao-arena replay {path}; its contacts: "
-          f"nao-arena explain {path})")
+    print(
+        f"wrote {path} (replay it: nao-arena replay {path}; its contacts: nao-arena explain {path})"
+    )
     return 0
 
 
 def _trial_logs_note(out: Path) -> str:
     logs = sorted((out / "logs").glob("*.parquet")) if (out / "logs").is_dir() else []
-    return (f"{len(logs)} episode logs in {out / 'logs'} (collisions.parquet names each "
-            f"contact's log; nao-arena report {out} lists them)")
+    return (
+        f"{len(logs)} episode logs in {out / 'logs'} (collisions.parquet names each "
+        f"contact's log; nao-arena report {out} lists them)"
+    )
 
 
 def _read_log_or_error(path: str) -> tuple[Any, str | None]:
@@ -618,8 +706,10 @@ def _replay_problem(args: argparse.Namespace) -> str | None:
         if not args.out:
             return f"--render {args.render} needs --out FILE{RENDER_SUFFIX[args.render]}"
         if not args.out.lower().endswith(RENDER_SUFFIX[args.render]):
-            return (f"--render {args.render}: expected --out ending in "
-                    f"{RENDER_SUFFIX[args.render]}, got {args.out}")
+            return (
+                f"--render {args.render}: expected --out ending in "
+                f"{RENDER_SUFFIX[args.render]}, got {args.out}"
+            )
         return _unwritable(args.out)
     if args.out:
         return "--out is the recording's file: use it with --render gif|mp4"
@@ -627,8 +717,10 @@ def _replay_problem(args: argparse.Namespace) -> str | None:
         return "--from and --to choose the span of a recording: use them with --render gif|mp4"
     if not args.png:
         if why := _no_display():
-            return (f"replay: cannot open a window: {why}; write a frame with --at T --png "
-                    "FILE.png or a video with --render gif --out FILE.gif (or mp4)")
+            return (
+                f"replay: cannot open a window: {why}; write a frame with --at T --png "
+                "FILE.png or a video with --render gif --out FILE.gif (or mp4)"
+            )
     return None
 
 
@@ -669,8 +761,10 @@ def _contact_list(log: Any, path: str) -> str:
     lines = [f"contacts in {path} (explain one with --contact K):"]
     for k, c in enumerate(contacts, start=1):
         other = f"wall {c.b}" if c.kind_b == "wall" else f"{c.name_b} ({c.kind_b})"
-        lines.append(f"  {k:3d}  t = {c.time:7.2f} s  {c.name_a} ({c.kind_a}) - {other}  "
-                     f"{c.impact_speed:.2f} m/s  {1000 * c.max_penetration:.1f} mm")
+        lines.append(
+            f"  {k:3d}  t = {c.time:7.2f} s  {c.name_a} ({c.kind_a}) - {other}  "
+            f"{c.impact_speed:.2f} m/s  {1000 * c.max_penetration:.1f} mm"
+        )
     return "\n".join(lines)
 
 
@@ -701,34 +795,71 @@ def _cmd_explain(args: argparse.Namespace) -> int:
 
 def _add_log_commands(sub: Any) -> None:
     """The ``replay`` and ``explain`` sub-commands."""
-    replay = sub.add_parser("replay", help="show an episode log in the viewer, or write a "
-                                           "frame or video of it")
+    replay = sub.add_parser(
+        "replay", help="show an episode log in the viewer, or write a frame or video of it"
+    )
     replay.add_argument("log", help="an episode log (run --log FILE, trial --log)")
-    replay.add_argument("--robot", default=None, metavar="R",
-                        help="robot of the acceleration panel: index or name (default 0)")
-    replay.add_argument("--at", type=float, default=None, metavar="T",
-                        help="time (s): of the frame with --png; where the window starts")
-    replay.add_argument("--png", default=None, metavar="FILE",
-                        help="write the frame at --at T as a PNG")
-    replay.add_argument("--render", choices=["human", "gif", "mp4"], default=None,
-                        help="a window (human, the default), or a recording (gif, mp4; "
-                             "with --out)")
+    replay.add_argument(
+        "--robot",
+        default=None,
+        metavar="R",
+        help="robot of the acceleration panel: index or name (default 0)",
+    )
+    replay.add_argument(
+        "--at",
+        type=float,
+        default=None,
+        metavar="T",
+        help="time (s): of the frame with --png; where the window starts",
+    )
+    replay.add_argument(
+        "--png", default=None, metavar="FILE", help="write the frame at --at T as a PNG"
+    )
+    replay.add_argument(
+        "--render",
+        choices=["human", "gif", "mp4"],
+        default=None,
+        help="a window (human, the default), or a recording (gif, mp4; with --out)",
+    )
     replay.add_argument("--out", default=None, help="recording file (with --render gif|mp4)")
-    replay.add_argument("--fps", type=float, default=None,
-                        help="recording frame rate (default 1 / dt: every step)")
-    replay.add_argument("--from", dest="start", type=float, default=None, metavar="S",
-                        help="recording start (s; default 0)")
-    replay.add_argument("--to", dest="end", type=float, default=None, metavar="S",
-                        help="recording end (s; default the episode's end)")
+    replay.add_argument(
+        "--fps", type=float, default=None, help="recording frame rate (default 1 / dt: every step)"
+    )
+    replay.add_argument(
+        "--from",
+        dest="start",
+        type=float,
+        default=None,
+        metavar="S",
+        help="recording start (s; default 0)",
+    )
+    replay.add_argument(
+        "--to",
+        dest="end",
+        type=float,
+        default=None,
+        metavar="S",
+        help="recording end (s; default the episode's end)",
+    )
     replay.set_defaults(func=_cmd_replay)
 
-    explain = sub.add_parser("explain", help="why did these two touch? a logged contact, "
-                                             "the step before it")
+    explain = sub.add_parser(
+        "explain", help="why did these two touch? a logged contact, the step before it"
+    )
     explain.add_argument("log", help="an episode log (run --log FILE, trial --log)")
-    explain.add_argument("--contact", type=int, default=None, metavar="K",
-                         help="the contact to explain (1 = the first); without it: list them")
-    explain.add_argument("--out", default=None, metavar="FILE.png",
-                         help="the picture (default: LOG without its suffix + .contactK.png)")
+    explain.add_argument(
+        "--contact",
+        type=int,
+        default=None,
+        metavar="K",
+        help="the contact to explain (1 = the first); without it: list them",
+    )
+    explain.add_argument(
+        "--out",
+        default=None,
+        metavar="FILE.png",
+        help="the picture (default: LOG without its suffix + .contactK.png)",
+    )
     explain.set_defaults(func=_cmd_explain)
 
 
@@ -736,20 +867,43 @@ def _add_log_commands(sub: Any) -> None:
 
 
 def _add_map_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--set", action="extend", nargs="+", metavar="KEY=VALUE",
-                   help="map parameter overrides, e.g. --set n=4 radius=6")
-    p.add_argument("--time-limit", type=float, default=None, metavar="S",
-                   help="episode time limit (s), replacing the map's")
-    p.add_argument("--episode-timeout", type=_timeout, default=600.0, metavar="S",
-                   help="wall-clock budget of an episode (s; default 600; 0 or none: no "
-                        "budget): an episode that exceeds it fails (a trial goes on)")
-    p.add_argument("--trust-map", action="store_true",
-                   help="let the map name code as its robots' agents (path/to/file.py:Class "
-                        "or module:Class); without it such a map is refused: it would run "
-                        "that code")
-    p.add_argument("--max-faults", type=int, default=None, metavar="N",
-                   help="an episode whose agents fault (raise, or return no finite "
-                        "acceleration) more than N times fails (default: never)")
+    p.add_argument(
+        "--set",
+        action="extend",
+        nargs="+",
+        metavar="KEY=VALUE",
+        help="map parameter overrides, e.g. --set n=4 radius=6",
+    )
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=None,
+        metavar="S",
+        help="episode time limit (s), replacing the map's",
+    )
+    p.add_argument(
+        "--episode-timeout",
+        type=_timeout,
+        default=600.0,
+        metavar="S",
+        help="wall-clock budget of an episode (s; default 600; 0 or none: no "
+        "budget): an episode that exceeds it fails (a trial goes on)",
+    )
+    p.add_argument(
+        "--trust-map",
+        action="store_true",
+        help="let the map name code as its robots' agents (path/to/file.py:Class "
+        "or module:Class); without it such a map is refused: it would run "
+        "that code",
+    )
+    p.add_argument(
+        "--max-faults",
+        type=int,
+        default=None,
+        metavar="N",
+        help="an episode whose agents fault (raise, or return no finite "
+        "acceleration) more than N times fails (default: never)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -761,54 +915,96 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run one episode and print its summary")
     run.add_argument("map", help="map name (see `nao-arena maps`) or map file path")
-    run.add_argument("--agent", default=None, metavar="[LABEL=]AGENT",
-                     help="agent of the map's robots (default: the map's own): a name, "
-                          "FILE.py:CLASS or module:CLASS; LABEL=AGENT shows it as LABEL")
-    run.add_argument("--seed", type=int, default=0,
-                     help="seeds the map (if it has a seed parameter) and the agents")
+    run.add_argument(
+        "--agent",
+        default=None,
+        metavar="[LABEL=]AGENT",
+        help="agent of the map's robots (default: the map's own): a name, "
+        "FILE.py:CLASS or module:CLASS; LABEL=AGENT shows it as LABEL",
+    )
+    run.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seeds the map (if it has a seed parameter) and the agents",
+    )
     _add_map_options(run)
     run.add_argument("--max-steps", type=int, default=None, help="stop after this many steps")
-    run.add_argument("--render", choices=["human", "gif", "mp4"], default=None,
-                     help="show the episode in a window (human; needs a display), or "
-                          "record it (gif, mp4; with --out)")
+    run.add_argument(
+        "--render",
+        choices=["human", "gif", "mp4"],
+        default=None,
+        help="show the episode in a window (human; needs a display), or "
+        "record it (gif, mp4; with --out)",
+    )
     run.add_argument("--out", default=None, help="recording file (with --render gif|mp4)")
     run.add_argument("--fps", type=float, default=None, help="recording frame rate")
-    run.add_argument("--json", default=None, metavar="FILE",
-                     help="also write the episode summary as JSON")
-    run.add_argument("--log", default=None, metavar="FILE",
-                     help="also write the episode's log (every step; for replay, explain)")
+    run.add_argument(
+        "--json", default=None, metavar="FILE", help="also write the episode summary as JSON"
+    )
+    run.add_argument(
+        "--log",
+        default=None,
+        metavar="FILE",
+        help="also write the episode's log (every step; for replay, explain)",
+    )
     run.set_defaults(func=_cmd_run)
 
     trial = sub.add_parser("trial", help="run the grid maps x agents x episodes")
     trial.add_argument("--map", required=True, help="comma-separated map names or paths")
-    trial.add_argument("--agent", required=True, metavar="[LABEL=]AGENT,...",
-                       help="comma-separated agents (names, FILE.py:CLASS, module:CLASS); "
-                            "LABEL=AGENT names one LABEL in tables, plots and files")
+    trial.add_argument(
+        "--agent",
+        required=True,
+        metavar="[LABEL=]AGENT,...",
+        help="comma-separated agents (names, FILE.py:CLASS, module:CLASS); "
+        "LABEL=AGENT names one LABEL in tables, plots and files",
+    )
     trial.add_argument("--episodes", type=int, default=10, help="episodes per map x agent")
     trial.add_argument("--seed", type=int, default=0, help="the trial's root seed")
-    trial.add_argument("--workers", type=int, default=1,
-                       help="local worker processes (with --backend ray and no --address: "
-                            "the CPUs of the local Ray instance)")
-    trial.add_argument("--out", required=True,
-                       help="results folder (resumed if it exists; locked while the trial "
-                            "runs; refused if it holds a trial with other settings, except "
-                            "--workers, --backend, --address, --csv, --retry-failed and "
-                            "more --episodes)")
+    trial.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="local worker processes (with --backend ray and no --address: "
+        "the CPUs of the local Ray instance)",
+    )
+    trial.add_argument(
+        "--out",
+        required=True,
+        help="results folder (resumed if it exists; locked while the trial "
+        "runs; refused if it holds a trial with other settings, except "
+        "--workers, --backend, --address, --csv, --retry-failed and "
+        "more --episodes)",
+    )
     trial.add_argument("--csv", action="store_true", help="also write CSV files")
     _add_map_options(trial)
-    trial.add_argument("--retry-failed", action="store_true",
-                       help="run again the episodes recorded as failed")
+    trial.add_argument(
+        "--retry-failed", action="store_true", help="run again the episodes recorded as failed"
+    )
     trial.add_argument("--quiet", action="store_true", help="no progress line")
-    trial.add_argument("--backend", choices=["local", "ray"], default="local",
-                       help="where the episodes run: local processes (default) or Ray tasks "
-                            "(needs `pip install nao-arena[ray]`)")
-    trial.add_argument("--address", default=None, metavar="ADDR",
-                       help="with --backend ray: the Ray cluster to connect to (e.g. auto, "
-                            "HOST:6379, ray://HOST:10001); default: start a local Ray")
-    trial.add_argument("--log", nargs="?", const="all", default=None,
-                       choices=["all", "contacts"],
-                       help="write each episode's log into OUT/logs (for replay, explain); "
-                            "--log contacts: only those with a contact or a stuck robot")
+    trial.add_argument(
+        "--backend",
+        choices=["local", "ray"],
+        default="local",
+        help="where the episodes run: local processes (default) or Ray tasks "
+        "(needs `pip install nao-arena[ray]`)",
+    )
+    trial.add_argument(
+        "--address",
+        default=None,
+        metavar="ADDR",
+        help="with --backend ray: the Ray cluster to connect to (e.g. auto, "
+        "HOST:6379, ray://HOST:10001); default: start a local Ray",
+    )
+    trial.add_argument(
+        "--log",
+        nargs="?",
+        const="all",
+        default=None,
+        choices=["all", "contacts"],
+        help="write each episode's log into OUT/logs (for replay, explain); "
+        "--log contacts: only those with a contact or a stuck robot",
+    )
     trial.set_defaults(func=_cmd_trial)
 
     report = sub.add_parser("report", help="table and plots of a trial's results")
@@ -817,8 +1013,11 @@ def build_parser() -> argparse.ArgumentParser:
     report.set_defaults(func=_cmd_report)
 
     maps = sub.add_parser("maps", help="list the shipped maps and their parameters")
-    maps.add_argument("--schema", action="store_true",
-                      help="print the map file format instead (every key, type, default)")
+    maps.add_argument(
+        "--schema",
+        action="store_true",
+        help="print the map file format instead (every key, type, default)",
+    )
     maps.set_defaults(func=_cmd_maps)
     agents = sub.add_parser("agents", help="list the agents (built-in and plug-ins)")
     agents.set_defaults(func=_cmd_agents)
@@ -826,12 +1025,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_log_commands(sub)
 
     comp = sub.add_parser(
-        "compile", help="compile the kernels ahead of time into the cache, on every core")
-    comp.add_argument("--agent", default=None, metavar="AGENT,...",
-                      help="only what episodes with these built-in agents use (default: "
-                           "everything, rendering included)")
-    comp.add_argument("--jobs", type=int, default=None,
-                      help="processes (default: one per core)")
+        "compile", help="compile the kernels ahead of time into the cache, on every core"
+    )
+    comp.add_argument(
+        "--agent",
+        default=None,
+        metavar="AGENT,...",
+        help="only what episodes with these built-in agents use (default: "
+        "everything, rendering included)",
+    )
+    comp.add_argument("--jobs", type=int, default=None, help="processes (default: one per core)")
     comp.set_defaults(func=_cmd_compile)
 
     fig = sub.add_parser("figures", help="draw the paper's geometric figures (PNG)")
@@ -852,8 +1055,10 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:  # a file or folder that cannot be read or written, a full disk
         return _err(_os_error(exc, args))
     except MemoryError:
-        return _err("out of memory: the map or the settings ask for more than this machine "
-                    "has (fewer robots, a shorter episode or a longer dt need less)")
+        return _err(
+            "out of memory: the map or the settings ask for more than this machine "
+            "has (fewer robots, a shorter episode or a longer dt need less)"
+        )
 
 
 def _os_error(exc: OSError, args: argparse.Namespace) -> str:
@@ -863,8 +1068,10 @@ def _os_error(exc: OSError, args: argparse.Namespace) -> str:
     what = exc.strerror or type(exc).__name__
     text = f"{where}: cannot be written or read ({what})"
     if args.command == "trial":
-        text += (f"; the episodes finished so far are kept in {Path(args.out) / 'episodes'}: "
-                 "free space (or fix the folder) and run the same command again to resume")
+        text += (
+            f"; the episodes finished so far are kept in {Path(args.out) / 'episodes'}: "
+            "free space (or fix the folder) and run the same command again to resume"
+        )
     return text
 
 

@@ -157,13 +157,35 @@ __all__ = [
 ]
 
 OWN_FEATURES: tuple[str, ...] = (
-    "goal_dx", "goal_dy", "vx", "vy", "ax", "ay", "cmd_ax", "cmd_ay",
-    "a_max", "v_max", "radius", "x", "y", "goal_x", "goal_y", "time_left",
+    "goal_dx",
+    "goal_dy",
+    "vx",
+    "vy",
+    "ax",
+    "ay",
+    "cmd_ax",
+    "cmd_ay",
+    "a_max",
+    "v_max",
+    "radius",
+    "x",
+    "y",
+    "goal_x",
+    "goal_y",
+    "time_left",
 )
 """Names of the ``own`` block, in order (m, m/s, m/s^2, s; world frame)."""
 
 NEIGHBOUR_FEATURES: tuple[str, ...] = (
-    "mask", "dx", "dy", "dvx", "dvy", "ax", "ay", "radius", "is_traffic",
+    "mask",
+    "dx",
+    "dy",
+    "dvx",
+    "dvy",
+    "ax",
+    "ay",
+    "radius",
+    "is_traffic",
 )
 """Names of one neighbour row, in order (relative = neighbour - own, world frame)."""
 
@@ -232,16 +254,21 @@ class EnvOptions:
 
     def __post_init__(self) -> None:
         if self.position_margin is not None and not (
-                math.isfinite(self.position_margin) and self.position_margin >= 0):
-            raise ValueError(f"position_margin: expected None or a finite number of m >= 0, "
-                             f"got {self.position_margin}")
+            math.isfinite(self.position_margin) and self.position_margin >= 0
+        ):
+            raise ValueError(
+                f"position_margin: expected None or a finite number of m >= 0, "
+                f"got {self.position_margin}"
+            )
         if self.max_neighbours < 0:
             raise ValueError(f"max_neighbours: expected >= 0, got {self.max_neighbours}")
         if self.after_done not in ("agent", "hold"):
             raise ValueError(f"after_done: expected 'agent' or 'hold', got {self.after_done!r}")
         if self.nao_predictor not in _KINEMATIC_PREDICTORS:
-            raise ValueError(f"nao_predictor: expected one of {', '.join(_KINEMATIC_PREDICTORS)}"
-                             f", got {self.nao_predictor!r}")
+            raise ValueError(
+                f"nao_predictor: expected one of {', '.join(_KINEMATIC_PREDICTORS)}"
+                f", got {self.nao_predictor!r}"
+            )
         if self.nao_angles < 1 or self.nao_samples < 2 or not self.nao_horizon > 0:
             raise ValueError("expected nao_angles >= 1, nao_samples >= 2, nao_horizon > 0")
         if self.time_limit is not None and not self.time_limit > 0:
@@ -274,11 +301,21 @@ def observation_layout(options: EnvOptions | None = None) -> dict[str, slice]:
 
 @njit(cache=True)
 def _observation_rows(
-    p: NDArray[np.float64], v: NDArray[np.float64], acc: NDArray[np.float64],
-    rad: NDArray[np.float64], is_traffic: NDArray[np.float64], a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64], bodies: NDArray[np.int64], goals: NDArray[np.float64],
-    prev_cmd: NDArray[np.float64], time_left: float, nb_start: NDArray[np.int64],
-    nb_index: NDArray[np.int64], out: NDArray[np.float64], idx: NDArray[np.int64],
+    p: NDArray[np.float64],
+    v: NDArray[np.float64],
+    acc: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    is_traffic: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    bodies: NDArray[np.int64],
+    goals: NDArray[np.float64],
+    prev_cmd: NDArray[np.float64],
+    time_left: float,
+    nb_start: NDArray[np.int64],
+    nb_index: NDArray[np.int64],
+    out: NDArray[np.float64],
+    idx: NDArray[np.int64],
     present: NDArray[np.bool_],
 ) -> None:
     """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
@@ -336,8 +373,7 @@ def _check_real(name: str, action: Any) -> None:
     """ValueError unless ``action`` is made of real numbers (not bool, complex, str, object)."""
     if type(action) is np.ndarray and action.dtype.kind in _REAL_KINDS:
         return  # the common case
-    if isinstance(action, (list, tuple)) and any(
-            isinstance(x, (bool, np.bool_)) for x in action):
+    if isinstance(action, (list, tuple)) and any(isinstance(x, (bool, np.bool_)) for x in action):
         kind = "b"
     else:
         try:
@@ -346,9 +382,12 @@ def _check_real(name: str, action: Any) -> None:
             return  # not an array at all: the shape check explains it
     if kind not in _REAL_KINDS:
         what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
-            kind, "objects")
-        raise ValueError(f"action of {name!r}: expected real numbers (a float array of shape "
-                         f"(2,)), got {what}: {action!r}")
+            kind, "objects"
+        )
+        raise ValueError(
+            f"action of {name!r}: expected real numbers (a float array of shape "
+            f"(2,)), got {what}: {action!r}"
+        )
 
 
 def _split_kwargs(
@@ -385,8 +424,10 @@ class NaoArenaParallelEnv(ParallelEnv):
         **kwargs: Any,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']} "
-                             f"or None, got {render_mode!r}")
+            raise ValueError(
+                f"render_mode: expected one of {self.metadata['render_modes']} "
+                f"or None, got {render_mode!r}"
+            )
         self.options, self.map_params = _split_kwargs(options, map_params, kwargs)
         self.map_source = map
         self.render_mode = render_mode
@@ -414,8 +455,12 @@ class NaoArenaParallelEnv(ParallelEnv):
     # ------------------------------------------------------------------ setup
 
     def _load(self, params: Mapping[str, Any]) -> MapSpec:
-        spec = load_map(self.map_source, trusted=self.options.trust_map,
-                        agents=self.options.named_agents, **params)
+        spec = load_map(
+            self.map_source,
+            trusted=self.options.trust_map,
+            agents=self.options.named_agents,
+            **params,
+        )
         if self.options.time_limit is not None:
             spec = with_time_limit(spec, self.options.time_limit)
         return spec
@@ -435,38 +480,45 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._k = max(k, 0)
         self._walls = None
         if self.options.nao_features and self.options.nao_walls and len(self.arena.walls):
-            self._walls = (np.ascontiguousarray(self.arena.walls, dtype=np.float64),
-                           np.ascontiguousarray(self.arena.wall_radius, dtype=np.float64))
+            self._walls = (
+                np.ascontiguousarray(self.arena.walls, dtype=np.float64),
+                np.ascontiguousarray(self.arena.wall_radius, dtype=np.float64),
+            )
 
     @staticmethod
-    def _resolve_controlled(
-        controlled: str | Sequence[str | int], names: list[str]
-    ) -> list[int]:
+    def _resolve_controlled(controlled: str | Sequence[str | int], names: list[str]) -> list[int]:
         if isinstance(controlled, str):
             if controlled == "all":
                 out = list(range(len(names)))
             elif controlled in names:
                 out = [names.index(controlled)]
             else:
-                raise ValueError(f"controlled: expected 'all', robot names or indices; unknown "
-                                 f"robot {controlled!r} (robots: {', '.join(names)})")
+                raise ValueError(
+                    f"controlled: expected 'all', robot names or indices; unknown "
+                    f"robot {controlled!r} (robots: {', '.join(names)})"
+                )
         else:
             out = []
             for c in controlled:
                 if isinstance(c, int | np.integer) and not isinstance(c, bool):
                     if not 0 <= int(c) < len(names):
-                        raise ValueError(f"controlled: robot index {c} out of range "
-                                         f"(0..{len(names) - 1})")
+                        raise ValueError(
+                            f"controlled: robot index {c} out of range (0..{len(names) - 1})"
+                        )
                     out.append(int(c))
                 elif isinstance(c, str) and c in names:
                     out.append(names.index(c))
                 else:
-                    raise ValueError(f"controlled: unknown robot {c!r} "
-                                     f"(robots: {', '.join(names)})")
+                    raise ValueError(
+                        f"controlled: unknown robot {c!r} (robots: {', '.join(names)})"
+                    )
             out = sorted(set(out))
         if not out:
-            raise ValueError("controlled: expected at least one robot; the map has none"
-                             if not names else "controlled: expected at least one robot")
+            raise ValueError(
+                "controlled: expected at least one robot; the map has none"
+                if not names
+                else "controlled: expected at least one robot"
+            )
         return out
 
     def _build_spaces(self) -> None:
@@ -476,8 +528,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         low, high = self._observation_bounds(lay)
         self._obs_dim = dim
         self._observation_spaces = {
-            a: spaces.Box(low.astype(np.float32), high.astype(np.float32), shape=(dim,),
-                          dtype=np.float32)
+            a: spaces.Box(
+                low.astype(np.float32), high.astype(np.float32), shape=(dim,), dtype=np.float32
+            )
             for a in self.possible_agents
         }
         box = self._observation_spaces[self.possible_agents[0]]
@@ -514,27 +567,43 @@ class NaoArenaParallelEnv(ParallelEnv):
         own = {
             "goal_dx": ((lo[0] - p_hi[0]) * wide, (hi[0] - p_lo[0]) * wide),
             "goal_dy": ((lo[1] - p_hi[1]) * wide, (hi[1] - p_lo[1]) * wide),
-            "vx": (-v, v), "vy": (-v, v), "ax": (-acc, acc), "ay": (-acc, acc),
-            "cmd_ax": (-a_own * wide, a_own * wide), "cmd_ay": (-a_own * wide, a_own * wide),
-            "a_max": (0.0, a_own), "v_max": (0.0, v_own), "radius": (0.0, r_own),
-            "x": (p_lo[0], p_hi[0]), "y": (p_lo[1], p_hi[1]),
-            "goal_x": (lo[0], hi[0]), "goal_y": (lo[1], hi[1]),
+            "vx": (-v, v),
+            "vy": (-v, v),
+            "ax": (-acc, acc),
+            "ay": (-acc, acc),
+            "cmd_ax": (-a_own * wide, a_own * wide),
+            "cmd_ay": (-a_own * wide, a_own * wide),
+            "a_max": (0.0, a_own),
+            "v_max": (0.0, v_own),
+            "radius": (0.0, r_own),
+            "x": (p_lo[0], p_hi[0]),
+            "y": (p_lo[1], p_hi[1]),
+            "goal_x": (lo[0], hi[0]),
+            "goal_y": (lo[1], hi[1]),
             "time_left": (0.0, self.time_limit),
         }
         reach = self._sensing_range * wide
         reach_xy = [reach if math.isfinite(reach) else p_hi[i] - p_lo[i] for i in (0, 1)]
         acc_all = 2.0 * v_all / world.dt * wide
         row = {
-            "mask": (0.0, 1.0), "dx": (-reach_xy[0], reach_xy[0]),
-            "dy": (-reach_xy[1], reach_xy[1]), "dvx": (-dv, dv), "dvy": (-dv, dv),
-            "ax": (-acc_all, acc_all), "ay": (-acc_all, acc_all), "radius": (0.0, r_all),
+            "mask": (0.0, 1.0),
+            "dx": (-reach_xy[0], reach_xy[0]),
+            "dy": (-reach_xy[1], reach_xy[1]),
+            "dvx": (-dv, dv),
+            "dvy": (-dv, dv),
+            "ax": (-acc_all, acc_all),
+            "ay": (-acc_all, acc_all),
+            "radius": (0.0, r_all),
             "is_traffic": (0.0, 1.0),
         }
         k = self.options.max_neighbours
-        pairs = ([own[f] for f in OWN_FEATURES] + [row[f] for f in NEIGHBOUR_FEATURES] * k
-                 + [(-self.options.nao_clip, self.options.nao_clip)]
-                 * (lay["nao"].stop - lay["nao"].start)
-                 + [(0.0, 1.0)] * (lay["finished"].stop - lay["finished"].start))
+        pairs = (
+            [own[f] for f in OWN_FEATURES]
+            + [row[f] for f in NEIGHBOUR_FEATURES] * k
+            + [(-self.options.nao_clip, self.options.nao_clip)]
+            * (lay["nao"].stop - lay["nao"].start)
+            + [(0.0, 1.0)] * (lay["finished"].stop - lay["finished"].start)
+        )
         out = np.array(pairs, dtype=np.float64).reshape(-1, 2)
         return out[:, 0].copy(), out[:, 1].copy()
 
@@ -567,8 +636,10 @@ class NaoArenaParallelEnv(ParallelEnv):
                 spec = self._load({**self.map_params, "seed": episode_seed})
                 old = [r.name for r in self.spec.robots]
                 if [r.name for r in spec.robots] != old:
-                    raise ValueError("the map's robots changed with its seed; expected the same "
-                                     "robot names in every episode")
+                    raise ValueError(
+                        "the map's robots changed with its seed; expected the same "
+                        "robot names in every episode"
+                    )
                 self._install(spec)
         self.arena.reset(episode_seed)
         self.agents = list(self.possible_agents)
@@ -583,8 +654,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.last_result = None
         rows = np.arange(len(self.possible_agents))
         obs = self._observe(rows)
-        infos = {a: {"collisions": [], "reached": False, "time": 0.0, "faults": []}
-                 for a in self.agents}
+        infos = {
+            a: {"collisions": [], "reached": False, "time": 0.0, "faults": []} for a in self.agents
+        }
         if self.options.keep_finished:
             for info in infos.values():
                 info["finished"] = False
@@ -598,12 +670,16 @@ class NaoArenaParallelEnv(ParallelEnv):
         Each action must be real numbers (ints or floats; not booleans, complex numbers,
         strings or objects) of shape (2,), finite; else ValueError naming the agent."""
         if not isinstance(actions, Mapping):
-            raise ValueError(f"actions: expected a dict of agent name -> action of shape (2,), "
-                             f"got {type(actions).__name__}")
+            raise ValueError(
+                f"actions: expected a dict of agent name -> action of shape (2,), "
+                f"got {type(actions).__name__}"
+            )
         if not self._row.keys() >= actions.keys():
             name = next(a for a in actions if a not in self._row)
-            raise ValueError(f"action for unknown agent {name!r}; expected one of "
-                             f"{', '.join(self.possible_agents)}")
+            raise ValueError(
+                f"action for unknown agent {name!r}; expected one of "
+                f"{', '.join(self.possible_agents)}"
+            )
         if len(actions) < len(live) or not actions.keys() >= set(live):
             missing = [a for a in live if a not in actions]
             raise ValueError(f"missing actions for live agents: {', '.join(missing)}")
@@ -618,19 +694,28 @@ class NaoArenaParallelEnv(ParallelEnv):
                 try:
                     one = np.asarray(actions[a], dtype=np.float64)
                 except (TypeError, ValueError):
-                    raise ValueError(f"action of {a!r}: expected a numeric array of shape "
-                                     f"(2,), got {actions[a]!r}") from None
+                    raise ValueError(
+                        f"action of {a!r}: expected a numeric array of shape "
+                        f"(2,), got {actions[a]!r}"
+                    ) from None
                 if one.shape != (2,):
                     raise ValueError(f"action of {a!r}: expected shape (2,), got {one.shape}")
             raise ValueError("expected actions of shape (2,)")
         if not np.all(np.isfinite(arr)):
             bad = [a for a, row in zip(live, arr, strict=True) if not np.all(np.isfinite(row))]
-            raise ValueError(f"action of {bad[0]!r}: expected finite values, got "
-                             f"{np.asarray(actions[bad[0]]).tolist()}")
+            raise ValueError(
+                f"action of {bad[0]!r}: expected finite values, got "
+                f"{np.asarray(actions[bad[0]]).tolist()}"
+            )
         return np.clip(arr, -1.0, 1.0)
 
-    def step(self, actions: Mapping[str, Any]) -> tuple[
-        dict[str, NDArray[np.float32]], dict[str, float], dict[str, bool], dict[str, bool],
+    def step(
+        self, actions: Mapping[str, Any]
+    ) -> tuple[
+        dict[str, NDArray[np.float32]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
         """One control period: the live agents' normalized accelerations -> the usual five dicts
@@ -683,15 +768,15 @@ class NaoArenaParallelEnv(ParallelEnv):
             reward = reward - w.collision * n_col
         faults: dict[int, list[dict[str, Any]]] = {}
         for f in res.faults:
-            faults.setdefault(int(self.arena.robot_ids[f.robot]), []).append(
-                dataclasses.asdict(f))
+            faults.setdefault(int(self.arena.robot_ids[f.robot]), []).append(dataclasses.asdict(f))
         terminated = reached.copy()
         if opts.terminate_on_collision and n_col is not None:
             terminated |= n_col > 0
         time_up = res.time >= self.time_limit - 1e-9
         if keep:
-            return self._step_keep(live, live_rows, rows, reward, terminated, time_up, events,
-                                   faults, res)
+            return self._step_keep(
+                live, live_rows, rows, reward, terminated, time_up, events, faults, res
+            )
         obs = self._observe(rows)
         out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
         reached_l = reached.tolist()
@@ -704,8 +789,12 @@ class NaoArenaParallelEnv(ParallelEnv):
             out_rew[a] = rew_l[i]
             out_term[a] = term_l[i]
             out_trunc[a] = time_up
-            out_info[a] = {"collisions": events.get(b, []), "reached": reached_l[i], "time": t,
-                           "faults": faults.get(b, [])}
+            out_info[a] = {
+                "collisions": events.get(b, []),
+                "reached": reached_l[i],
+                "time": t,
+                "faults": faults.get(b, []),
+            }
         done = terminated | time_up
         if np.any(done):
             self._alive[rows[done]] = False
@@ -715,12 +804,21 @@ class NaoArenaParallelEnv(ParallelEnv):
         return out_obs, out_rew, out_term, out_trunc, out_info
 
     def _step_keep(
-        self, live: list[str], live_rows: NDArray[np.intp], rows: NDArray[np.intp],
-        reward: NDArray[np.float64], terminated: NDArray[np.bool_], time_up: bool,
-        events: dict[int, list[dict[str, Any]]], faults: dict[int, list[dict[str, Any]]],
+        self,
+        live: list[str],
+        live_rows: NDArray[np.intp],
+        rows: NDArray[np.intp],
+        reward: NDArray[np.float64],
+        terminated: NDArray[np.bool_],
+        time_up: bool,
+        events: dict[int, list[dict[str, Any]]],
+        faults: dict[int, list[dict[str, Any]]],
         res: StepResult,
     ) -> tuple[
-        dict[str, NDArray[np.float32]], dict[str, float], dict[str, bool], dict[str, bool],
+        dict[str, NDArray[np.float32]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
         """The end of :meth:`step` with ``keep_finished``: ``rows`` (the acting agents among
@@ -731,7 +829,8 @@ class NaoArenaParallelEnv(ParallelEnv):
         # what drove the finished robots (their agent, or braking), as the world applied it
         held = live_rows[finished_before]
         self._prev_cmd[held] = clip_accelerations(
-            res.commanded[self._bodies[held]], self._a_max[held])
+            res.commanded[self._bodies[held]], self._a_max[held]
+        )
         obs = self._observe(live_rows)
         end = time_up or not np.any(self._alive)
         finished = ~self._alive[live_rows]
@@ -747,8 +846,13 @@ class NaoArenaParallelEnv(ParallelEnv):
             out_rew[a] = float(rew[i])
             out_term[a] = end and fin
             out_trunc[a] = end and time_up and not fin
-            out_info[a] = {"collisions": events.get(b, []), "reached": reached[i], "time": t,
-                           "faults": faults.get(b, []), "finished": fin}
+            out_info[a] = {
+                "collisions": events.get(b, []),
+                "reached": reached[i],
+                "time": t,
+                "faults": faults.get(b, []),
+                "finished": fin,
+            }
         if end:
             self._alive[live_rows] = False
             self.agents = []
@@ -769,8 +873,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         reset or step)."""
         if self.arena.state is None:
             raise RuntimeError("call reset() first")
-        rows = np.fromiter((self._row[a] for a in self.agents), dtype=np.intp,
-                           count=len(self.agents))
+        rows = np.fromiter(
+            (self._row[a] for a in self.agents), dtype=np.intp, count=len(self.agents)
+        )
         obs = self._observe(rows)
         return {a: obs[i] for i, a in enumerate(self.agents)}
 
@@ -790,10 +895,24 @@ class NaoArenaParallelEnv(ParallelEnv):
         present = np.zeros((m, k), dtype=np.bool_)
         # the sensing's neighbour search, with the env's distances (math.hypot)
         nb_start, nb_index = neighbour_lists(bodies, p, self._sensing_range, k, hypot=True)
-        _observation_rows(p, v, acc, rad, self._kinds, self._world_a_max, self._world_v_max,
-                          bodies, self._goals[rows], self._prev_cmd[rows],
-                          max(self.time_limit - state.time, 0.0), nb_start, nb_index, out,
-                          idx, present)
+        _observation_rows(
+            p,
+            v,
+            acc,
+            rad,
+            self._kinds,
+            self._world_a_max,
+            self._world_v_max,
+            bodies,
+            self._goals[rows],
+            self._prev_cmd[rows],
+            max(self.time_limit - state.time, 0.0),
+            nb_start,
+            nb_index,
+            out,
+            idx,
+            present,
+        )
         if self._cand is not None:
             out[:, self._layout["nao"]] = self._nao_block(bodies, idx, present)
         if opts.keep_finished:
@@ -814,9 +933,12 @@ class NaoArenaParallelEnv(ParallelEnv):
         predicted = np.zeros((0, len(times), 2))
         if len(flat):
             nb = Neighbours(
-                ids=flat.astype(np.int64), kinds=tuple(world.kinds[i] for i in flat.tolist()),
-                positions=state.positions[flat], velocities=state.velocities[flat],
-                accelerations=state.accelerations[flat], radii=state.radii[flat],
+                ids=flat.astype(np.int64),
+                kinds=tuple(world.kinds[i] for i in flat.tolist()),
+                positions=state.positions[flat],
+                velocities=state.velocities[flat],
+                accelerations=state.accelerations[flat],
+                radii=state.radii[flat],
             )
             predicted = get_predictor(opts.nao_predictor)(times, nb)
         counts = present.sum(axis=1)
@@ -830,10 +952,15 @@ class NaoArenaParallelEnv(ParallelEnv):
             walls, half = self._walls if self._walls is not None else (None, None)
             # the agent's obstacles, without its radius cut: the walls within reach
             path = obstacle_paths(
-                times, predicted[starts[i]:starts[i + 1]],
-                state.radii[flat[starts[i]:starts[i + 1]]] + grow,
-                state.positions[b], walls, None if half is None else half + grow,
-                v_max * h + 0.5 * a_max * h * h, cut=False)
+                times,
+                predicted[starts[i] : starts[i + 1]],
+                state.radii[flat[starts[i] : starts[i + 1]]] + grow,
+                state.positions[b],
+                walls,
+                None if half is None else half + grow,
+                v_max * h + 0.5 * a_max * h * h,
+                cut=False,
+            )
             if path.n_obstacles == 0:
                 continue
             clear = path_clearance(self._cand * a_max, state.velocities[b], path, v_max=v_max)
@@ -846,10 +973,12 @@ class NaoArenaParallelEnv(ParallelEnv):
         st = self.arena.state
         if st is None:
             raise RuntimeError("call reset() before state()")
-        bodies = np.column_stack([st.positions, st.velocities, st.accelerations, st.radii,
-                                  self._kinds])
+        bodies = np.column_stack(
+            [st.positions, st.velocities, st.accelerations, st.radii, self._kinds]
+        )
         return np.concatenate([[st.time], bodies.ravel(), self.arena.goals.ravel()]).astype(
-            np.float32)
+            np.float32
+        )
 
     # ------------------------------------------------------------------ rendering
 
@@ -879,10 +1008,15 @@ class NaoArenaParallelEnv(ParallelEnv):
         from nao_arena.render import Viewer, ViewerOptions
 
         if self._viewer is None:
-            self._viewer = Viewer(ViewerOptions(size=self.options.render_size),
-                                  human=self.render_mode == "human")
-        frame = self._viewer.draw(self.arena, selected=self._selected_robot(),
-                                  controlled=self._controlled, result=self.last_result)
+            self._viewer = Viewer(
+                ViewerOptions(size=self.options.render_size), human=self.render_mode == "human"
+            )
+        frame = self._viewer.draw(
+            self.arena,
+            selected=self._selected_robot(),
+            controlled=self._controlled,
+            result=self.last_result,
+        )
         return frame if self.render_mode == "rgb_array" else None
 
     def close(self) -> None:
@@ -912,4 +1046,3 @@ def env(
 ) -> AECEnv:
     """The AEC version of :func:`parallel_env` (PettingZoo's ``parallel_to_aec``)."""
     return parallel_to_aec(parallel_env(map, render_mode=render_mode, **kwargs))
-

@@ -110,8 +110,16 @@ LOG_VERSION = 1
 META_KEY = b"nao_arena.episode_log"
 META_SHA_KEY = b"nao_arena.episode_log.sha256"
 
-STATUSES: tuple[str, ...] = ("desired", "kept", "repaired", "adjusted", "infeasible",
-                             "fault", "external", "yielded")
+STATUSES: tuple[str, ...] = (
+    "desired",
+    "kept",
+    "repaired",
+    "adjusted",
+    "infeasible",
+    "fault",
+    "external",
+    "yielded",
+)
 """Decision statuses, in the order of the codes of :attr:`EpisodeLog.status`."""
 SELECTIONS: tuple[str, ...] = ("desired", "adjusted", "infeasible", "yielded")
 """Statuses of a full selection (:attr:`EpisodeLog.selection` codes)."""
@@ -119,17 +127,19 @@ SELECTIONS: tuple[str, ...] = ("desired", "adjusted", "infeasible", "yielded")
 _CODE = {s: i for i, s in enumerate(STATUSES)}
 _SEL_CODE = {s: i for i, s in enumerate(SELECTIONS)}
 _FLOATS = ("x", "y", "vx", "vy", "ax", "ay", "cmd_x", "cmd_y")
-_SCHEMA = pa.schema([
-    pa.field("step", pa.int32(), nullable=False),
-    pa.field("time", pa.float64(), nullable=False),
-    pa.field("body", pa.int16(), nullable=False),
-    *[pa.field(name, pa.float64(), nullable=False) for name in _FLOATS],
-    pa.field("reached", pa.bool_(), nullable=False),
-    pa.field("status", pa.dictionary(pa.int8(), pa.string())),
-    pa.field("selection", pa.dictionary(pa.int8(), pa.string())),
-    pa.field("detour", pa.float64()),
-    pa.field("neighbours", pa.list_(pa.int32())),
-])
+_SCHEMA = pa.schema(
+    [
+        pa.field("step", pa.int32(), nullable=False),
+        pa.field("time", pa.float64(), nullable=False),
+        pa.field("body", pa.int16(), nullable=False),
+        *[pa.field(name, pa.float64(), nullable=False) for name in _FLOATS],
+        pa.field("reached", pa.bool_(), nullable=False),
+        pa.field("status", pa.dictionary(pa.int8(), pa.string())),
+        pa.field("selection", pa.dictionary(pa.int8(), pa.string())),
+        pa.field("detour", pa.float64()),
+        pa.field("neighbours", pa.list_(pa.int32())),
+    ]
+)
 _MATCH_TOL = 1e-9  # m/s^2: a command this close to the goal-seeking one is "desired"
 _UNCLASSIFIED = -2  # a row's status of an agent that reports no decision, until finish()
 
@@ -245,8 +255,9 @@ class EpisodeLog:
     def step_at(self, t: float) -> int:
         """The last row whose time is <= t (s) (row 0 before the start, the last row
         after the end)."""
-        return int(np.clip(np.searchsorted(self.time, t + 1e-9, side="right") - 1, 0,
-                           self.n_steps - 1))
+        return int(
+            np.clip(np.searchsorted(self.time, t + 1e-9, side="right") - 1, 0, self.n_steps - 1)
+        )
 
     def status_of(self, step: int, robot: int) -> str | None:
         """Robot ``robot``'s decision status in row ``step`` (None in row 0)."""
@@ -264,7 +275,7 @@ class EpisodeLog:
         if step <= 0 or not self.nb_logged[robot]:
             return None
         i = step * len(self.robots) + robot
-        return self.nb_index[self.nb_offsets[i]:self.nb_offsets[i + 1]]
+        return self.nb_index[self.nb_offsets[i] : self.nb_offsets[i + 1]]
 
     @property
     def contacts(self) -> list[ContactEvent]:
@@ -285,20 +296,28 @@ class EpisodeLog:
         the static parts (world geometry, traffic lanes, goals) and the sensing code."""
         if self._scene is None:
             o = self.options
-            self._scene = Arena(self.spec, ArenaOptions(
-                sensing_range=o.get("sensing_range"), max_neighbours=o.get("max_neighbours"),
-                known_path_horizon=float(o.get("known_path_horizon", 6.0)),
-                known_path_samples=int(o.get("known_path_samples", 61)),
-            ))
+            self._scene = Arena(
+                self.spec,
+                ArenaOptions(
+                    sensing_range=o.get("sensing_range"),
+                    max_neighbours=o.get("max_neighbours"),
+                    known_path_horizon=float(o.get("known_path_horizon", 6.0)),
+                    known_path_samples=int(o.get("known_path_samples", 61)),
+                ),
+            )
         return self._scene
 
     def state(self, step: int) -> WorldState:
         """The world state of row ``step``."""
         world = self.scene().world
         return WorldState(
-            time=float(self.time[step]), positions=self.positions[step],
-            velocities=self.velocities[step], accelerations=self.accelerations[step],
-            radii=world.radii, names=world.names, kinds=world.kinds,
+            time=float(self.time[step]),
+            positions=self.positions[step],
+            velocities=self.velocities[step],
+            accelerations=self.accelerations[step],
+            radii=world.radii,
+            names=world.names,
+            kinds=world.kinds,
         )
 
     def sensing(self, step: int) -> SensingBatch:
@@ -320,8 +339,9 @@ class EpisodeLog:
             return DecisionInputs(step, robot, obs, None, None)
         times = info.times
         nb = obs.neighbours
-        predicted = (get_predictor(info.predictor)(times, nb) if len(nb)
-                     else np.zeros((0, len(times), 2)))
+        predicted = (
+            get_predictor(info.predictor)(times, nb) if len(nb) else np.zeros((0, len(times), 2))
+        )
         return DecisionInputs(step, robot, obs, times, predicted)
 
     def trajectory_hash(self) -> str:
@@ -360,8 +380,9 @@ class EpisodeRecorder:
     references). :meth:`finish` returns the :class:`EpisodeLog` of what ran so far.
     """
 
-    def __init__(self, context: Mapping[str, Any] | None = None,
-                 labels: Sequence[str] | None = None) -> None:
+    def __init__(
+        self, context: Mapping[str, Any] | None = None, labels: Sequence[str] | None = None
+    ) -> None:
         self.context = dict(context or {})
         self.labels = list(labels) if labels is not None else None
         self._arena: Arena | None = None
@@ -374,19 +395,25 @@ class EpisodeRecorder:
         n_robots = len(arena.robots)
         labels = self.labels or arena.agent_names
         self._info: list[RobotInfo] = []
-        self._reporting: list[int] = []   # agents with last_decision()
-        self._detours: list[int] = []     # other agents with a detour attribute
-        self._plain: list[int] = []       # agents classified by goal seeking
+        self._reporting: list[int] = []  # agents with last_decision()
+        self._detours: list[int] = []  # other agents with a detour attribute
+        self._plain: list[int] = []  # agents classified by goal seeking
         self._prev: dict[int, tuple[Any, NDArray[np.float64]]] = {}
         for k, (agent, body) in enumerate(zip(arena.agents, arena.robot_ids, strict=True)):
             predictor, times = _panel_settings(agent)
             v_pref = getattr(agent, "v_pref", None)
-            self._info.append(RobotInfo(
-                name=arena.robots[k].name or f"robot{k}", body=int(body),
-                agent=arena.agent_names[k], label=labels[k] if k < len(labels) else
-                arena.agent_names[k], predictor=predictor, times=times,
-                margin=float(getattr(agent, "margin", 0.0)),
-                v_pref=None if v_pref is None else float(v_pref)))
+            self._info.append(
+                RobotInfo(
+                    name=arena.robots[k].name or f"robot{k}",
+                    body=int(body),
+                    agent=arena.agent_names[k],
+                    label=labels[k] if k < len(labels) else arena.agent_names[k],
+                    predictor=predictor,
+                    times=times,
+                    margin=float(getattr(agent, "margin", 0.0)),
+                    v_pref=None if v_pref is None else float(v_pref),
+                )
+            )
             if callable(getattr(agent, "last_decision", None)):
                 self._reporting.append(k)
                 sel, cur, _ = agent.last_decision()
@@ -397,11 +424,15 @@ class EpisodeRecorder:
                     self._detours.append(k)
         self._nb_robots = np.array([r.predictor is not None for r in self._info], dtype=bool)
         plain = self._plain
-        self._cap_pref = np.array([
-            math.inf if getattr(arena.agents[k], "v_pref", None) is None
-            else float(arena.agents[k].v_pref) for k in plain])
-        self._tau = np.array([float(getattr(arena.agents[k], "time_constant", 0.5))
-                              for k in plain])
+        self._cap_pref = np.array(
+            [
+                math.inf
+                if getattr(arena.agents[k], "v_pref", None) is None
+                else float(arena.agents[k].v_pref)
+                for k in plain
+            ]
+        )
+        self._tau = np.array([float(getattr(arena.agents[k], "time_constant", 0.5)) for k in plain])
         state = arena.state
         self._time = [state.time]
         self._pos = [state.positions]
@@ -417,8 +448,9 @@ class EpisodeRecorder:
         self._detour = [detour]
         self._nb: list[tuple[NDArray[np.int64], NDArray[np.int64]] | None] = [None]
 
-    def _decisions(self, arena: Arena, n_robots: int) -> tuple[
-            NDArray[np.int8], NDArray[np.int8], NDArray[np.float64]]:
+    def _decisions(
+        self, arena: Arena, n_robots: int
+    ) -> tuple[NDArray[np.int8], NDArray[np.int8], NDArray[np.float64]]:
         """(status, selection, detour) per robot of the agents that report decisions
         (status -1 for the others), updating what was seen last."""
         status = np.full(n_robots, -1, dtype=np.int8)
@@ -442,9 +474,13 @@ class EpisodeRecorder:
             detour[k] = float(agents[k].detour)
         return status, selection, detour
 
-    def _plain_status(self, arena: Arena, positions: NDArray[np.float64],
-                      velocities: NDArray[np.float64], commanded: NDArray[np.float64]
-                      ) -> NDArray[np.int8]:
+    def _plain_status(
+        self,
+        arena: Arena,
+        positions: NDArray[np.float64],
+        velocities: NDArray[np.float64],
+        commanded: NDArray[np.float64],
+    ) -> NDArray[np.int8]:
         """desired / adjusted (S - 1, P) for the P agents that report no decision, rows
         1 ..: whether the command equals the goal-seeking acceleration
         (:func:`~nao_arena.agents.goal.goal_seeking_accel` with the agent's v_pref and
@@ -457,8 +493,9 @@ class EpisodeRecorder:
         dist = np.hypot(to_goal[..., 0], to_goal[..., 1])
         with np.errstate(divide="ignore", invalid="ignore"):
             speed = np.minimum(np.minimum(self._cap_pref, v_max), np.sqrt(a_max * dist))
-            v_target = np.where((dist < 1e-9)[..., None], 0.0, to_goal / dist[..., None]
-                                * speed[..., None])
+            v_target = np.where(
+                (dist < 1e-9)[..., None], 0.0, to_goal / dist[..., None] * speed[..., None]
+            )
         acc = (v_target - v) / self._tau[:, None]
         norm = np.hypot(acc[..., 0], acc[..., 1])
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -466,11 +503,13 @@ class EpisodeRecorder:
         acc = acc * scale[..., None]
         cmd = commanded[1:, bodies]
         off = np.hypot(cmd[..., 0] - acc[..., 0], cmd[..., 1] - acc[..., 1])
-        return np.where(off <= _MATCH_TOL * (1.0 + a_max), _CODE["desired"],
-                        _CODE["adjusted"]).astype(np.int8)
+        return np.where(
+            off <= _MATCH_TOL * (1.0 + a_max), _CODE["desired"], _CODE["adjusted"]
+        ).astype(np.int8)
 
-    def step(self, arena: Arena, sensing: SensingBatch, result: StepResult,
-             actions: Mapping[int, Any]) -> None:
+    def step(
+        self, arena: Arena, sensing: SensingBatch, result: StepResult, actions: Mapping[int, Any]
+    ) -> None:
         """One row: the state at the step's end, the commands and decisions of the step."""
         state = result.state
         self._time.append(state.time)
@@ -491,11 +530,11 @@ class EpisodeRecorder:
         self._status.append(status)
         self._selection.append(selection)
         self._detour.append(detour)
-        self._nb.append((sensing.nb_start, sensing.nb_index) if self._nb_robots.any()
-                        else None)
+        self._nb.append((sensing.nb_start, sensing.nb_index) if self._nb_robots.any() else None)
 
-    def finish(self, arena: Arena | None = None,
-               summary: EpisodeSummary | None = None) -> EpisodeLog:
+    def finish(
+        self, arena: Arena | None = None, summary: EpisodeSummary | None = None
+    ) -> EpisodeLog:
         """The log of the episode so far, with its summary (``arena.summary()`` unless
         given: the summary of the episode as it is now)."""
         arena = arena or self._arena
@@ -514,10 +553,11 @@ class EpisodeRecorder:
             per_robot = np.diff(start)
             counts[s] = np.where(logged, per_robot, 0)
             if every:
-                parts.append(index[start[0]:start[-1]].astype(np.int32))
+                parts.append(index[start[0] : start[-1]].astype(np.int32))
             else:
-                parts.append(index[start[0]:start[-1]][
-                    np.repeat(logged, per_robot)].astype(np.int32))
+                parts.append(
+                    index[start[0] : start[-1]][np.repeat(logged, per_robot)].astype(np.int32)
+                )
         np.cumsum(counts.ravel(), out=offsets[1:])
         positions, velocities = np.stack(self._pos), np.stack(self._vel)
         commanded, status = np.stack(self._cmd), np.stack(self._status)
@@ -527,13 +567,20 @@ class EpisodeRecorder:
             plain[todo] = self._plain_status(arena, positions, velocities, commanded)[todo]
             status[1:, self._plain] = plain
         return EpisodeLog(
-            spec=arena.spec, seed=self.seed, options=_options_dict(arena.options),
-            robots=list(self._info), summary=summary.to_dict(),
+            spec=arena.spec,
+            seed=self.seed,
+            options=_options_dict(arena.options),
+            robots=list(self._info),
+            summary=summary.to_dict(),
             time=np.array(self._time, dtype=np.float64),
-            positions=positions, velocities=velocities,
-            accelerations=np.stack(self._acc), commanded=commanded,
-            reached=np.stack(self._reached), status=status,
-            selection=np.stack(self._selection), detour=np.stack(self._detour),
+            positions=positions,
+            velocities=velocities,
+            accelerations=np.stack(self._acc),
+            commanded=commanded,
+            reached=np.stack(self._reached),
+            status=status,
+            selection=np.stack(self._selection),
+            detour=np.stack(self._detour),
             nb_offsets=offsets,
             nb_index=np.concatenate(parts) if parts else np.zeros(0, dtype=np.int32),
             nb_logged=logged.copy(),
@@ -560,9 +607,11 @@ def _jsonable(value: Any) -> Any:
 
 def _options_dict(options: ArenaOptions) -> dict[str, Any]:
     return {
-        "sensing_range": options.sensing_range, "max_neighbours": options.max_neighbours,
+        "sensing_range": options.sensing_range,
+        "max_neighbours": options.max_neighbours,
         "known_path_horizon": options.known_path_horizon,
-        "known_path_samples": options.known_path_samples, "agent": options.agent,
+        "known_path_samples": options.known_path_samples,
+        "agent": options.agent,
         "agent_options": {k: _jsonable(v) for k, v in options.agent_options.items()},
     }
 
@@ -574,8 +623,10 @@ def _checksum_options() -> tuple[dict[str, bool], dict[str, bool]]:
     """(write, read) keyword arguments for Parquet page checksums, where pyarrow has them."""
     write = "write_page_checksum" in inspect.signature(pq.write_table).parameters
     read = "page_checksum_verification" in inspect.signature(pq.ParquetFile).parameters
-    return ({"write_page_checksum": True} if write else {},
-            {"page_checksum_verification": True} if read else {})
+    return (
+        {"write_page_checksum": True} if write else {},
+        {"page_checksum_verification": True} if read else {},
+    )
 
 
 def _metadata(log: EpisodeLog) -> dict[str, Any]:
@@ -592,12 +643,20 @@ def _metadata(log: EpisodeLog) -> dict[str, Any]:
         "run": log.run,
         "options": log.options,
         "time_grids": grids,
-        "robots": [{
-            "name": r.name, "body": r.body, "agent": r.agent, "label": r.label,
-            "predictor": r.predictor,
-            "times": None if r.times is None else grids.index(r.times.tolist()),
-            "margin": r.margin, "v_pref": r.v_pref, "neighbours": bool(logged),
-        } for r, logged in zip(log.robots, log.nb_logged, strict=True)],
+        "robots": [
+            {
+                "name": r.name,
+                "body": r.body,
+                "agent": r.agent,
+                "label": r.label,
+                "predictor": r.predictor,
+                "times": None if r.times is None else grids.index(r.times.tolist()),
+                "margin": r.margin,
+                "v_pref": r.v_pref,
+                "neighbours": bool(logged),
+            }
+            for r, logged in zip(log.robots, log.nb_logged, strict=True)
+        ],
         "steps": log.n_steps,
         "contact_steps": log.contact_steps.tolist(),
         "fault_steps": log.fault_steps.tolist(),
@@ -605,8 +664,9 @@ def _metadata(log: EpisodeLog) -> dict[str, Any]:
     }
 
 
-def _dictionary(codes: NDArray[np.int8], mask: NDArray[np.bool_],
-                names: Sequence[str]) -> pa.DictionaryArray:
+def _dictionary(
+    codes: NDArray[np.int8], mask: NDArray[np.bool_], names: Sequence[str]
+) -> pa.DictionaryArray:
     indices = pa.array(np.where(mask, 0, codes).astype(np.int8), mask=mask)
     return pa.DictionaryArray.from_arrays(indices, pa.array(list(names), pa.string()))
 
@@ -628,15 +688,22 @@ def to_table(log: EpisodeLog) -> pa.Table:
         "time": pa.array(np.repeat(log.time, n)),
         "body": pa.array(np.tile(np.arange(n, dtype=np.int16), n_rows)),
     }
-    for name, arr, j in (("x", log.positions, 0), ("y", log.positions, 1),
-                         ("vx", log.velocities, 0), ("vy", log.velocities, 1),
-                         ("ax", log.accelerations, 0), ("ay", log.accelerations, 1),
-                         ("cmd_x", log.commanded, 0), ("cmd_y", log.commanded, 1)):
+    for name, arr, j in (
+        ("x", log.positions, 0),
+        ("y", log.positions, 1),
+        ("vx", log.velocities, 0),
+        ("vy", log.velocities, 1),
+        ("ax", log.accelerations, 0),
+        ("ay", log.accelerations, 1),
+        ("cmd_x", log.commanded, 0),
+        ("cmd_y", log.commanded, 1),
+    ):
         columns[name] = pa.array(np.ascontiguousarray(arr[:, :, j]).ravel())
     columns["reached"] = pa.array(log.reached.ravel())
     columns["status"] = _dictionary(status.ravel(), (traffic | (status < 0)).ravel(), STATUSES)
-    columns["selection"] = _dictionary(selection.ravel(), (traffic | (selection < 0)).ravel(),
-                                       SELECTIONS)
+    columns["selection"] = _dictionary(
+        selection.ravel(), (traffic | (selection < 0)).ravel(), SELECTIONS
+    )
     columns["detour"] = pa.array(detour.ravel(), mask=(traffic | np.isnan(detour)).ravel())
     # neighbours: the robots' CSR lists spread over the bodies
     counts = np.diff(log.nb_offsets).reshape(n_rows, n_robots)
@@ -646,8 +713,10 @@ def to_table(log: EpisodeLog) -> pa.Table:
     offsets = np.zeros(n_rows * n + 1, dtype=np.int32)
     np.cumsum(body_counts.ravel(), out=offsets[1:])
     columns["neighbours"] = pa.ListArray.from_arrays(
-        pa.array(offsets), pa.array(log.nb_index.astype(np.int32), pa.int32()),
-        mask=pa.array(~has.ravel()))
+        pa.array(offsets),
+        pa.array(log.nb_index.astype(np.int32), pa.int32()),
+        mask=pa.array(~has.ravel()),
+    )
     return pa.Table.from_pydict(columns, schema=_SCHEMA)
 
 
@@ -656,8 +725,10 @@ def write_log(log: EpisodeLog, path: str | Path) -> Path:
     the path."""
     path = Path(path)
     meta = json.dumps(_metadata(log), separators=(",", ":"), allow_nan=False)
-    kv = {META_KEY: meta.encode("utf-8"),
-          META_SHA_KEY: hashlib.sha256(meta.encode("utf-8")).hexdigest().encode("ascii")}
+    kv = {
+        META_KEY: meta.encode("utf-8"),
+        META_SHA_KEY: hashlib.sha256(meta.encode("utf-8")).hexdigest().encode("ascii"),
+    }
     table = to_table(log)
     # the file's own key-value pairs; where pyarrow cannot add them, the schema's (which
     # pyarrow then also keeps in its serialized schema)
@@ -669,9 +740,14 @@ def write_log(log: EpisodeLog, path: str | Path) -> Path:
     def write(tmp: str) -> None:
         # plain float64 pages compress better with zstd here than byte-stream-split ones
         with pq.ParquetWriter(
-                tmp, table.schema, compression="zstd", compression_level=3,
-                use_dictionary=["step", "time", "status", "selection", "neighbours"],
-                write_statistics=False, **write_checks) as writer:
+            tmp,
+            table.schema,
+            compression="zstd",
+            compression_level=3,
+            use_dictionary=["step", "time", "status", "selection", "neighbours"],
+            write_statistics=False,
+            **write_checks,
+        ) as writer:
             writer.write_table(table, row_group_size=max(table.num_rows, 1))
             if own_kv:
                 writer.add_key_value_metadata(kv)
@@ -702,8 +778,7 @@ def _codes(column: pa.ChunkedArray, names: Sequence[str], where: str) -> NDArray
         valid = arr.is_valid().to_numpy(zero_copy_only=False)
     unknown = [v for v in values if v not in names]
     if unknown:
-        raise LogError(f"{where}: unknown value {unknown[0]!r}; expected one of "
-                       f"{', '.join(names)}")
+        raise LogError(f"{where}: unknown value {unknown[0]!r}; expected one of {', '.join(names)}")
     lut = np.array([names.index(v) for v in values] or [0], dtype=np.int8)
     return np.where(valid, lut[indices] if len(values) else 0, -1).astype(np.int8)
 
@@ -720,15 +795,18 @@ def read_log(path: str | Path) -> EpisodeLog:
         pf = pq.ParquetFile(path, **read_checks)
         kv = pf.metadata.metadata or {}  # the file's own key-value pairs
     except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for a bad file
-        raise LogError(f"{path}: not a complete episode log (truncated, or not a Parquet "
-                       f"file: {_first_line(exc)})") from None
+        raise LogError(
+            f"{path}: not a complete episode log (truncated, or not a Parquet "
+            f"file: {_first_line(exc)})"
+        ) from None
     if META_KEY not in kv:
-        raise LogError(f"{path}: not an episode log (a Parquet file without the "
-                       f"{META_KEY.decode()} metadata; expected a file written with --log)")
+        raise LogError(
+            f"{path}: not an episode log (a Parquet file without the "
+            f"{META_KEY.decode()} metadata; expected a file written with --log)"
+        )
     raw = kv[META_KEY]
     if kv.get(META_SHA_KEY, b"").decode("ascii", "replace") != hashlib.sha256(raw).hexdigest():
-        raise LogError(f"{path}: corrupt episode log (its metadata do not match their "
-                       "checksum)")
+        raise LogError(f"{path}: corrupt episode log (its metadata do not match their checksum)")
     try:
         meta = json.loads(raw.decode("utf-8"))
         if not isinstance(meta, dict):
@@ -736,13 +814,16 @@ def read_log(path: str | Path) -> EpisodeLog:
     except ValueError as exc:
         raise LogError(f"{path}: corrupt episode log (metadata: {_first_line(exc)})") from None
     if meta.get("format") != LOG_FORMAT:
-        raise LogError(f"{path}: not an episode log (format {meta.get('format')!r}, expected "
-                       f"{LOG_FORMAT!r})")
+        raise LogError(
+            f"{path}: not an episode log (format {meta.get('format')!r}, expected {LOG_FORMAT!r})"
+        )
     version = meta.get("version")
     if version != LOG_VERSION:
-        raise LogError(f"{path}: episode log format version {version!r} (written by "
-                       f"nao-arena {meta.get('nao_arena', '?')}); this nao-arena "
-                       f"({__version__}) reads version {LOG_VERSION}")
+        raise LogError(
+            f"{path}: episode log format version {version!r} (written by "
+            f"nao-arena {meta.get('nao_arena', '?')}); this nao-arena "
+            f"({__version__}) reads version {LOG_VERSION}"
+        )
     try:
         table = pf.read()
     except Exception as exc:  # noqa: BLE001
@@ -752,8 +833,9 @@ def read_log(path: str | Path) -> EpisodeLog:
     except LogError:
         raise
     except (KeyError, TypeError, ValueError, IndexError) as exc:
-        raise LogError(f"{path}: corrupt episode log ({type(exc).__name__}: "
-                       f"{_first_line(exc)})") from None
+        raise LogError(
+            f"{path}: corrupt episode log ({type(exc).__name__}: {_first_line(exc)})"
+        ) from None
 
 
 def _from_table(path: Path, table: pa.Table, meta: dict[str, Any]) -> EpisodeLog:
@@ -765,19 +847,24 @@ def _from_table(path: Path, table: pa.Table, meta: dict[str, Any]) -> EpisodeLog
     try:
         spec = MapSpec.model_validate(meta["map"])
     except ValidationError as exc:
-        raise LogError(f"{path}: corrupt episode log (its map does not validate: "
-                       f"{_first_line(exc)})") from None
+        raise LogError(
+            f"{path}: corrupt episode log (its map does not validate: {_first_line(exc)})"
+        ) from None
     n = len(spec.bodies())
     n_rows = int(meta["steps"])
     if table.num_rows != n_rows * n:
-        raise LogError(f"{path}: corrupt episode log ({table.num_rows} rows, expected "
-                       f"{n_rows} steps x {n} bodies = {n_rows * n})")
+        raise LogError(
+            f"{path}: corrupt episode log ({table.num_rows} rows, expected "
+            f"{n_rows} steps x {n} bodies = {n_rows * n})"
+        )
 
     def col(name: str) -> NDArray[Any]:
         return table.column(name).to_numpy()
 
-    if not (np.array_equal(col("step"), np.repeat(np.arange(n_rows), n))
-            and np.array_equal(col("body"), np.tile(np.arange(n), n_rows))):
+    if not (
+        np.array_equal(col("step"), np.repeat(np.arange(n_rows), n))
+        and np.array_equal(col("body"), np.tile(np.arange(n), n_rows))
+    ):
         raise LogError(f"{path}: corrupt episode log (rows out of step/body order)")
 
     def pair(a: str, b: str) -> NDArray[np.float64]:
@@ -786,20 +873,30 @@ def _from_table(path: Path, table: pa.Table, meta: dict[str, Any]) -> EpisodeLog
     robots = []
     grids = [np.array(g, dtype=np.float64) for g in meta.get("time_grids", [])]
     for r in meta["robots"]:
-        robots.append(RobotInfo(
-            name=str(r["name"]), body=int(r["body"]), agent=str(r["agent"]),
-            label=str(r["label"]), predictor=r.get("predictor"),
-            times=None if r.get("times") is None else grids[int(r["times"])],
-            margin=float(r.get("margin", 0.0)),
-            v_pref=None if r.get("v_pref") is None else float(r["v_pref"])))
+        robots.append(
+            RobotInfo(
+                name=str(r["name"]),
+                body=int(r["body"]),
+                agent=str(r["agent"]),
+                label=str(r["label"]),
+                predictor=r.get("predictor"),
+                times=None if r.get("times") is None else grids[int(r["times"])],
+                margin=float(r.get("margin", 0.0)),
+                v_pref=None if r.get("v_pref") is None else float(r["v_pref"]),
+            )
+        )
     if [r.body for r in robots] != list(range(spec.n_robots)):
-        raise LogError(f"{path}: corrupt episode log (its robot list names bodies "
-                       f"{[r.body for r in robots]}, expected the map's {spec.n_robots} "
-                       f"robots, bodies 0 .. {spec.n_robots - 1})")
+        raise LogError(
+            f"{path}: corrupt episode log (its robot list names bodies "
+            f"{[r.body for r in robots]}, expected the map's {spec.n_robots} "
+            f"robots, bodies 0 .. {spec.n_robots - 1})"
+        )
     if len(meta["summary"].get("robots", [])) != spec.n_robots:
-        raise LogError(f"{path}: corrupt episode log (its summary has "
-                       f"{len(meta['summary'].get('robots', []))} robots, expected the map's "
-                       f"{spec.n_robots})")
+        raise LogError(
+            f"{path}: corrupt episode log (its summary has "
+            f"{len(meta['summary'].get('robots', []))} robots, expected the map's "
+            f"{spec.n_robots})"
+        )
     ids = np.array([r.body for r in robots], dtype=np.intp)
     n_robots = len(robots)
     status = _codes(table.column("status"), STATUSES, f"{path}: column status")
@@ -815,30 +912,42 @@ def _from_table(path: Path, table: pa.Table, meta: dict[str, Any]) -> EpisodeLog
     counts = (ends - starts).ravel()
     offsets = np.zeros(n_rows * n_robots + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
-    gather = (np.repeat(starts.ravel() - offsets[:-1], counts)
-              + np.arange(offsets[-1], dtype=np.int64))
+    gather = np.repeat(starts.ravel() - offsets[:-1], counts) + np.arange(
+        offsets[-1], dtype=np.int64
+    )
     log = EpisodeLog(
-        spec=spec, seed=meta.get("seed"), options=dict(meta.get("options") or {}),
-        robots=robots, summary=meta["summary"],
+        spec=spec,
+        seed=meta.get("seed"),
+        options=dict(meta.get("options") or {}),
+        robots=robots,
+        summary=meta["summary"],
         time=np.ascontiguousarray(col("time").reshape(n_rows, n)[:, 0]),
-        positions=pair("x", "y"), velocities=pair("vx", "vy"),
-        accelerations=pair("ax", "ay"), commanded=pair("cmd_x", "cmd_y"),
+        positions=pair("x", "y"),
+        velocities=pair("vx", "vy"),
+        accelerations=pair("ax", "ay"),
+        commanded=pair("cmd_x", "cmd_y"),
         reached=col("reached").reshape(n_rows, n).copy(),
         status=status.reshape(n_rows, n)[:, ids].copy(),
         selection=selection.reshape(n_rows, n)[:, ids].copy(),
         detour=detour.reshape(n_rows, n)[:, ids].copy(),
-        nb_offsets=offsets, nb_index=values[gather] if len(gather) else values[:0],
+        nb_offsets=offsets,
+        nb_index=values[gather] if len(gather) else values[:0],
         nb_logged=np.array([bool(r.get("neighbours")) for r in meta["robots"]], dtype=bool),
         contact_steps=np.array(meta.get("contact_steps", []), dtype=np.int64),
         fault_steps=np.array(meta.get("fault_steps", []), dtype=np.int64),
-        run=dict(meta.get("run") or {}), version=int(meta["version"]),
-        written_by=str(meta.get("nao_arena", "?")), path=path,
+        run=dict(meta.get("run") or {}),
+        version=int(meta["version"]),
+        written_by=str(meta.get("nao_arena", "?")),
+        path=path,
     )
     if len(log.contact_steps) != len(log.summary.get("contacts", [])):
-        raise LogError(f"{path}: corrupt episode log (contact_steps and the summary's "
-                       "contacts differ in number)")
+        raise LogError(
+            f"{path}: corrupt episode log (contact_steps and the summary's "
+            "contacts differ in number)"
+        )
     expected = log.summary.get("trajectory_hash") or ""
     if expected and log.trajectory_hash() != expected:
-        raise LogError(f"{path}: corrupt episode log (its states do not match the episode's "
-                       "trajectory hash)")
+        raise LogError(
+            f"{path}: corrupt episode log (its states do not match the episode's trajectory hash)"
+        )
     return log

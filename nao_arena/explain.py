@@ -33,8 +33,14 @@ if TYPE_CHECKING:  # matplotlib and the viewer load only when a picture is drawn
 
     from nao_arena.render.viewer import ViewerOptions
 
-__all__ = ["Explanation", "Party", "explain_contact", "explain_figure", "explain_picture",
-           "write_explanation"]
+__all__ = [
+    "Explanation",
+    "Party",
+    "explain_contact",
+    "explain_figure",
+    "explain_picture",
+    "write_explanation",
+]
 
 LOOK_BACK = 1.0
 """How long before the contact (s) the earlier prediction of the text was made."""
@@ -105,8 +111,9 @@ def _position_at(log: EpisodeLog, body: int, t: float) -> NDArray[np.float64]:
     return np.array([np.interp(t, log.time, p[:, 0]), np.interp(t, log.time, p[:, 1])])
 
 
-def _prediction_of(log: EpisodeLog, step: int, robot: int, other: int
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+def _prediction_of(
+    log: EpisodeLog, step: int, robot: int, other: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """(times (T,) s from the state of row step - 1, predicted centres (T, 2) m) of body
     ``other`` by robot ``robot`` for its decision of row ``step``; None if it predicts
     nothing or did not sense the other."""
@@ -120,8 +127,9 @@ def _prediction_of(log: EpisodeLog, step: int, robot: int, other: int
     return inputs.times, inputs.predicted[int(hit[0])]
 
 
-def _predicted_at(times: NDArray[np.float64], path: NDArray[np.float64],
-                  tau: float) -> NDArray[np.float64] | None:
+def _predicted_at(
+    times: NDArray[np.float64], path: NDArray[np.float64], tau: float
+) -> NDArray[np.float64] | None:
     """The predicted centre (m) tau s after the prediction (None beyond its horizon)."""
     if tau > float(times[-1]) + 1e-9:
         return None
@@ -152,19 +160,29 @@ def _party(log: EpisodeLog, step: int, body: int, kind: str, name: str) -> Party
     info = log.robots[robot]
     obs = log.decision_inputs(step, robot).observation
     detour = float(log.detour[step, robot])
-    desired = goal_seeking_accel(obs, info.v_pref,
-                                 heading_offset=0.0 if detour != detour else detour)
+    desired = goal_seeking_accel(
+        obs, info.v_pref, heading_offset=0.0 if detour != detour else detour
+    )
     return Party(
-        body=body, name=name, kind=kind, robot=robot, agent=info.label,
-        status=log.status_of(step, robot), selection=log.selection_of(step, robot),
-        chosen=np.array(log.commanded[step, body]), desired=desired,
-        velocity=np.array(log.velocities[step - 1, body]), predictor=info.predictor,
-        times=info.times, status_since=_status_since(log, step, robot),
+        body=body,
+        name=name,
+        kind=kind,
+        robot=robot,
+        agent=info.label,
+        status=log.status_of(step, robot),
+        selection=log.selection_of(step, robot),
+        chosen=np.array(log.commanded[step, body]),
+        desired=desired,
+        velocity=np.array(log.velocities[step - 1, body]),
+        predictor=info.predictor,
+        times=info.times,
+        status_since=_status_since(log, step, robot),
     )
 
 
-def _with_prediction(log: EpisodeLog, step: int, party: Party, other: Party,
-                     t_contact: float) -> Party:
+def _with_prediction(
+    log: EpisodeLog, step: int, party: Party, other: Party, t_contact: float
+) -> Party:
     if party.robot is None or other.kind == "wall":
         return party
     pred = _prediction_of(log, step, party.robot, other.body)
@@ -173,8 +191,7 @@ def _with_prediction(log: EpisodeLog, step: int, party: Party, other: Party,
     times, path = pred
     tau = t_contact - float(log.time[step - 1])
     at = _predicted_at(times, path, tau)
-    err = None if at is None else float(np.hypot(*(at - _position_at(log, other.body,
-                                                                       t_contact))))
+    err = None if at is None else float(np.hypot(*(at - _position_at(log, other.body, t_contact))))
     return replace(party, times=times, predicted_other=path, error_at_contact=err)
 
 
@@ -185,17 +202,16 @@ def explain_contact(log: EpisodeLog, number: int) -> Explanation:
     if not contacts:
         raise ValueError("the episode has no contact to explain")
     if not 1 <= number <= len(contacts):
-        raise ValueError(f"--contact: expected 1 .. {len(contacts)} (the episode's "
-                         f"contacts), got {number}")
+        raise ValueError(
+            f"--contact: expected 1 .. {len(contacts)} (the episode's contacts), got {number}"
+        )
     ev = contacts[number - 1]
     step = int(log.contact_steps[number - 1])
     if step < 1:
         raise ValueError(f"contact {number} was reported at the reset: no step before it")
     a = _party(log, step, ev.a, ev.kind_a, ev.name_a)
-    b = _party(log, step, ev.b, ev.kind_b, ev.name_b if ev.kind_b != "wall"
-               else f"wall {ev.b}")
-    a, b = (_with_prediction(log, step, a, b, ev.time), _with_prediction(log, step, b, a,
-                                                                         ev.time))
+    b = _party(log, step, ev.b, ev.kind_b, ev.name_b if ev.kind_b != "wall" else f"wall {ev.b}")
+    a, b = (_with_prediction(log, step, a, b, ev.time), _with_prediction(log, step, b, a, ev.time))
     text = _summary(log, number, ev, step, (a, b))
     return Explanation(number, ev, step, step - 1, (a, b), text)
 
@@ -234,34 +250,40 @@ def _decision_phrase(p: Party) -> str:
     status = p.status
     if status == "infeasible":
         braking = float(np.dot(p.chosen, p.velocity)) < 0.0
-        then = (f"braked (|a| = {a:.2f} m/s^2 against its velocity)" if braking
-                else f"took the acceleration that postponed the contact longest "
-                     f"(|a| = {a:.2f} m/s^2)")
+        then = (
+            f"braked (|a| = {a:.2f} m/s^2 against its velocity)"
+            if braking
+            else f"took the acceleration that postponed the contact longest (|a| = {a:.2f} m/s^2)"
+        )
         return f"nothing admissible{since}; {then}"
     if status == "yielded":
-        return (f"braked{since} (|a| = {a:.2f} m/s^2 against its velocity): its choice "
-                f"would have met another robot's stopping plan (status yielded)")
+        return (
+            f"braked{since} (|a| = {a:.2f} m/s^2 against its velocity): its choice "
+            f"would have met another robot's stopping plan (status yielded)"
+        )
     if status == "fault":
         return "its agent failed at that step (fault): zero acceleration"
     if status == "external":
         return "it was driven from outside (external action)"
     if p.predictor is None and status == "desired":
-        return (f"took its desired, goal-seeking acceleration ({a:.2f} m/s^2; "
-                f"status desired{since}: the {p.agent} agent did not deviate from it)")
+        return (
+            f"took its desired, goal-seeking acceleration ({a:.2f} m/s^2; "
+            f"status desired{since}: the {p.agent} agent did not deviate from it)"
+        )
     if p.predictor is None:
         return f"deviated from goal seeking (status adjusted{since}, |a| = {a:.2f} m/s^2)"
     what = {
         "desired": "its desired acceleration was admissible: took it",
         "adjusted": "took the admissible acceleration nearest its desired one (adjusted)",
-        "kept": f"kept its acceleration (still admissible; last full selection: "
-                f"{p.selection})",
+        "kept": f"kept its acceleration (still admissible; last full selection: {p.selection})",
         "repaired": "repaired its adjustment locally (it had become inadmissible)",
     }.get(status or "", f"status {status}")
     return f"{what}{since}, |a| = {a:.2f} m/s^2"
 
 
-def _summary(log: EpisodeLog, number: int, ev: ContactEvent, step: int,
-             parties: tuple[Party, Party]) -> str:
+def _summary(
+    log: EpisodeLog, number: int, ev: ContactEvent, step: int, parties: tuple[Party, Party]
+) -> str:
     a, b = parties
     t_before = float(log.time[step - 1])
 
@@ -302,13 +324,19 @@ def _summary(log: EpisodeLog, number: int, ev: ContactEvent, step: int,
             at = _predicted_at(pred[0], pred[1], ev.time - float(log.time[r_early - 1]))
             if at is not None:
                 off = float(np.hypot(*(at - _position_at(log, q.body, ev.time))))
-                earlier = (f"; its prediction at t = {log.time[r_early - 1]:.1f} s was "
-                           f"{off:.2f} m off")
-        err = ("" if p.error_at_contact is None
-               else f" ({p.error_at_contact:.2f} m off at the contact{earlier})")
+                earlier = (
+                    f"; its prediction at t = {log.time[r_early - 1]:.1f} s was {off:.2f} m off"
+                )
+        err = (
+            ""
+            if p.error_at_contact is None
+            else f" ({p.error_at_contact:.2f} m off at the contact{earlier})"
+        )
         moved = _motion(log, q.body, float(log.time[r_early - 1]), ev.time)
-        parts.append(f"{p.name} predicted {q.name} {phrase}{err}; {q.name} {moved}; "
-                     f"{line[len(p.name) + 1:]}")
+        parts.append(
+            f"{p.name} predicted {q.name} {phrase}{err}; {q.name} {moved}; "
+            f"{line[len(p.name) + 1 :]}"
+        )
     if parts:
         sentences.append(f"At t = {t_before:.2f} s, the step before: " + "; ".join(parts) + ".")
     return " ".join(sentences)
@@ -317,8 +345,9 @@ def _summary(log: EpisodeLog, number: int, ev: ContactEvent, step: int,
 # --------------------------------------------------------------------------- the picture
 
 
-def explain_figure(log: EpisodeLog, expl: Explanation,
-                   options: ViewerOptions | None = None) -> Figure:
+def explain_figure(
+    log: EpisodeLog, expl: Explanation, options: ViewerOptions | None = None
+) -> Figure:
     """A matplotlib Figure of the explanation: the paths and predictions (left) and the
     robots' acceleration panels at the step before, as the viewer draws them (with the
     decision taken there), and the text."""
@@ -329,8 +358,9 @@ def explain_figure(log: EpisodeLog, expl: Explanation,
 
     robots = [p for p in expl.parties if p.robot is not None]
     fig = Figure(figsize=(6.0 + 4.2 * len(robots), 9.0), dpi=100, layout="constrained")
-    grid = fig.add_gridspec(2, 1 + len(robots), height_ratios=[8.2, 1.6],
-                            width_ratios=[6.0] + [4.2] * len(robots))
+    grid = fig.add_gridspec(
+        2, 1 + len(robots), height_ratios=[8.2, 1.6], width_ratios=[6.0] + [4.2] * len(robots)
+    )
     ax = fig.add_subplot(grid[0, 0])
     _draw_paths(ax, log, expl)
     vopts = options or ViewerOptions()
@@ -342,13 +372,23 @@ def explain_figure(log: EpisodeLog, expl: Explanation,
         pax = fig.add_subplot(grid[0, 1 + i])
         pax.imshow(frame[:, h:])
         pax.set_axis_off()
-        pax.set_title(f"{p.name} ({p.agent}): decision at t = {log.time[expl.before]:.2f} s"
-                      f"\nstatus {p.status}", fontsize="medium")
+        pax.set_title(
+            f"{p.name} ({p.agent}): decision at t = {log.time[expl.before]:.2f} s"
+            f"\nstatus {p.status}",
+            fontsize="medium",
+        )
     tax = fig.add_subplot(grid[1, :])
     tax.set_axis_off()
     chars = int((6.0 + 4.2 * len(robots)) * 100 / 8.0)  # about 8 px per character
-    tax.text(0.0, 1.0, textwrap.fill(expl.text, chars), va="top", ha="left",
-             fontsize="medium", transform=tax.transAxes)
+    tax.text(
+        0.0,
+        1.0,
+        textwrap.fill(expl.text, chars),
+        va="top",
+        ha="left",
+        fontsize="medium",
+        transform=tax.transAxes,
+    )
     return fig
 
 
@@ -369,29 +409,51 @@ def _draw_paths(ax: Axes, log: EpisodeLog, expl: Explanation) -> None:
     span = []
     for i, p in enumerate(bodies):
         col = _COLOURS[i % 2]
-        path = log.positions[before:last + 1, p.body]
-        came = log.positions[first:before + 1, p.body]
-        ax.plot(*came.T, "-", color=col, lw=1.0, alpha=0.5,
-                label=f"{p.name}: the {log.time[before] - log.time[first]:.1f} s before")
-        ax.plot(*path.T, "-", color=col, lw=2.0,
-                label=f"{p.name}: where it went ({horizon:.1f} s)")
+        path = log.positions[before : last + 1, p.body]
+        came = log.positions[first : before + 1, p.body]
+        ax.plot(
+            *came.T,
+            "-",
+            color=col,
+            lw=1.0,
+            alpha=0.5,
+            label=f"{p.name}: the {log.time[before] - log.time[first]:.1f} s before",
+        )
+        ax.plot(*path.T, "-", color=col, lw=2.0, label=f"{p.name}: where it went ({horizon:.1f} s)")
         span.append(came)
         r = float(log.scene().world.radii[p.body])
         start = log.positions[before, p.body]
         ax.add_patch(Circle(tuple(start), r, facecolor=col, alpha=0.35, edgecolor=col))
-        ax.add_patch(Circle(tuple(_position_at(log, p.body, ev.time)), r, fill=False,
-                            edgecolor=col, ls=":", lw=1.2))
+        ax.add_patch(
+            Circle(
+                tuple(_position_at(log, p.body, ev.time)),
+                r,
+                fill=False,
+                edgecolor=col,
+                ls=":",
+                lw=1.2,
+            )
+        )
         if p.chosen is not None and p.velocity is not None:
-            ax.annotate("", xy=tuple(start + 0.5 * p.chosen), xytext=tuple(start),
-                        arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5})
+            ax.annotate(
+                "",
+                xy=tuple(start + 0.5 * p.chosen),
+                xytext=tuple(start),
+                arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5},
+            )
         span.append(path)
     for p in bodies:
         if p.predicted_other is None:
             continue
         q = next(x for x in bodies if x is not p)
         col = _COLOURS[(bodies.index(q)) % 2]
-        ax.plot(*p.predicted_other.T, "--", color=col, lw=1.5,
-                label=f"{q.name} as {p.name} predicted it ({p.predictor})")
+        ax.plot(
+            *p.predicted_other.T,
+            "--",
+            color=col,
+            lw=1.5,
+            label=f"{q.name} as {p.name} predicted it ({p.predictor})",
+        )
         span.append(p.predicted_other)
     hit = _position_at(log, ev.a, ev.time)
     if ev.kind_b != "wall":
@@ -408,9 +470,12 @@ def _draw_paths(ax: Axes, log: EpisodeLog, expl: Explanation) -> None:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
-    ax.set_title(f"contact {expl.number}: discs at t = {t0:.2f} s (filled) and at the "
-                 f"contact (dotted);\nblack arrows: the accelerations chosen then "
-                 f"(0.5 m per m/s^2)", fontsize="medium")
+    ax.set_title(
+        f"contact {expl.number}: discs at t = {t0:.2f} s (filled) and at the "
+        f"contact (dotted);\nblack arrows: the accelerations chosen then "
+        f"(0.5 m per m/s^2)",
+        fontsize="medium",
+    )
     ax.legend(fontsize="small", loc="best")
 
 

@@ -80,12 +80,14 @@ def moving(q: ArrayLike, v_b: ArrayLike = (0.0, 0.0), a_b: ArrayLike = (0.0, 0.0
 def sampled(times: NDArray[np.float64], centres: NDArray[np.float64]) -> Centre:
     """The centre of an obstacle on a sampled path: centres (T, 2) m at times (T,) s,
     linear in between."""
-    return lambda t: np.stack([np.interp(t, times, centres[:, 0]),
-                               np.interp(t, times, centres[:, 1])], axis=1)
+    return lambda t: np.stack(
+        [np.interp(t, times, centres[:, 0]), np.interp(t, times, centres[:, 1])], axis=1
+    )
 
 
-def grazing_side(accels: NDArray[np.float64], times: NDArray[np.float64], v: ArrayLike,
-                 centre: Centre) -> str | None:
+def grazing_side(
+    accels: NDArray[np.float64], times: NDArray[np.float64], v: ArrayLike, centre: Centre
+) -> str | None:
     """On which side of the robot ("left" or "right") the obstacle is when the robot, starting
     at the origin with velocity v (m/s) and constant accelerations accels (K, 2) m/s^2,
     grazes it at times (K,) s: the majority over the finite points, judged along the robot's
@@ -104,8 +106,15 @@ def grazing_side(accels: NDArray[np.float64], times: NDArray[np.float64], v: Arr
     return "left" if np.mean(left) > 0.5 else "right"
 
 
-def _draw_boundary(ax, b: ObstacleBoundary, colour: str, label: str | None, v: ArrayLike,
-                   centre: Centre, extent: float) -> tuple[bool, bool]:
+def _draw_boundary(
+    ax,
+    b: ObstacleBoundary,
+    colour: str,
+    label: str | None,
+    v: ArrayLike,
+    centre: Centre,
+    extent: float,
+) -> tuple[bool, bool]:
     """The exact boundary: each branch solid or dashed by the side on which the robot grazes
     the obstacle (:data:`SOLID_SIDE`), the horizon arc dotted, corner arcs thin; a legend
     entry (the region's colour) with ``label``. Returns whether an arc and corner arcs show
@@ -131,19 +140,34 @@ def _draw_boundary(ax, b: ObstacleBoundary, colour: str, label: str | None, v: A
 def _style_handles(arc: bool = False, corners: bool = False) -> list[Any]:
     """Legend entries for the line styles and the shading (black proxies)."""
     handles = [
-        Line2D([], [], color="k", lw=1.6, ls=_STYLE["right"],
-               label="boundary: obstacle on the robot's right when grazing"),
-        Line2D([], [], color="k", lw=1.6, ls=_STYLE["left"],
-               label="boundary: obstacle on the robot's left when grazing"),
+        Line2D(
+            [],
+            [],
+            color="k",
+            lw=1.6,
+            ls=_STYLE["right"],
+            label="boundary: obstacle on the robot's right when grazing",
+        ),
+        Line2D(
+            [],
+            [],
+            color="k",
+            lw=1.6,
+            ls=_STYLE["left"],
+            label="boundary: obstacle on the robot's left when grazing",
+        ),
     ]
     if arc:
-        handles.append(Line2D([], [], color="k", lw=1.2, ls=":",
-                              label="boundary: grazing at the horizon t_h"))
+        handles.append(
+            Line2D([], [], color="k", lw=1.2, ls=":", label="boundary: grazing at the horizon t_h")
+        )
     if corners:
-        handles.append(Line2D([], [], color="k", lw=1.0,
-                              label="boundary: at a kink of the sampled path"))
-    handles.append(Patch(facecolor="0.5", alpha=0.25,
-                         label="colliding accelerations (exact clearance < 0)"))
+        handles.append(
+            Line2D([], [], color="k", lw=1.0, label="boundary: at a kink of the sampled path")
+        )
+    handles.append(
+        Patch(facecolor="0.5", alpha=0.25, label="colliding accelerations (exact clearance < 0)")
+    )
     return handles
 
 
@@ -151,18 +175,34 @@ def _legend(ax, extra: Sequence[Any] = (), arc: bool = False, corners: bool = Fa
     """One legend under the axes: the plotted items, then ``extra``, then the styles."""
     handles, _ = ax.get_legend_handles_labels()
     handles = [*handles, *extra, *_style_handles(arc, corners)]
-    ax.legend(handles=handles, fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.1),
-              ncol=2, frameon=False, handler_map={FancyArrow: _ArrowHandler()})
+    ax.legend(
+        handles=handles,
+        fontsize=7.5,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.1),
+        ncol=2,
+        frameon=False,
+        handler_map={FancyArrow: _ArrowHandler()},
+    )
 
 
 class _ArrowHandler(HandlerPatch):
     """Draws a FancyArrow legend entry as a small arrow."""
 
-    def create_artists(self, legend, orig_handle, xdescent, ydescent, width, height, fontsize,
-                       trans):
-        arrow = FancyArrow(0, height / 2, width, 0, width=0.5, length_includes_head=True,
-                           head_width=0.75 * height, head_length=0.35 * width,
-                           color=orig_handle.get_facecolor())
+    def create_artists(
+        self, legend, orig_handle, xdescent, ydescent, width, height, fontsize, trans
+    ):
+        arrow = FancyArrow(
+            0,
+            height / 2,
+            width,
+            0,
+            width=0.5,
+            length_includes_head=True,
+            head_width=0.75 * height,
+            head_length=0.35 * width,
+            color=orig_handle.get_facecolor(),
+        )
         arrow.set_transform(trans)
         return [arrow]
 
@@ -185,31 +225,42 @@ def _accel_axes(ax, extent: float, title: str) -> None:
 def fig_bao(ax) -> str:
     """BAO: a cone from a_B tangent to the grown obstacle (zero velocities)."""
     q, r, a_b, ext = np.array([6.0, 2.0]), 1.5, np.array([0.5, -0.5]), 4.0
-    _shade(ax, ext, lambda a: ao_clearance(a, (0, 0), q, r, obstacle_acc=a_b).clearance,
-           _COLOURS[0])
-    _draw_boundary(ax, bao_boundary(q, r, a_b, extent=2 * ext), _COLOURS[0], "BAO",
-                   (0.0, 0.0), moving(q, a_b=a_b), ext)
+    _shade(
+        ax, ext, lambda a: ao_clearance(a, (0, 0), q, r, obstacle_acc=a_b).clearance, _COLOURS[0]
+    )
+    _draw_boundary(
+        ax,
+        bao_boundary(q, r, a_b, extent=2 * ext),
+        _COLOURS[0],
+        "BAO",
+        (0.0, 0.0),
+        moving(q, a_b=a_b),
+        ext,
+    )
     ax.plot(*a_b, "k^", label="a_B (obstacle's acceleration)")
     _legend(ax)
     _accel_axes(ax, ext, "BAO: zero velocities, obstacle accelerating at a_B")
-    return ("Robot and obstacle at rest at t = 0; obstacle (radius 1.5 m, grown by the robot's) "
-            "at (6, 2) m, accelerating at a_B = (0.5, -0.5) m/s^2; no horizon.")
+    return (
+        "Robot and obstacle at rest at t = 0; obstacle (radius 1.5 m, grown by the robot's) "
+        "at (6, 2) m, accelerating at a_B = (0.5, -0.5) m/s^2; no horizon."
+    )
 
 
 def fig_ao_static(ax) -> str:
     """AO of a static obstacle for a moving robot: a warped cone."""
     v, q, r, ext = np.array([2.0, 0.0]), np.array([6.0, 2.0]), 1.5, 3.0
     _shade(ax, ext, lambda a: ao_clearance(a, v, q, r).clearance, _COLOURS[1])
-    _draw_boundary(ax, ao_boundary(v, q, r, extent=3 * ext), _COLOURS[1], "AO", v,
-                   moving(q), ext)
+    _draw_boundary(ax, ao_boundary(v, q, r, extent=3 * ext), _COLOURS[1], "AO", v, moving(q), ext)
     paper = ao_boundary_paper(v, q, r, extent=3 * ext, n=400)
     ax.plot(*paper.points().T, "k.", ms=2, label="paper's construction")
     ax.annotate("", xy=v * 0.6, xytext=(0, 0), arrowprops={"arrowstyle": "->", "color": "k"})
     ax.text(*(v * 0.6 + [0.05, 0.1]), "v_A (direction)", fontsize=8)
     _legend(ax)
     _accel_axes(ax, ext, "AO: static obstacle, robot moving at v_A")
-    return ("Robot at the origin moving at v_A = (2, 0) m/s; static obstacle (radius 1.5 m) at "
-            "(6, 2) m; no horizon. Dots: the boundary by the paper's construction.")
+    return (
+        "Robot at the origin moving at v_A = (2, 0) m/s; static obstacle (radius 1.5 m) at "
+        "(6, 2) m; no horizon. Dots: the boundary by the paper's construction."
+    )
 
 
 def fig_trajectories(ax) -> str:
@@ -230,12 +281,17 @@ def fig_trajectories(ax) -> str:
             a = pts[i]
             t = np.linspace(0, 8, 400)
             x = v * t[:, None] + 0.5 * a * t[:, None] ** 2
-            label = f"path of an AO boundary point: obstacle on the robot's {side}" \
-                if k == 0 else None
+            label = (
+                f"path of an AO boundary point: obstacle on the robot's {side}" if k == 0 else None
+            )
             ax.plot(*x.T, color=colour, lw=1, label=label)
-            ax.plot(*(v * times[i] + 0.5 * a * times[i] ** 2), "o", color=colour, ms=3,
-                    label="where it grazes the obstacle" if k == 0 and side == "right"
-                    else None)
+            ax.plot(
+                *(v * times[i] + 0.5 * a * times[i] ** 2),
+                "o",
+                color=colour,
+                ms=3,
+                label="where it grazes the obstacle" if k == 0 and side == "right" else None,
+            )
     ax.plot(0, 0, "ko", label="robot at t = 0")
     ax.set_xlim(-2, 12)
     ax.set_ylim(-5, 7)
@@ -243,11 +299,12 @@ def fig_trajectories(ax) -> str:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title("Grazing paths of AO boundary accelerations", fontsize=10)
-    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1,
-              frameon=False)
-    return ("Robot starting at the origin at v = (2, 0) m/s with a constant acceleration taken "
-            "on the AO boundary of fig. ao_static, at the points grazing at t = 1.5, 2.5, 4 and "
-            "6 s; each path drawn for 8 s.")
+    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1, frameon=False)
+    return (
+        "Robot starting at the origin at v = (2, 0) m/s with a constant acceleration taken "
+        "on the AO boundary of fig. ao_static, at the points grazing at t = 1.5, 2.5, 4 and "
+        "6 s; each path drawn for 8 s."
+    )
 
 
 def fig_ao_shifted(ax) -> str:
@@ -255,15 +312,31 @@ def fig_ao_shifted(ax) -> str:
     v, q, r, ext = np.array([2.0, 0.0]), np.array([6.0, 2.0]), 1.5, 3.0
     v_b, a_b = np.array([0.0, -0.5]), np.array([-0.8, 0.6])
     _shade(ax, ext, lambda a: ao_clearance(a, v, q, r, v_b, a_b).clearance, _COLOURS[2])
-    _draw_boundary(ax, ao_boundary(v, q, r, v_b, a_b, extent=3 * ext), _COLOURS[2], "AO", v,
-                   moving(q, v_b, a_b), ext)
-    _draw_boundary(ax, ao_boundary(v, q, r, v_b, extent=3 * ext), "0.5",
-                   "AO before the shift (a_B = 0; boundary only)", v, moving(q, v_b), ext)
+    _draw_boundary(
+        ax,
+        ao_boundary(v, q, r, v_b, a_b, extent=3 * ext),
+        _COLOURS[2],
+        "AO",
+        v,
+        moving(q, v_b, a_b),
+        ext,
+    )
+    _draw_boundary(
+        ax,
+        ao_boundary(v, q, r, v_b, extent=3 * ext),
+        "0.5",
+        "AO before the shift (a_B = 0; boundary only)",
+        v,
+        moving(q, v_b),
+        ext,
+    )
     ax.plot(*a_b, "k^", label="a_B (obstacle's acceleration)")
     _legend(ax)
     _accel_axes(ax, ext, "AO shifted by the obstacle's acceleration a_B")
-    return ("Robot at v = (2, 0) m/s; obstacle (radius 1.5 m) at (6, 2) m moving at "
-            "v_B = (0, -0.5) m/s and accelerating at a_B = (-0.8, 0.6) m/s^2; no horizon.")
+    return (
+        "Robot at v = (2, 0) m/s; obstacle (radius 1.5 m) at (6, 2) m moving at "
+        "v_B = (0, -0.5) m/s and accelerating at a_B = (-0.8, 0.6) m/s^2; no horizon."
+    )
 
 
 def fig_four_obstacles(ax) -> str:
@@ -277,14 +350,27 @@ def fig_four_obstacles(ax) -> str:
     ]
     for i, (q, v_b, a_b) in enumerate(obstacles):
         col = _COLOURS[i]
-        _shade(ax, ext, lambda a, q=q, v_b=v_b, a_b=a_b: ao_clearance(
-            a, v, q, 1.0, v_b, a_b).clearance, col)
-        _draw_boundary(ax, ao_boundary(v, q, 1.0, v_b, a_b, extent=3 * ext), col, f"AO B{i + 1}",
-                       v, moving(q, v_b, a_b), ext)
+        _shade(
+            ax,
+            ext,
+            lambda a, q=q, v_b=v_b, a_b=a_b: ao_clearance(a, v, q, 1.0, v_b, a_b).clearance,
+            col,
+        )
+        _draw_boundary(
+            ax,
+            ao_boundary(v, q, 1.0, v_b, a_b, extent=3 * ext),
+            col,
+            f"AO B{i + 1}",
+            v,
+            moving(q, v_b, a_b),
+            ext,
+        )
     _legend(ax)
     _accel_axes(ax, ext, "AOs of four obstacles (B1, B3 not accelerating)")
-    return ("Robot at v = (1.5, 0.5) m/s; four obstacles of radius 1 m with their own "
-            "velocities and constant accelerations; colour = obstacle; no horizon.")
+    return (
+        "Robot at v = (1.5, 0.5) m/s; four obstacles of radius 1 m with their own "
+        "velocities and constant accelerations; colour = obstacle; no horizon."
+    )
 
 
 def fig_nao(ax) -> str:
@@ -313,8 +399,9 @@ def fig_nao(ax) -> str:
     a_lim = ext * 0.9
     path = sampled_path(t, np.stack(all_clear), 1.5)
     sel = select_acceleration((0.0, 0.0), v, path, AccelLimits(a_lim))
-    ax.annotate("", xy=sel.accel, xytext=(0, 0),
-                arrowprops={"arrowstyle": "->", "color": "red", "lw": 2})
+    ax.annotate(
+        "", xy=sel.accel, xytext=(0, 0), arrowprops={"arrowstyle": "->", "color": "red", "lw": 2}
+    )
     ax.add_patch(plt.Circle((0, 0), a_lim, fill=False, color="k", ls="--", lw=0.8))
     extra = [
         _arrow_handle("red", "selected: admissible acceleration nearest a = 0"),
@@ -322,9 +409,11 @@ def fig_nao(ax) -> str:
     ]
     _legend(ax, extra, arc=arc, corners=corners)
     _accel_axes(ax, ext, f"NAOs (t_h = {t_h:g} s) and the selected acceleration ({sel.status})")
-    return ("Robot at v = (3, 0) m/s; four obstacles (radius 1.5 m, grown) on circular (B1, B2) "
-            f"and straight (B3, B4) paths sampled every 0.1 s up to t_h = {t_h:g} s; "
-            "colour = obstacle.")
+    return (
+        "Robot at v = (3, 0) m/s; four obstacles (radius 1.5 m, grown) on circular (B1, B2) "
+        f"and straight (B3, B4) paths sampled every 0.1 s up to t_h = {t_h:g} s; "
+        "colour = obstacle."
+    )
 
 
 FIGURES: dict[str, Callable] = {
@@ -351,12 +440,23 @@ def write_figures(out_dir: str | os.PathLike, names: list[str] | None = None) ->
             fig.canvas.draw()
             below = ax.get_tightbbox(fig.canvas.get_renderer())
             y = fig.transFigure.inverted().transform((0.0, below.y0))[1]
-            fig.text(0.5, y - 0.01, "\n".join(textwrap.wrap(caption, 100)), ha="center",
-                     va="top", fontsize=7.5, color="0.25")
+            fig.text(
+                0.5,
+                y - 0.01,
+                "\n".join(textwrap.wrap(caption, 100)),
+                ha="center",
+                va="top",
+                fontsize=7.5,
+                color="0.25",
+            )
         path = out / f"{name}.png"
         try:
-            atomic_write_with(path, lambda tmp, fig=fig: fig.savefig(
-                tmp, format="png", bbox_inches="tight", pad_inches=0.15))
+            atomic_write_with(
+                path,
+                lambda tmp, fig=fig: fig.savefig(
+                    tmp, format="png", bbox_inches="tight", pad_inches=0.15
+                ),
+            )
         finally:
             plt.close(fig)
         written.append(path)

@@ -186,7 +186,7 @@ def _pickled_exception(exc: BaseException) -> bytes:
 def _write_all(fd: int, data: bytes) -> None:
     view = memoryview(data)
     while view:
-        view = view[os.write(fd, view):]
+        view = view[os.write(fd, view) :]
 
 
 # --------------------------------------------------------------------------- this side
@@ -219,8 +219,8 @@ def _watch(pid: int, fd: int, budget: float | None) -> Any:
             kind, size = _HEADER.unpack_from(buffer)
             if len(buffer) < _HEADER.size + size:
                 break
-            payload = buffer[_HEADER.size:_HEADER.size + size]
-            buffer = buffer[_HEADER.size + size:]
+            payload = buffer[_HEADER.size : _HEADER.size + size]
+            buffer = buffer[_HEADER.size + size :]
             if kind == _COMPILE:
                 (compiled,) = struct.unpack("<d", payload)
             elif kind == _VALUE:
@@ -253,8 +253,10 @@ def _ended(status: int) -> str:
         how = f"was killed by {name}"
     else:
         how = f"exited with status {os.WEXITSTATUS(status)}"
-    return (f"the episode's process {how} before the episode ended (an agent ended it: "
-            "os._exit, a signal, or out of memory)")
+    return (
+        f"the episode's process {how} before the episode ended (an agent ended it: "
+        "os._exit, a signal, or out of memory)"
+    )
 
 
 def _end(pid: int) -> None:

@@ -32,7 +32,6 @@ from nao_arena.maps.loader import segment_distances_xy
 __all__ = ["NavigationGrid", "navigation_grid", "route_targets", "segment_clear"]
 
 
-
 @dataclass(eq=False)
 class NavigationGrid:
     """Free cells around walls (W, 2, 2) m with half-thicknesses (W,) m.
@@ -71,8 +70,11 @@ _GRIDS: dict[tuple[bytes, bytes, float, float, bytes], NavigationGrid] = {}
 
 
 def navigation_grid(
-    walls: NDArray[np.float64], half: NDArray[np.float64], clearance: float,
-    extent: NDArray[np.float64], cell: float = 0.2,
+    walls: NDArray[np.float64],
+    half: NDArray[np.float64],
+    clearance: float,
+    extent: NDArray[np.float64],
+    cell: float = 0.2,
 ) -> NavigationGrid:
     """The :class:`NavigationGrid` of the walls over ``extent`` ((2, 2) m: lower-left and
     upper-right corners, padded by 2 m), memoised (walls do not move). Points outside
@@ -81,8 +83,13 @@ def navigation_grid(
     half = np.ascontiguousarray(half, dtype=np.float64)
     lo = np.floor(np.asarray(extent[0], dtype=np.float64) - 2.0)
     hi = np.ceil(np.asarray(extent[1], dtype=np.float64) + 2.0)
-    key = (walls.tobytes(), half.tobytes(), float(clearance), float(cell),
-           np.concatenate([lo, hi]).tobytes())
+    key = (
+        walls.tobytes(),
+        half.tobytes(),
+        float(clearance),
+        float(cell),
+        np.concatenate([lo, hi]).tobytes(),
+    )
     grid = _GRIDS.get(key)
     if grid is None:
         if len(_GRIDS) > 16:
@@ -95,8 +102,9 @@ def navigation_grid(
         free = np.ones(nx * ny, dtype=bool)
         for segment, h in zip(walls, half, strict=True):
             free &= segment_distances_xy(gx, gy, segment) > clearance + h
-        grid = _GRIDS[key] = NavigationGrid(walls, half, lo, float(cell),
-                                            free.reshape(nx, ny), float(clearance))
+        grid = _GRIDS[key] = NavigationGrid(
+            walls, half, lo, float(cell), free.reshape(nx, ny), float(clearance)
+        )
     return grid
 
 
@@ -137,8 +145,12 @@ def segment_clear(ax, ay, bx, by, walls, half, sight):
     from every wall (walls (W, 2, 2) m, half (W,) m)."""
     for w in range(walls.shape[0]):
         lim = sight + half[w]
-        if segment_segment_dist2(ax, ay, bx, by, walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0],
-                          walls[w, 1, 1]) <= lim * lim:
+        if (
+            segment_segment_dist2(
+                ax, ay, bx, by, walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1]
+            )
+            <= lim * lim
+        ):
             return False
     return True
 
@@ -204,16 +216,20 @@ def _in_sight(positions, goals, walls, half, sight):
         py = positions[k, 1]
         gx = goals[k, 0]
         gy = goals[k, 1]
-        if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(gx)
-                and math.isfinite(gy)):
+        if not (
+            math.isfinite(px) and math.isfinite(py) and math.isfinite(gx) and math.isfinite(gy)
+        ):
             continue
         out[k] = segment_clear(px, py, gx, gy, walls, half, sight[k])
     return out
 
 
 def route_targets(
-    grid: NavigationGrid, positions: NDArray[np.float64], goals: NDArray[np.float64],
-    sight: NDArray[np.float64], lookahead: float = 6.0,
+    grid: NavigationGrid,
+    positions: NDArray[np.float64],
+    goals: NDArray[np.float64],
+    sight: NDArray[np.float64],
+    lookahead: float = 6.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Heading targets (n, 2) m of robots at ``positions`` (n, 2) m with ``goals``
     (n, 2) m (see the module docstring), and which of them lead round a wall (n,);
@@ -223,12 +239,25 @@ def route_targets(
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     goals = np.ascontiguousarray(goals, dtype=np.float64)
     out = goals.copy()
-    around = ~_in_sight(positions, goals, grid.walls, grid.half,
-                        np.ascontiguousarray(sight, dtype=np.float64))
+    around = ~_in_sight(
+        positions, goals, grid.walls, grid.half, np.ascontiguousarray(sight, dtype=np.float64)
+    )
     steps = max(1, int(lookahead / grid.cell))
     for k in np.flatnonzero(around).tolist():
         p, g = positions[k], goals[k]
-        out[k] = _descend(grid.field(g), grid.free, grid.origin[0], grid.origin[1], grid.cell,
-                          p[0], p[1], g[0], g[1], grid.walls, grid.half, float(sight[k]),
-                          steps)
+        out[k] = _descend(
+            grid.field(g),
+            grid.free,
+            grid.origin[0],
+            grid.origin[1],
+            grid.cell,
+            p[0],
+            p[1],
+            g[0],
+            g[1],
+            grid.walls,
+            grid.half,
+            float(sight[k]),
+            steps,
+        )
     return out, around

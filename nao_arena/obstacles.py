@@ -25,8 +25,14 @@ from nao_arena.geometry._kernel.segment import nearby_walls
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
 from nao_arena.geometry.walls import wall_discs
 
-__all__ = ["NO_WALLS", "RADIUS_CUT", "obstacle_paths", "relative_walls", "wall_discs_memo",
-           "within_reach"]
+__all__ = [
+    "NO_WALLS",
+    "RADIUS_CUT",
+    "obstacle_paths",
+    "relative_walls",
+    "wall_discs_memo",
+    "within_reach",
+]
 
 
 def within_reach(radii: NDArray[np.float64], rel: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -50,30 +56,43 @@ def wall_discs_memo(
     not write into them)."""
     if not len(walls):
         return NO_WALLS
-    key = (np.ascontiguousarray(walls).tobytes(), np.ascontiguousarray(wall_radius).tobytes(),
-           float(grow))
+    key = (
+        np.ascontiguousarray(walls).tobytes(),
+        np.ascontiguousarray(wall_radius).tobytes(),
+        float(grow),
+    )
     hit = _WALL_CACHE.get(key)
     if hit is None:
         if len(_WALL_CACHE) > 64:
             _WALL_CACHE.clear()
         wc, wr = wall_discs(walls, wall_radius, grow)
-        hit = _WALL_CACHE[key] = (np.ascontiguousarray(wc, dtype=np.float64),
-                                  np.ascontiguousarray(wr, dtype=np.float64))
+        hit = _WALL_CACHE[key] = (
+            np.ascontiguousarray(wc, dtype=np.float64),
+            np.ascontiguousarray(wr, dtype=np.float64),
+        )
     return hit
 
 
 def relative_walls(
-    walls: NDArray[np.float64], grown_radii: NDArray[np.float64], position: NDArray[np.float64],
-    reach: float = math.inf, cut: bool = True,
+    walls: NDArray[np.float64],
+    grown_radii: NDArray[np.float64],
+    position: NDArray[np.float64],
+    reach: float = math.inf,
+    cut: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The walls (W, 2, 2) m (world frame) within ``reach`` (m) + their grown radius
     ``grown_radii`` (W,) m of ``position`` (2,) m: ends relative to ``position`` (m) and
     radii (m), cut to just under the current distances with ``cut``."""
     walls = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 2, 2)
-    return nearby_walls(walls, np.ascontiguousarray(grown_radii, dtype=np.float64),
-                        np.arange(len(walls), dtype=np.int64),
-                        np.ascontiguousarray(position, dtype=np.float64), 0.0, float(reach),
-                        bool(cut))
+    return nearby_walls(
+        walls,
+        np.ascontiguousarray(grown_radii, dtype=np.float64),
+        np.arange(len(walls), dtype=np.int64),
+        np.ascontiguousarray(position, dtype=np.float64),
+        0.0,
+        float(reach),
+        bool(cut),
+    )
 
 
 def obstacle_paths(
@@ -100,5 +119,6 @@ def obstacle_paths(
     if walls is None or wall_radii is None or not len(walls):
         return path
     w_rel, w_rad = relative_walls(walls, wall_radii, position, wall_reach, cut)
-    return PiecewisePath(path.t, path.c, path.velocity, path.acceleration, path.radius,
-                         w_rel, w_rad)
+    return PiecewisePath(
+        path.t, path.c, path.velocity, path.acceleration, path.radius, w_rel, w_rad
+    )

@@ -64,8 +64,14 @@ def turn_rate(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]
     f = np.ascontiguousarray
     v = f(nb.velocities, dtype=np.float64)
     return _turn_rate_arcs(
-        f(nb.positions, dtype=np.float64), v, f(nb.accelerations, dtype=np.float64),
-        np.arctan2(v[:, 1], v[:, 0]), mid, fine, len(times))
+        f(nb.positions, dtype=np.float64),
+        v,
+        f(nb.accelerations, dtype=np.float64),
+        np.arctan2(v[:, 1], v[:, 0]),
+        mid,
+        fine,
+        len(times),
+    )
 
 
 _FINE: dict[bytes, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
@@ -77,8 +83,7 @@ def _fine_grid(times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray
     key = np.asarray(times, dtype=np.float64).tobytes()
     grid = _FINE.get(key)
     if grid is None:
-        fine = np.concatenate([[0.0], np.repeat(np.diff(np.concatenate([[0.0], times])) / 8,
-                                                8)])
+        fine = np.concatenate([[0.0], np.repeat(np.diff(np.concatenate([[0.0], times])) / 8, 8)])
         t_fine = np.cumsum(fine)
         if len(_FINE) > 64:
             _FINE.clear()
@@ -147,9 +152,9 @@ def _resample(path_times, paths, times):
         # continue at the last segment's velocity past the known horizon
         last_v = (paths[:, -1] - paths[:, -2]) / (path_times[-1] - path_times[-2])
         beyond = times > path_times[-1]
-        out[:, beyond] = paths[:, -1:, :] + last_v[:, None, :] * (
-            times[beyond] - path_times[-1]
-        )[None, :, None]
+        out[:, beyond] = (
+            paths[:, -1:, :] + last_v[:, None, :] * (times[beyond] - path_times[-1])[None, :, None]
+        )
     return out
 
 
@@ -173,7 +178,8 @@ def shared_plan(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float6
     if np.any(has):
         t = times[None, :, None]
         out[has] = (
-            nb.positions[has, None, :] + nb.velocities[has, None, :] * t
+            nb.positions[has, None, :]
+            + nb.velocities[has, None, :] * t
             + 0.5 * nb.plans[has, None, :] * t * t
         )
     return out

@@ -41,8 +41,16 @@ from nao_arena.atomic import atomic_write_with
 from nao_arena.stats import StatsConfig
 from nao_arena.trials import format_table, load_summary
 
-__all__ = ["ADJUSTMENT_CAPTION", "REPORT_FILES", "adjustment_rate_ci95", "contact_logs",
-           "format_contact_logs", "rate_label", "report_text", "write_report"]
+__all__ = [
+    "ADJUSTMENT_CAPTION",
+    "REPORT_FILES",
+    "adjustment_rate_ci95",
+    "contact_logs",
+    "format_contact_logs",
+    "rate_label",
+    "report_text",
+    "write_report",
+]
 
 REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
 MAX_LISTED = 30
@@ -53,7 +61,8 @@ ADJUSTMENT_CAPTION = (
     f"than {StatsConfig().adjustment_threshold:g} m/s^2 from the step before, counted until "
     "the robot reaches its goal; rate = adjustments / time driven (until the goal, or the "
     "episode's end), over all robot-episodes of the cell. Whiskers: 95 % intervals (collision "
-    "rate: Wilson; adjustments: ratio +- 1.96 standard errors, episodes as clusters).")
+    "rate: Wilson; adjustments: ratio +- 1.96 standard errors, episodes as clusters)."
+)
 """The definition under ``rates.png``."""
 
 
@@ -80,9 +89,18 @@ def contact_logs(folder: str | Path) -> list[dict[str, Any]]:
         if "robot" not in (r["kind_a"], r["kind_b"]):
             continue
         key = (r["map"], r["agent"], r["episode"])
-        ep = episodes.setdefault(key, {
-            "map": r["map"], "agent": r["agent"], "episode": r["episode"], "seed": r["seed"],
-            "contacts": 0, "first": r["time"], "log": None})
+        ep = episodes.setdefault(
+            key,
+            {
+                "map": r["map"],
+                "agent": r["agent"],
+                "episode": r["episode"],
+                "seed": r["seed"],
+                "contacts": 0,
+                "first": r["time"],
+                "log": None,
+            },
+        )
         ep["contacts"] += 1
         ep["first"] = min(ep["first"], r["time"])
         if r.get("log"):
@@ -96,20 +114,34 @@ def format_contact_logs(folder: str | Path) -> str:
     if not episodes:
         return ""
     logged = sum(1 for e in episodes if e["log"])
-    lines = [f"episodes with contacts: {len(episodes)}, {logged} with a log (see one: "
-             "nao-arena replay LOG; explain its contact K: nao-arena explain LOG --contact K)"]
+    lines = [
+        f"episodes with contacts: {len(episodes)}, {logged} with a log (see one: "
+        "nao-arena replay LOG; explain its contact K: nao-arena explain LOG --contact K)"
+    ]
     head = ["map", "agent", "episode", "contacts", "first s", "log"]
-    body = [[str(e["map"]), str(e["agent"]), str(e["episode"]), str(e["contacts"]),
-             f"{e['first']:.1f}", e["log"] or "none (run the trial again with --log contacts)"]
-            for e in episodes[:MAX_LISTED]]
+    body = [
+        [
+            str(e["map"]),
+            str(e["agent"]),
+            str(e["episode"]),
+            str(e["contacts"]),
+            f"{e['first']:.1f}",
+            e["log"] or "none (run the trial again with --log contacts)",
+        ]
+        for e in episodes[:MAX_LISTED]
+    ]
     widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head) - 1)]
     for row in [head, *body]:
-        cells = [c.ljust(w) if i < 2 else c.rjust(w)
-                 for i, (c, w) in enumerate(zip(row[:-1], widths, strict=True))]
+        cells = [
+            c.ljust(w) if i < 2 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(row[:-1], widths, strict=True))
+        ]
         lines.append("  " + "  ".join([*cells, row[-1]]))
     if len(episodes) > MAX_LISTED:
-        lines.append(f"  ... and {len(episodes) - MAX_LISTED} more (collisions.parquet, "
-                     "columns episode and log)")
+        lines.append(
+            f"  ... and {len(episodes) - MAX_LISTED} more (collisions.parquet, "
+            "columns episode and log)"
+        )
     return "\n".join(lines)
 
 
@@ -130,8 +162,9 @@ def _driven(row: Mapping[str, Any]) -> float:
     return float(row["duration"])
 
 
-def adjustment_rate_ci95(rows: Sequence[Mapping[str, Any]],
-                         repeats: float = 1.0) -> tuple[float, float, float] | None:
+def adjustment_rate_ci95(
+    rows: Sequence[Mapping[str, Any]], repeats: float = 1.0
+) -> tuple[float, float, float] | None:
     """(rate, low, high) of adjustments per second driven (1/s) over robot-episodes ``rows``
     (``episodes.parquet`` rows of one map x agent, failed episodes left out): the rate is
     sum(adjustments) / sum(time driven), as in ``summary.json``; the interval is the rate
@@ -178,8 +211,12 @@ def _grid(n_maps: int, width: float = 5.0, height: float = 3.6) -> tuple[Figure,
     return fig, axes[:n_maps]
 
 
-def _rates(summary: Sequence[Mapping[str, Any]], robot_rows: Sequence[Mapping[str, Any]],
-           maps: list[str], agents: list[str]) -> Figure:
+def _rates(
+    summary: Sequence[Mapping[str, Any]],
+    robot_rows: Sequence[Mapping[str, Any]],
+    maps: list[str],
+    agents: list[str],
+) -> Figure:
     fig_w = max(7.0, 1.1 * len(agents) * len(maps) + 3)
     fig = Figure(figsize=(fig_w, 4.6), layout="constrained")
     ax_c, ax_a = fig.subplots(1, 2)
@@ -190,26 +227,66 @@ def _rates(summary: Sequence[Mapping[str, Any]], robot_rows: Sequence[Mapping[st
     for k, m in enumerate(maps):
         pos = x - 0.4 + width * (k + 0.5)
         cells = [cell.get((m, a)) for a in agents]
-        rate = np.array([np.nan if r is None or r["collision_rate"] is None
-                         else r["collision_rate"] for r in cells])
-        lo = np.array([np.nan if r is None or r["collision_rate_ci95"] is None
-                       else r["collision_rate_ci95"][0] for r in cells])
-        hi = np.array([np.nan if r is None or r["collision_rate_ci95"] is None
-                       else r["collision_rate_ci95"][1] for r in cells])
+        rate = np.array(
+            [
+                np.nan if r is None or r["collision_rate"] is None else r["collision_rate"]
+                for r in cells
+            ]
+        )
+        lo = np.array(
+            [
+                np.nan
+                if r is None or r["collision_rate_ci95"] is None
+                else r["collision_rate_ci95"][0]
+                for r in cells
+            ]
+        )
+        hi = np.array(
+            [
+                np.nan
+                if r is None or r["collision_rate_ci95"] is None
+                else r["collision_rate_ci95"][1]
+                for r in cells
+            ]
+        )
         err = np.vstack([np.nan_to_num(rate - lo), np.nan_to_num(hi - rate)])
-        bars = ax_c.bar(pos, np.nan_to_num(rate), width, yerr=err, capsize=3,
-                        color=colors[k], label=m, error_kw={"elinewidth": 1, "alpha": 0.7})
-        ax_c.bar_label(bars, labels=[rate_label(r) for r in cells], fontsize="x-small",
-                       padding=2)
-        adj = np.array([np.nan if r is None or r["adjustments_per_s"] is None
-                        else r["adjustments_per_s"] for r in cells])
+        bars = ax_c.bar(
+            pos,
+            np.nan_to_num(rate),
+            width,
+            yerr=err,
+            capsize=3,
+            color=colors[k],
+            label=m,
+            error_kw={"elinewidth": 1, "alpha": 0.7},
+        )
+        ax_c.bar_label(bars, labels=[rate_label(r) for r in cells], fontsize="x-small", padding=2)
+        adj = np.array(
+            [
+                np.nan if r is None or r["adjustments_per_s"] is None else r["adjustments_per_s"]
+                for r in cells
+            ]
+        )
         ci = [_adjustment_ci(robot_rows, r, m, a) for r, a in zip(cells, agents, strict=True)]
-        err = np.array([[0.0, 0.0] if c is None or v != v else [v - c[1], c[2] - v]
-                        for c, v in zip(ci, adj, strict=True)]).T
-        bars = ax_a.bar(pos, np.nan_to_num(adj), width, yerr=np.maximum(err, 0.0), capsize=3,
-                        color=colors[k], label=m, error_kw={"elinewidth": 1, "alpha": 0.7})
-        ax_a.bar_label(bars, labels=["-" if v != v else f"{v:.1f}" for v in adj],
-                       fontsize="x-small", padding=2)
+        err = np.array(
+            [
+                [0.0, 0.0] if c is None or v != v else [v - c[1], c[2] - v]
+                for c, v in zip(ci, adj, strict=True)
+            ]
+        ).T
+        bars = ax_a.bar(
+            pos,
+            np.nan_to_num(adj),
+            width,
+            yerr=np.maximum(err, 0.0),
+            capsize=3,
+            color=colors[k],
+            label=m,
+            error_kw={"elinewidth": 1, "alpha": 0.7},
+        )
+        ax_a.bar_label(
+            bars, labels=["-" if v != v else f"{v:.1f}" for v in adj], fontsize="x-small", padding=2
+        )
     ax_c.set_ylim(0.0, 1.12)
     ax_c.set_ylabel("share of robot-episodes with a collision")
     ax_c.set_title("Collision rate (95% Wilson interval)")
@@ -224,50 +301,67 @@ def _rates(summary: Sequence[Mapping[str, Any]], robot_rows: Sequence[Mapping[st
     else:
         fig.suptitle(maps[0])
     chars = int(fig_w * 110 / 7)  # about 7 px per character at the caption's size
-    fig.supxlabel("\n".join(textwrap.wrap(ADJUSTMENT_CAPTION, chars)), fontsize="small",
-                  color="0.25")
+    fig.supxlabel(
+        "\n".join(textwrap.wrap(ADJUSTMENT_CAPTION, chars)), fontsize="small", color="0.25"
+    )
     return fig
 
 
-def _adjustment_ci(robot_rows: Sequence[Mapping[str, Any]], cell: Mapping[str, Any] | None,
-                   m: str, a: str) -> tuple[float, float, float] | None:
+def _adjustment_ci(
+    robot_rows: Sequence[Mapping[str, Any]], cell: Mapping[str, Any] | None, m: str, a: str
+) -> tuple[float, float, float] | None:
     """The adjustment rate's interval of one map x agent (see :func:`adjustment_rate_ci95`)."""
     if cell is None:
         return None
     completed = (cell.get("episodes") or 0) - (cell.get("failed_episodes") or 0)
     distinct = cell.get("distinct_episodes") or completed
     repeats = completed / distinct if distinct else 1.0
-    return adjustment_rate_ci95([r for r in robot_rows if r["map"] == m and r["agent"] == a],
-                                repeats)
+    return adjustment_rate_ci95(
+        [r for r in robot_rows if r["map"] == m and r["agent"] == a], repeats
+    )
 
 
 def _column(rows: Sequence[Mapping[str, Any]], m: str, a: str, name: str) -> list[Any]:
-    return [r[name] for r in rows
-            if r["map"] == m and r["agent"] == a and r["error"] is None]
+    return [r[name] for r in rows if r["map"] == m and r["agent"] == a and r["error"] is None]
 
 
-def _time_to_goal(rows: Sequence[Mapping[str, Any]], maps: list[str],
-                  agents: list[str]) -> Figure:
+def _time_to_goal(rows: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str]) -> Figure:
     fig, axes = _grid(len(maps))
     for ax, m in zip(axes, maps, strict=True):
         data, labels = [], []
         for a in agents:
             reached = _column(rows, m, a, "reached_goal")
-            times = [t for t, ok in zip(_column(rows, m, a, "time_to_goal"), reached,
-                                         strict=True) if ok and t is not None]
+            times = [
+                t
+                for t, ok in zip(_column(rows, m, a, "time_to_goal"), reached, strict=True)
+                if ok and t is not None
+            ]
             data.append(times)
             share = f"{len(times)}/{len(reached)}" if reached else "0/0"
             labels.append(f"{a}\n{share}")
         positions = np.arange(1, len(agents) + 1)
         filled = [k for k, d in enumerate(data) if d]
         if filled:
-            ax.boxplot([data[k] for k in filled], positions=positions[filled], widths=0.6,
-                       showmeans=True, meanprops={"markersize": 5})
+            ax.boxplot(
+                [data[k] for k in filled],
+                positions=positions[filled],
+                widths=0.6,
+                showmeans=True,
+                meanprops={"markersize": 5},
+            )
         for k, d in enumerate(data):
             if not d:
-                ax.text(positions[k], 0.5, "none arrived", ha="center", va="center",
-                        rotation=90, fontsize="small", transform=ax.get_xaxis_transform(),
-                        color="0.4")
+                ax.text(
+                    positions[k],
+                    0.5,
+                    "none arrived",
+                    ha="center",
+                    va="center",
+                    rotation=90,
+                    fontsize="small",
+                    transform=ax.get_xaxis_transform(),
+                    color="0.4",
+                )
         ax.set_xticks(positions, labels, fontsize="small")
         ax.set_xlim(0.4, len(agents) + 0.6)
         ax.set_xlabel("agent, and its robot-episodes that arrived / all")
@@ -281,7 +375,7 @@ def _time_to_goal(rows: Sequence[Mapping[str, Any]], maps: list[str],
 
 def _overlapping(boxes: Sequence[Any]) -> bool:
     """Whether any two of the display-space boxes overlap."""
-    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1 :])
 
 
 def _turn_overlapping_ticks(fig: Figure, axes: Sequence[Axes]) -> None:
@@ -298,8 +392,9 @@ def _turn_overlapping_ticks(fig: Figure, axes: Sequence[Axes]) -> None:
                 t.set_rotation_mode("anchor")
 
 
-def _min_separation(rows: Sequence[Mapping[str, Any]], maps: list[str],
-                    agents: list[str]) -> Figure:
+def _min_separation(
+    rows: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str]
+) -> Figure:
     """Small multiples: one histogram per agent (rows) and map (columns)."""
     fig = Figure(figsize=(4.6 * len(maps) + 0.6, 1.5 * len(agents) + 1.0), layout="constrained")
     axes = fig.subplots(len(agents), len(maps), squeeze=False, sharex="col")
@@ -323,8 +418,9 @@ def _min_separation(rows: Sequence[Mapping[str, Any]], maps: list[str],
             note = f"{len(per_agent[a])} robot-episodes, {contact} with contact"
             if far:
                 note += f", {far} never within range"
-            ax.text(0.98, 0.92, note, ha="right", va="top", fontsize="small",
-                    transform=ax.transAxes)
+            ax.text(
+                0.98, 0.92, note, ha="right", va="top", fontsize="small", transform=ax.transAxes
+            )
             ax.axvline(0.0, color="k", linestyle="--", linewidth=1)
             ax.yaxis.get_major_locator().set_params(integer=True)
             ax.grid(alpha=0.3)

@@ -126,9 +126,13 @@ def neighbour_lists(
     b = len(bodies)
     if b == 0 or len(positions) == 0:
         return np.zeros(b + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    return _neighbour_lists(bodies, np.ascontiguousarray(positions, dtype=np.float64),
-                            float(sensing_range),
-                            -1 if max_neighbours is None else int(max_neighbours), bool(hypot))
+    return _neighbour_lists(
+        bodies,
+        np.ascontiguousarray(positions, dtype=np.float64),
+        float(sensing_range),
+        -1 if max_neighbours is None else int(max_neighbours),
+        bool(hypot),
+    )
 
 
 _MAX_CELLS_PER_BODY = 4  # a finer grid than this many cells per body costs more than it saves
@@ -180,8 +184,7 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
         # a little wider than the range: rounding cannot put a body in range two cells
         # away; wider still where the cells would outnumber the bodies many times
         cells = _MAX_CELLS_PER_BODY * n + 16
-        h = max(sensing_range * (1.0 + 1e-9), 1e-9,
-                1.01 * math.sqrt((x1 - x0) * (y1 - y0) / cells))
+        h = max(sensing_range * (1.0 + 1e-9), 1e-9, 1.01 * math.sqrt((x1 - x0) * (y1 - y0) / cells))
         wx = math.floor((x1 - x0) / h) + 1.0
         wy = math.floor((y1 - y0) / h) + 1.0
         while wx * wy > cells:  # long thin extents: coarser until the cells fit
@@ -191,8 +194,9 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
         gx = int(wx)
         gy = int(wy)
     if max_neighbours >= 0:
-        return _nearest_lists(bodies, positions, sensing_range, max_neighbours, use_hypot,
-                              x0, y0, x1, y1)
+        return _nearest_lists(
+            bodies, positions, sensing_range, max_neighbours, use_hypot, x0, y0, x1, y1
+        )
     cell, cell_start, members = _grid(positions, x0, y0, h, gx, gy)
     start = np.zeros(b + 1, dtype=np.int64)
     index = np.empty(16 * b + 16, dtype=np.int64)
@@ -244,7 +248,7 @@ def _neighbour_lists(bodies, positions, sensing_range, max_neighbours, use_hypot
         for i in range(m):
             index[start[k] + i] = cand[order[i]]
         start[k + 1] = start[k] + m
-    return start, index[:start[b]].copy()
+    return start, index[: start[b]].copy()
 
 
 @njit(cache=True)
@@ -331,9 +335,12 @@ def _nearest_lists(bodies, positions, sensing_range, most, use_hypot, x0, y0, x1
     span = max(abs(x0), abs(x1), abs(y0), abs(y1))
     if math.isfinite(x1 - x0) and math.isfinite(y1 - y0) and n > 1:
         cells = _KNN_CELLS_PER_BODY * n + 16
-        h = max(1e-9, 1.01 * math.sqrt((x1 - x0) * (y1 - y0) / cells),
-                1.01 * max(x1 - x0, y1 - y0) / cells, 0.5 * _typical_kth(
-                    bodies, positions, sensing_range, most))
+        h = max(
+            1e-9,
+            1.01 * math.sqrt((x1 - x0) * (y1 - y0) / cells),
+            1.01 * max(x1 - x0, y1 - y0) / cells,
+            0.5 * _typical_kth(bodies, positions, sensing_range, most),
+        )
         wx = math.floor((x1 - x0) / h) + 1.0
         wy = math.floor((y1 - y0) / h) + 1.0
         while wx * wy > 4 * cells:  # long thin extents: coarser until the cells fit
@@ -370,13 +377,16 @@ def _nearest_lists(bodies, positions, sensing_range, most, use_hypot, x0, y0, x1
                             dj = _distance_from(positions, j, me, mx, my, use_hypot)
                             if not dj <= sensing_range:
                                 continue
-                            if m == most and not (dj < best_d[m - 1] or (
-                                    dj == best_d[m - 1] and j < best_j[m - 1])):
+                            if m == most and not (
+                                dj < best_d[m - 1] or (dj == best_d[m - 1] and j < best_j[m - 1])
+                            ):
                                 continue
                             # insert keeping (distance, index) order
                             pos = m if m < most else most - 1
-                            while pos > 0 and (best_d[pos - 1] > dj or (
-                                    best_d[pos - 1] == dj and best_j[pos - 1] > j)):
+                            while pos > 0 and (
+                                best_d[pos - 1] > dj
+                                or (best_d[pos - 1] == dj and best_j[pos - 1] > j)
+                            ):
                                 best_d[pos] = best_d[pos - 1]
                                 best_j[pos] = best_j[pos - 1]
                                 pos -= 1
@@ -403,7 +413,7 @@ def _nearest_lists(bodies, positions, sensing_range, most, use_hypot, x0, y0, x1
         for i in range(m):
             index[start[k] + i] = best_j[i]
         start[k + 1] = start[k] + m
-    return start, index[:start[b]].copy()
+    return start, index[: start[b]].copy()
 
 
 @njit(cache=True)
@@ -482,9 +492,24 @@ class ReadOnlyRoutes(tuple):
         return cls(None if r is None else read_only(np.asarray(r)) for r in routes)
 
 
-_BATCH_ARRAYS = ("positions", "velocities", "accelerations", "radii", "a_max", "v_max", "kinds",
-                 "plans", "known_paths", "path_times", "bodies", "goals", "walls", "wall_radius",
-                 "nb_start", "nb_index")
+_BATCH_ARRAYS = (
+    "positions",
+    "velocities",
+    "accelerations",
+    "radii",
+    "a_max",
+    "v_max",
+    "kinds",
+    "plans",
+    "known_paths",
+    "path_times",
+    "bodies",
+    "goals",
+    "walls",
+    "wall_radius",
+    "nb_start",
+    "nb_index",
+)
 """The array fields of :class:`SensingBatch` (made read-only)."""
 
 
@@ -551,27 +576,38 @@ class SensingBatch:
         n = len(nb)
 
         def own_first(own: object, rows: object, width: tuple[int, ...]) -> NDArray[np.float64]:
-            return np.concatenate([np.asarray(own, dtype=np.float64).reshape((1, *width)),
-                                   np.asarray(rows, dtype=np.float64).reshape((n, *width))])
+            return np.concatenate(
+                [
+                    np.asarray(own, dtype=np.float64).reshape((1, *width)),
+                    np.asarray(rows, dtype=np.float64).reshape((n, *width)),
+                ]
+            )
 
         unknown = np.full(n, np.nan)
         t = nb.known_paths.shape[1:] if nb.known_paths is not None else ()
         return cls(
-            time=obs.time, dt=obs.dt,
+            time=obs.time,
+            dt=obs.dt,
             positions=own_first(obs.position, nb.positions, (2,)),
             velocities=own_first(obs.velocity, nb.velocities, (2,)),
             accelerations=own_first(obs.acceleration, nb.accelerations, (2,)),
             radii=own_first(obs.radius, nb.radii, ()),
-            a_max=own_first(obs.a_max, unknown, ()), v_max=own_first(obs.v_max, unknown, ()),
+            a_max=own_first(obs.a_max, unknown, ()),
+            v_max=own_first(obs.v_max, unknown, ()),
             kinds=np.array(("robot", *nb.kinds)),
             plans=None if nb.plans is None else own_first(np.full(2, np.nan), nb.plans, (2,)),
-            known_paths=(None if nb.known_paths is None
-                         else own_first(np.full(t, np.nan), nb.known_paths, t)),
+            known_paths=(
+                None if nb.known_paths is None else own_first(np.full(t, np.nan), nb.known_paths, t)
+            ),
             path_times=np.asarray(nb.path_times, dtype=np.float64),
             bodies=np.zeros(1, dtype=np.int64),
-            goals=(np.full((1, 2), np.nan) if obs.goal is None
-                   else np.asarray(obs.goal, dtype=np.float64).reshape(1, 2)),
-            routes=(obs.route,), walls=np.asarray(obs.walls, dtype=np.float64),
+            goals=(
+                np.full((1, 2), np.nan)
+                if obs.goal is None
+                else np.asarray(obs.goal, dtype=np.float64).reshape(1, 2)
+            ),
+            routes=(obs.route,),
+            walls=np.asarray(obs.walls, dtype=np.float64),
             wall_radius=np.asarray(obs.wall_radius, dtype=np.float64),
             nb_start=np.array([0, n], dtype=np.int64),
             nb_index=np.arange(1, n + 1, dtype=np.int64),
@@ -579,7 +615,7 @@ class SensingBatch:
 
     def neighbour_ids(self, k: int) -> NDArray[np.int64]:
         """Body indices robot k senses, nearest first."""
-        return self.nb_index[self.nb_start[k]:self.nb_start[k + 1]]
+        return self.nb_index[self.nb_start[k] : self.nb_start[k + 1]]
 
     def everyone(self) -> Neighbours:
         """All bodies as one :class:`Neighbours` (row i = body i): predict once, index per robot."""
@@ -613,10 +649,18 @@ class SensingBatch:
             plans=None if self.plans is None else self.plans[idx],
         )
         return Observation(
-            time=self.time, dt=self.dt, robot_id=int(k),
-            position=self.positions[body], velocity=self.velocities[body],
-            acceleration=self.accelerations[body], radius=float(self.radii[body]),
-            a_max=float(self.a_max[body]), v_max=float(self.v_max[body]),
-            goal=self.goals[k], route=self.routes[k], neighbours=nb,
-            walls=self.walls, wall_radius=self.wall_radius,
+            time=self.time,
+            dt=self.dt,
+            robot_id=int(k),
+            position=self.positions[body],
+            velocity=self.velocities[body],
+            acceleration=self.accelerations[body],
+            radius=float(self.radii[body]),
+            a_max=float(self.a_max[body]),
+            v_max=float(self.v_max[body]),
+            goal=self.goals[k],
+            route=self.routes[k],
+            neighbours=nb,
+            walls=self.walls,
+            wall_radius=self.wall_radius,
         )

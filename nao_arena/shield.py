@@ -65,8 +65,13 @@ SHIELD_STATUSES: tuple[str, ...] = (*_SELECTION_STATUSES, "finished", "reset")
 
 def _idle(status: str) -> dict[str, Any]:
     """The shield's info of an agent whose action it did not look at."""
-    return {"intervened": False, "correction": 0.0, "status": status, "desired": None,
-            "applied": None}
+    return {
+        "intervened": False,
+        "correction": 0.0,
+        "status": status,
+        "desired": None,
+        "applied": None,
+    }
 
 
 class NAOShield(BaseParallelWrapper):
@@ -78,13 +83,16 @@ class NAOShield(BaseParallelWrapper):
     def __init__(self, env: ParallelEnv, agent: str | type = "nao", **agent_options: Any) -> None:
         base = getattr(env, "unwrapped", None)
         if not isinstance(base, NaoArenaParallelEnv):
-            raise TypeError("env: expected a nao_arena parallel env (nao_arena.parallel_env"
-                            f"(...)), got {type(env).__name__}")
+            raise TypeError(
+                "env: expected a nao_arena parallel env (nao_arena.parallel_env"
+                f"(...)), got {type(env).__name__}"
+            )
         super().__init__(env)
         cls = load_agent(agent) if isinstance(agent, str) else agent
         if not (isinstance(cls, type) and issubclass(cls, NAOAgent)):
-            raise ValueError(f"agent: expected 'nao', 'ao' or a subclass of NAOAgent, "
-                             f"got {agent!r}")
+            raise ValueError(
+                f"agent: expected 'nao', 'ao' or a subclass of NAOAgent, got {agent!r}"
+            )
         if not agent_options.get("replan", True):
             raise ValueError("replan: the shield selects at every step; expected True")
         self.agent_class: type[NAOAgent] = cls
@@ -143,7 +151,8 @@ class NAOShield(BaseParallelWrapper):
         desired = clip_accelerations(clipped[acting] * a_max[:, None], a_max)
         agents = [self.shield_agents[index[a]] for a in names]
         applied, status = self.agent_class.nearest_admissible_batch(
-            agents, base.arena.sensing(), rows, desired)
+            agents, base.arena.sensing(), rows, desired
+        )
         out = dict(actions)
         diff = applied - desired
         changed = np.any(applied != desired, axis=1).tolist()
@@ -152,13 +161,23 @@ class NAOShield(BaseParallelWrapper):
             if changed[i]:
                 out[a] = applied[i] / a_max[i]
             # rows of this step's fresh arrays
-            infos[a] = {"intervened": changed[i], "correction": correction[i],
-                        "status": status[i], "desired": desired[i], "applied": applied[i]}
+            infos[a] = {
+                "intervened": changed[i],
+                "correction": correction[i],
+                "status": status[i],
+                "desired": desired[i],
+                "applied": applied[i],
+            }
         self.statuses.update(status)
         return out, infos
 
-    def step(self, actions: Mapping[str, Any]) -> tuple[
-        dict[str, NDArray[np.float32]], dict[str, float], dict[str, bool], dict[str, bool],
+    def step(
+        self, actions: Mapping[str, Any]
+    ) -> tuple[
+        dict[str, NDArray[np.float32]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
         """:meth:`shield` the actions, then the env's step; infos get ``"shield"``."""
@@ -172,15 +191,18 @@ class NAOShield(BaseParallelWrapper):
         return f"NAOShield<{self.env}>"
 
 
-def nao_shield_v0(env: ParallelEnv | AECEnv, agent: str | type = "nao",
-                  **agent_options: Any) -> NAOShield | AECEnv:
+def nao_shield_v0(
+    env: ParallelEnv | AECEnv, agent: str | type = "nao", **agent_options: Any
+) -> NAOShield | AECEnv:
     """:class:`NAOShield` of a nao_arena parallel env; of the AEC env ``nao_arena.env(...)``
     (PettingZoo's ``parallel_to_aec`` of a parallel env), the AEC form of the shielded
     parallel env."""
     if isinstance(env, AECEnv):
         inner: Any = env.env if type(env) is OrderEnforcingWrapper else env
         if not isinstance(inner, parallel_to_aec_wrapper):
-            raise TypeError("env: expected a nao_arena parallel env or nao_arena.env(...) "
-                            f"(an AEC env converted from one), got {type(env).__name__}")
+            raise TypeError(
+                "env: expected a nao_arena parallel env or nao_arena.env(...) "
+                f"(an AEC env converted from one), got {type(env).__name__}"
+            )
         return parallel_to_aec(NAOShield(inner.env, agent, **agent_options))
     return NAOShield(env, agent, **agent_options)

@@ -44,8 +44,9 @@ def saturation_time(vx: float, vy: float, ax: float, ay: float, v_max: float) ->
 
 
 @njit(cache=True, error_model="numpy")
-def _saturation_times(v: NDArray[np.float64], a: NDArray[np.float64],
-                      v_max: NDArray[np.float64]) -> NDArray[np.float64]:
+def _saturation_times(
+    v: NDArray[np.float64], a: NDArray[np.float64], v_max: NDArray[np.float64]
+) -> NDArray[np.float64]:
     out = np.empty(v.shape[0])
     for i in range(v.shape[0]):
         out[i] = saturation_time(v[i, 0], v[i, 1], a[i, 0], a[i, 1], v_max[i])

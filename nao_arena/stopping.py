@@ -68,9 +68,19 @@ def max_plan_points(speed: float, a_max: float, dt: float, substeps: int) -> int
 
 
 @njit(cache=True, error_model="numpy")
-def _period(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
-            tau: float, h: float, substeps: int, out: FloatArray, k: int
-            ) -> tuple[float, float, float, float, int]:
+def _period(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    ax: float,
+    ay: float,
+    tau: float,
+    h: float,
+    substeps: int,
+    out: FloatArray,
+    k: int,
+) -> tuple[float, float, float, float, int]:
     """One control period of the world's integration from (p, v) under acceleration a
     (m/s^2) that stops at saturation time tau (s); appends the substep positions to
     out from row k on; returns the end position, velocity and next row."""
@@ -87,9 +97,19 @@ def _period(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_plan(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
-               a_max: float, v_max: float, dt: float, substeps: int,
-               out: FloatArray) -> int:
+def _fill_plan(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    ax: float,
+    ay: float,
+    a_max: float,
+    v_max: float,
+    dt: float,
+    substeps: int,
+    out: FloatArray,
+) -> int:
     """The stopping plan from (p, v) with acceleration a for the first period (scaled to
     |a| <= a_max, the speed limit as the world applies it) into out; returns its number
     of points (out must hold :func:`max_plan_points`)."""
@@ -111,16 +131,16 @@ def _fill_plan(px: float, py: float, vx: float, vy: float, ax: float, ay: float,
         if speed == 0.0:
             break
         b = min(a_max, speed / dt) / speed
-        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h,
-                                    substeps, out, k)
+        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h, substeps, out, k)
         if b * dt >= 1.0:  # this period stopped it (up to rounding)
             break
     return k
 
 
 @njit(cache=True, error_model="numpy")
-def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: int,
-                    stop2: float, skip: float) -> float:
+def _pair_min_dist2(
+    pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: int, stop2: float, skip: float
+) -> float:
     """Smallest squared distance (m^2) between two synchronous plans (points pa[:na],
     pb[:nb]; a plan that ended stands at its last point), in straight lines between
     substeps; returns early with a value below stop2 once one is found. skip (m): a
@@ -143,8 +163,12 @@ def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: 
             for j in range(k, e):
                 i0, i1 = min(j, na - 1), min(j + 1, na - 1)
                 j0, j1 = min(j, nb - 1), min(j + 1, nb - 1)
-                d2 = point_segment_dist2(pa[i0, 0] - pb[j0, 0], pa[i0, 1] - pb[j0, 1],
-                                       pa[i1, 0] - pb[j1, 0], pa[i1, 1] - pb[j1, 1])
+                d2 = point_segment_dist2(
+                    pa[i0, 0] - pb[j0, 0],
+                    pa[i0, 1] - pb[j0, 1],
+                    pa[i1, 0] - pb[j1, 0],
+                    pa[i1, 1] - pb[j1, 1],
+                )
                 if d2 < best:
                     best = d2
                     if best < stop2:
@@ -157,21 +181,22 @@ def _pair_min_dist2(pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: 
 
 
 @njit(cache=True, error_model="numpy")
-def _plan_clears_wall(p: FloatArray, n: int, cx: float, cy: float, dx: float, dy: float,
-                      reach: float) -> bool:
+def _plan_clears_wall(
+    p: FloatArray, n: int, cx: float, cy: float, dx: float, dy: float, reach: float
+) -> bool:
     """Whether the plan p[:n] (straight between substeps) keeps more than reach (m) from
     the wall segment [c, d] (m)."""
     r2 = reach * reach
     for j in range(n - 1):
-        if segment_segment_dist2(p[j, 0], p[j, 1], p[j + 1, 0], p[j + 1, 1],
-                                 cx, cy, dx, dy) < r2:
+        if segment_segment_dist2(p[j, 0], p[j, 1], p[j + 1, 0], p[j + 1, 1], cx, cy, dx, dy) < r2:
             return False
     return True
 
 
 @njit(cache=True, error_model="numpy")
-def _near_pairs(pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
-                ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _near_pairs(
+    pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """CSR lists (start, index) of the robots whose plans could come within margin (m) of
     robot i's: centres closer than the radii + margin + both plans' extents ext (m);
     found through a uniform grid (cells sorted by key)."""
@@ -210,10 +235,21 @@ def _near_pairs(pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: fl
 
 
 @njit(cache=True, error_model="numpy")
-def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
-                        radius: FloatArray, a_max: FloatArray, v_max: FloatArray, dt: float,
-                        substeps: int, margin: float, walls: FloatArray, wall_half: FloatArray,
-                        brake: NDArray[np.bool_], braking: FloatArray) -> int:
+def commit_plans_kernel(
+    pos: FloatArray,
+    vel: FloatArray,
+    desired: FloatArray,
+    radius: FloatArray,
+    a_max: FloatArray,
+    v_max: FloatArray,
+    dt: float,
+    substeps: int,
+    margin: float,
+    walls: FloatArray,
+    wall_half: FloatArray,
+    brake: NDArray[np.bool_],
+    braking: FloatArray,
+) -> int:
     """:func:`commit_plans` on arrays; writes brake (n,) and the standing plans'
     accelerations braking (n, 2), returns the number of pair checks made (nothing is
     written, and 0 returned, when a position, velocity or desired acceleration is not
@@ -222,9 +258,14 @@ def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
     if n == 0:
         return 0
     for i in range(n):
-        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1])
-                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1])
-                and math.isfinite(desired[i, 0]) and math.isfinite(desired[i, 1])):
+        if not (
+            math.isfinite(pos[i, 0])
+            and math.isfinite(pos[i, 1])
+            and math.isfinite(vel[i, 0])
+            and math.isfinite(vel[i, 1])
+            and math.isfinite(desired[i, 0])
+            and math.isfinite(desired[i, 1])
+        ):
             return 0
     # the longest plan: that of the robot with the most speed per a_max (the first of equals)
     k = 0
@@ -234,24 +275,47 @@ def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
         if ratio > best:
             best = ratio
             k = i
-    points = max_plan_points(min(math.hypot(vel[k, 0], vel[k, 1]), v_max[k]), a_max[k], dt,
-                             substeps)
+    points = max_plan_points(
+        min(math.hypot(vel[k, 0], vel[k, 1]), v_max[k]), a_max[k], dt, substeps
+    )
     want = np.empty((n, points, 2))
     stand = np.empty((n, points, 2))
     n_want = np.empty(n, dtype=np.int64)
     n_stand = np.empty(n, dtype=np.int64)
     ext = np.zeros(n)
     for i in range(n):
-        n_want[i] = _fill_plan(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], desired[i, 0],
-                               desired[i, 1], a_max[i], v_max[i], dt, substeps, want[i])
+        n_want[i] = _fill_plan(
+            pos[i, 0],
+            pos[i, 1],
+            vel[i, 0],
+            vel[i, 1],
+            desired[i, 0],
+            desired[i, 1],
+            a_max[i],
+            v_max[i],
+            dt,
+            substeps,
+            want[i],
+        )
         speed = math.hypot(vel[i, 0], vel[i, 1])
         bx, by = 0.0, 0.0
         if speed > 0.0:
             b = min(a_max[i], speed / dt) / speed
             bx, by = -b * vel[i, 0], -b * vel[i, 1]
         braking[i, 0], braking[i, 1] = bx, by
-        n_stand[i] = _fill_plan(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], bx, by,
-                                a_max[i], v_max[i], dt, substeps, stand[i])
+        n_stand[i] = _fill_plan(
+            pos[i, 0],
+            pos[i, 1],
+            vel[i, 0],
+            vel[i, 1],
+            bx,
+            by,
+            a_max[i],
+            v_max[i],
+            dt,
+            substeps,
+            stand[i],
+        )
         far2 = 0.0
         for k in range(n_want[i]):
             dx, dy = want[i, k, 0] - pos[i, 0], want[i, k, 1] - pos[i, 1]
@@ -265,8 +329,12 @@ def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
     for i in range(n):
         m = 0
         for w in range(walls.shape[0]):
-            d2 = point_segment_dist2(walls[w, 0, 0] - pos[i, 0], walls[w, 0, 1] - pos[i, 1],
-                                   walls[w, 1, 0] - pos[i, 0], walls[w, 1, 1] - pos[i, 1])
+            d2 = point_segment_dist2(
+                walls[w, 0, 0] - pos[i, 0],
+                walls[w, 0, 1] - pos[i, 1],
+                walls[w, 1, 0] - pos[i, 0],
+                walls[w, 1, 1] - pos[i, 1],
+            )
             reach = radius[i] + wall_half[w] + margin + ext[i]
             near[w] = d2 <= reach * reach
             m += near[w]
@@ -274,8 +342,14 @@ def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
             continue
         for w in range(walls.shape[0]):
             if near[w] and not _plan_clears_wall(
-                    want[i], n_want[i], walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0],
-                    walls[w, 1, 1], radius[i] + wall_half[w] + margin):
+                want[i],
+                n_want[i],
+                walls[w, 0, 0],
+                walls[w, 0, 1],
+                walls[w, 1, 0],
+                walls[w, 1, 1],
+                radius[i] + wall_half[w] + margin,
+            ):
                 brake[i] = True
                 break
     nb_start, nb_index = _near_pairs(pos, ext, radius, margin)
@@ -295,11 +369,13 @@ def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
                 skip = (a_max[i] + a_max[j]) * h2 * substeps * substeps / 8.0 + 1e-12
                 checks += 1
                 if brake[j]:
-                    d2 = _pair_min_dist2(want[i], n_want[i], stand[j], n_stand[j], substeps,
-                                         reach * reach, skip)
+                    d2 = _pair_min_dist2(
+                        want[i], n_want[i], stand[j], n_stand[j], substeps, reach * reach, skip
+                    )
                 else:
-                    d2 = _pair_min_dist2(want[i], n_want[i], want[j], n_want[j], substeps,
-                                         reach * reach, skip)
+                    d2 = _pair_min_dist2(
+                        want[i], n_want[i], want[j], n_want[j], substeps, reach * reach, skip
+                    )
                 if d2 < reach * reach:
                     brake[i] = True
                     changed = True
@@ -307,17 +383,33 @@ def commit_plans_kernel(pos: FloatArray, vel: FloatArray, desired: FloatArray,
     return checks
 
 
-def stopping_plan(position: NDArray[np.float64], velocity: NDArray[np.float64],
-                  accel: NDArray[np.float64], a_max: float, v_max: float, dt: float,
-                  substeps: int) -> FloatArray:
+def stopping_plan(
+    position: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    accel: NDArray[np.float64],
+    a_max: float,
+    v_max: float,
+    dt: float,
+    substeps: int,
+) -> FloatArray:
     """The stopping plan of a robot at ``position`` (m) with ``velocity`` (m/s) that
     drives ``accel`` (m/s^2) for one period dt (s) and then brakes to a standstill:
     its positions (P, 2) m at every substep, the start first."""
     speed = min(float(np.hypot(*velocity)), v_max)
     out = np.empty((max_plan_points(speed, a_max, dt, substeps), 2))
-    n = _fill_plan(float(position[0]), float(position[1]), float(velocity[0]),
-                   float(velocity[1]), float(accel[0]), float(accel[1]), float(a_max),
-                   float(v_max), float(dt), int(substeps), out)
+    n = _fill_plan(
+        float(position[0]),
+        float(position[1]),
+        float(velocity[0]),
+        float(velocity[1]),
+        float(accel[0]),
+        float(accel[1]),
+        float(a_max),
+        float(v_max),
+        float(dt),
+        int(substeps),
+        out,
+    )
     return out[:n].copy()
 
 
@@ -330,9 +422,17 @@ def plan_clearance(plan_a: FloatArray, plan_b: FloatArray, substeps: int) -> flo
 
 
 def commit_plans(
-    positions: FloatArray, velocities: FloatArray, desired: FloatArray, radii: FloatArray,
-    a_max: FloatArray, v_max: FloatArray, dt: float, substeps: int, margin: float,
-    walls: FloatArray | None = None, wall_half: FloatArray | None = None,
+    positions: FloatArray,
+    velocities: FloatArray,
+    desired: FloatArray,
+    radii: FloatArray,
+    a_max: FloatArray,
+    v_max: FloatArray,
+    dt: float,
+    substeps: int,
+    margin: float,
+    walls: FloatArray | None = None,
+    wall_half: FloatArray | None = None,
 ) -> tuple[NDArray[np.bool_], FloatArray]:
     """Which robots of a group must brake (True) instead of driving their desired
     acceleration (see the module docstring), and each robot's braking acceleration
@@ -350,9 +450,19 @@ def commit_plans(
     brake = np.zeros(n, dtype=np.bool_)
     braking = np.zeros((n, 2))
     f = np.ascontiguousarray
-    commit_plans_kernel(f(positions, dtype=np.float64), f(velocities, dtype=np.float64),
-            f(desired, dtype=np.float64), f(radii, dtype=np.float64),
-            f(a_max, dtype=np.float64), f(v_max, dtype=np.float64), float(dt), int(substeps),
-            float(margin), f(walls, dtype=np.float64).reshape(-1, 2, 2),
-            f(wall_half, dtype=np.float64), brake, braking)
+    commit_plans_kernel(
+        f(positions, dtype=np.float64),
+        f(velocities, dtype=np.float64),
+        f(desired, dtype=np.float64),
+        f(radii, dtype=np.float64),
+        f(a_max, dtype=np.float64),
+        f(v_max, dtype=np.float64),
+        float(dt),
+        int(substeps),
+        float(margin),
+        f(walls, dtype=np.float64).reshape(-1, 2, 2),
+        f(wall_half, dtype=np.float64),
+        brake,
+        braking,
+    )
     return brake, braking

@@ -271,9 +271,10 @@ def follower_accels(
     s_next = s + 0.5 * (u + u_next) * dt
     t_next = lane.tangent_at(s_next)
     n_next = np.stack([-t_next[:, 1], t_next[:, 0]], axis=-1)
-    v_target = u_next[:, None] * t_next - (
-        lateral / max(params.lateral_time_constant, dt)
-    )[:, None] * n_next
+    v_target = (
+        u_next[:, None] * t_next
+        - (lateral / max(params.lateral_time_constant, dt))[:, None] * n_next
+    )
     return _clip_norm((v_target - v) / dt, a_max)
 
 
@@ -305,15 +306,18 @@ def follower_accel(
         lv = np.zeros(2) if leader_velocity is None else np.asarray(leader_velocity, float)
         u_lead = float(lv @ lane.tangent_at(s_pair[1]))
     out = follower_accels(
-        lane, params, dt, np.asarray(position, float)[None], np.asarray(velocity, float)[None],
-        np.array([gap]), np.array([u_lead]),
+        lane,
+        params,
+        dt,
+        np.asarray(position, float)[None],
+        np.asarray(velocity, float)[None],
+        np.array([gap]),
+        np.array([u_lead]),
     )
     return out[0]
 
 
-def leader_gaps(
-    lane: Lane, s: ArrayLike, radii: ArrayLike
-) -> tuple[NDArray[np.intp], FloatArray]:
+def leader_gaps(lane: Lane, s: ArrayLike, radii: ArrayLike) -> tuple[NDArray[np.intp], FloatArray]:
     """Leader index (-1 for none) and bumper gap (m, inf for none) of each vehicle.
 
     s: (n,) arc lengths (m) of the vehicles in one lane; radii: (n,) m. On a
@@ -410,9 +414,7 @@ class LaneTraffic:
         for g, group in enumerate(spec.traffic):
             lanes.append(group.lane_geometry())
             params.append(group.follower_params())
-            members.append(
-                np.array([b.index for b in bodies if b.group == g], dtype=np.intp)
-            )
+            members.append(np.array([b.index for b in bodies if b.group == g], dtype=np.intp))
         return cls(lanes, params, members, radii, spec.physics.dt)
 
     @property

@@ -52,8 +52,11 @@ class EpisodeTimeout(BaseException):
 
 def budget_available() -> bool:
     """Whether :func:`wall_clock_budget` is enforced here (SIGALRM, on the main thread)."""
-    return (hasattr(signal, "SIGALRM") and hasattr(signal, "setitimer")
-            and threading.current_thread() is threading.main_thread())
+    return (
+        hasattr(signal, "SIGALRM")
+        and hasattr(signal, "setitimer")
+        and threading.current_thread() is threading.main_thread()
+    )
 
 
 @contextmanager

@@ -106,8 +106,9 @@ def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
 
 
 @njit(cache=True)
-def applied_plans(commanded: FloatArray, rows: NDArray[np.int64], a_max: FloatArray,
-                  n: int) -> FloatArray:  # pragma: no cover
+def applied_plans(
+    commanded: FloatArray, rows: NDArray[np.int64], a_max: FloatArray, n: int
+) -> FloatArray:  # pragma: no cover
     """(n, 2) m/s^2: the commanded accelerations of the bodies ``rows`` scaled to
     |a| <= a_max[j] (m/s^2) as :func:`clip_accelerations` scales them (the same
     arithmetic), NaN for the other bodies: the accelerations the world applied to the
@@ -125,8 +126,14 @@ def applied_plans(commanded: FloatArray, rows: NDArray[np.int64], a_max: FloatAr
 
 @njit(cache=True)
 def _plan_period(
-    accels: FloatArray, v: FloatArray, a_max: FloatArray, v_max: FloatArray,
-    masses: FloatArray, dt: float, rows: NDArray[np.intp], forces: FloatArray,
+    accels: FloatArray,
+    v: FloatArray,
+    a_max: FloatArray,
+    v_max: FloatArray,
+    masses: FloatArray,
+    dt: float,
+    rows: NDArray[np.intp],
+    forces: FloatArray,
     v_out: FloatArray,
 ) -> tuple[bool, bool]:
     """The speed-limit model of one period for every body, in one pass.
@@ -170,8 +177,14 @@ def _plan_period(
 
 @njit(cache=True)
 def _finish_period(
-    data: FloatArray, rows: NDArray[np.intp], v_max: FloatArray, v_start: FloatArray,
-    dt: float, pos: FloatArray, vel: FloatArray, acc: FloatArray,
+    data: FloatArray,
+    rows: NDArray[np.intp],
+    v_max: FloatArray,
+    v_start: FloatArray,
+    dt: float,
+    pos: FloatArray,
+    vel: FloatArray,
+    acc: FloatArray,
 ) -> bool:
     """Read back one period: positions and velocities from the batch rows ``data`` (rows, 4)
     into pos / vel (N, 2), velocities above v_max scaled back, mean accelerations
@@ -204,8 +217,7 @@ def _c_function(name: str, restype: object, *argtypes: object) -> Any:
 
 
 _SPACE_STEP = _c_function("cpSpaceStep", None, ctypes.c_void_p, ctypes.c_double)
-_EACH_BODY = _c_function("cpSpaceEachBody", None, ctypes.c_void_p, ctypes.c_void_p,
-                         ctypes.c_void_p)
+_EACH_BODY = _c_function("cpSpaceEachBody", None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
 _GET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodyGetIteratorFuncBatched"))
 _SET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodySetIteratorFuncBatched"))
 
@@ -253,7 +265,8 @@ class _BatchIO:
             arr.num = 0
             arr.max = target.size
         self.counts = np.frombuffer(ffi.buffer(self._arrays), dtype=np.int32).reshape(
-            len(targets), -1)
+            len(targets), -1
+        )
         self.num = ffi.offsetof("pmFloatArray", "num") // 4
         fields = pb.BodyFields
         # (array, fields) per data slot: each substep's forces, then the reads and writes
@@ -266,8 +279,7 @@ class _BatchIO:
         for data, (a, f) in zip(self._data, slots, strict=True):
             data.floatArray = self._arrays + a
             data.fields = f.value
-        self.data = np.array([_address(self._data + j) for j in range(len(slots))],
-                             dtype=np.int64)
+        self.data = np.array([_address(self._data + j) for j in range(len(slots))], dtype=np.int64)
         self._array_of = [a for a, _ in slots]  # the counts row of each data slot
 
     def _each(self, space: pymunk.Space, slot: int, func: int) -> None:
@@ -300,9 +312,18 @@ class _BatchIO:
 
 @njit(cache=True)
 def _substeps_kernel(
-    space_step: Any, each_body: Any, space: int, h: float, set_body: int, get_body: int,
-    data: NDArray[np.int64], counts: NDArray[np.int32], num: int, floats: FloatArray,
-    rows: NDArray[np.intp], path: FloatArray,
+    space_step: Any,
+    each_body: Any,
+    space: int,
+    h: float,
+    set_body: int,
+    get_body: int,
+    data: NDArray[np.int64],
+    counts: NDArray[np.int32],
+    num: int,
+    floats: FloatArray,
+    rows: NDArray[np.intp],
+    path: FloatArray,
 ) -> None:
     """One period's physics substeps of ``h`` s, in chipmunk directly: before substep j,
     the forces of data slot j; after each but the last, every body's position into
@@ -328,8 +349,15 @@ def _substeps_kernel(
 #: pymunk's own bookkeeping around a step, as this pymunk version names it (checked
 #: once: with another version, or while it has something to do, :meth:`World.step`
 #: calls ``Space.step``)
-_STEP_STATE = ("_bodies_to_check", "_add_later", "_remove_later", "_post_step_callbacks",
-               "_removed_shapes", "threaded", "_locked")
+_STEP_STATE = (
+    "_bodies_to_check",
+    "_add_later",
+    "_remove_later",
+    "_post_step_callbacks",
+    "_removed_shapes",
+    "threaded",
+    "_locked",
+)
 _DIRECT_STEP = all(hasattr(pymunk.Space(), name) for name in _STEP_STATE)
 
 
@@ -338,8 +366,13 @@ def _pymunk_is_idle(space: pymunk.Space) -> bool:
     nothing to add or remove, no post-step callback, not threaded (the world adds and
     removes bodies only between episodes and sets no collision handler)."""
     return _DIRECT_STEP and not (
-        space._bodies_to_check or space._add_later or space._remove_later
-        or space._post_step_callbacks or space._removed_shapes or space.threaded)
+        space._bodies_to_check
+        or space._add_later
+        or space._remove_later
+        or space._post_step_callbacks
+        or space._removed_shapes
+        or space.threaded
+    )
 
 
 class World:
@@ -473,9 +506,20 @@ class World:
         if _pymunk_is_idle(space):
             space._locked = True
             try:
-                _substeps_kernel(_SPACE_STEP, _EACH_BODY, _address(space._space), h,
-                                 _SET_BODY, _GET_BODY, io.data, io.counts, io.num, io.floats,
-                                 self._rows, path)
+                _substeps_kernel(
+                    _SPACE_STEP,
+                    _EACH_BODY,
+                    _address(space._space),
+                    h,
+                    _SET_BODY,
+                    _GET_BODY,
+                    io.data,
+                    io.counts,
+                    io.num,
+                    io.floats,
+                    self._rows,
+                    path,
+                )
             finally:
                 space._locked = False
             return
@@ -544,8 +588,9 @@ class World:
             raise ValueError(f"expected accelerations of shape ({self.n}, 2), got {a.shape}")
         v_start = self._vel
         v = np.empty_like(v_start)
-        finite, over = _plan_period(a, v_start, self.a_max, self.v_max, self.masses, self.dt,
-                                    self._rows, self._io.forces, v)
+        finite, over = _plan_period(
+            a, v_start, self.a_max, self.v_max, self.masses, self.dt, self._rows, self._io.forces, v
+        )
         if not finite:
             raise ValueError("expected finite accelerations")
         self._record(a)
@@ -559,8 +604,9 @@ class World:
         self._pos = np.empty((self.n, 2))
         vel = np.empty((self.n, 2))
         self._acc = np.empty((self.n, 2))
-        if _finish_period(data, self._rows, self.v_max, v_start, self.dt, self._pos, vel,
-                          self._acc):
+        if _finish_period(
+            data, self._rows, self.v_max, v_start, self.dt, self._pos, vel, self._acc
+        ):
             self._write_velocities(vel)
         path[self.substeps] = self._pos
         path.setflags(write=False)

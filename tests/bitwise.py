@@ -12,8 +12,12 @@ def same(x, y) -> bool:
     if isinstance(x, list | tuple):
         return len(x) == len(y) and all(same(a, b) for a, b in zip(x, y, strict=True))
     if isinstance(x, np.ndarray):
-        return (isinstance(y, np.ndarray) and x.dtype == y.dtype and x.shape == y.shape
-                and x.tobytes() == y.tobytes())
+        return (
+            isinstance(y, np.ndarray)
+            and x.dtype == y.dtype
+            and x.shape == y.shape
+            and x.tobytes() == y.tobytes()
+        )
     if isinstance(x, float):
         return isinstance(y, float) and np.float64(x).tobytes() == np.float64(y).tobytes()
     return type(x) is type(y) and x == y
@@ -27,4 +31,5 @@ def same_up_to_nan_sign(x: np.ndarray, y: np.ndarray) -> bool:
         return False
     nan_x, nan_y = np.isnan(x), np.isnan(y)
     return bool(np.array_equal(nan_x, nan_y)) and (
-        np.where(nan_x, 0.0, x).tobytes() == np.where(nan_y, 0.0, y).tobytes())
+        np.where(nan_x, 0.0, x).tobytes() == np.where(nan_y, 0.0, y).tobytes()
+    )

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
 
+
 @dataclass(frozen=True)
 class Robot:
     """Constant-acceleration robot with optional speed saturation."""

@@ -16,8 +16,16 @@ from nao_arena.watchdog import EpisodeTimeout
 
 def obs() -> Observation:
     return Observation(
-        time=1.0, dt=0.1, robot_id=3, position=np.zeros(2), velocity=np.array([1.0, 0.0]),
-        acceleration=np.zeros(2), radius=0.5, a_max=2.0, v_max=2.0, goal=np.array([10.0, 0.0]),
+        time=1.0,
+        dt=0.1,
+        robot_id=3,
+        position=np.zeros(2),
+        velocity=np.array([1.0, 0.0]),
+        acceleration=np.zeros(2),
+        radius=0.5,
+        a_max=2.0,
+        v_max=2.0,
+        goal=np.array([10.0, 0.0]),
     )
 
 
@@ -66,11 +74,14 @@ def test_agent_from_file_and_module(tmp_path, monkeypatch):
     np.testing.assert_array_equal(cls().act(obs()), [0.5, 0.0])
 
 
-@pytest.mark.parametrize("ref, fragment", [
-    ("no_such_agent", "unknown agent"),
-    ("missing/file.py:X", "no such file"),
-    ("json:NoSuchClass", "defines no"),
-])
+@pytest.mark.parametrize(
+    "ref, fragment",
+    [
+        ("no_such_agent", "unknown agent"),
+        ("missing/file.py:X", "no such file"),
+        ("json:NoSuchClass", "defines no"),
+    ],
+)
 def test_bad_agent_references_are_explained(ref, fragment):
     with pytest.raises(ValueError, match=fragment):
         load_agent(ref)
@@ -96,10 +107,15 @@ class Exits:
         raise SystemExit(3)
 
 
-@pytest.mark.parametrize("agent, fragment", [
-    (Raises(), "RuntimeError: boom"), (ReturnsNaN(), "non-finite"), (WrongShape(), "shape"),
-    (Exits(), "SystemExit: 3"),
-])
+@pytest.mark.parametrize(
+    "agent, fragment",
+    [
+        (Raises(), "RuntimeError: boom"),
+        (ReturnsNaN(), "non-finite"),
+        (WrongShape(), "shape"),
+        (Exits(), "SystemExit: 3"),
+    ],
+)
 def test_faulty_agents_are_contained(agent, fragment):
     a, fault = safe_act(agent, obs(), "bad")
     np.testing.assert_array_equal(a, [0.0, 0.0])

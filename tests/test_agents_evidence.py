@@ -67,7 +67,9 @@ def test_nao_crosses_the_roundabout_without_collision(predictor):
 
 
 OPEN_LOOP = ArenaOptions(
-    sensing_range=120.0, known_path_horizon=20.0, known_path_samples=201,
+    sensing_range=120.0,
+    known_path_horizon=20.0,
+    known_path_samples=201,
     agent_options={"replan": False, "horizon": 20.0, "samples": 201, "sensing_range": 120.0},
 )
 

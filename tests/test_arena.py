@@ -19,16 +19,23 @@ from nao_arena.maps import MapSpec, load_map, map_from_dict
 HERE = __name__  # agents of this file are named "<module>:<Class>"
 
 
-def two_robots(time_limit: float = 3.0, tolerance: float = 0.3,
-               starts: tuple = ((-2.0, 0.0), (2.0, 2.0)),
-               goals: tuple = ((2.0, 0.0), (-2.0, 2.0))) -> MapSpec:
+def two_robots(
+    time_limit: float = 3.0,
+    tolerance: float = 0.3,
+    starts: tuple = ((-2.0, 0.0), (2.0, 2.0)),
+    goals: tuple = ((2.0, 0.0), (-2.0, 2.0)),
+) -> MapSpec:
     """Two robots (a_max 2 m/s^2, v_max 1.5 m/s) in a 10 m box, dt 0.1 s."""
-    return map_from_dict({
-        "bounds": {"min": [-5, -5], "max": [5, 5]},
-        "robots": [{"start": list(s), "goal": list(g), "agent": "goal"}
-                   for s, g in zip(starts, goals, strict=True)],
-        "episode": {"time_limit": time_limit, "goal_tolerance": tolerance},
-    })
+    return map_from_dict(
+        {
+            "bounds": {"min": [-5, -5], "max": [5, 5]},
+            "robots": [
+                {"start": list(s), "goal": list(g), "agent": "goal"}
+                for s, g in zip(starts, goals, strict=True)
+            ],
+            "episode": {"time_limit": time_limit, "goal_tolerance": tolerance},
+        }
+    )
 
 
 class Const:
@@ -106,12 +113,14 @@ class Tape:
 
     def begin(self, arena: Arena, seed: int | None) -> None:
         assert arena.stats is not None
-        self.events.append(("begin", seed, arena.time, arena.stats.steps,
-                            arena.state.positions.copy()))
+        self.events.append(
+            ("begin", seed, arena.time, arena.stats.steps, arena.state.positions.copy())
+        )
 
     def step(self, arena: Arena, sensing: Any, result: Any, actions: Any) -> None:
-        self.events.append(("step", sensing.time, result, dict(actions),
-                            arena.state is result.state))
+        self.events.append(
+            ("step", sensing.time, result, dict(actions), arena.state is result.state)
+        )
 
 
 @pytest.fixture(autouse=True)
@@ -148,8 +157,9 @@ def test_step_advances_time_and_applies_the_agents_accelerations():
     assert res.state is arena.state and arena.state is not start
     np.testing.assert_array_equal(res.commanded[arena.robot_ids], [[1.0, 0.0], [0.0, -0.5]])
     # constant acceleration from rest, below v_max: v = a dt
-    np.testing.assert_allclose(res.state.velocities[arena.robot_ids],
-                               [[0.1, 0.0], [0.0, -0.05]], atol=1e-9)
+    np.testing.assert_allclose(
+        res.state.velocities[arena.robot_ids], [[0.1, 0.0], [0.0, -0.05]], atol=1e-9
+    )
     assert [a.calls for a in arena.agents] == [1, 1]
     assert [a.seen for a in arena.agents] == [[0], [1]]
 
@@ -216,8 +226,9 @@ def test_run_stops_when_every_robot_is_at_its_goal():
 def test_done_needs_every_robot_at_its_goal_at_once():
     """Robot 0 starts on its goal, robot 1 0.5 m from its own; both pushed along x,
     robot 0 leaves its goal before robot 1 reaches its own: not done."""
-    spec = two_robots(starts=((0.0, 0.0), (2.0, 2.0)), goals=((0.0, 0.1), (2.5, 2.0)),
-                      tolerance=0.2)
+    spec = two_robots(
+        starts=((0.0, 0.0), (2.0, 2.0)), goals=((0.0, 0.1), (2.5, 2.0)), tolerance=0.2
+    )
     arena = arena_with([Const(), Const()], spec)
     arena.step()
     assert list(arena.reached) == [True, False] and not arena.done
@@ -227,8 +238,9 @@ def test_done_needs_every_robot_at_its_goal_at_once():
         assert arena.time < 2.0
     assert not arena.reached[0] and not arena.done
     # both on their goals at the end of a step: done
-    spec = two_robots(starts=((0.0, 0.0), (2.0, 2.0)), goals=((0.0, 0.1), (2.1, 2.0)),
-                      tolerance=0.2)
+    spec = two_robots(
+        starts=((0.0, 0.0), (2.0, 2.0)), goals=((0.0, 0.1), (2.1, 2.0)), tolerance=0.2
+    )
     arena = arena_with([Const(), Const()], spec)
     arena.step()
     assert arena.done and arena.time < spec.episode.time_limit
@@ -251,8 +263,9 @@ def test_external_actions_leave_batched_rows_out():
     arena = arena_with([BatchA(), BatchA(), BatchA(), BatchA()], spec)
     res = arena.step({2: np.array([0.0, 0.7])})
     assert BatchA.calls == [[0, 1, 3]]
-    np.testing.assert_array_equal(res.commanded[arena.robot_ids],
-                                  [[0.1, 0.0], [0.1, 0.0], [0.0, 0.7], [0.1, 0.0]])
+    np.testing.assert_array_equal(
+        res.commanded[arena.robot_ids], [[0.1, 0.0], [0.1, 0.0], [0.0, 0.7], [0.1, 0.0]]
+    )
     arena.step({k: np.zeros(2) for k in range(4)})
     assert BatchA.calls == [[0, 1, 3]]  # an empty group is not called
 
@@ -264,8 +277,11 @@ def test_an_unknown_robot_index_is_refused_before_anything_happens(k):
     arena.recorder = tape
     arena.reset(0)
     arena.agents = [Const(), Const()]
-    with pytest.raises(ValueError, match=rf"actions: robot index {k} is not one of the 2 "
-                                         r"robots \(0 \.\. 1\)"):
+    with pytest.raises(
+        ValueError,
+        match=rf"actions: robot index {k} is not one of the 2 "
+        r"robots \(0 \.\. 1\)",
+    ):
         arena.step({0: np.zeros(2), k: np.zeros(2)})
     assert arena.time == 0.0 and arena.summary().steps == 0
     assert [a.calls for a in arena.agents] == [0, 0]
@@ -289,11 +305,14 @@ def test_a_failing_agent_gets_zero_acceleration_and_keeps_being_asked():
     assert [(f.robot, f.name) for f in recorded] == [(int(arena.robot_ids[0]), "robot0")] * 3
 
 
-@pytest.mark.parametrize("result, fragment", [
-    (np.array([np.nan, 0.0]), "non-finite acceleration"),
-    (np.zeros(3), "expected an acceleration of shape (2,), got (3,)"),
-    ("up", "ValueError"),
-])
+@pytest.mark.parametrize(
+    "result, fragment",
+    [
+        (np.array([np.nan, 0.0]), "non-finite acceleration"),
+        (np.zeros(3), "expected an acceleration of shape (2,), got (3,)"),
+        ("up", "ValueError"),
+    ],
+)
 def test_a_bad_result_of_act_is_a_fault(result, fragment):
     class Bad(Const):
         def act(self, obs: Any) -> Any:
@@ -307,14 +326,18 @@ def test_a_bad_result_of_act_is_a_fault(result, fragment):
 
 
 def test_act_batch_with_the_wrong_number_of_results_fails_its_group_only():
-    arena = arena_with([ShortBatch(), Const((0.5, 0.0)), ShortBatch()],
-                       load_map("circle_swap", n=3, radius=3.0, lo=-5.0, hi=5.0))
+    arena = arena_with(
+        [ShortBatch(), Const((0.5, 0.0)), ShortBatch()],
+        load_map("circle_swap", n=3, radius=3.0, lo=-5.0, hi=5.0),
+    )
     res = arena.step()
     assert [f.robot for f in res.faults] == [0, 2]
-    assert all(f.message == "ValueError: act_batch returned 1 results for 2 agents"
-               for f in res.faults)
-    np.testing.assert_array_equal(res.commanded[arena.robot_ids],
-                                  [[0.0, 0.0], [0.5, 0.0], [0.0, 0.0]])
+    assert all(
+        f.message == "ValueError: act_batch returned 1 results for 2 agents" for f in res.faults
+    )
+    np.testing.assert_array_equal(
+        res.commanded[arena.robot_ids], [[0.0, 0.0], [0.5, 0.0], [0.0, 0.0]]
+    )
 
 
 # ------------------------------------------------------------------ act_batch dispatch
@@ -329,8 +352,8 @@ def test_act_batch_is_called_once_per_class_with_its_rows():
     assert BatchA.calls == [[0, 4], [0, 4]] and BatchB.calls == [[1, 3], [1, 3]]
     assert arena.agents[2].calls == 2
     np.testing.assert_array_equal(
-        res.commanded[arena.robot_ids],
-        [[0.1, 0.0], [0.2, 0.0], [0.0, 0.3], [0.2, 0.0], [0.1, 0.0]])
+        res.commanded[arena.robot_ids], [[0.1, 0.0], [0.2, 0.0], [0.0, 0.3], [0.2, 0.0], [0.1, 0.0]]
+    )
     # new agents: the groups are worked out again
     arena.agents = [BatchB(), BatchB(), BatchB(), Const(), BatchA()]
     arena.step()

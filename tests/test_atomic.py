@@ -52,19 +52,22 @@ def test_failed_write_leaves_destination_and_no_temporary(tmp_path: Path) -> Non
     assert [p.name for p in tmp_path.iterdir()] == ["table.parquet"]
 
 
-def test_data_reach_the_disk_before_the_replace(tmp_path: Path,
-                                                monkeypatch: pytest.MonkeyPatch) -> None:
+def test_data_reach_the_disk_before_the_replace(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     events: list[str] = []
     real_fsync, real_replace = os.fsync, os.replace
     monkeypatch.setattr(os, "fsync", lambda fd: (events.append("fsync"), real_fsync(fd))[1])
-    monkeypatch.setattr(os, "replace",
-                        lambda a, b: (events.append("replace"), real_replace(a, b))[1])
+    monkeypatch.setattr(
+        os, "replace", lambda a, b: (events.append("replace"), real_replace(a, b))[1]
+    )
     atomic_write_text(tmp_path / "x.txt", "data")
     assert events[:2] == ["fsync", "replace"]
 
 
-def test_figures_leave_no_temporary_on_failure(tmp_path: Path,
-                                               monkeypatch: pytest.MonkeyPatch) -> None:
+def test_figures_leave_no_temporary_on_failure(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from matplotlib.figure import Figure
 
     from nao_arena import figures
@@ -83,8 +86,13 @@ def test_figures_leave_no_temporary_on_failure(tmp_path: Path,
 def test_no_other_module_replaces_files() -> None:
     """Every file nao_arena writes in place goes through nao_arena.atomic (a temporary
     folder, as the kernels' manifest recording uses, is no file written in place)."""
-    pattern = re.compile(r"os\.replace\(|\.replace\(tmp|tempfile\.(?!TemporaryDirectory|mkdtemp)"
-                         r"|mkstemp\(|\.tmp\"")
-    offenders = [str(p.relative_to(PACKAGE)) for p in sorted(PACKAGE.rglob("*.py"))
-                 if p.name != "atomic.py" and pattern.search(p.read_text(encoding="utf-8"))]
+    pattern = re.compile(
+        r"os\.replace\(|\.replace\(tmp|tempfile\.(?!TemporaryDirectory|mkdtemp)"
+        r"|mkstemp\(|\.tmp\""
+    )
+    offenders = [
+        str(p.relative_to(PACKAGE))
+        for p in sorted(PACKAGE.rglob("*.py"))
+        if p.name != "atomic.py" and pattern.search(p.read_text(encoding="utf-8"))
+    ]
     assert offenders == []

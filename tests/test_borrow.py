@@ -64,7 +64,13 @@ def test_kernels_do_not_leak(tmp_path) -> None:
     """)
     env = dict(os.environ, NUMBA_NRT_STATS="1")
     # run outside the checkout, so that the installed package is imported
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=env, timeout=600, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.startswith("ok")

@@ -45,9 +45,7 @@ except ImportError:  # pragma: no cover
 FloatArray = NDArray[np.float64]
 CentreFn = Callable[[FloatArray], FloatArray]
 
-SETTINGS = settings(
-    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
-)
+SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 GRAZE_REL_TOL = 1e-6  # |min distance - r| <= GRAZE_REL_TOL * problem_scale
 
@@ -137,8 +135,9 @@ def polyline_fn(times: FloatArray, centers: FloatArray) -> CentreFn:
     return lambda t: poly.position(np.asarray(t).reshape(-1)).reshape(*np.shape(t), 2)
 
 
-def truncation_time(acc: FloatArray, a_b: FloatArray, rel_v: FloatArray, p: FloatArray,
-                    r: float) -> float:
+def truncation_time(
+    acc: FloatArray, a_b: FloatArray, rel_v: FloatArray, p: FloatArray, r: float
+) -> float:
     """A time after which a constant-acceleration encounter can no longer come within r.
 
     d(t) = A t^2 + B t + C with A = (a - a_B) / 2, B = v - w, C = -p:
@@ -213,9 +212,11 @@ class AOCase:
         self.r, self.horizon, self.extent = float(r), float(horizon), float(extent)
 
     def __repr__(self) -> str:
-        return (f"AOCase(v={self.v.tolist()}, p={self.p.tolist()}, r={self.r}, "
-                f"w={self.w.tolist()}, b={self.b.tolist()}, horizon={self.horizon}, "
-                f"extent={self.extent})")
+        return (
+            f"AOCase(v={self.v.tolist()}, p={self.p.tolist()}, r={self.r}, "
+            f"w={self.w.tolist()}, b={self.b.tolist()}, horizon={self.horizon}, "
+            f"extent={self.extent})"
+        )
 
     def boundary(self) -> ObstacleBoundary:
         return ao_boundary(self.v, self.p, self.r, self.w, self.b, self.horizon, self.extent)
@@ -236,8 +237,14 @@ class AOCase:
 
     def batch(self, accels: FloatArray) -> FloatArray:
         assert math.isfinite(self.horizon)
-        return batch_clearance(self.v, accels, parabola_fn(self.p, self.w, self.b),
-                               np.array([0.0]), self.horizon, self.r)
+        return batch_clearance(
+            self.v,
+            accels,
+            parabola_fn(self.p, self.w, self.b),
+            np.array([0.0]),
+            self.horizon,
+            self.r,
+        )
 
 
 class NAOCase:
@@ -252,8 +259,10 @@ class NAOCase:
         self.fn = polyline_fn(self.times, self.centers)
 
     def __repr__(self) -> str:
-        return (f"NAOCase(kind={self.kind!r}, v={self.v.tolist()}, times={self.times.tolist()}, "
-                f"centers={self.centers.tolist()}, r={self.r}, extent={self.extent})")
+        return (
+            f"NAOCase(kind={self.kind!r}, v={self.v.tolist()}, times={self.times.tolist()}, "
+            f"centers={self.centers.tolist()}, r={self.r}, extent={self.extent})"
+        )
 
     def boundary(self) -> ObstacleBoundary:
         return nao_boundary(self.v, self.times, self.centers, self.r, self.extent)
@@ -305,8 +314,9 @@ def nao_cases(draw: st.DrawFn, kind: str | None = None) -> NAOCase:
     else:
         centers = p + draw(vec(2.0)) * t
         for _ in range(draw(st.integers(1, 3))):
-            centers = centers + draw(vec(1.5)) * np.sin(draw(floats(0.2, 2.5)) * t
-                                                          + draw(floats(0.0, 6.3)))
+            centers = centers + draw(vec(1.5)) * np.sin(
+                draw(floats(0.2, 2.5)) * t + draw(floats(0.0, 6.3))
+            )
     # the path extended back to t = 0 must start clear of the robot
     c0 = Polyline.make(times, centers).position(np.array([0.0]))[0]
     gap = float(np.hypot(*c0))
@@ -389,8 +399,7 @@ def test_nao_boundary_points_graze(case: NAOCase) -> None:
 
 
 @settings(max_examples=15, deadline=None)
-@given(floats(0.2, 1.2), floats(0.3, 5.0), floats(-math.pi, math.pi), vec(1.0),
-       floats(3.0, 12.0))
+@given(floats(0.2, 1.2), floats(0.3, 5.0), floats(-math.pi, math.pi), vec(1.0), floats(3.0, 12.0))
 def test_bao_rays_graze(r: float, gap: float, ang: float, a_b: FloatArray, extent: float):
     """BAO rays (zero velocities) graze: the straight relative path touches the disk."""
     p = (r + gap) * unit(ang)
@@ -432,8 +441,12 @@ def side_check(case, b: ObstacleBoundary, n: int = 20) -> tuple[int, int, int]:
         for s in (1, 2):
             near_end[s:] |= ~fin[:-s]
             near_end[:-s] |= ~fin[s:]
-        ok[1:-1] = interior & ~near_end[1:-1] & (np.arange(1, len(pl) - 1) >= 2) & (
-            np.arange(1, len(pl) - 1) < len(pl) - 3)
+        ok[1:-1] = (
+            interior
+            & ~near_end[1:-1]
+            & (np.arange(1, len(pl) - 1) >= 2)
+            & (np.arange(1, len(pl) - 1) < len(pl) - 3)
+        )
         ok &= np.hypot(*np.nan_to_num(pl, nan=np.inf).T) < 0.95 * case.extent
         idx = np.flatnonzero(ok)
         for i in idx[pick(len(idx), n)]:
@@ -472,16 +485,42 @@ COMPLETENESS_CASES = [
     AOCase((1.0, 0.5), (3.0, 1.0), 0.8, (-0.5, 0.2), (0.1, -0.2), 4.0, 8.0),
     AOCase((0.0, 0.0), (2.0, -1.0), 0.6, (0.0, 0.0), (0.0, 0.0), 3.0, 6.0),
     AOCase((-1.0, 1.0), (-1.5, 2.5), 0.5, (1.0, -0.5), (0.0, 0.5), 5.0, 6.0),
-    NAOCase((0.5, 0.0), np.linspace(0.0, 4.0, 9),
-            np.stack([3.0 - 0.5 * np.linspace(0, 4, 9), 1.0 + 0.0 * np.linspace(0, 4, 9)], 1),
-            0.7, 6.0, "line"),
-    NAOCase((0.5, 0.2), np.linspace(0.2, 4.0, 20),
-            np.stack([3 * np.cos(0.5 * np.linspace(0.2, 4, 20)) - 1,
-                      3 * np.sin(0.5 * np.linspace(0.2, 4, 20))], 1), 0.6, 6.0, "arc"),
-    NAOCase((-0.3, 0.4), np.linspace(0.0, 5.0, 12),
-            np.stack([2.0 + np.sin(1.3 * np.linspace(0, 5, 12)),
-                      -1.5 + 0.6 * np.linspace(0, 5, 12)
-                      + 0.8 * np.cos(0.7 * np.linspace(0, 5, 12))], 1), 0.5, 6.0, "smooth"),
+    NAOCase(
+        (0.5, 0.0),
+        np.linspace(0.0, 4.0, 9),
+        np.stack([3.0 - 0.5 * np.linspace(0, 4, 9), 1.0 + 0.0 * np.linspace(0, 4, 9)], 1),
+        0.7,
+        6.0,
+        "line",
+    ),
+    NAOCase(
+        (0.5, 0.2),
+        np.linspace(0.2, 4.0, 20),
+        np.stack(
+            [
+                3 * np.cos(0.5 * np.linspace(0.2, 4, 20)) - 1,
+                3 * np.sin(0.5 * np.linspace(0.2, 4, 20)),
+            ],
+            1,
+        ),
+        0.6,
+        6.0,
+        "arc",
+    ),
+    NAOCase(
+        (-0.3, 0.4),
+        np.linspace(0.0, 5.0, 12),
+        np.stack(
+            [
+                2.0 + np.sin(1.3 * np.linspace(0, 5, 12)),
+                -1.5 + 0.6 * np.linspace(0, 5, 12) + 0.8 * np.cos(0.7 * np.linspace(0, 5, 12)),
+            ],
+            1,
+        ),
+        0.5,
+        6.0,
+        "smooth",
+    ),
 ]
 
 
@@ -490,8 +529,9 @@ COMPLETENESS_CASES = [
 # case the left and right branches end 0.49 m/s^2 apart, at t = 0.45186 both, and
 # forward sign changes up to 0.32 m/s^2 from the returned boundary exist (the paper
 # construction has them within 0.005).
-TIP_CASE = AOCase((1.0, -2.0), (0.5403023058681398, -0.8414709848078965), 0.5, (0.0, 0.0),
-                  (0.0, 0.0), 3.0, 8.0)
+TIP_CASE = AOCase(
+    (1.0, -2.0), (0.5403023058681398, -0.8414709848078965), 0.5, (0.0, 0.0), (0.0, 0.0), 3.0, 8.0
+)
 
 
 def completeness_distances(case, n: int) -> tuple[FloatArray, FloatArray, float]:
@@ -509,7 +549,7 @@ def completeness_distances(case, n: int) -> tuple[FloatArray, FloatArray, float]
         a0 = [slice(None), slice(None)]
         a1 = [slice(None), slice(None)]
         a0[axis], a1[axis] = slice(None, -1), slice(1, None)
-        flip = (np.sign(clear[tuple(a0)]) != np.sign(clear[tuple(a1)]))
+        flip = np.sign(clear[tuple(a0)]) != np.sign(clear[tuple(a1)])
         flip &= inside[tuple(a0)] & inside[tuple(a1)]
         i, j = np.nonzero(flip)
         p0 = np.stack([gx[tuple(a0)][i, j], gy[tuple(a0)][i, j]], 1)
@@ -521,7 +561,8 @@ def completeness_distances(case, n: int) -> tuple[FloatArray, FloatArray, float]
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "case", [*COMPLETENESS_CASES, TIP_CASE],
+    "case",
+    [*COMPLETENESS_CASES, TIP_CASE],
     ids=[*(f"{type(c).__name__}-{i}" for i, c in enumerate(COMPLETENESS_CASES)), "tip-bug"],
 )
 def test_boundary_is_complete(case) -> None:
@@ -598,8 +639,12 @@ def test_bao_is_ao_with_zero_velocities(p, r, a_b) -> None:
     far = np.hypot(*rel.T) > 0.05
     grid, rel = grid[far], rel[far]
     t_end = truncation_time(a_b + np.array([0.05, 0.0]), a_b, np.zeros(2), p, r)
-    collide = batch_clearance(np.zeros(2), grid, parabola_fn(p, np.zeros(2), a_b),
-                              np.array([0.0]), t_end, r, n_t=3001) < 0
+    collide = (
+        batch_clearance(
+            np.zeros(2), grid, parabola_fn(p, np.zeros(2), a_b), np.array([0.0]), t_end, r, n_t=3001
+        )
+        < 0
+    )
     d_l = bao.left[-1] - a_b
     d_r = bao.right[-1] - a_b
     cross = lambda u, x: u[0] * x[:, 1] - u[1] * x[:, 0]  # noqa: E731
@@ -617,8 +662,9 @@ def test_bao_is_ao_with_zero_velocities(p, r, a_b) -> None:
     assert np.max(d_bao) <= 1e-3 * extent
 
 
-def hausdorff_to_polylines(pa: FloatArray, ba: ObstacleBoundary, pb: FloatArray,
-                           bb: ObstacleBoundary) -> float:
+def hausdorff_to_polylines(
+    pa: FloatArray, ba: ObstacleBoundary, pb: FloatArray, bb: ObstacleBoundary
+) -> float:
     return max(
         float(np.max(dist_to_polylines(pa, *all_polylines(bb)), initial=0.0)),
         float(np.max(dist_to_polylines(pb, *all_polylines(ba)), initial=0.0)),
@@ -627,8 +673,15 @@ def hausdorff_to_polylines(pa: FloatArray, ba: ObstacleBoundary, pb: FloatArray,
 
 @pytest.mark.slow
 @settings(max_examples=15, deadline=None)
-@given(floats(0.3, 1.0), floats(0.3, 5.0), floats(-math.pi, math.pi), vec(1.5), vec(1.5),
-       floats(1.0, 5.0), st.integers(2, 12))
+@given(
+    floats(0.3, 1.0),
+    floats(0.3, 5.0),
+    floats(-math.pi, math.pi),
+    vec(1.5),
+    vec(1.5),
+    floats(1.0, 5.0),
+    st.integers(2, 12),
+)
 def test_ao_of_constant_velocity_obstacle_equals_nao_of_straight_path(
     r, gap, ang, v, w, horizon, n_samples
 ) -> None:
@@ -682,8 +735,15 @@ def test_ao_envelope_and_paper_construction_agree(case: AOCase) -> None:
 
 
 @settings(max_examples=20, deadline=None)
-@given(floats(0.2, 1.0), floats(0.5, 5.0), floats(-math.pi, math.pi), floats(0.3, 2.0),
-       floats(-math.pi, math.pi), vec(1.0), vec(1.5))
+@given(
+    floats(0.2, 1.0),
+    floats(0.5, 5.0),
+    floats(-math.pi, math.pi),
+    floats(0.3, 2.0),
+    floats(-math.pi, math.pi),
+    vec(1.0),
+    vec(1.5),
+)
 def test_ao_boundary_approaches_a_b_along_relative_velocity(
     r, gap, ang, speed, vang, a_b, w
 ) -> None:
@@ -742,8 +802,10 @@ def test_zero_velocity_ao_is_the_bao_cone() -> None:
     b = case.boundary()
     assert len(b.points()) > 10
     assert_grazing(case, b, n=10)
-    assert np.max(dist_to_polylines(b.points(), *all_polylines(bao_boundary(p, r, (0, 0), 6.0)))
-                  ) <= 1e-6
+    assert (
+        np.max(dist_to_polylines(b.points(), *all_polylines(bao_boundary(p, r, (0, 0), 6.0))))
+        <= 1e-6
+    )
 
 
 @pytest.mark.parametrize("v,w", [((0.0, 0.0), (0.0, 0.0)), ((1.0, 0.5), (1.0, 0.5))])
@@ -823,6 +885,5 @@ def test_left_branch_passes_the_obstacle_on_the_robots_left(kind):
         ok = np.isfinite(times) & (times > 1e-3) & np.all(np.isfinite(branch), axis=1)
         assert np.count_nonzero(ok) > 5
         for a, t in zip(branch[ok], times[ok], strict=True):
-            got = _obstacle_side_by_forward_simulation(a, t, v, lambda s: q + w * s,
-                                                       lambda s: w)
+            got = _obstacle_side_by_forward_simulation(a, t, v, lambda s: q + w * s, lambda s: w)
             assert got == side, (kind, a, t)

@@ -37,9 +37,7 @@ MATCH_TOL = 1e-6  # agreement with the brute-force minimum
 SIGN_TOL = 1e-6  # sign agreement is only required when |clearance| exceeds this
 TIME_TOL = 1e-8  # first-contact time agreement (transversal crossings), relative to horizon
 
-SETTINGS = settings(
-    max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow]
-)
+SETTINGS = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 # --------------------------------------------------------------------------- strategies
 
@@ -350,8 +348,12 @@ def test_nao_with_speed_limit_matches_forward_simulation(sc: Scenario) -> None:
     r=radii,
 )
 @example(  # FOUND BUG 1 (NaN) via clamping: |v| = 3 is clamped to 0.35 towards (0, 1)
-    v=np.array([0.0, 3.0]), a=np.array([0.0, 1.0]), v_max=0.35,
-    p=np.array([0.0, 1.0]), w=np.zeros(2), r=0.5,
+    v=np.array([0.0, 3.0]),
+    a=np.array([0.0, 1.0]),
+    v_max=0.35,
+    p=np.array([0.0, 1.0]),
+    w=np.zeros(2),
+    r=0.5,
 )
 def test_speed_limit_includes_clamping_and_deceleration(
     v: FloatArray, a: FloatArray, v_max: float, p: FloatArray, w: FloatArray, r: float
@@ -362,8 +364,11 @@ def test_speed_limit_includes_clamping_and_deceleration(
     q = nao_query(a, v, times, centers, r, v_max=v_max)
     enc = Encounter(Robot.make(v, a, v_max), Polyline.make(times, centers), r)
     check_against_oracle(
-        float(q.clearance), float(q.time_of_closest_approach), float(q.time_of_first_contact),
-        enc, problem_scale(enc, centers),
+        float(q.clearance),
+        float(q.time_of_closest_approach),
+        float(q.time_of_first_contact),
+        enc,
+        problem_scale(enc, centers),
     )
 
 
@@ -461,12 +466,22 @@ def test_ao_accelerating_obstacle_matches_forward_simulation(
     r=radii,
 )
 @example(  # FOUND BUG 3: tiny obstacle acceleration + infinite horizon misses the collision
-    v=np.array([0.0, -1.0]), a=np.zeros(2), v_max=math.inf,
-    p=np.array([0.0, -10.0]), w=np.zeros(2), b=np.array([4e-14, 0.0]), r=0.5,
+    v=np.array([0.0, -1.0]),
+    a=np.zeros(2),
+    v_max=math.inf,
+    p=np.array([0.0, -10.0]),
+    w=np.zeros(2),
+    b=np.array([4e-14, 0.0]),
+    r=0.5,
 )
 @example(  # FOUND BUG 4: |b| = 2e-6 treated as 0 on an infinite horizon; hit at t = 1000 missed
-    v=np.zeros(2), a=np.zeros(2), v_max=math.inf,
-    p=np.array([-1e4, 1.0]), w=np.array([10.0, 0.0]), b=np.array([0.0, -2e-6]), r=0.5,
+    v=np.zeros(2),
+    a=np.zeros(2),
+    v_max=math.inf,
+    p=np.array([-1e4, 1.0]),
+    w=np.array([10.0, 0.0]),
+    b=np.array([0.0, -2e-6]),
+    r=0.5,
 )
 def test_ao_infinite_horizon_matches_long_finite_horizon(
     v: FloatArray,
@@ -511,12 +526,24 @@ def test_ao_infinite_horizon_matches_long_finite_horizon(
     r=floats(0.1, 1.0),
 )
 @example(  # FOUND BUG 3 (same input as above, drawn through this test's parameters)
-    v=np.array([0.0, -1.0]), a=np.zeros(2), v_max=math.inf, p=np.array([0.0, -10.0]),
-    w=np.zeros(2), direction=0.0, log_b=math.log10(4e-14), r=0.5,
+    v=np.array([0.0, -1.0]),
+    a=np.zeros(2),
+    v_max=math.inf,
+    p=np.array([0.0, -10.0]),
+    w=np.zeros(2),
+    direction=0.0,
+    log_b=math.log10(4e-14),
+    r=0.5,
 )
 @example(  # FOUND BUG 4: b = 2e-9 ignored on an infinite horizon; min over [0, inf) > over [0, 30]
-    v=np.zeros(2), a=np.zeros(2), v_max=math.inf, p=np.array([-20.0, 1.0]),
-    w=np.array([1.0, 0.0]), direction=-math.pi / 2, log_b=math.log10(2e-9), r=0.5,
+    v=np.zeros(2),
+    a=np.zeros(2),
+    v_max=math.inf,
+    p=np.array([-20.0, 1.0]),
+    w=np.array([1.0, 0.0]),
+    direction=-math.pi / 2,
+    log_b=math.log10(2e-9),
+    r=0.5,
 )
 def test_ao_infinite_horizon_with_tiny_obstacle_acceleration(
     v: FloatArray,
@@ -727,8 +754,14 @@ def test_single_time_sample_is_a_static_obstacle(
     times=sample_times(),
 )
 @example(  # FOUND BUG 1 (NaN): robot drives through the centre of an overlapping obstacle
-    v=np.array([0.3 / 0.7, 0.0]), a=np.zeros(2), v_max=math.inf, direction=0.0, frac=0.6,
-    r=0.5, w=np.zeros(2), times=np.array([0.0, 1.0]),
+    v=np.array([0.3 / 0.7, 0.0]),
+    a=np.zeros(2),
+    v_max=math.inf,
+    direction=0.0,
+    frac=0.6,
+    r=0.5,
+    w=np.zeros(2),
+    times=np.array([0.0, 1.0]),
 )
 def test_overlap_at_start_gives_contact_at_zero(
     v: FloatArray,
@@ -801,9 +834,7 @@ def test_very_short_and_long_horizons(horizon: float) -> None:
                 scale,
             )
             res = ao_clearance(a, v, p, 0.3, w, horizon=horizon, v_max=v_max)
-            assert float(res.clearance) == pytest.approx(
-                float(q.clearance), abs=EXACT_TOL * scale
-            )
+            assert float(res.clearance) == pytest.approx(float(q.clearance), abs=EXACT_TOL * scale)
 
 
 # --------------------------------------------------------------------------- property 7

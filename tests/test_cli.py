@@ -31,14 +31,15 @@ def test_maps_and_agents(capsys):
 
 def test_run_prints_the_episode(capsys, tmp_path):
     summary = tmp_path / "episode.json"
-    code = main(["run", "circle_swap", "--agent", "nao", "--seed", "3", *SMALL,
-                 "--json", str(summary)])
+    code = main(
+        ["run", "circle_swap", "--agent", "nao", "--seed", "3", *SMALL, "--json", str(summary)]
+    )
     assert code == 0
     out = capsys.readouterr().out
     assert "map circle_swap" in out and "4 robots" in out
     lines = out.splitlines()
     head = next(i for i, line in enumerate(lines) if line.startswith("robot"))
-    robots = lines[head + 2: head + 6]
+    robots = lines[head + 2 : head + 6]
     assert [r.split()[:3] for r in robots] == [[f"swap{k}", "nao", "yes"] for k in range(4)]
     data = json.loads(summary.read_text())
     assert len(data["robots"]) == 4 and all(r["success"] for r in data["robots"])
@@ -63,9 +64,25 @@ def test_run_errors(capsys, monkeypatch):
 @pytest.mark.slow
 def test_trial_then_report(capsys, tmp_path):
     out = tmp_path / "results"
-    code = main(["trial", "--map", "circle_swap_perturbed", "--agent", "goal,nao",
-                 "--episodes", "2", "--seed", "1", "--workers", "1", "--out", str(out),
-                 "--csv", *SMALL])
+    code = main(
+        [
+            "trial",
+            "--map",
+            "circle_swap_perturbed",
+            "--agent",
+            "goal,nao",
+            "--episodes",
+            "2",
+            "--seed",
+            "1",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+            "--csv",
+            *SMALL,
+        ]
+    )
     assert code == 0
     captured = capsys.readouterr()
     assert "episodes 4/4" in captured.err and "collisions" in captured.err
@@ -78,8 +95,26 @@ def test_trial_then_report(capsys, tmp_path):
     assert (out / "summary.csv").is_file()
 
     # resuming runs nothing new and reprints the same table
-    assert main(["trial", "--map", "circle_swap_perturbed", "--agent", "goal,nao",
-                 "--episodes", "2", "--seed", "1", "--out", str(out), "--quiet", *SMALL]) == 0
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                "circle_swap_perturbed",
+                "--agent",
+                "goal,nao",
+                "--episodes",
+                "2",
+                "--seed",
+                "1",
+                "--out",
+                str(out),
+                "--quiet",
+                *SMALL,
+            ]
+        )
+        == 0
+    )
     again = capsys.readouterr()
     assert again.out.splitlines()[:-1] == table.splitlines()[:-1]
     assert "0 episodes run, 4 already done" in again.out
@@ -94,11 +129,26 @@ def test_trial_then_report(capsys, tmp_path):
 
 
 def test_trial_and_report_errors(capsys, tmp_path):
-    assert main(["trial", "--map", "circle_swap,nope", "--agent", "nao",
-                 "--out", str(tmp_path)]) == 2
+    assert (
+        main(["trial", "--map", "circle_swap,nope", "--agent", "nao", "--out", str(tmp_path)]) == 2
+    )
     assert "no such map" in capsys.readouterr().err
-    assert main(["trial", "--map", "circle_swap", "--agent", "nao", "--set", "seed=2",
-                 "--out", str(tmp_path)]) == 2
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                "circle_swap",
+                "--agent",
+                "nao",
+                "--set",
+                "seed=2",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 2
+    )
     assert "--seed" in capsys.readouterr().err
     assert main(["report", str(tmp_path / "empty")]) == 2
     assert "summary.json" in capsys.readouterr().err
@@ -129,21 +179,40 @@ def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
     import time
 
     out = tmp_path / "res"
-    code = ("import sys; from nao_arena.cli import main; sys.exit(main(sys.argv[1:]))")
+    code = "import sys; from nao_arena.cli import main; sys.exit(main(sys.argv[1:]))"
     proc = subprocess.Popen(
-        [sys.executable, "-c", code, "trial", "--map", "two_lane_road", "--agent", "nao",
-         "--episodes", "8", "--workers", "2", "--out", str(out), "--quiet"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        [
+            sys.executable,
+            "-c",
+            code,
+            "trial",
+            "--map",
+            "two_lane_road",
+            "--agent",
+            "nao",
+            "--episodes",
+            "8",
+            "--workers",
+            "2",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
         cwd=tmp_path,  # outside the source tree: import the installed package
     )
     children: list[str] = []
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None and not (
-        (out / "trial.json").exists() and children
+    while (
+        time.monotonic() < deadline
+        and proc.poll() is None
+        and not ((out / "trial.json").exists() and children)
     ):
         time.sleep(0.2)
-        children = [d for d in os.listdir("/proc")
-                    if d.isdigit() and _parent_pid(d) == proc.pid]
+        children = [d for d in os.listdir("/proc") if d.isdigit() and _parent_pid(d) == proc.pid]
     if not children:
         proc.kill()
         pytest.fail(f"no worker processes; the trial said: {proc.communicate()[1]}")
@@ -158,8 +227,12 @@ def test_sigterm_stops_a_trial_and_its_workers(tmp_path):
     assert proc.returncode == 130, err
     assert "run the same command again to resume" in err
     time.sleep(0.5)
-    alive = [pid for pid in children if os.path.exists(f"/proc/{pid}")
-             and "zombie" not in open(f"/proc/{pid}/status").read().lower()]
+    alive = [
+        pid
+        for pid in children
+        if os.path.exists(f"/proc/{pid}")
+        and "zombie" not in open(f"/proc/{pid}/status").read().lower()
+    ]
     assert not alive
 
 
@@ -210,8 +283,26 @@ def test_run_rejects_numbers_out_of_range(capsys, tmp_path, option, value, expec
 )
 def test_trial_rejects_numbers_out_of_range(capsys, tmp_path, option, value, expected):
     out = tmp_path / "res"
-    assert main(["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1",
-                 "--out", str(out), "--quiet", *TINY, option, value]) == 2
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                "circle_swap",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--out",
+                str(out),
+                "--quiet",
+                *TINY,
+                option,
+                value,
+            ]
+        )
+        == 2
+    )
     assert f"error: {option}: expected {expected}" in _one_line_error(capsys)
     assert not out.exists()
 
@@ -222,14 +313,46 @@ def test_outputs_below_a_file_are_one_line_errors(capsys, tmp_path):
     afile.write_text("not a folder")
     cases = [
         (["run", "circle_swap", *TINY, "--json", str(afile / "x.json")], f"{afile} is not a"),
-        (["run", "circle_swap", *TINY, "--render", "gif", "--out", str(afile / "d" / "x.gif")],
-         f"{afile} is not a folder"),
-        (["run", "circle_swap", *TINY, "--json", str(tmp_path)], "expected a file, got an "
-         "existing folder"),
-        (["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
-          "--out", str(afile / "res"), *TINY], f"{afile} is not a folder"),
-        (["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
-          "--out", str(afile), *TINY], "expected a folder, got an existing file"),
+        (
+            ["run", "circle_swap", *TINY, "--render", "gif", "--out", str(afile / "d" / "x.gif")],
+            f"{afile} is not a folder",
+        ),
+        (
+            ["run", "circle_swap", *TINY, "--json", str(tmp_path)],
+            "expected a file, got an existing folder",
+        ),
+        (
+            [
+                "trial",
+                "--map",
+                "circle_swap",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--quiet",
+                "--out",
+                str(afile / "res"),
+                *TINY,
+            ],
+            f"{afile} is not a folder",
+        ),
+        (
+            [
+                "trial",
+                "--map",
+                "circle_swap",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--quiet",
+                "--out",
+                str(afile),
+                *TINY,
+            ],
+            "expected a folder, got an existing file",
+        ),
     ]
     for argv, expected in cases:
         assert main(argv) == 2, argv
@@ -237,18 +360,31 @@ def test_outputs_below_a_file_are_one_line_errors(capsys, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
 
 
-@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,
-                    reason="root may write into a read-only folder")
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root may write into a read-only folder"
+)
 def test_read_only_output_folder_is_a_one_line_error(capsys, tmp_path):
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o500)
     try:
-        for argv in (["run", "circle_swap", *TINY, "--json", str(ro / "x.json")],
-                     ["run", "circle_swap", *TINY, "--render", "gif", "--out",
-                      str(ro / "x.gif")],
-                     ["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1",
-                      "--quiet", "--out", str(ro / "res"), *TINY]):
+        for argv in (
+            ["run", "circle_swap", *TINY, "--json", str(ro / "x.json")],
+            ["run", "circle_swap", *TINY, "--render", "gif", "--out", str(ro / "x.gif")],
+            [
+                "trial",
+                "--map",
+                "circle_swap",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--quiet",
+                "--out",
+                str(ro / "res"),
+                *TINY,
+            ],
+        ):
             assert main(argv) == 2, argv
             assert f"no permission to write in {ro}" in _one_line_error(capsys)
     finally:
@@ -258,23 +394,42 @@ def test_read_only_output_folder_is_a_one_line_error(capsys, tmp_path):
 def _map_with_robot(tmp_path, **robot) -> str:
     path = tmp_path / "m.yaml"
     fields = ", ".join(f"{k}: {v}" for k, v in robot.items())
-    path.write_text("bounds: {min: [-5.0, -5.0], max: [5.0, 5.0]}\n"
-                    f"robots:\n  - {{start: [0.0, 0.0], goal: [2.0, 0.0], {fields}}}\n")
+    path.write_text(
+        "bounds: {min: [-5.0, -5.0], max: [5.0, 5.0]}\n"
+        f"robots:\n  - {{start: [0.0, 0.0], goal: [2.0, 0.0], {fields}}}\n"
+    )
     return str(path)
 
 
 @pytest.mark.parametrize(
     ("robot", "field"),
-    [({"agent": "superbot"}, "robots[0].agent: expected one of nao"),
-     ({"predictor": "crystal_ball"}, "robots[0].predictor: expected one of constant_velocity")],
+    [
+        ({"agent": "superbot"}, "robots[0].agent: expected one of nao"),
+        ({"predictor": "crystal_ball"}, "robots[0].predictor: expected one of constant_velocity"),
+    ],
 )
 def test_unknown_names_in_a_map_are_one_line_errors(capsys, tmp_path, robot, field):
     path = _map_with_robot(tmp_path, **robot)
     assert main(["run", path]) == 2
     assert f"{path}: {field}" in _one_line_error(capsys)
     # the map is wrong even when --agent replaces its agents
-    assert main(["trial", "--map", path, "--agent", "nao", "--episodes", "1", "--quiet",
-                 "--out", str(tmp_path / "res")]) == 2
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                path,
+                "--agent",
+                "nao",
+                "--episodes",
+                "1",
+                "--quiet",
+                "--out",
+                str(tmp_path / "res"),
+            ]
+        )
+        == 2
+    )
     assert f"{path}: {field}" in _one_line_error(capsys)
 
 
@@ -292,8 +447,22 @@ def test_agent_references_that_fail_to_load_are_one_line_errors(capsys, tmp_path
         path = _map_with_robot(tmp_path, agent=f"'{ref}'")
         assert main(["run", path, "--trust-map"]) == 2, ref
         assert f"agent {ref}: " in (err := _one_line_error(capsys)) and expected in err
-        assert main(["trial", "--map", "circle_swap", "--agent", ref, "--quiet",
-                     "--out", str(tmp_path / "res"), *TINY]) == 2, ref
+        assert (
+            main(
+                [
+                    "trial",
+                    "--map",
+                    "circle_swap",
+                    "--agent",
+                    ref,
+                    "--quiet",
+                    "--out",
+                    str(tmp_path / "res"),
+                    *TINY,
+                ]
+            )
+            == 2
+        ), ref
         assert f"agent {ref}: " in (err := _one_line_error(capsys)) and expected in err
 
 
@@ -354,7 +523,10 @@ def test_maps_and_run_header_grammar_and_map_origin(capsys, tmp_path):
     from nao_arena.cli import _plural
 
     assert (_plural(1, "robot"), _plural(0, "robot"), _plural(2, "robot")) == (
-        "1 robot", "0 robots", "2 robots")
+        "1 robot",
+        "0 robots",
+        "2 robots",
+    )
     assert main(["run", "circle_swap", "--set", "n=1", "--time-limit", "1"]) == 0
     head = capsys.readouterr().out.splitlines()[0]
     assert ", 1 robot, 0 traffic vehicles; 10 steps," in head
@@ -388,28 +560,41 @@ def test_render_human_needs_a_display_and_no_out(capsys, monkeypatch, tmp_path):
 def test_agent_labels_in_run(capsys):
     assert main(["run", "circle_swap", "--agent", "g=goal", *TINY, "--time-limit", "1"]) == 0
     out = capsys.readouterr().out
-    assert [line.split()[1] for line in out.splitlines() if line.startswith("swap")] == [
-        "g", "g"]
-    for bad, expected in [("nao=goal", "agent label 'nao' is the name of the agent"),
-                          ("=goal", "expected NAME=REFERENCE"),
-                          ("g=", "expected NAME=REFERENCE"),
-                          ("g=nope", "nope")]:
+    assert [line.split()[1] for line in out.splitlines() if line.startswith("swap")] == ["g", "g"]
+    for bad, expected in [
+        ("nao=goal", "agent label 'nao' is the name of the agent"),
+        ("=goal", "expected NAME=REFERENCE"),
+        ("g=", "expected NAME=REFERENCE"),
+        ("g=nope", "nope"),
+    ]:
         assert main(["run", "circle_swap", "--agent", bad, *TINY]) == 2, bad
         assert expected in _one_line_error(capsys)
 
 
 def test_agent_labels_in_trial_files_tables_and_resume(capsys, tmp_path):
     out = tmp_path / "res"
-    argv = ["trial", "--map", "circle_swap", "--episodes", "1", "--quiet", "--out", str(out),
-            *TINY, "--time-limit", "1"]
+    argv = [
+        "trial",
+        "--map",
+        "circle_swap",
+        "--episodes",
+        "1",
+        "--quiet",
+        "--out",
+        str(out),
+        *TINY,
+        "--time-limit",
+        "1",
+    ]
     assert main([*argv, "--agent", "nao,g=goal"]) == 0
     table = capsys.readouterr().out
-    assert [r.split()[1] for r in table.splitlines() if r.startswith("circle_swap")] == [
-        "nao", "g"]
+    assert [r.split()[1] for r in table.splitlines() if r.startswith("circle_swap")] == ["nao", "g"]
     assert [r["agent"] for r in json.loads((out / "summary.json").read_text())] == ["nao", "g"]
     assert json.loads((out / "trial.json").read_text())["agent_refs"] == {"g": "goal"}
     assert sorted(p.name for p in (out / "episodes").iterdir()) == [
-        "circle_swap__g__00000.json", "circle_swap__nao__00000.json"]
+        "circle_swap__g__00000.json",
+        "circle_swap__nao__00000.json",
+    ]
     record = json.loads((out / "episodes" / "circle_swap__g__00000.json").read_text())
     assert record["key"]["agent"] == "g" and record["error"] is None
     # the same label for another agent is another trial
@@ -423,8 +608,21 @@ def test_agent_labels_in_trial_files_tables_and_resume(capsys, tmp_path):
 def test_results_folders_without_agent_labels_still_resume(capsys, tmp_path):
     """trial.json written before labels existed (no agent_refs key) is the same trial."""
     out = tmp_path / "res"
-    argv = ["trial", "--map", "circle_swap", "--agent", "goal", "--episodes", "1", "--quiet",
-            "--out", str(out), *TINY, "--time-limit", "1"]
+    argv = [
+        "trial",
+        "--map",
+        "circle_swap",
+        "--agent",
+        "goal",
+        "--episodes",
+        "1",
+        "--quiet",
+        "--out",
+        str(out),
+        *TINY,
+        "--time-limit",
+        "1",
+    ]
     assert main(argv) == 0
     settings = json.loads((out / "trial.json").read_text())
     del settings["agent_refs"]
@@ -441,8 +639,9 @@ def test_split_agent_and_trial_config_labels(tmp_path):
     assert split_agent(" mine = pkg.mod:Mine ") == ("mine", "pkg.mod:Mine")
     assert split_agent("path/x=y.py:A") == ("path/x=y.py:A", "path/x=y.py:A")
     assert split_agent("pkg.mod:A") == ("pkg.mod:A", "pkg.mod:A")
-    config = TrialConfig(maps=("circle_swap",), agents=("nao", "mine"),
-                         agent_refs={"mine": "goal"}, out=tmp_path)
+    config = TrialConfig(
+        maps=("circle_swap",), agents=("nao", "mine"), agent_refs={"mine": "goal"}, out=tmp_path
+    )
     assert (config.reference("mine"), config.reference("nao")) == ("goal", "nao")
     with pytest.raises(ValueError, match="'other' is not one of the agents"):
         TrialConfig(maps=("m",), agents=("nao",), agent_refs={"other": "goal"})
@@ -501,8 +700,21 @@ def test_run_and_trial_compile_ahead_what_they_need(capsys, monkeypatch, tmp_pat
     assert main(["run", "circle_swap", "--agent", "goal", *TINY, "--time-limit", "1"]) == 0
     assert calls == [["core", "goal"]]
     assert "nao-arena: compiled 1/1 kernels" in capsys.readouterr().err
-    argv = ["trial", "--map", "circle_swap", "--agent", "goal,nao", "--episodes", "1",
-            "--quiet", *TINY, "--time-limit", "1", "--workers", "2"]
+    argv = [
+        "trial",
+        "--map",
+        "circle_swap",
+        "--agent",
+        "goal,nao",
+        "--episodes",
+        "1",
+        "--quiet",
+        *TINY,
+        "--time-limit",
+        "1",
+        "--workers",
+        "2",
+    ]
     assert main([*argv, "--out", str(tmp_path / "a")]) == 0
     assert calls[1:] == [["core", "goal", "nao"]]
 

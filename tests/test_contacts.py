@@ -105,18 +105,30 @@ def test_head_on_bounce_inside_one_step_is_a_contact() -> None:
     """Two discs meeting head-on at 1.5 m/s each with zero commands bounce off (fully
     elastic): apart again at the step's end, yet a contact with a 3 m/s impact."""
 
-    spec = map_from_dict({
-        "name": "head_on",
-        "bounds": {"min": [-10, -10], "max": [10, 10]},
-        "physics": {"elasticity": 1.0},
-        "episode": {"time_limit": 2.0},
-        "robots": [
-            {"start": [-1.0, 0.0], "goal": [5.0, 0.0], "velocity": [1.5, 0.0],
-             "radius": 0.3, "agent": "goal"},
-            {"start": [1.0, 0.0], "goal": [-5.0, 0.0], "velocity": [-1.5, 0.0],
-             "radius": 0.3, "agent": "goal"},
-        ],
-    })
+    spec = map_from_dict(
+        {
+            "name": "head_on",
+            "bounds": {"min": [-10, -10], "max": [10, 10]},
+            "physics": {"elasticity": 1.0},
+            "episode": {"time_limit": 2.0},
+            "robots": [
+                {
+                    "start": [-1.0, 0.0],
+                    "goal": [5.0, 0.0],
+                    "velocity": [1.5, 0.0],
+                    "radius": 0.3,
+                    "agent": "goal",
+                },
+                {
+                    "start": [1.0, 0.0],
+                    "goal": [-5.0, 0.0],
+                    "velocity": [-1.5, 0.0],
+                    "radius": 0.3,
+                    "agent": "goal",
+                },
+            ],
+        }
+    )
     arena = Arena(spec, ArenaOptions(agent=str(__file__) + ":Idle"))
     summary = arena.run(0)
     assert [(c.a, c.b) for c in summary.contacts] == [(0, 1)]

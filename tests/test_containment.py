@@ -60,9 +60,23 @@ def test_observations_and_batch_are_read_only():
     arena = Arena(swap(), ArenaOptions(agent="goal"))
     arena.reset(0)
     batch = arena.sensing()
-    for name in ("positions", "velocities", "accelerations", "radii", "a_max", "v_max",
-                 "kinds", "plans", "path_times", "bodies", "goals", "walls", "wall_radius",
-                 "nb_start", "nb_index"):
+    for name in (
+        "positions",
+        "velocities",
+        "accelerations",
+        "radii",
+        "a_max",
+        "v_max",
+        "kinds",
+        "plans",
+        "path_times",
+        "bodies",
+        "goals",
+        "walls",
+        "wall_radius",
+        "nb_start",
+        "nb_index",
+    ):
         array = getattr(batch, name)
         assert not array.flags.writeable, name
         assert not _reaches_writable_memory(array), name
@@ -75,17 +89,28 @@ def test_observations_and_batch_are_read_only():
     assert not _reaches_writable_memory(other.routes[0])
     assert goals.flags.writeable and route.flags.writeable
     obs = batch.observation(0)
-    for arr in (obs.position, obs.velocity, obs.acceleration, obs.goal, obs.walls,
-                obs.wall_radius, obs.neighbours.ids, obs.neighbours.path_times):
+    for arr in (
+        obs.position,
+        obs.velocity,
+        obs.acceleration,
+        obs.goal,
+        obs.walls,
+        obs.wall_radius,
+        obs.neighbours.ids,
+        obs.neighbours.path_times,
+    ):
         assert not arr.flags.writeable
         assert not _reaches_writable_memory(arr)
     everyone = batch.everyone()
     assert not everyone.positions.flags.writeable and not everyone.plans.flags.writeable
     # the arena's own state is not frozen, and the senses share no memory with it
     assert arena.state.positions.flags.writeable
-    for mine, senses in ((arena.state.positions, batch.positions),
-                         (arena.world.radii, batch.radii), (arena.world.a_max, batch.a_max),
-                         (arena.world.v_max, batch.v_max)):
+    for mine, senses in (
+        (arena.state.positions, batch.positions),
+        (arena.world.radii, batch.radii),
+        (arena.world.a_max, batch.a_max),
+        (arena.world.v_max, batch.v_max),
+    ):
         assert not np.shares_memory(senses, mine)
     # nor can an attribute of the batch be replaced
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -98,7 +123,10 @@ def test_an_agent_cannot_fake_its_results_through_what_it_senses(tmp_path):
     """The audit's attack: ``obs.goal.setflags(write=True); obs.goal[:] = obs.position``
     made every robot "succeed" at once; walls were overwritten the same way, and the
     limits through ``batch.a_max.base``. Each attempt is now a fault that changes nothing."""
-    cheater = plugin(tmp_path, "cheater", """
+    cheater = plugin(
+        tmp_path,
+        "cheater",
+        """
         class Cheater:
             def reset(self, spec, rng):
                 pass
@@ -133,7 +161,8 @@ def test_an_agent_cannot_fake_its_results_through_what_it_senses(tmp_path):
                         pass
                 batch.goals = batch.positions[batch.bodies]
                 return np.zeros((len(rows), 2))
-        """)
+        """,
+    )
     for cls in ("Cheater", "BatchCheater"):
         arena = Arena(load_map("crossing"), ArenaOptions(agent=f"{cheater}:{cls}"))
         goals, a_max = arena.goals.copy(), arena.world.a_max.copy()
@@ -148,7 +177,11 @@ def test_in_place_write_is_a_fault_and_changes_nothing(tmp_path):
     """`rel = obs.position; rel -= obs.goal` used to move the robots' goals and positions
     (thousands of contacts, kilometres of path, no fault); now every call is a fault and
     the episode is exactly that of an agent that does nothing."""
-    writer = plugin(tmp_path, "writer", """
+    writer = (
+        plugin(
+            tmp_path,
+            "writer",
+            """
         class Writer:
             def reset(self, spec, rng):
                 pass
@@ -157,15 +190,25 @@ def test_in_place_write_is_a_fault_and_changes_nothing(tmp_path):
                 rel = obs.position
                 rel -= obs.goal
                 return -rel
-        """) + ":Writer"
-    idle = plugin(tmp_path, "idle", """
+        """,
+        )
+        + ":Writer"
+    )
+    idle = (
+        plugin(
+            tmp_path,
+            "idle",
+            """
         class Idle:
             def reset(self, spec, rng):
                 pass
 
             def act(self, obs):
                 return np.zeros(2)
-        """) + ":Idle"
+        """,
+        )
+        + ":Idle"
+    )
     runs = {}
     for ref in (writer, idle):
         arena = Arena(swap(), ArenaOptions(agent=ref))
@@ -182,7 +225,11 @@ def test_in_place_write_is_a_fault_and_changes_nothing(tmp_path):
 
 
 def test_batched_agent_cannot_write_the_batch(tmp_path):
-    ref = plugin(tmp_path, "batch_writer", """
+    ref = (
+        plugin(
+            tmp_path,
+            "batch_writer",
+            """
         class BatchWriter:
             def reset(self, spec, rng):
                 pass
@@ -194,7 +241,10 @@ def test_batched_agent_cannot_write_the_batch(tmp_path):
             def act_batch(cls, agents, batch, rows):
                 batch.positions[:] = 0.0
                 return [np.zeros(2) for _ in rows]
-        """) + ":BatchWriter"
+        """,
+        )
+        + ":BatchWriter"
+    )
     arena = Arena(swap(), ArenaOptions(agent=ref))
     arena.reset(0)
     start = arena.state.positions.copy()
@@ -209,14 +259,21 @@ def test_batched_agent_cannot_write_the_batch(tmp_path):
 def test_published_plans_are_what_the_world_applies(tmp_path):
     """A plug-in commanding (1e300, 0) next to NAO robots that predict with shared plans:
     its plan is scaled to a_max like the world's command, and no NAO robot faults."""
-    huge = plugin(tmp_path, "huge", """
+    huge = (
+        plugin(
+            tmp_path,
+            "huge",
+            """
         class Huge:
             def reset(self, spec, rng):
                 pass
 
             def act(self, obs):
                 return np.array([1e300, 0.0])
-        """) + ":Huge"
+        """,
+        )
+        + ":Huge"
+    )
     spec = swap(4, predictor="shared_plan", agent="nao")
     robots = list(spec.robots)
     robots[0] = robots[0].model_copy(update={"agent": huge})
@@ -265,12 +322,16 @@ def test_system_exit_in_act_is_a_fault(tmp_path, cls):
 def test_interrupt_and_timeout_are_not_contained(tmp_path, where, exc):
     raiser = f"        def {where}(self, *args):\n            raise {exc}\n"
     if where == "act_batch":
-        raiser = ("        @classmethod\n"
-                  f"        def act_batch(cls, agents, batch, rows):\n            raise {exc}\n")
-    body = ("from nao_arena.watchdog import EpisodeTimeout\n\n"
-            "class Stops:\n"
-            "        def reset(self, spec, rng):\n            pass\n\n"
-            "        def act(self, obs):\n            return np.zeros(2)\n\n" + raiser)
+        raiser = (
+            "        @classmethod\n"
+            f"        def act_batch(cls, agents, batch, rows):\n            raise {exc}\n"
+        )
+    body = (
+        "from nao_arena.watchdog import EpisodeTimeout\n\n"
+        "class Stops:\n"
+        "        def reset(self, spec, rng):\n            pass\n\n"
+        "        def act(self, obs):\n            return np.zeros(2)\n\n" + raiser
+    )
     ref = plugin(tmp_path, f"stops_{where}", body) + ":Stops"
     arena = Arena(swap(2), ArenaOptions(agent=ref))
     with pytest.raises((KeyboardInterrupt, EpisodeTimeout)) as info:
@@ -306,8 +367,15 @@ def test_system_exit_when_making_an_agent_fails_the_episode(tmp_path, where, cap
     stage = "constructor" if where == "__init__" else "reset"
     with pytest.raises(AgentError, match=f"its {stage} raised SystemExit: 3"):
         Arena(swap(2), ArenaOptions(agent=ref)).reset(0)
-    task = EpisodeTask(map="circle_swap", agent=ref, episode=0, seed=0, overrides={"n": 2},
-                       time_limit=1.0, path=str(tmp_path / "x.json"))
+    task = EpisodeTask(
+        map="circle_swap",
+        agent=ref,
+        episode=0,
+        seed=0,
+        overrides={"n": 2},
+        time_limit=1.0,
+        path=str(tmp_path / "x.json"),
+    )
     record = compute_episode(task)
     assert record["result"] is None
     assert record["error"].startswith("AgentError: agent ")
@@ -320,16 +388,30 @@ def test_system_exit_when_making_an_agent_fails_the_episode(tmp_path, where, cap
 
 
 def test_keyboard_interrupt_in_reset_stops_a_trial_episode(tmp_path):
-    ref = plugin(tmp_path, "ctrl_c", """
+    ref = (
+        plugin(
+            tmp_path,
+            "ctrl_c",
+            """
         class CtrlC:
             def reset(self, spec, rng):
                 raise KeyboardInterrupt
 
             def act(self, obs):
                 return np.zeros(2)
-        """) + ":CtrlC"
-    task = EpisodeTask(map="circle_swap", agent=ref, episode=0, seed=0, overrides={"n": 2},
-                       time_limit=1.0, path=str(tmp_path / "x.json"))
+        """,
+        )
+        + ":CtrlC"
+    )
+    task = EpisodeTask(
+        map="circle_swap",
+        agent=ref,
+        episode=0,
+        seed=0,
+        overrides={"n": 2},
+        time_limit=1.0,
+        path=str(tmp_path / "x.json"),
+    )
     with pytest.raises(KeyboardInterrupt):
         compute_episode(task)
 
@@ -427,12 +509,12 @@ LOOPS = """
 @pytest.mark.parametrize("cls", ["LoopAct", "LoopReset"])
 def test_run_stops_a_stuck_agent(tmp_path, capsys, cls):
     ref = plugin(tmp_path, "loops", LOOPS) + f":{cls}"
-    code = main(["run", "circle_swap", "--set", "n=2", "--agent", ref,
-                 "--episode-timeout", "1"])
+    code = main(["run", "circle_swap", "--set", "n=2", "--agent", ref, "--episode-timeout", "1"])
     err = capsys.readouterr().err.strip()
     assert code == 2
-    assert err == ("nao-arena: error: EpisodeTimeout: episode exceeded its wall-clock "
-                   "budget of 1 s")
+    assert err == (
+        "nao-arena: error: EpisodeTimeout: episode exceeded its wall-clock budget of 1 s"
+    )
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
 
 
@@ -443,15 +525,35 @@ def test_trial_with_two_workers_records_stuck_episodes_and_finishes(tmp_path, ca
     file = plugin(tmp_path, "loops", LOOPS)
     agents = [f"{file}:LoopAct", f"{file}:LoopReset", "goal"]
     out = tmp_path / "out"
-    code = main(["trial", "--map", "circle_swap", "--agent", ",".join(agents),
-                 "--episodes", "1", "--set", "n=2", "--time-limit", "2", "--workers", "2",
-                 "--episode-timeout", "2", "--out", str(out), "--quiet"])
+    code = main(
+        [
+            "trial",
+            "--map",
+            "circle_swap",
+            "--agent",
+            ",".join(agents),
+            "--episodes",
+            "1",
+            "--set",
+            "n=2",
+            "--time-limit",
+            "2",
+            "--workers",
+            "2",
+            "--episode-timeout",
+            "2",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert code == 0
     records = [json.loads(p.read_text()) for p in sorted((out / "episodes").glob("*.json"))]
     by_agent = {r["key"]["agent"]: r for r in records}
     assert set(by_agent) == set(agents)
     for ref in agents[:2]:
-        assert by_agent[ref]["error"] == ("EpisodeTimeout: episode exceeded its wall-clock "
-                                          "budget of 2 s")
+        assert by_agent[ref]["error"] == (
+            "EpisodeTimeout: episode exceeded its wall-clock budget of 2 s"
+        )
     assert by_agent["goal"]["error"] is None and by_agent["goal"]["result"] is not None
     assert json.loads((out / "trial.json").read_text())["episode_timeout"] == 2.0

@@ -18,8 +18,9 @@ from nao_arena.geometry._kernel.outside import _surely_covered
 A_MAX = 2.0
 
 
-def _picture(rng: np.random.Generator, chains: int, links: int, loose: int,
-             spread: float) -> np.ndarray:
+def _picture(
+    rng: np.random.Generator, chains: int, links: int, loose: int, spread: float
+) -> np.ndarray:
     """Disks (M, 3) m/s^2: ``chains`` chains of ``links`` overlapping disks along smooth
     curves (rows in chain order, as the selection's samples are), then ``loose`` disks."""
     rows = []
@@ -38,12 +39,12 @@ def _picture(rng: np.random.Generator, chains: int, links: int, loose: int,
     return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
 
-def _exact_free(cx: float, cy: float, rho: float, in_limit: bool, disks: np.ndarray,
-                skip: int) -> bool:
+def _exact_free(
+    cx: float, cy: float, rho: float, in_limit: bool, disks: np.ndarray, skip: int
+) -> bool:
     """Whether the exact computation finds a free arc on the circle."""
     out = np.empty((2 * len(disks) + 8, 2))
-    return free_arc_points_ref(cx, cy, rho, in_limit, np.zeros(2), disks, skip, A_MAX,
-                               out, 0) > 0
+    return free_arc_points_ref(cx, cy, rho, in_limit, np.zeros(2), disks, skip, A_MAX, out, 0) > 0
 
 
 def _proofs(disks: np.ndarray) -> tuple[int, int]:
@@ -55,8 +56,9 @@ def _proofs(disks: np.ndarray) -> tuple[int, int]:
     circles.append((0.0, 0.0, A_MAX, False, -1))
     for cx, cy, rho, in_limit, skip in circles:
         free = _exact_free(cx, cy, rho, in_limit, disks, skip)
-        sure = _surely_covered(cx, cy, rho, in_limit, disks, skip, A_MAX, cover,
-                               np.empty(5), np.empty(5))
+        sure = _surely_covered(
+            cx, cy, rho, in_limit, disks, skip, A_MAX, cover, np.empty(5), np.empty(5)
+        )
         assert not (sure and free), (cx, cy, rho, skip)
         proven += sure
         covered += not free
@@ -64,8 +66,13 @@ def _proofs(disks: np.ndarray) -> tuple[int, int]:
 
 
 @settings(max_examples=150, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), chains=st.integers(0, 8), links=st.integers(1, 24),
-       loose=st.integers(0, 30), spread=st.sampled_from([0.2, 0.6, 1.5, 4.0]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    chains=st.integers(0, 8),
+    links=st.integers(1, 24),
+    loose=st.integers(0, 30),
+    spread=st.sampled_from([0.2, 0.6, 1.5, 4.0]),
+)
 def test_a_circle_proven_covered_has_no_exact_free_arc(seed, chains, links, loose, spread):
     _proofs(_picture(np.random.default_rng(seed), chains, links, loose, spread))
 

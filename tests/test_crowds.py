@@ -22,8 +22,12 @@ from nao_arena.arena import Arena
 from nao_arena.maps import load_map
 from nao_arena.trials import make_map
 
-ALL_AT_GOAL_WITHIN = {"dense_swap": 60.0, "dense_swap_perturbed": 60.0,
-                      "crossing_streams": 120.0, "crossing_streams_perturbed": 120.0}
+ALL_AT_GOAL_WITHIN = {
+    "dense_swap": 60.0,
+    "dense_swap_perturbed": 60.0,
+    "crossing_streams": 120.0,
+    "crossing_streams_perturbed": 120.0,
+}
 """Stated limits (s): every robot within 0.1 m of its goal at the same time by then."""
 
 CASES = [("dense_swap", 10, 0), ("dense_swap", 30, 0)]
@@ -36,8 +40,9 @@ CASES += [("crossing_streams_perturbed", 20, seed) for seed in range(5)]
 
 
 def _episode(name: str, n: int, seed: int, agent: str = "nao"):
-    arena = Arena(make_map(name, seed, {"n": n, "agent": agent,
-                                        "time_limit": ALL_AT_GOAL_WITHIN[name]}))
+    arena = Arena(
+        make_map(name, seed, {"n": n, "agent": agent, "time_limit": ALL_AT_GOAL_WITHIN[name]})
+    )
     summary = arena.run(seed=seed)
     return arena, summary
 
@@ -53,9 +58,15 @@ def test_nao_robots_all_reach_their_goals_at_once_without_contact(name, n, seed)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("name", "n", "seed"),
-                         [("dense_swap", 10, 0), ("dense_swap_perturbed", 10, 0),
-                          ("crossing_streams", 20, 0), ("crossing_streams_perturbed", 20, 0)])
+@pytest.mark.parametrize(
+    ("name", "n", "seed"),
+    [
+        ("dense_swap", 10, 0),
+        ("dense_swap_perturbed", 10, 0),
+        ("crossing_streams", 20, 0),
+        ("crossing_streams_perturbed", 20, 0),
+    ],
+)
 def test_goal_seeking_without_avoidance_collides_on_the_same_scenes(name, n, seed):
     _, summary = _episode(name, n, seed, agent="goal")
     assert len(summary.contacts) > 0
@@ -73,8 +84,9 @@ episode: {{time_limit: 40.0, goal_tolerance: 0.1}}
 
 
 @pytest.mark.parametrize("offset", [0.0, 0.3])
-def test_a_parked_robot_yields_to_a_robot_that_does_not_avoid_and_returns(tmp_path: Path,
-                                                                          offset: float):
+def test_a_parked_robot_yields_to_a_robot_that_does_not_avoid_and_returns(
+    tmp_path: Path, offset: float
+):
     """Robot 0 sits on its goal, on the straight path of robot 1, which does not avoid:
     robot 0 must leave its goal, let robot 1 pass without contact, and come back."""
     path = tmp_path / "parked.yaml"
@@ -121,15 +133,15 @@ def _behind_the_row_map(tmp_path: Path) -> Path:
     lines = [robot.format(9.4, -1.3, 0.0, 20.0)]
     lines += [robot.format(x, y, x, y) for x, y in parked]
     path = tmp_path / "behind_the_row.yaml"
-    path.write_text("name: behind_the_row\nbounds: {min: [-20.0, -20.0], max: [50.0, 50.0]}\n"
-                    "robots:\n" + "\n".join(lines)
-                    + "\nepisode: {time_limit: 150.0, goal_tolerance: 0.1}\n")
+    path.write_text(
+        "name: behind_the_row\nbounds: {min: [-20.0, -20.0], max: [50.0, 50.0]}\n"
+        "robots:\n" + "\n".join(lines) + "\nepisode: {time_limit: 150.0, goal_tolerance: 0.1}\n"
+    )
     return path
 
 
 @pytest.mark.slow
-def test_a_robot_behind_a_row_of_parked_robots_gets_round_it_by_switching_sides(
-        tmp_path: Path):
+def test_a_robot_behind_a_row_of_parked_robots_gets_round_it_by_switching_sides(tmp_path: Path):
     """Detours to the right lead along the row, away from its near end: without switching
     sides the robot is still behind the row after 150 s; with switch_side_after (20 s by
     default, counted while its nearest neighbour stands still) it gets round and parks in

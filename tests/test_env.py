@@ -26,14 +26,25 @@ from nao_arena.geometry import nao_clearance
 from nao_arena.maps import MapError, available_maps, load_map
 from nao_arena.sensing import neighbour_lists
 
-SMALL = {"circle_swap": {"n": 4}, "circle_swap_perturbed": {"n": 4}, "crowd": {"n": 4},
-         "corridor": {"n": 2}, "crossing": {"n": 2}, "dense_swap": {"n": 4},
-         "dense_swap_perturbed": {"n": 4}, "crossing_streams": {"n": 2},
-         "crossing_streams_perturbed": {"n": 2}, "doorway": {"n": 2},
-         "doorway_perturbed": {"n": 2}, "intersection": {"n": 1},
-         "intersection_perturbed": {"n": 1}, "warehouse_aisles": {"n": 1},
-         "warehouse_aisles_perturbed": {"n": 1}, "pillar_corridor": {"n": 2},
-         "pillar_corridor_perturbed": {"n": 2}}
+SMALL = {
+    "circle_swap": {"n": 4},
+    "circle_swap_perturbed": {"n": 4},
+    "crowd": {"n": 4},
+    "corridor": {"n": 2},
+    "crossing": {"n": 2},
+    "dense_swap": {"n": 4},
+    "dense_swap_perturbed": {"n": 4},
+    "crossing_streams": {"n": 2},
+    "crossing_streams_perturbed": {"n": 2},
+    "doorway": {"n": 2},
+    "doorway_perturbed": {"n": 2},
+    "intersection": {"n": 1},
+    "intersection_perturbed": {"n": 1},
+    "warehouse_aisles": {"n": 1},
+    "warehouse_aisles_perturbed": {"n": 1},
+    "pillar_corridor": {"n": 2},
+    "pillar_corridor_perturbed": {"n": 2},
+}
 """Map parameters that keep the API tests quick."""
 
 
@@ -66,8 +77,9 @@ def test_aec_api(name):
 
 
 def test_nao_features_pass_the_api_test():
-    parallel_api_test(parallel_env("two_lane_road", nao_features=True, time_limit=1.0),
-                      num_cycles=15)
+    parallel_api_test(
+        parallel_env("two_lane_road", nao_features=True, time_limit=1.0), num_cycles=15
+    )
 
 
 def test_same_seed_same_actions_same_observations():
@@ -125,8 +137,13 @@ def test_unseeded_resets_follow_the_last_seed():
 
 
 def test_options_and_map_parameters_are_split():
-    e = parallel_env("circle_swap", n=3, max_neighbours=2, rewards={"progress": 2.0},
-                     arena={"sensing_range": 5.0})
+    e = parallel_env(
+        "circle_swap",
+        n=3,
+        max_neighbours=2,
+        rewards={"progress": 2.0},
+        arena={"sensing_range": 5.0},
+    )
     assert e.options.max_neighbours == 2
     assert e.options.rewards == RewardWeights(progress=2.0)
     assert e.arena.sensing_range == 5.0
@@ -167,18 +184,25 @@ def test_bad_actions_raise():
         e.step({"swap0": ok, "swap1": ok, "ghost": ok})
 
 
-@pytest.mark.parametrize("actions, fragment", [
-    (None, "expected a dict of agent name -> action of shape \\(2,\\), got NoneType"),
-    ([np.zeros(2), np.zeros(2)], "expected a dict .* got list"),
-    (np.zeros((2, 2)), "expected a dict .* got ndarray"),
-    ({"swap0": np.array([0.5 + 1j, 0.0]), "swap1": np.zeros(2)},
-     "action of 'swap0': expected real numbers .* got complex numbers"),
-    ({"swap0": np.zeros(2), "swap1": np.array([True, False])},
-     "action of 'swap1': expected real numbers .* got booleans"),
-    ({"swap0": [True, 0.5], "swap1": np.zeros(2)}, "action of 'swap0': .* got booleans"),
-    ({"swap0": np.zeros(2), "swap1": ["1", "0"]}, "action of 'swap1': .* got strings"),
-    ({"swap0": None, "swap1": np.zeros(2)}, "action of 'swap0': .* got objects: None"),
-])
+@pytest.mark.parametrize(
+    "actions, fragment",
+    [
+        (None, "expected a dict of agent name -> action of shape \\(2,\\), got NoneType"),
+        ([np.zeros(2), np.zeros(2)], "expected a dict .* got list"),
+        (np.zeros((2, 2)), "expected a dict .* got ndarray"),
+        (
+            {"swap0": np.array([0.5 + 1j, 0.0]), "swap1": np.zeros(2)},
+            "action of 'swap0': expected real numbers .* got complex numbers",
+        ),
+        (
+            {"swap0": np.zeros(2), "swap1": np.array([True, False])},
+            "action of 'swap1': expected real numbers .* got booleans",
+        ),
+        ({"swap0": [True, 0.5], "swap1": np.zeros(2)}, "action of 'swap0': .* got booleans"),
+        ({"swap0": np.zeros(2), "swap1": ["1", "0"]}, "action of 'swap1': .* got strings"),
+        ({"swap0": None, "swap1": np.zeros(2)}, "action of 'swap0': .* got objects: None"),
+    ],
+)
 def test_actions_that_are_not_real_numbers_raise(actions, fragment):
     """Booleans and complex numbers used to be cast to floats, and a non-dict raised
     AttributeError; every one now raises ValueError naming what was wrong."""
@@ -224,30 +248,47 @@ def test_observation_layout():
     assert np.all(nb[2] == 0.0)
     d = np.hypot(nb[:2, 1], nb[:2, 2])
     assert d[0] <= d[1]
-    assert nb[0, 1:3] == pytest.approx(st.positions[int(np.argmin(np.hypot(
-        *(st.positions[1:] - p0).T))) + 1] - p0, abs=1e-5)
+    assert nb[0, 1:3] == pytest.approx(
+        st.positions[int(np.argmin(np.hypot(*(st.positions[1:] - p0).T))) + 1] - p0, abs=1e-5
+    )
     # NAO block: the zero acceleration's clearance against the two neighbours
     times = np.linspace(0.0, opts.nao_horizon, opts.nao_samples)
     centres = np.stack([st.positions[j] - p0 + 0 * times[:, None] for j in (1, 2)])
-    expect = np.min(nao_clearance(np.zeros((1, 2)), st.velocities[0], times, centres,
-                                  st.radii[1:] + st.radii[0], v_max=1.5))
+    expect = np.min(
+        nao_clearance(
+            np.zeros((1, 2)),
+            st.velocities[0],
+            times,
+            centres,
+            st.radii[1:] + st.radii[0],
+            v_max=1.5,
+        )
+    )
     assert o[lay["nao"]][0] == pytest.approx(expect, abs=1e-5)
     assert e.observation_space("swap0").contains(obs["swap0"])
 
 
 def _tiny_map(tmp_path: Path, robots: list[dict], **extra) -> Path:
-    data = {"name": "tiny", "bounds": {"min": [-10, -10], "max": [10, 10]},
-            "robots": robots, "episode": {"time_limit": 5.0}, **extra}
+    data = {
+        "name": "tiny",
+        "bounds": {"min": [-10, -10], "max": [10, 10]},
+        "robots": robots,
+        "episode": {"time_limit": 5.0},
+        **extra,
+    }
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
 
 
 def test_goal_terminates_and_removes_the_agent(tmp_path):
-    path = _tiny_map(tmp_path, [
-        {"name": "near_0", "start": [0.0, 0.0], "goal": [0.1, 0.0], "agent": "goal"},
-        {"name": "far_0", "start": [5.0, 5.0], "goal": [-5.0, 5.0], "agent": "goal"},
-    ])
+    path = _tiny_map(
+        tmp_path,
+        [
+            {"name": "near_0", "start": [0.0, 0.0], "goal": [0.1, 0.0], "agent": "goal"},
+            {"name": "far_0", "start": [5.0, 5.0], "goal": [-5.0, 5.0], "agent": "goal"},
+        ],
+    )
     e = parallel_env(path, after_done="hold")
     e.reset(seed=0)
     zero = np.zeros(2, dtype=np.float32)
@@ -266,10 +307,13 @@ def test_goal_terminates_and_removes_the_agent(tmp_path):
 
 
 def test_collisions_in_infos_rewards_and_termination(tmp_path):
-    path = _tiny_map(tmp_path, [
-        {"name": "left_0", "start": [-1.0, 0.0], "goal": [5.0, 0.0]},
-        {"name": "right_0", "start": [1.0, 0.0], "goal": [-5.0, 0.0]},
-    ])
+    path = _tiny_map(
+        tmp_path,
+        [
+            {"name": "left_0", "start": [-1.0, 0.0], "goal": [5.0, 0.0]},
+            {"name": "right_0", "start": [1.0, 0.0], "goal": [-5.0, 0.0]},
+        ],
+    )
     push = {"left_0": np.array([1.0, 0.0]), "right_0": np.array([-1.0, 0.0])}
     e = parallel_env(path, terminate_on_collision=True)
     e.reset(seed=0)
@@ -291,7 +335,7 @@ def test_state_and_spaces():
     s = e.state()
     assert s.dtype == np.float32 and s.shape == e.state_space.shape
     n = e.arena.world.n
-    bodies = s[1:1 + 8 * n].reshape(n, 8)
+    bodies = s[1 : 1 + 8 * n].reshape(n, 8)
     assert np.allclose(bodies[:, :2], e.arena.state.positions, atol=1e-4)
     assert list(bodies[:, 7]) == [0.0] * 2 + [1.0] * (n - 2)
     a = e.action_space("west_east")
@@ -340,8 +384,7 @@ def test_neighbour_kernel_matches_sorting(seed):
     n = int(rng.integers(2, 40))
     # integer grid positions: many equal distances, to check the tie order; else
     # random ones, where math.hypot and sqrt(dx^2 + dy^2) differ in the last bit
-    p = (rng.integers(-4, 5, (n, 2)).astype(float) if seed % 2
-         else rng.uniform(-4.0, 4.0, (n, 2)))
+    p = rng.integers(-4, 5, (n, 2)).astype(float) if seed % 2 else rng.uniform(-4.0, 4.0, (n, 2))
     v, acc = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
     rad, kinds = rng.uniform(0.1, 1.0, n), (rng.random(n) < 0.5).astype(float)
     a_max, v_max = rng.uniform(1, 3, n), rng.uniform(1, 3, n)
@@ -356,14 +399,43 @@ def test_neighbour_kernel_matches_sorting(seed):
     idx = np.zeros((m, k), dtype=np.int64)
     present = np.zeros((m, k), dtype=bool)
     start, index = neighbour_lists(bodies, p, rng_m, k, hypot=True)
-    _observation_rows(p, v, acc, rad, kinds, a_max, v_max, bodies, goals, cmd, 7.5, start,
-                      index, out, idx, present)
-    ref_out, ref_idx, ref_present = _neighbour_rows_reference(p, v, acc, rad, kinds, bodies,
-                                                              rng_m, k)
+    _observation_rows(
+        p,
+        v,
+        acc,
+        rad,
+        kinds,
+        a_max,
+        v_max,
+        bodies,
+        goals,
+        cmd,
+        7.5,
+        start,
+        index,
+        out,
+        idx,
+        present,
+    )
+    ref_out, ref_idx, ref_present = _neighbour_rows_reference(
+        p, v, acc, rad, kinds, bodies, rng_m, k
+    )
     np.testing.assert_array_equal(present, ref_present)
     np.testing.assert_array_equal(idx, ref_idx)
-    np.testing.assert_array_equal(out[:, n_own:n_own + 9 * k], ref_out.reshape(m, -1))
-    assert not out[:, n_own + 9 * k:].any()  # the NAO block is not touched
-    own = np.column_stack([goals - p[bodies], v[bodies], acc[bodies], cmd, a_max[bodies],
-                           v_max[bodies], rad[bodies], p[bodies], goals, np.full(m, 7.5)])
+    np.testing.assert_array_equal(out[:, n_own : n_own + 9 * k], ref_out.reshape(m, -1))
+    assert not out[:, n_own + 9 * k :].any()  # the NAO block is not touched
+    own = np.column_stack(
+        [
+            goals - p[bodies],
+            v[bodies],
+            acc[bodies],
+            cmd,
+            a_max[bodies],
+            v_max[bodies],
+            rad[bodies],
+            p[bodies],
+            goals,
+            np.full(m, 7.5),
+        ]
+    )
     np.testing.assert_array_equal(out[:, :n_own], own)

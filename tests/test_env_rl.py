@@ -116,10 +116,13 @@ def _random_actions(e, rng):
 
 
 @pytest.mark.parametrize("how", COPIES)
-@pytest.mark.parametrize("name, controlled", [
-    ("circle_swap", ["swap0", "swap3", "swap7"]),  # the other seven: NAO agents
-    ("roundabout", ["west_east"]),  # one robot controlled, one NAO robot and traffic
-])
+@pytest.mark.parametrize(
+    "name, controlled",
+    [
+        ("circle_swap", ["swap0", "swap3", "swap7"]),  # the other seven: NAO agents
+        ("roundabout", ["west_east"]),  # one robot controlled, one NAO robot and traffic
+    ],
+)
 def test_parallel_copy_mid_episode_continues_bit_for_bit(name, controlled, how):
     e = parallel_env(name, controlled=controlled)
     e.reset(seed=3)
@@ -196,8 +199,13 @@ def test_copies_drop_the_viewer_and_render_alike():
 
 
 def _tiny_map(tmp_path, robots, time_limit=5.0, **extra):
-    data = {"name": "tiny", "bounds": {"min": [-10, -10], "max": [10, 10]},
-            "robots": robots, "episode": {"time_limit": time_limit}, **extra}
+    data = {
+        "name": "tiny",
+        "bounds": {"min": [-10, -10], "max": [10, 10]},
+        "robots": robots,
+        "episode": {"time_limit": time_limit},
+        **extra,
+    }
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
@@ -239,8 +247,10 @@ def test_keep_finished_keeps_agents_live_until_the_time_limit(tmp_path):
 
 
 def test_keep_finished_ends_when_every_agent_has_finished(tmp_path):
-    robots = [dict(NEAR_AND_FAR[0]),
-              {"name": "next_0", "start": [3.0, 0.0], "goal": [3.0, 1.5], "agent": "goal"}]
+    robots = [
+        dict(NEAR_AND_FAR[0]),
+        {"name": "next_0", "start": [3.0, 0.0], "goal": [3.0, 1.5], "agent": "goal"},
+    ]
     e = parallel_env(_tiny_map(tmp_path, robots), keep_finished=True)
     e.reset(seed=0)
     up = {"near_0": np.zeros(2), "next_0": np.array([0.0, 1.0])}
@@ -255,9 +265,11 @@ def test_keep_finished_ends_when_every_agent_has_finished(tmp_path):
 
 @pytest.mark.parametrize("name", ["circle_swap", "corridor", "roundabout"])
 def test_keep_finished_passes_the_api_tests(name):
-    kw = {"keep_finished": True, "time_limit": 1.5,
-          "map_params": {"n": 3} if name == "circle_swap" else {"n": 1} if name == "corridor"
-          else {}}
+    kw = {
+        "keep_finished": True,
+        "time_limit": 1.5,
+        "map_params": {"n": 3} if name == "circle_swap" else {"n": 1} if name == "corridor" else {},
+    }
     parallel_api_test(parallel_env(name, **kw), num_cycles=30)
     api_test(env(name, **kw), num_cycles=30)
     parallel_seed_test(lambda: parallel_env(name, **kw), num_cycles=15)
@@ -278,8 +290,10 @@ def test_supersuit_vector_env_needs_keep_finished_or_black_death(tmp_path):
     vec.reset(seed=0)
     with pytest.raises(AssertionError, match="black_death"):
         vec.step(np.zeros((2, 2), dtype=np.float32))  # near_0 arrives and leaves
-    for vec in (ss.pettingzoo_env_to_vec_env_v1(parallel_env(path, keep_finished=True)),
-                ss.pettingzoo_env_to_vec_env_v1(ss.black_death_v3(parallel_env(path)))):
+    for vec in (
+        ss.pettingzoo_env_to_vec_env_v1(parallel_env(path, keep_finished=True)),
+        ss.pettingzoo_env_to_vec_env_v1(ss.black_death_v3(parallel_env(path))),
+    ):
         obs, _ = vec.reset(seed=0)
         assert obs.shape == (2, vec.observation_space.shape[0])
         resets = 0
@@ -314,7 +328,7 @@ def test_observation_bounds_are_finite_where_the_quantities_are_bounded():
     nb = slice(len(OWN_FEATURES), len(OWN_FEATURES) + len(NEIGHBOUR_FEATURES))
     assert np.all(np.isfinite(box.low[nb])) and np.all(np.isfinite(box.high[nb]))
     assert box.high[nb][NEIGHBOUR_FEATURES.index("dx")] == pytest.approx(30.0, rel=1e-5)
-    assert np.all(np.isfinite(box.low[len(OWN_FEATURES) + 4:]))
+    assert np.all(np.isfinite(box.low[len(OWN_FEATURES) + 4 :]))
     e = parallel_env("circle_swap", n=3, position_margin=2.0)
     assert _finite(e)
     box = e.observation_space("swap0")
@@ -322,12 +336,15 @@ def test_observation_bounds_are_finite_where_the_quantities_are_bounded():
     assert box.high[OWN_FEATURES.index("goal_dx")] == pytest.approx(26.0, rel=1e-5)
 
 
-@pytest.mark.parametrize("name, kw", [
-    ("crowd", {"n": 10, "lo": -4.0, "hi": 4.0}),
-    ("roundabout", {}),
-    ("circle_swap", {"position_margin": 0.5, "nao_features": True}),
-    ("two_lane_road", {"keep_finished": True}),
-])
+@pytest.mark.parametrize(
+    "name, kw",
+    [
+        ("crowd", {"n": 10, "lo": -4.0, "hi": 4.0}),
+        ("roundabout", {}),
+        ("circle_swap", {"position_margin": 0.5, "nao_features": True}),
+        ("two_lane_road", {"keep_finished": True}),
+    ],
+)
 def test_observations_stay_within_their_space(name, kw):
     e = parallel_env(name, controlled="all", time_limit=20.0, **kw)
     obs, _ = e.reset(seed=1)
@@ -367,16 +384,19 @@ def need_sb3():
         import stable_baselines3
 
         return stable_baselines3
-    return pytest.importorskip("stable_baselines3", reason="SuperSuit's stable_baselines3 "
-                              "base class needs stable_baselines3 (the rl extra)")
+    return pytest.importorskip(
+        "stable_baselines3",
+        reason="SuperSuit's stable_baselines3 base class needs stable_baselines3 (the rl extra)",
+    )
 
 
 def _vec_run(num_cpus: int, steps: int = 25) -> list:
     """A SuperSuit vector env of 2 envs x 4 agents (``keep_finished``), driven by seeded
     random actions; returns what it returned, step by step."""
     par = parallel_env("circle_swap", n=4, time_limit=1.0, keep_finished=True)
-    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus,
-                                base_class="gymnasium")
+    vec = ss.concat_vec_envs_v1(
+        ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus, base_class="gymnasium"
+    )
     try:
         assert isinstance(vec, gymnasium.vector.VectorEnv)
         assert vec.num_envs == 8
@@ -420,8 +440,9 @@ def _sb3_run(num_cpus: int) -> list:
     from stable_baselines3.common.vec_env import VecEnv
 
     par = parallel_env("circle_swap_perturbed", n=4, time_limit=1.0, keep_finished=True)
-    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus,
-                                base_class="stable_baselines3")
+    vec = ss.concat_vec_envs_v1(
+        ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=num_cpus, base_class="stable_baselines3"
+    )
     try:
         assert isinstance(vec, VecEnv) and vec.num_envs == 8
         dim = par.observation_space(par.possible_agents[0]).shape[0]
@@ -463,10 +484,10 @@ def test_frame_stack_and_normalize_through_the_vector_env():
     obs, _ = wrapped.reset(seed=0)
     raw = par.observations()["crowd0"]
     assert np.all(obs["crowd0"][: 2 * dim] == 0.0)  # the stack starts empty
-    np.testing.assert_allclose(obs["crowd0"][2 * dim:], (raw - box.low) / (box.high - box.low),
-                               rtol=1e-5, atol=1e-6)
-    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(wrapped), 2,
-                                base_class="gymnasium")
+    np.testing.assert_allclose(
+        obs["crowd0"][2 * dim :], (raw - box.low) / (box.high - box.low), rtol=1e-5, atol=1e-6
+    )
+    vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(wrapped), 2, base_class="gymnasium")
     obs, _ = vec.reset(seed=0)
     assert obs.shape == (8, 3 * dim)
     for _ in range(12):
@@ -479,8 +500,9 @@ def test_frame_stack_and_normalize_through_the_vector_env():
 def _readme_recipe() -> str:
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
     section = readme.split("\n## Training with RL\n", 1)[1].split("\n## ", 1)[0]
-    return next(b for b in re.findall(r"```python\n(.*?)```", section, re.S)
-                if "concat_vec_envs_v1" in b)
+    return next(
+        b for b in re.findall(r"```python\n(.*?)```", section, re.S) if "concat_vec_envs_v1" in b
+    )
 
 
 @pytest.mark.parametrize("way", ["keep_finished", "black_death"])

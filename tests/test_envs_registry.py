@@ -26,12 +26,21 @@ from nao_arena.environment import parallel_env as map_env
 from nao_arena.envs import available, load
 from nao_arena.maps import available_maps
 
-CHEAP = {"circle_swap": {"n": 3}, "circle_swap_perturbed": {"n": 3}, "crowd": {"n": 3},
-         "corridor": {"n": 1}, "crossing": {"n": 1}, "doorway": {"n": 1},
-         "doorway_perturbed": {"n": 1}, "intersection": {"n": 1},
-         "intersection_perturbed": {"n": 1}, "warehouse_aisles": {"n": 1},
-         "warehouse_aisles_perturbed": {"n": 1}, "pillar_corridor": {"n": 1},
-         "pillar_corridor_perturbed": {"n": 1}}
+CHEAP = {
+    "circle_swap": {"n": 3},
+    "circle_swap_perturbed": {"n": 3},
+    "crowd": {"n": 3},
+    "corridor": {"n": 1},
+    "crossing": {"n": 1},
+    "doorway": {"n": 1},
+    "doorway_perturbed": {"n": 1},
+    "intersection": {"n": 1},
+    "intersection_perturbed": {"n": 1},
+    "warehouse_aisles": {"n": 1},
+    "warehouse_aisles_perturbed": {"n": 1},
+    "pillar_corridor": {"n": 1},
+    "pillar_corridor_perturbed": {"n": 1},
+}
 """Map parameters that keep the API tests quick."""
 
 
@@ -48,8 +57,9 @@ def _quiet():
 
 
 def test_available_lists_the_modules_present():
-    present = sorted(m.name for m in pkgutil.iter_modules(nao_arena.envs.__path__)
-                     if not m.name.startswith("_"))
+    present = sorted(
+        m.name for m in pkgutil.iter_modules(nao_arena.envs.__path__) if not m.name.startswith("_")
+    )
     assert available() == present
     assert all(re.fullmatch(r"[a-z_]+_v\d+", n) for n in present)
 
@@ -88,8 +98,7 @@ def test_versioned_env_is_its_map_with_the_default_options():
         out = [obs]
         rng = np.random.default_rng(0)
         for _ in range(8):
-            out.append(e.step({a: rng.uniform(-1, 1, 2).astype(np.float32)
-                               for a in e.agents}))
+            out.append(e.step({a: rng.uniform(-1, 1, 2).astype(np.float32) for a in e.agents}))
         return out
 
     a, b = run(crossing_v0.parallel_env(n=2)), run(map_env("crossing", n=2))
@@ -108,18 +117,26 @@ def test_versioned_env_keeps_its_name_through_copies():
 def test_the_map_is_fixed_and_unknown_names_are_refused():
     from nao_arena.envs import roundabout_v0
 
-    with pytest.raises(TypeError, match=r"roundabout_v0.parallel_env: the map is fixed "
-                                        r"\('roundabout'\), got map='crossing'"):
+    with pytest.raises(
+        TypeError,
+        match=r"roundabout_v0.parallel_env: the map is fixed "
+        r"\('roundabout'\), got map='crossing'",
+    ):
         roundabout_v0.parallel_env(map="crossing")
     with pytest.raises(TypeError, match="the map is fixed"):
         roundabout_v0.env(map="crossing")
-    with pytest.raises(ValueError, match=r"unknown env 'roundabout_v9': expected one of "
-                                         r"circle_swap_perturbed_v0, .*two_lane_road_v0"):
+    with pytest.raises(
+        ValueError,
+        match=r"unknown env 'roundabout_v9': expected one of "
+        r"circle_swap_perturbed_v0, .*two_lane_road_v0",
+    ):
         load("roundabout_v9")
 
 
-@pytest.mark.skipif(not hasattr(pettingzoo, "register"),
-                    reason="PettingZoo's registry (pettingzoo.make) came in 1.27")
+@pytest.mark.skipif(
+    not hasattr(pettingzoo, "register"),
+    reason="PettingZoo's registry (pettingzoo.make) came in 1.27",
+)
 def test_versioned_envs_are_in_pettingzoos_registry():
     for name in available():
         assert f"nao_arena/{name.replace('_v', '-v')}" in pettingzoo.parallel_registry
@@ -163,16 +180,20 @@ version too (see :mod:`nao_arena.envs`)."""
 def fingerprint(name: str) -> str:
     module = load(name)
     par = module.parallel_env()
-    obs, act = (par.observation_space(par.possible_agents[0]),
-                par.action_space(par.possible_agents[0]))
+    obs, act = (
+        par.observation_space(par.possible_agents[0]),
+        par.action_space(par.possible_agents[0]),
+    )
     options = dataclasses.asdict(par.options)
     for cosmetic in ("render_size", "selected"):
         del options[cosmetic]
     del options["arena"]["stats"]  # thresholds of the statistics, not of the rewards
     # settings added after these versions, left out at the value that changes nothing
-    for section, key, neutral in ((options, "trust_map", False),
-                                  (options, "named_agents", {}),
-                                  (options["arena"], "max_faults", None)):
+    for section, key, neutral in (
+        (options, "trust_map", False),
+        (options, "named_agents", {}),
+        (options["arena"], "max_faults", None),
+    ):
         if section[key] == neutral:
             del section[key]
     data = {
@@ -191,7 +212,8 @@ def test_what_affects_learning_is_unchanged_within_a_version(name):
     assert fingerprint(name) == FINGERPRINTS.get(name), (
         f"{name}: the map file, the default options, the agents or the spaces changed; "
         f"that changes what is learned: rename the module to the next version "
-        f"({_next(name)}, also in nao_arena.envs._NAMES) and record its fingerprint here")
+        f"({_next(name)}, also in nao_arena.envs._NAMES) and record its fingerprint here"
+    )
 
 
 def _next(name: str) -> str:

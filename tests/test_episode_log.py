@@ -28,13 +28,31 @@ from nao_arena.maps import load_map, map_from_dict
 from nao_arena.report import contact_logs, report_text
 from nao_arena.trials import TrialConfig, make_map, run_trial
 
-ARRAYS = ("time", "positions", "velocities", "accelerations", "commanded", "reached",
-          "status", "selection", "detour", "nb_offsets", "nb_index", "nb_logged",
-          "contact_steps", "fault_steps")
+ARRAYS = (
+    "time",
+    "positions",
+    "velocities",
+    "accelerations",
+    "commanded",
+    "reached",
+    "status",
+    "selection",
+    "detour",
+    "nb_offsets",
+    "nb_index",
+    "nb_logged",
+    "contact_steps",
+    "fault_steps",
+)
 
 
-def logged(map_name: str, seed: int, params: dict, max_steps: int | None = None,
-           options: ArenaOptions | None = None) -> tuple[Arena, episode_log.EpisodeLog]:
+def logged(
+    map_name: str,
+    seed: int,
+    params: dict,
+    max_steps: int | None = None,
+    options: ArenaOptions | None = None,
+) -> tuple[Arena, episode_log.EpisodeLog]:
     arena = Arena(make_map(map_name, seed, params), options)
     arena.recorder = EpisodeRecorder(context={"map": map_name})
     arena.run(seed, max_steps=max_steps)
@@ -42,8 +60,19 @@ def logged(map_name: str, seed: int, params: dict, max_steps: int | None = None,
 
 
 def robot_rows(log: episode_log.EpisodeLog) -> list[tuple]:
-    return [(r.name, r.body, r.agent, r.label, r.predictor, r.margin, r.v_pref,
-             None if r.times is None else r.times.tobytes()) for r in log.robots]
+    return [
+        (
+            r.name,
+            r.body,
+            r.agent,
+            r.label,
+            r.predictor,
+            r.margin,
+            r.v_pref,
+            None if r.times is None else r.times.tobytes(),
+        )
+        for r in log.robots
+    ]
 
 
 @pytest.fixture(scope="module")
@@ -66,11 +95,14 @@ class Faulty:
         return np.clip(to_goal - obs.velocity, -1.0, 1.0)
 
 
-@pytest.mark.parametrize("case", [
-    ("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 30),  # a contact
-    ("roundabout", 3, {}, 25),                                        # nao robots, traffic
-    ("circle_swap", 1, {"n": 5}, 40),                                  # nao crowd
-])
+@pytest.mark.parametrize(
+    "case",
+    [
+        ("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 30),  # a contact
+        ("roundabout", 3, {}, 25),  # nao robots, traffic
+        ("circle_swap", 1, {"n": 5}, 40),  # nao crowd
+    ],
+)
 def test_recording_changes_nothing_and_the_round_trip_is_bit_for_bit(case, tmp_path):
     map_name, seed, params, steps = case
     plain = Arena(make_map(map_name, seed, params)).run(seed, max_steps=steps)
@@ -119,14 +151,17 @@ def test_statuses_follow_the_decisions():
 
 
 def test_mixed_agents_log_neighbours_of_the_predicting_robots_only(tmp_path):
-    spec = map_from_dict({
-        "name": "mixed", "bounds": {"min": [-6, -6], "max": [6, 6]},
-        "robots": [
-            {"name": "a", "start": [-4, 0], "goal": [4, 0], "agent": "nao"},
-            {"name": "b", "start": [4, 0.2], "goal": [-4, 0], "agent": "goal"},
-            {"name": "c", "start": [0, -4], "goal": [0, 4], "agent": "ao"},
-        ],
-    })
+    spec = map_from_dict(
+        {
+            "name": "mixed",
+            "bounds": {"min": [-6, -6], "max": [6, 6]},
+            "robots": [
+                {"name": "a", "start": [-4, 0], "goal": [4, 0], "agent": "nao"},
+                {"name": "b", "start": [4, 0.2], "goal": [-4, 0], "agent": "goal"},
+                {"name": "c", "start": [0, -4], "goal": [0, 4], "agent": "ao"},
+            ],
+        }
+    )
     arena = Arena(spec)
     arena.recorder = EpisodeRecorder()
     arena.run(0, max_steps=40)
@@ -172,8 +207,7 @@ def test_decision_inputs_are_what_the_agent_sensed_and_predicted():
     for _ in range(15):
         batch = arena.sensing()
         obs = [batch.observation(k) for k in range(len(arena.robots))]
-        pred = [ag.predict(ag.times, o.neighbours) for ag, o in zip(arena.agents, obs,
-                                                                     strict=True)]
+        pred = [ag.predict(ag.times, o.neighbours) for ag, o in zip(arena.agents, obs, strict=True)]
         live.append((obs, pred))
         arena.step()
     log = arena.recorder.finish()
@@ -237,7 +271,7 @@ def test_corrupt_and_foreign_files_are_clear_errors(goal_log, tmp_path):
     # bytes overwritten in a data page (its checksum fails)
     broken = bytearray(data)
     start = pq.ParquetFile(goal_log).metadata.row_group(0).column(3).data_page_offset
-    broken[start + 40:start + 88] = bytes(48)
+    broken[start + 40 : start + 88] = bytes(48)
     cases["zeroed.parquet"] = (bytes(broken), "corrupt")
     cases["noise.parquet"] = (os.urandom(5000), "truncated, or not a Parquet file")
     cases["empty.parquet"] = (b"", "truncated")
@@ -249,8 +283,7 @@ def test_corrupt_and_foreign_files_are_clear_errors(goal_log, tmp_path):
         assert expect in _one_line_error(excinfo, path), name
     # a Parquet file that is not a log
     other = tmp_path / "other.parquet"
-    pq.write_table(pq.read_table(goal_log).select(["x", "y"]).replace_schema_metadata({}),
-                   other)
+    pq.write_table(pq.read_table(goal_log).select(["x", "y"]).replace_schema_metadata({}), other)
     with pytest.raises(LogError, match="not an episode log"):
         read_log(other)
     with pytest.raises(LogError, match="no such file"):
@@ -259,8 +292,7 @@ def test_corrupt_and_foreign_files_are_clear_errors(goal_log, tmp_path):
 
 def _rewrite(src: Path, dst: Path, meta_edit=None, table_edit=None, fix_sha=True) -> Path:
     table = pq.read_table(src)
-    kv = {k: v for k, v in pq.ParquetFile(src).metadata.metadata.items()
-          if k != b"ARROW:schema"}
+    kv = {k: v for k, v in pq.ParquetFile(src).metadata.metadata.items() if k != b"ARROW:schema"}
     meta = json.loads(kv[episode_log.META_KEY])
     if meta_edit:
         meta_edit(meta)
@@ -282,8 +314,7 @@ def test_other_versions_and_tampered_logs_are_refused(goal_log, tmp_path):
         read_log(path)
     message = _one_line_error(excinfo, path)
     assert "version 99" in message and f"reads version {LOG_VERSION}" in message
-    path = _rewrite(goal_log, tmp_path / "meta.parquet", lambda m: m.update(seed=1),
-                    fix_sha=False)
+    path = _rewrite(goal_log, tmp_path / "meta.parquet", lambda m: m.update(seed=1), fix_sha=False)
     with pytest.raises(LogError, match="checksum"):
         read_log(path)
 
@@ -303,8 +334,7 @@ def test_other_versions_and_tampered_logs_are_refused(goal_log, tmp_path):
 
 
 @pytest.mark.parametrize("edit", ["cut", "swapped", "summary"])
-def test_a_log_whose_robot_list_does_not_match_its_map_is_refused(goal_log, tmp_path, capsys,
-                                                                 edit):
+def test_a_log_whose_robot_list_does_not_match_its_map_is_refused(goal_log, tmp_path, capsys, edit):
     """A cut robot list made replay fail with IndexError, and explain accept the log."""
     from nao_arena.cli import main
 
@@ -320,8 +350,10 @@ def test_a_log_whose_robot_list_does_not_match_its_map_is_refused(goal_log, tmp_
     with pytest.raises(LogError) as excinfo:
         read_log(path)
     assert "corrupt episode log" in _one_line_error(excinfo, path)
-    for command in (["replay", str(path), "--at", "1", "--png", str(tmp_path / "f.png")],
-                    ["explain", str(path)]):
+    for command in (
+        ["replay", str(path), "--at", "1", "--png", str(tmp_path / "f.png")],
+        ["explain", str(path)],
+    ):
         assert main(command) == 2, command
         err = capsys.readouterr().err.strip()
         assert err.startswith("nao-arena: error: ") and "\n" not in err
@@ -348,9 +380,11 @@ def test_a_failed_write_leaves_the_old_log(goal_log, tmp_path, monkeypatch):
 def test_cli_reports_bad_logs_in_one_line(goal_log, tmp_path, capsys):
     cut = tmp_path / "cut.parquet"
     cut.write_bytes(goal_log.read_bytes()[:-100])
-    for argv in (["replay", str(cut), "--at", "0", "--png", str(tmp_path / "f.png")],
-                 ["explain", str(cut), "--contact", "1"],
-                 ["explain", str(tmp_path / "none.parquet")]):
+    for argv in (
+        ["replay", str(cut), "--at", "0", "--png", str(tmp_path / "f.png")],
+        ["explain", str(cut), "--contact", "1"],
+        ["explain", str(tmp_path / "none.parquet")],
+    ):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.startswith("nao-arena: error: ") and err.count("\n") == 1, err
@@ -363,8 +397,25 @@ def test_cli_reports_bad_logs_in_one_line(goal_log, tmp_path, capsys):
 
 def test_run_log_holds_the_episode(tmp_path, capsys):
     log_path, json_path = tmp_path / "run.parquet", tmp_path / "run.json"
-    assert main(["run", "circle_swap", "--set", "n=3", "--seed", "2", "--max-steps", "25",
-                 "--log", str(log_path), "--json", str(json_path)]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "circle_swap",
+                "--set",
+                "n=3",
+                "--seed",
+                "2",
+                "--max-steps",
+                "25",
+                "--log",
+                str(log_path),
+                "--json",
+                str(json_path),
+            ]
+        )
+        == 0
+    )
     assert f"wrote {log_path}" in capsys.readouterr().out
     log = read_log(log_path)
     assert log.summary == json.loads(json_path.read_text())
@@ -374,9 +425,16 @@ def test_run_log_holds_the_episode(tmp_path, capsys):
 
 
 def test_trial_logs_the_episodes_with_contacts_and_names_them(tmp_path):
-    config = TrialConfig(maps=("circle_swap_perturbed",), agents=("goal", "nao"), episodes=1,
-                         seed=7, out=tmp_path, overrides={"n": 4}, time_limit=15.0,
-                         log="contacts")
+    config = TrialConfig(
+        maps=("circle_swap_perturbed",),
+        agents=("goal", "nao"),
+        episodes=1,
+        seed=7,
+        out=tmp_path,
+        overrides={"n": 4},
+        time_limit=15.0,
+        log="contacts",
+    )
     first = run_trial(config, progress=None)
     logs = sorted(p.name for p in (tmp_path / "logs").iterdir())
     assert logs == ["circle_swap_perturbed__goal__00000.parquet"]  # nao: no contact
@@ -390,7 +448,8 @@ def test_trial_logs_the_episodes_with_contacts_and_names_them(tmp_path):
     assert log.run["episode"] == 0 and log.run["agent"] == "goal"
     listed = contact_logs(tmp_path)
     assert [(e["agent"], e["contacts"], e["log"]) for e in listed] == [
-        ("goal", len(rows), str(tmp_path / "logs" / logs[0]))]
+        ("goal", len(rows), str(tmp_path / "logs" / logs[0]))
+    ]
     assert str(tmp_path / "logs" / logs[0]) in report_text(tmp_path)
     # every episode now: the one without a log runs again, with the same results
     again = run_trial(TrialConfig(**{**config.__dict__, "log": "all"}), progress=None)

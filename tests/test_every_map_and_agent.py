@@ -48,6 +48,7 @@ def test_the_matrix_is_every_shipped_map_and_every_built_in_agent() -> None:
             if isinstance(node, ast.ClassDef) and node.name.endswith("Agent"):
                 defined.add(f"nao_arena.agents.{file.stem}:{node.name}")
     assert defined == set(BUILTIN_AGENTS.values())
-    marks = {m.args[0]: m.args[1] for m in test_map_with_agent_runs.pytestmark
-             if m.name == "parametrize"}
+    marks = {
+        m.args[0]: m.args[1] for m in test_map_with_agent_runs.pytestmark if m.name == "parametrize"
+    }
     assert marks == {"map_name": MAPS, "agent": AGENTS}

@@ -32,13 +32,22 @@ def _section(title: str) -> str:
 
 
 def _headless_env() -> dict[str, str]:
-    return {k: v for k, v in os.environ.items()
-            if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
+    return {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")
+    }
 
 
 def _script(name: str, *args: str, cwd: Path) -> str:
-    proc = subprocess.run([sys.executable, str(EXAMPLES / name), *args], cwd=cwd,
-                          env=_headless_env(), capture_output=True, text=True, timeout=900)
+    proc = subprocess.run(
+        [sys.executable, str(EXAMPLES / name), *args],
+        cwd=cwd,
+        env=_headless_env(),
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert proc.returncode == 0, proc.stderr
     return proc.stdout
 
@@ -69,8 +78,13 @@ def test_readme_map_example_loads_and_runs(tmp_path, capsys):
 def test_readme_points_to_every_example():
     section = _section("Examples")
     examples = sorted(p.name for p in EXAMPLES.iterdir() if p.suffix in (".py", ".yaml"))
-    assert examples == ["compare_agents.py", "custom_agent.py", "my_map.yaml", "record_gif.py",
-                        "train_ppo.py"]
+    assert examples == [
+        "compare_agents.py",
+        "custom_agent.py",
+        "my_map.yaml",
+        "record_gif.py",
+        "train_ppo.py",
+    ]
     for name in examples:
         assert f"`examples/{name}`" in section
 
@@ -81,11 +95,16 @@ def test_readme_points_to_every_example():
 @pytest.mark.installed
 @pytest.mark.slow
 def test_custom_agent_script(tmp_path):
-    out = _script("custom_agent.py", "--map", "crossing", "--set", "n=2",
-                  "--time-limit", "3", cwd=tmp_path)
+    out = _script(
+        "custom_agent.py", "--map", "crossing", "--set", "n=2", "--time-limit", "3", cwd=tmp_path
+    )
     assert out.startswith("crossing: 3.0 s")
     assert [line.split(":")[0].strip() for line in out.splitlines()[1:]] == [
-        "east0", "east1", "north0", "north1"]
+        "east0",
+        "east1",
+        "north0",
+        "north1",
+    ]
 
 
 def test_custom_agent_from_the_command_line_with_a_label(capsys):
@@ -99,8 +118,11 @@ def test_custom_agent_from_the_command_line_with_a_label(capsys):
 def _map_commands() -> list[list[str]]:
     """The `nao-arena ...` commands in the header of examples/my_map.yaml."""
     text = (EXAMPLES / "my_map.yaml").read_text()
-    lines = [line.lstrip("# ").split("  #")[0] for line in text.splitlines()
-             if line.startswith("#   nao-arena ")]
+    lines = [
+        line.lstrip("# ").split("  #")[0]
+        for line in text.splitlines()
+        if line.startswith("#   nao-arena ")
+    ]
     return [shlex.split(line)[1:] for line in lines]
 
 
@@ -128,8 +150,20 @@ def test_my_map_and_its_commands(tmp_path, capsys):
 @pytest.mark.slow
 def test_compare_agents_script(tmp_path):
     out_dir = tmp_path / "compare"
-    out = _script("compare_agents.py", "--map", "crossing", "--episodes", "1", "--set", "n=2",
-                  "--time-limit", "3", "--out", str(out_dir), cwd=tmp_path)
+    out = _script(
+        "compare_agents.py",
+        "--map",
+        "crossing",
+        "--episodes",
+        "1",
+        "--set",
+        "n=2",
+        "--time-limit",
+        "3",
+        "--out",
+        str(out_dir),
+        cwd=tmp_path,
+    )
     rows = [line.split()[:2] for line in out.splitlines() if line.startswith("crossing")]
     assert rows == [["crossing", a] for a in ("nao", "orca", "goal", "polite")]
     summary = json.loads((out_dir / "summary.json").read_text())
@@ -144,10 +178,21 @@ def test_compare_agents_script(tmp_path):
 @pytest.mark.slow
 def test_record_gif_script_headless(tmp_path):
     path = tmp_path / "run.gif"
-    out = _script("record_gif.py", "--map", "circle_swap", "--set", "n=3", "--seconds", "1",
-                  "--fps", "5", "--out", str(path), cwd=tmp_path)
+    out = _script(
+        "record_gif.py",
+        "--map",
+        "circle_swap",
+        "--set",
+        "n=3",
+        "--seconds",
+        "1",
+        "--fps",
+        "5",
+        "--out",
+        str(path),
+        cwd=tmp_path,
+    )
     assert out.startswith(f"wrote {path}")
     imageio = pytest.importorskip("imageio.v2")
     frames = imageio.mimread(path)
     assert len(frames) >= 5 and frames[0].ndim == 3
-

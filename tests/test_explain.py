@@ -30,8 +30,9 @@ def record(spec, seed: int, tmp_path, options=None, max_steps=None, name="episod
 def goal_crowd(tmp_path_factory):
     """Four goal seekers swapping on a perturbed circle (seed 7): several contacts."""
     spec = make_map("circle_swap_perturbed", 7, {"n": 4})
-    return record(spec, 7, tmp_path_factory.mktemp("goal"), ArenaOptions(agent="goal"),
-                  max_steps=120)
+    return record(
+        spec, 7, tmp_path_factory.mktemp("goal"), ArenaOptions(agent="goal"), max_steps=120
+    )
 
 
 def test_explain_names_the_pair_and_time_of_each_goal_contact(goal_crowd):
@@ -47,8 +48,10 @@ def test_explain_names_the_pair_and_time_of_each_goal_contact(goal_crowd):
         # the decisions of the step before the contact, which began within the next step
         assert log.time[expl.before] < event.time <= log.time[expl.step] + 1e-9
         assert expl.step - 1 == expl.before and log.contacts_by(expl.before) < number
-        assert f"Contact {number} of {len(summary.contacts)} at t = {event.time:.2f} s: " \
-               f"{event.name_a} (goal) and {event.name_b} (goal) touched" in expl.text
+        assert (
+            f"Contact {number} of {len(summary.contacts)} at t = {event.time:.2f} s: "
+            f"{event.name_a} (goal) and {event.name_b} (goal) touched" in expl.text
+        )
         assert f"At t = {log.time[expl.before]:.2f} s, the step before" in expl.text
         for p in expl.parties:
             assert p.status == "desired" and p.predictor is None
@@ -66,8 +69,9 @@ def test_explain_a_nao_contact_shows_the_predictions(tmp_path):
     spec = make_map("roundabout", 16, {"predictor": "turn_rate"})
     planned, _ = record(spec, 16, tmp_path, max_steps=90, name="planned")
     assert planned.contacts == []
-    summary, log = record(spec, 16, tmp_path, ArenaOptions(
-        agent_options={"stopping_plans": False}), max_steps=90)
+    summary, log = record(
+        spec, 16, tmp_path, ArenaOptions(agent_options={"stopping_plans": False}), max_steps=90
+    )
     assert [(c.name_a, c.name_b) for c in summary.contacts] == [("west_east", "south_north")]
     expl = explain_contact(log, 1)
     for p, q in (expl.parties, expl.parties[::-1]):
@@ -85,18 +89,23 @@ def test_explain_a_nao_contact_shows_the_predictions(tmp_path):
 
 
 def test_explain_a_wall_contact(tmp_path):
-    spec = map_from_dict({
-        "name": "wall", "bounds": {"min": [-2, -4], "max": [12, 4]},
-        "walls": [{"type": "segment", "a": [5, -3], "b": [5, 3], "thickness": 0.4}],
-        "robots": [{"name": "bumper", "start": [0, 0], "goal": [10, 0], "agent": "goal"}],
-    })
+    spec = map_from_dict(
+        {
+            "name": "wall",
+            "bounds": {"min": [-2, -4], "max": [12, 4]},
+            "walls": [{"type": "segment", "a": [5, -3], "b": [5, 3], "thickness": 0.4}],
+            "robots": [{"name": "bumper", "start": [0, 0], "goal": [10, 0], "agent": "goal"}],
+        }
+    )
     summary, log = record(spec, 0, tmp_path, max_steps=80)
     event = summary.contacts[0]
     assert event.kind_b == "wall"
     expl = explain_contact(log, 1)
     assert [p.kind for p in expl.parties] == ["robot", "wall"]
-    assert expl.text.startswith(f"Contact 1 of {len(summary.contacts)} at t = "
-                                f"{event.time:.2f} s: bumper (goal) and wall {event.b} touched")
+    assert expl.text.startswith(
+        f"Contact 1 of {len(summary.contacts)} at t = "
+        f"{event.time:.2f} s: bumper (goal) and wall {event.b} touched"
+    )
 
 
 @pytest.mark.slow

@@ -87,7 +87,8 @@ from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighb
 def _neighbours(rng: np.random.Generator, n: int, spread: float = 6.0) -> Neighbours:
     speed = rng.choice([0.0, 1e-7, 0.5, 1.5], size=(n, 1))
     return Neighbours(
-        ids=np.arange(n), kinds=("robot",) * n,
+        ids=np.arange(n),
+        kinds=("robot",) * n,
         positions=rng.normal(size=(n, 2)) * spread,
         velocities=rng.normal(size=(n, 2)) * speed,
         accelerations=rng.normal(size=(n, 2)),
@@ -122,16 +123,22 @@ def test_neighbour_lists_match_neighbours_in_range(seed):
         start, index = neighbour_lists(bodies, pos, rng_m, cap)
         for k, b in enumerate(bodies):
             expect = neighbours_in_range(int(b), pos, rng_m, cap)
-            np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
+            np.testing.assert_array_equal(index[start[k] : start[k + 1]], expect)
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.integers(1, 160), st.floats(0.5, 400.0),
-       st.sampled_from([0.0, 0.7, 3.0, 15.0, 25.0, np.inf]),
-       st.sampled_from([None, 0, 1, 6, 10]), st.sampled_from([0.0, 0.5, 0.9]),
-       st.booleans(), st.integers(0, 2**32 - 1))
-def test_neighbour_lists_through_the_grid_are_a_scan_over_all_bodies(n, spread, rng_m, cap,
-                                                                     packed, hypot, seed):
+@given(
+    st.integers(1, 160),
+    st.floats(0.5, 400.0),
+    st.sampled_from([0.0, 0.7, 3.0, 15.0, 25.0, np.inf]),
+    st.sampled_from([None, 0, 1, 6, 10]),
+    st.sampled_from([0.0, 0.5, 0.9]),
+    st.booleans(),
+    st.integers(0, 2**32 - 1),
+)
+def test_neighbour_lists_through_the_grid_are_a_scan_over_all_bodies(
+    n, spread, rng_m, cap, packed, hypot, seed
+):
     """Many cells (bodies spread far beyond the range), a packed crowd among sparse
     bodies (the nearest-k search's rings), bodies on cell borders (positions on a
     lattice), equal distances, duplicates: the same lists as a scan of every body."""
@@ -151,7 +158,7 @@ def test_neighbour_lists_through_the_grid_are_a_scan_over_all_bodies(n, spread, 
         dist[b] = np.inf
         expect = np.flatnonzero(dist <= rng_m)
         expect = expect[np.argsort(dist[expect], kind="stable")][:cap]
-        np.testing.assert_array_equal(index[start[k]:start[k + 1]], expect)
+        np.testing.assert_array_equal(index[start[k] : start[k + 1]], expect)
 
 
 @settings(max_examples=200, deadline=None)
@@ -174,8 +181,7 @@ def test_arena_observations_match_per_robot_sensing():
     state = arena.state
     for k, obs in enumerate(arena.observations()):
         body = int(arena.robot_ids[k])
-        idx = neighbours_in_range(body, state.positions, arena.sensing_range,
-                                  arena.max_neighbours)
+        idx = neighbours_in_range(body, state.positions, arena.sensing_range, arena.max_neighbours)
         nb = obs.neighbours
         np.testing.assert_array_equal(nb.ids, idx)
         assert nb.kinds == tuple(np.array(arena.world.kinds)[idx])
@@ -196,8 +202,11 @@ def test_arena_observations_match_per_robot_sensing():
 def test_compiled_turn_rate_matches_numpy(seed):
     rng = np.random.default_rng(seed)
     nb = _neighbours(rng, int(rng.integers(1, 30)))
-    times = (np.linspace(0.0, 3.0, 31) if seed % 2
-             else np.sort(rng.uniform(0.0, 5.0, size=int(rng.integers(1, 20)))))
+    times = (
+        np.linspace(0.0, 3.0, 31)
+        if seed % 2
+        else np.sort(rng.uniform(0.0, 5.0, size=int(rng.integers(1, 20))))
+    )
     fast = turn_rate(times, nb)
     ref = turn_rate_numpy(times, nb)
     assert fast.shape == ref.shape == (len(nb), len(times), 2)
@@ -211,9 +220,14 @@ def test_turn_rate_rows_do_not_depend_on_the_others():
     times = np.linspace(0.0, 3.0, 31)
     everyone = turn_rate(times, nb)
     for keep in (np.array([4]), np.array([0, 7, 3, 24])):
-        sub = Neighbours(ids=nb.ids[keep], kinds=tuple(nb.kinds[i] for i in keep),
-                         positions=nb.positions[keep], velocities=nb.velocities[keep],
-                         accelerations=nb.accelerations[keep], radii=nb.radii[keep])
+        sub = Neighbours(
+            ids=nb.ids[keep],
+            kinds=tuple(nb.kinds[i] for i in keep),
+            positions=nb.positions[keep],
+            velocities=nb.velocities[keep],
+            accelerations=nb.accelerations[keep],
+            radii=nb.radii[keep],
+        )
         np.testing.assert_array_equal(turn_rate(times, sub), everyone[keep])
 
 
@@ -256,19 +270,22 @@ def test_nearest_outside_disks_matches_reference(seed):
         # ``within``: the same rows, cut at that distance
         for within in (0.0, 0.3, 1.0):
             np.testing.assert_array_equal(
-                nearest_outside_disks(q, disks, 2.0, max_out, within), ref[ref[:, 2] <= within])
+                nearest_outside_disks(q, disks, 2.0, max_out, within), ref[ref[:, 2] <= within]
+            )
         # ``covered``: any ball with no free point (closer than the nearest candidate)
         # may be skipped without changing the answer
         if len(ref) and ref[0, 2] > 0.0:
             np.testing.assert_array_equal(
-                nearest_outside_disks(q, disks, 2.0, max_out, math.inf, 0.999 * ref[0, 2]), ref)
+                nearest_outside_disks(q, disks, 2.0, max_out, math.inf, 0.999 * ref[0, 2]), ref
+            )
 
 
 def test_ring_radii_rows_are_the_selections_ring_radii():
     """decide's rings per robot, one array operation: the radii select_acceleration uses."""
     a_max = np.array([2.0, 0.5, 3.7, 1e-13, 0.0, 6.0, 2.0])
     np.testing.assert_array_equal(
-        ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
+        ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max])
+    )
 
 
 def test_ring_radii_rows_remembered_only_for_the_same_limits():
@@ -277,7 +294,8 @@ def test_ring_radii_rows_remembered_only_for_the_same_limits():
     first = np.array([2.0, 2.0, 2.0])
     for a_max in (first, np.array([2.0, 2.0, 0.5]), np.array([2.0, 2.0]), first.copy(), first):
         np.testing.assert_array_equal(
-            ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
+            ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max])
+        )
 
 
 def _outside_rows(q, disks, a_max, within, covered, row):
@@ -286,9 +304,22 @@ def _outside_rows(q, disks, a_max, within, covered, row):
     lower = np.empty(len(disks) + 1)
     order, scale = outside_setup(q, disks, a_max, within, res, lower)
     m = len(disks)
-    oi = outside_advance(q, disks, a_max, covered, res, lower, order, 0, row, scale,
-                         np.empty((2 * m + 8, 2)), np.empty(2 * m + 4), np.empty(2 * m + 4),
-                         np.empty(4, dtype=np.uint64))
+    oi = outside_advance(
+        q,
+        disks,
+        a_max,
+        covered,
+        res,
+        lower,
+        order,
+        0,
+        row,
+        scale,
+        np.empty((2 * m + 8, 2)),
+        np.empty(2 * m + 4),
+        np.empty(2 * m + 4),
+        np.empty(4, dtype=np.uint64),
+    )
     return res, oi
 
 
@@ -302,7 +333,7 @@ def test_outside_rows_are_final_before_every_circle_is_visited(seed):
         ref = nearest_outside_disks(q, disks, 2.0, 8, within, covered)
         for row in range(8):
             res, _ = _outside_rows(q, disks, 2.0, within, covered, row)
-            found = outside_found(res[:row + 1], within)
+            found = outside_found(res[: row + 1], within)
             assert found == min(row + 1, len(ref))
             np.testing.assert_array_equal(res[:found], ref[:found])
 
@@ -331,10 +362,12 @@ def test_ball_search_tries_the_candidates_of_nearest_outside_disks(seed):
             disks = nao_disks_within(samples, reach)
             for covered in (0.0, 0.25 * reach):
                 cands = nearest_outside_disks(a_d, disks, 2.0, 8, reach, covered)
-                ref = try_candidates_disc(cands, 0, reach, a_d, 1e-3, 2.0, t.v, t.v_max,
-                                          *p.arrays, t.sweep, 0.0, disks)
-                got = _try_ball_disc(a_d, disks, reach, 1e-3, 2.0, t.v, t.v_max, *p.arrays,
-                                     t.sweep, 0.0, covered)
+                ref = try_candidates_disc(
+                    cands, 0, reach, a_d, 1e-3, 2.0, t.v, t.v_max, *p.arrays, t.sweep, 0.0, disks
+                )
+                got = _try_ball_disc(
+                    a_d, disks, reach, 1e-3, 2.0, t.v, t.v_max, *p.arrays, t.sweep, 0.0, covered
+                )
                 assert got[:4] == ref[:4]
                 assert got[4] == (len(cands) == 0)
 
@@ -348,8 +381,9 @@ def test_capped_disks_are_the_chosen_balls_disks(seed):
     n = int(rng.integers(1, 12))
     times = np.linspace(0.0, 2.5, 26)
     path = _straight_paths(rng, n, times, spread=2.0)
-    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, rng.normal(size=2),
-                               16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(
+        rng.normal(size=2), *path.arrays, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02
+    )
     for cap in (2, 8, 24, 64, 1000):
         chosen, disks = capped_disks(samples, radius_order(samples), 0.0625, 8.0, cap)
         assert chosen == largest_capped_reach(samples, 0.0625, 8.0, cap)
@@ -391,19 +425,27 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     args = (v, *path.arrays, 0.1, 4, q)
     samples = nao_disk_samples(*args, 8.0, 2.0)
     for reach in (0.125, 0.5, 2.0, 8.0):
-        np.testing.assert_array_equal(nao_disks_within(samples, reach),
-                                      nao_disks(*args, reach, 2.0))
+        np.testing.assert_array_equal(
+            nao_disks_within(samples, reach), nao_disks(*args, reach, 2.0)
+        )
 
 
-def _straight_paths(rng: np.random.Generator, n: int, times: np.ndarray, spread: float,
-                    speed: float = 1.0, radii: tuple[float, float] = (0.5, 1.0)):
+def _straight_paths(
+    rng: np.random.Generator,
+    n: int,
+    times: np.ndarray,
+    spread: float,
+    speed: float = 1.0,
+    radii: tuple[float, float] = (0.5, 1.0),
+):
     """n obstacles on straight lines sampled at ``times``: start positions N(0, spread^2)
     (m), velocities N(0, speed^2) (m/s), radii uniform in ``radii`` (m), drawn in that
     order."""
     pos = rng.normal(size=(n, 2)) * spread
     vel = rng.normal(size=(n, 2)) * speed
-    return sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(*radii, size=n))
+    return sampled_path(
+        times, pos[:, None, :] + vel[:, None, :] * times[None, :, None], rng.uniform(*radii, size=n)
+    )
 
 
 @pytest.mark.parametrize("seed", range(60))
@@ -415,13 +457,15 @@ def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     times = np.linspace(0.0, 2.5, 26)
     pos = rng.normal(size=(n, 2)) * rng.choice([1.0, 4.0, 8.0])
     vel = rng.normal(size=(n, 2)) * 1.5
-    path = sampled_path(times, pos[:, None, :] + vel[:, None, :] * times[None, :, None],
-                        rng.uniform(0.3, 1.0, size=n))
+    path = sampled_path(
+        times,
+        pos[:, None, :] + vel[:, None, :] * times[None, :, None],
+        rng.uniform(0.3, 1.0, size=n),
+    )
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     for reach in (0.5, 4.0):
-        got = nao_disk_samples(v, *path.arrays, 0.1, 2, q,
-                               reach, 2.0, 16.0, 0.0)
+        got = nao_disk_samples(v, *path.arrays, 0.1, 2, q, reach, 2.0, 16.0, 0.0)
         ref = disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
         assert got.shape == ref.shape
         np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
@@ -435,8 +479,7 @@ def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     rng = np.random.default_rng(500 + seed)
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, 1, times, spread=3.0)
-    args = (rng.normal(size=2), *path.arrays, 0.1, 2,
-            np.zeros(2), 8.0, 2.0, 16.0)
+    args = (rng.normal(size=2), *path.arrays, 0.1, 2, np.zeros(2), 8.0, 2.0, 16.0)
     full = nao_disk_samples(*args)
     thin = 0.02
     kept = nao_disk_samples(*args, thin)
@@ -476,24 +519,65 @@ def _batch_scene(seed: int):
     acc = rng.normal(size=(n_bodies, 2)) * 1.5
     v_max = rng.choice([1.0, 2.0, np.inf], size=n_bodies)
     margin = rng.uniform(0.0, 0.3, size=n_bodies)
-    return (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc,
-            v_max, margin)
+    return (
+        times,
+        pred,
+        nb_all,
+        start,
+        index,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        acc,
+        v_max,
+        margin,
+    )
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", range(25))
 def test_batched_admissibility_matches_admissible_kernel(seed):
-    (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
-     margin) = _batch_scene(seed)
+    (
+        times,
+        pred,
+        nb_all,
+        start,
+        index,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        acc,
+        v_max,
+        margin,
+    ) = _batch_scene(seed)
     n = len(nb_all)
     pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
     out = np.full(n, 7, dtype=np.int64)
-    sampled_admissible_batch(times, pred, start, index, rad, wall_c, wall_r, wall_start,
-                             wall_index, np.arange(n), pos, vel, acc, v_max, rad, margin,
-                             *path_excursions(pred), out)
+    sampled_admissible_batch(
+        times,
+        pred,
+        start,
+        index,
+        rad,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        np.arange(n),
+        pos,
+        vel,
+        acc,
+        v_max,
+        rad,
+        margin,
+        *path_excursions(pred),
+        out,
+    )
     for k in range(n):
-        idx = index[start[k]:start[k + 1]]
-        widx = wall_index[wall_start[k]:wall_start[k + 1]]
+        idx = index[start[k] : start[k + 1]]
+        widx = wall_index[wall_start[k] : wall_start[k + 1]]
         centres = pred[idx] - pos[k]
         radii = rad[idx] + rad[k] + margin[k]
         if len(radii) == 0 and len(widx) == 0:
@@ -506,11 +590,25 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
         dist = point_segment_distances(np.zeros((1, 2)), segs)[0]
         w_rad = np.minimum(wall_r[widx] + (rad[k] + margin[k]), dist * (1.0 - 1e-9))
         moving = sampled_path(times, centres.reshape(-1, len(times), 2), radii)
-        path = PiecewisePath(moving.t, moving.c, moving.velocity, moving.acceleration,
-                             moving.radius, np.ascontiguousarray(segs.reshape(-1, 2, 2)), w_rad)
+        path = PiecewisePath(
+            moving.t,
+            moving.c,
+            moving.velocity,
+            moving.acceleration,
+            moving.radius,
+            np.ascontiguousarray(segs.reshape(-1, 2, 2)),
+            w_rad,
+        )
         ok = np.empty(1, dtype=bool)
-        admissible_kernel(vel[k][None].copy(), acc[k][None].copy(), v_max[k], *path.arrays,
-                          piece_sweep(path.t, path.velocity, path.acceleration), 0.0, ok)
+        admissible_kernel(
+            vel[k][None].copy(),
+            acc[k][None].copy(),
+            v_max[k],
+            *path.arrays,
+            piece_sweep(path.t, path.velocity, path.acceleration),
+            0.0,
+            ok,
+        )
         assert out[k] == int(ok[0]), k
 
 
@@ -535,8 +633,21 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
     cand_v = rng.normal(size=(k, 2)) * v_max
     cand_a = rng.normal(size=(k, 2)) * 1.5
     clear = np.empty((k, n + 3))
-    clearance_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
-                     clear, np.empty((k, n + 3)), np.empty((k, n + 3)))
+    clearance_kernel(
+        cand_v,
+        cand_a,
+        v_max,
+        seg_t,
+        seg_c,
+        seg_w,
+        seg_b,
+        radius,
+        walls,
+        wall_r,
+        clear,
+        np.empty((k, n + 3)),
+        np.empty((k, n + 3)),
+    )
     sweep = piece_sweep(seg_t, seg_w, seg_b)
     ok = np.empty(1, dtype=bool)
     checked = 0
@@ -545,23 +656,65 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
         if least <= 1e-3:
             continue
         for margin, expect in ((least * (1.0 - 1e-6), True), (least * (1.0 + 1e-6), False)):
-            admissible_kernel(cand_v[i][None].copy(), cand_a[i][None].copy(), v_max, seg_t,
-                              seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, ok)
+            admissible_kernel(
+                cand_v[i][None].copy(),
+                cand_a[i][None].copy(),
+                v_max,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                radius,
+                walls,
+                wall_r,
+                sweep,
+                margin,
+                ok,
+            )
             assert bool(ok[0]) is expect, (i, margin, least)
         checked += 1
     assert checked >= 5
 
+
 def test_batched_admissibility_flags_non_finite_paths():
-    (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
-     margin) = _batch_scene(1)
+    (
+        times,
+        pred,
+        nb_all,
+        start,
+        index,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        acc,
+        v_max,
+        margin,
+    ) = _batch_scene(1)
     pred = pred.copy()
     pred[:, 5, 0] = np.nan
     n = len(nb_all)
     out = np.zeros(n, dtype=np.int64)
-    sampled_admissible_batch(times, pred, start, index, nb_all.radii, wall_c, wall_r,
-                             wall_start, wall_index, np.arange(n), nb_all.positions,
-                             nb_all.velocities, acc, v_max, nb_all.radii, margin,
-                             *path_excursions(pred), out)
+    sampled_admissible_batch(
+        times,
+        pred,
+        start,
+        index,
+        nb_all.radii,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        np.arange(n),
+        nb_all.positions,
+        nb_all.velocities,
+        acc,
+        v_max,
+        nb_all.radii,
+        margin,
+        *path_excursions(pred),
+        out,
+    )
     has_nb = np.diff(start) > 0
     assert np.all(out[has_nb] == -1)
 
@@ -619,11 +772,19 @@ class _PerRobotAO(AOAgent):
     act_batch = None
 
 
-def _trajectory(map_name: str, episode: int, steps: int, per_robot: bool,
-                agent: str | None = None, agent_options: dict | None = None, **params):
-    arena = Arena(load_map(map_name, **params),
-                  ArenaOptions(agent=agent, agent_options=agent_options or {})
-                  if agent else None)
+def _trajectory(
+    map_name: str,
+    episode: int,
+    steps: int,
+    per_robot: bool,
+    agent: str | None = None,
+    agent_options: dict | None = None,
+    **params,
+):
+    arena = Arena(
+        load_map(map_name, **params),
+        ArenaOptions(agent=agent, agent_options=agent_options or {}) if agent else None,
+    )
     arena.reset(episode)
     if per_robot:
         for ag in arena.agents:
@@ -647,8 +808,17 @@ def _trajectory(map_name: str, episode: int, steps: int, per_robot: bool,
         ("roundabout", None, {"seed": 4, "predictor": "known_path"}),
         ("crossing", "ao", {"seed": 1}),
         # nothing admissible and no braking: the per-robot path decides
-        ("circle_swap", "nao", {"n": 12, "radius": 6.0, "lo": -10.0, "hi": 10.0,
-                                "agent_options": {"infeasible": "latest_contact"}}),
+        (
+            "circle_swap",
+            "nao",
+            {
+                "n": 12,
+                "radius": 6.0,
+                "lo": -10.0,
+                "hi": 10.0,
+                "agent_options": {"infeasible": "latest_contact"},
+            },
+        ),
     ],
 )
 def test_act_batch_reproduces_per_robot_act(map_name, agent, params):
@@ -738,8 +908,7 @@ def test_compiled_candidate_loop_matches_the_python_loop(seed):
     """_nearest_by_disks confirms its candidates in a compiled loop for the limit disc;
     with a box that never binds it runs the Python loop: the same answers and counts."""
     t, rng = _tester(seed)
-    boxed = _Tester(t.v, t.path, AccelLimits(2.0, (-10.0, -10.0), (10.0, 10.0)), 0.0,
-                    t.v_max)
+    boxed = _Tester(t.v, t.path, AccelLimits(2.0, (-10.0, -10.0), (10.0, 10.0)), 0.0, t.v_max)
     for _ in range(10):
         a_d = rng.uniform(-2.5, 2.5, size=2)
         a_d = t.limits.project(a_d)
@@ -779,16 +948,24 @@ def test_compiled_rings_match_the_python_rings(seed):
     for _ in range(10):
         a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
         found, x, y, _ = ring_search_disc(
-            a_d, radii, selection._unit_rings(8, 16), 1e-3, 2.0, t.v, t.v_max, *p.arrays,
-            t.sweep, 0.0)
+            a_d,
+            radii,
+            selection._unit_rings(8, 16),
+            1e-3,
+            2.0,
+            t.v,
+            t.v_max,
+            *p.arrays,
+            t.sweep,
+            0.0,
+        )
         cands = selection._ring_candidates(a_d, radii, 16, t.limits)
         ok = t.ok(cands).reshape(8, 16)
         ref = None
         for i in range(8):
             if ok[i].any():
-                good = cands[i * 16:(i + 1) * 16][ok[i]]
-                start = bisect_ref(t, a_d, good[int(np.argmin(np.hypot(*(good - a_d).T)))],
-                                    1e-3)
+                good = cands[i * 16 : (i + 1) * 16][ok[i]]
+                start = bisect_ref(t, a_d, good[int(np.argmin(np.hypot(*(good - a_d).T)))], 1e-3)
                 ref = slide_ref(t, a_d, start, t.limits, 1e-3)
                 break
         assert found == (ref is not None)
@@ -824,21 +1001,22 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
     rng = np.random.default_rng(seed)
     times = np.linspace(0.0, 3.0, 31)
     n = int(rng.integers(0, 12))
-    pred = (rng.normal(size=(n, 1, 2)) * 6.0
-            + rng.normal(size=(n, 1, 2)) * times[None, :, None])
+    pred = rng.normal(size=(n, 1, 2)) * 6.0 + rng.normal(size=(n, 1, 2)) * times[None, :, None]
     radii = rng.uniform(0.2, 0.6, size=n)
     idx = rng.permutation(n)[: int(rng.integers(0, n + 1))].astype(np.int64)
     position, velocity = rng.normal(size=2), rng.normal(size=2)
     grow = 0.45
     a_max, v_max = 2.0, float(rng.choice([1.5, np.inf]))
-    c, w, b, rad, finite = relevant_sampled_paths(times, pred, idx, position, radii, grow,
-                                                   velocity, a_max, v_max,
-                                                   *path_excursions(pred))
+    c, w, b, rad, finite = relevant_sampled_paths(
+        times, pred, idx, position, radii, grow, velocity, a_max, v_max, *path_excursions(pred)
+    )
     assert finite
     centres = pred[idx] - position
-    all_r = np.minimum(radii[idx] + grow,
-                       np.sqrt(centres[:, 0, 0] * centres[:, 0, 0]
-                               + centres[:, 0, 1] * centres[:, 0, 1]) * RADIUS_CUT)
+    all_r = np.minimum(
+        radii[idx] + grow,
+        np.sqrt(centres[:, 0, 0] * centres[:, 0, 0] + centres[:, 0, 1] * centres[:, 0, 1])
+        * RADIUS_CUT,
+    )
     full = sampled_path(times, centres.reshape(-1, len(times), 2), all_r)
     keep = relevant_obstacles(velocity, a_max, v_max, *full.moving_arrays, 0.0)
     np.testing.assert_array_equal(c, full.c[keep])
@@ -848,9 +1026,18 @@ def test_relevant_paths_match_sampled_path_then_relevance(seed):
     if n:
         bad = pred.copy()
         bad[0, 3, 1] = np.nan
-        assert not relevant_sampled_paths(times, bad, np.arange(n), position, radii, grow,
-                                          velocity, a_max, v_max,
-                                          *path_excursions(bad))[4]
+        assert not relevant_sampled_paths(
+            times,
+            bad,
+            np.arange(n),
+            position,
+            radii,
+            grow,
+            velocity,
+            a_max,
+            v_max,
+            *path_excursions(bad),
+        )[4]
 
 
 @pytest.mark.parametrize("delta", [1e-6, 1e-3, 0.1])
@@ -864,10 +1051,19 @@ def test_relevant_paths_keep_an_obstacle_at_the_full_speed_reach(delta):
     for d, kept in ((reach - delta, 1), (reach + delta, 0)):
         pred = np.repeat(np.array([[[d, 0.0]]]), len(times), axis=1)
         c, w, b, rad, finite = relevant_sampled_paths(
-            times, pred, np.array([0]), np.zeros(2), np.array([radius]), grow,
-            np.array([v_max, 0.0]), 2.0, v_max,
-            *path_excursions(pred))
+            times,
+            pred,
+            np.array([0]),
+            np.zeros(2),
+            np.array([radius]),
+            grow,
+            np.array([v_max, 0.0]),
+            2.0,
+            v_max,
+            *path_excursions(pred),
+        )
         assert finite and len(rad) == kept, (d, kept)
+
 
 @pytest.mark.parametrize("seed", range(40))
 def test_compiled_selection_matches_the_python_steps(seed):
@@ -879,12 +1075,26 @@ def test_compiled_selection_matches_the_python_steps(seed):
     statuses = set()
     for k in range(10):
         # half of them inside the NAO
-        a_d = (grid[~ok][k % (~ok).sum()] if k % 2 else
-               t.limits.project(rng.uniform(-2.5, 2.5, size=2)))
+        a_d = (
+            grid[~ok][k % (~ok).sum()]
+            if k % 2
+            else t.limits.project(rng.uniform(-2.5, 2.5, size=2))
+        )
         status, x, y, _ = selection.select_disc(
-            a_d, t.v, 2.0, t.v_max, *p.arrays, 0.0, 1e-3, radii,
-            selection._unit_rings(8, 16), selection._MAX_DISKS, selection._DISKS_PER_PIECE,
-            selection._DISKS_PER_SECOND, selection._SLIVER_DEPTH * 2.0)
+            a_d,
+            t.v,
+            2.0,
+            t.v_max,
+            *p.arrays,
+            0.0,
+            1e-3,
+            radii,
+            selection._unit_rings(8, 16),
+            selection._MAX_DISKS,
+            selection._DISKS_PER_PIECE,
+            selection._DISKS_PER_SECOND,
+            selection._SLIVER_DEPTH * 2.0,
+        )
         ref = selection._search_boxed(t, a_d, radii, 16, t.limits, 1e-3)
         statuses.add(status)
         if ref is None:
@@ -914,13 +1124,23 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
         p = t.path
         for _ in range(3):
             a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-            samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0,
-                                       2.0, 16.0, 0.02)
+            samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
             disks = nao_disks_within(samples, 8.0)
             cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
             for k in range(len(cands)):
-                args = (cands[k:k + 1], 0, 8.0, a_d, 1e-3, 2.0, t.v, t.v_max, *p.arrays,
-                        t.sweep, 0.0)
+                args = (
+                    cands[k : k + 1],
+                    0,
+                    8.0,
+                    a_d,
+                    1e-3,
+                    2.0,
+                    t.v,
+                    t.v_max,
+                    *p.arrays,
+                    t.sweep,
+                    0.0,
+                )
                 found, x, y, _, _ = try_candidates_disc(*args, disks)
                 ray_only = try_candidates_disc(*args, np.zeros((0, 3)))[0]
                 assert found or not ray_only
@@ -948,17 +1168,33 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
     buf, res = np.empty(3), np.empty(3)
     carried = np.full(2, -1, dtype=np.int64)
     for a, want in zip(cands, ref, strict=True):
-        for hint in (np.full(2, -1, dtype=np.int64), carried,
-                     np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64)):
-            ok, tested = ok_disc(a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, *p.arrays, t.sweep,
-                                 0.0, buf, res, hint)
+        for hint in (
+            np.full(2, -1, dtype=np.int64),
+            carried,
+            np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64),
+        ):
+            ok, tested = ok_disc(
+                a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, *p.arrays, t.sweep, 0.0, buf, res, hint
+            )
             assert ok == want and tested == 1
 
 
 @pytest.mark.slow
 def test_decide_leaves_non_finite_robots_to_the_caller():
-    (times, pred, nb_all, start, index, wall_c, wall_r, wall_start, wall_index, acc, v_max,
-     margin) = _batch_scene(2)
+    (
+        times,
+        pred,
+        nb_all,
+        start,
+        index,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        acc,
+        v_max,
+        margin,
+    ) = _batch_scene(2)
     n = len(nb_all)
     vel = nb_all.velocities.copy()
     vel[0, 1] = np.nan
@@ -966,13 +1202,26 @@ def test_decide_leaves_non_finite_robots_to_the_caller():
     bad_body = index[start[1]] if start[2] > start[1] else None
     if bad_body is not None:
         pred[bad_body, 3, 0] = np.inf
-    kind, _, _ = decide(times, pred, path_excursions(pred),
-                        (start, index, wall_c, wall_r, wall_start, wall_index), nb_all.radii,
-                        np.arange(n), nb_all.positions, vel, nb_all.radii + margin,
-                        np.full(n, 2.0), v_max, np.ones(n, dtype=bool), acc, np.zeros((n, 2)))
+    kind, _, _ = decide(
+        times,
+        pred,
+        path_excursions(pred),
+        (start, index, wall_c, wall_r, wall_start, wall_index),
+        nb_all.radii,
+        np.arange(n),
+        nb_all.positions,
+        vel,
+        nb_all.radii + margin,
+        np.full(n, 2.0),
+        v_max,
+        np.ones(n, dtype=bool),
+        acc,
+        np.zeros((n, 2)),
+    )
     assert kind[0] == UNDECIDED
     if bad_body is not None:
         assert kind[1] == UNDECIDED
-    others = [k for k in range(n) if not np.any(np.isin(index[start[k]:start[k + 1]],
-                                                        [bad_body]))]
+    others = [
+        k for k in range(n) if not np.any(np.isin(index[start[k] : start[k + 1]], [bad_body]))
+    ]
     assert all(kind[k] in (REPAIRED, DESIRED, ADJUSTED, INFEASIBLE) for k in others if k)

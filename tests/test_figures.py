@@ -34,13 +34,21 @@ def test_grazing_side_of_a_straight_pass():
     assert grazing_side(a, np.array([5.0]), (1.0, 0.0), moving((5.0, -1.0))) == "right"
     # judged along the velocity relative to the obstacle: an obstacle overtaking the robot
     # (at 3 m/s, level with it at t = 5 s) passes on its right
-    assert grazing_side(a, np.array([5.0]), (1.0, 0.0), moving((-10.0, 1.0), (3.0, 0.0))) \
-        == "right"
+    assert grazing_side(a, np.array([5.0]), (1.0, 0.0), moving((-10.0, 1.0), (3.0, 0.0))) == "right"
     t = np.linspace(0.0, 10.0, 11)
-    assert grazing_side(a, np.array([5.0]), (1.0, 0.0),
-                        sampled(t, np.stack([np.full(11, 5.0), np.full(11, 1.0)], 1))) == "left"
-    assert grazing_side(np.full((1, 2), np.nan), np.array([1.0]), (1.0, 0.0),
-                        moving((1.0, 1.0))) is None
+    assert (
+        grazing_side(
+            a,
+            np.array([5.0]),
+            (1.0, 0.0),
+            sampled(t, np.stack([np.full(11, 5.0), np.full(11, 1.0)], 1)),
+        )
+        == "left"
+    )
+    assert (
+        grazing_side(np.full((1, 2), np.nan), np.array([1.0]), (1.0, 0.0), moving((1.0, 1.0)))
+        is None
+    )
 
 
 def _draw(name: str):
@@ -59,8 +67,7 @@ def nao_paths():
 def _labels(ax) -> dict[str, object]:
     legend = ax.get_legend()
     assert legend is not None
-    return {t.get_text(): h for t, h in zip(legend.get_texts(), legend.legend_handles,
-                                             strict=True)}
+    return {t.get_text(): h for t, h in zip(legend.get_texts(), legend.legend_handles, strict=True)}
 
 
 def test_nao_paths_explains_lines_arrow_and_circle(nao_paths):
@@ -94,8 +101,7 @@ def test_ao_trajectories_legend_names_both_colours():
         paths = {t: h for t, h in labels.items() if t.startswith("path of")}
         assert len(paths) == 2
         colours = {to_rgba(h.get_color()) for h in paths.values()}
-        drawn = {to_rgba(line.get_color()) for line in ax.get_lines()
-                 if len(line.get_xdata()) > 2}
+        drawn = {to_rgba(line.get_color()) for line in ax.get_lines() if len(line.get_xdata()) > 2}
         assert colours == drawn and len(colours) == 2  # blue and purple, both explained
         assert {t.rsplit(" ", 1)[-1] for t in paths} == {"left", "right"}
         assert any("obstacle" in t for t in labels) and any("t = 0" in t for t in labels)
@@ -131,10 +137,19 @@ def _robot_rows(agents, per_cell=100, maps=("roundabout",)):
     for m in maps:
         for a in agents:
             for k in range(per_cell):
-                rows.append({"map": m, "agent": a, "episode": k // 2, "error": None,
-                             "reached_goal": True, "time_to_goal": 15.0 + (k % 7),
-                             "duration": 40.0, "adjustments": 20 + k % 5,
-                             "min_separation": 0.1})
+                rows.append(
+                    {
+                        "map": m,
+                        "agent": a,
+                        "episode": k // 2,
+                        "error": None,
+                        "reached_goal": True,
+                        "time_to_goal": 15.0 + (k % 7),
+                        "duration": 40.0,
+                        "adjustments": 20 + k % 5,
+                        "min_separation": 0.1,
+                    }
+                )
     return rows
 
 
@@ -160,14 +175,38 @@ def test_time_to_goal_turns_long_agent_labels():
 
 def test_adjustment_rate_interval_by_hand():
     rows = [
-        {"episode": 0, "error": None, "adjustments": 4, "reached_goal": True,
-         "time_to_goal": 4.0, "duration": 9.0},
-        {"episode": 0, "error": None, "adjustments": 6, "reached_goal": False,
-         "time_to_goal": None, "duration": 6.0},  # drove the whole episode
-        {"episode": 1, "error": None, "adjustments": 30, "reached_goal": True,
-         "time_to_goal": 10.0, "duration": 20.0},
-        {"episode": 2, "error": "AgentError: boom", "adjustments": None,
-         "reached_goal": None, "time_to_goal": None, "duration": None},
+        {
+            "episode": 0,
+            "error": None,
+            "adjustments": 4,
+            "reached_goal": True,
+            "time_to_goal": 4.0,
+            "duration": 9.0,
+        },
+        {
+            "episode": 0,
+            "error": None,
+            "adjustments": 6,
+            "reached_goal": False,
+            "time_to_goal": None,
+            "duration": 6.0,
+        },  # drove the whole episode
+        {
+            "episode": 1,
+            "error": None,
+            "adjustments": 30,
+            "reached_goal": True,
+            "time_to_goal": 10.0,
+            "duration": 20.0,
+        },
+        {
+            "episode": 2,
+            "error": "AgentError: boom",
+            "adjustments": None,
+            "reached_goal": None,
+            "time_to_goal": None,
+            "duration": None,
+        },
     ]
     # episodes: a = 10, 30; driven = 10, 10 s: rate 2/s, residuals -10, 10,
     # variance 2/1 * 200 / 20^2 = 1
@@ -181,8 +220,17 @@ def test_adjustment_rate_interval_by_hand():
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 50), st.floats(0.5, 60.0)), min_size=2, max_size=12))
 def test_adjustment_rate_interval_contains_the_summary_rate(episodes):
-    rows = [{"episode": k, "error": None, "adjustments": a, "reached_goal": False,
-             "time_to_goal": None, "duration": d} for k, (a, d) in enumerate(episodes)]
+    rows = [
+        {
+            "episode": k,
+            "error": None,
+            "adjustments": a,
+            "reached_goal": False,
+            "time_to_goal": None,
+            "duration": d,
+        }
+        for k, (a, d) in enumerate(episodes)
+    ]
     rate, lo, hi = report.adjustment_rate_ci95(rows)
     assert rate == pytest.approx(sum(a for a, _ in episodes) / sum(d for _, d in episodes))
     assert 0.0 <= lo <= rate <= hi
@@ -195,10 +243,20 @@ def test_rates_figure_has_adjustment_intervals_and_definition():
     for a in agents:
         mine = [r for r in rows if r["agent"] == a]
         driven = sum(r["time_to_goal"] for r in mine)
-        summary.append({"map": "roundabout", "agent": a, "episodes": 10, "failed_episodes": 0,
-                        "distinct_episodes": 10, "robots": 20, "robots_collided": 0,
-                        "collision_rate": 0.0, "collision_rate_ci95": [0.0, 0.16],
-                        "adjustments_per_s": sum(r["adjustments"] for r in mine) / driven})
+        summary.append(
+            {
+                "map": "roundabout",
+                "agent": a,
+                "episodes": 10,
+                "failed_episodes": 0,
+                "distinct_episodes": 10,
+                "robots": 20,
+                "robots_collided": 0,
+                "collision_rate": 0.0,
+                "collision_rate_ci95": [0.0, 0.16],
+                "adjustments_per_s": sum(r["adjustments"] for r in mine) / driven,
+            }
+        )
     fig = report._rates(summary, rows, ["roundabout"], agents)
     ax_a = fig.axes[1]
     bars = [c for c in ax_a.containers if isinstance(c, BarContainer)]

@@ -20,18 +20,39 @@ HEAVY = ("numba", "pettingzoo", "pygame", "pymunk", "gymnasium", "matplotlib", "
 """Third-party packages that ``import nao_arena`` must not import."""
 
 API = [
-    "AccelLimits", "Agent", "Arena", "ArenaOptions", "Observation", "__version__",
-    "ao_boundary", "ao_boundary_paper", "ao_clearance", "ao_path", "available_maps",
-    "bao_boundary", "env", "load_map", "nao_boundary", "nao_clearance", "nao_query",
-    "parallel_env", "path_boundary", "path_clearance", "repair_acceleration", "sampled_path",
-    "select_acceleration", "vo_clearance", "vo_cone",
+    "AccelLimits",
+    "Agent",
+    "Arena",
+    "ArenaOptions",
+    "Observation",
+    "__version__",
+    "ao_boundary",
+    "ao_boundary_paper",
+    "ao_clearance",
+    "ao_path",
+    "available_maps",
+    "bao_boundary",
+    "env",
+    "load_map",
+    "nao_boundary",
+    "nao_clearance",
+    "nao_query",
+    "parallel_env",
+    "path_boundary",
+    "path_clearance",
+    "repair_acceleration",
+    "sampled_path",
+    "select_acceleration",
+    "vo_clearance",
+    "vo_cone",
 ]
 
 
 def run_python(code: str) -> object:
     """What ``code`` prints (JSON) in a fresh interpreter, started in the repository."""
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          cwd=ROOT, check=False)
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=False
+    )
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
 
@@ -48,7 +69,8 @@ def test_import_is_light():
     loaded = run_python(
         "import json, sys, nao_arena\n"
         f"print(json.dumps(sorted(m for m in sys.modules if m.startswith('nao_arena.') "
-        f"or m.split('.')[0] in {HEAVY!r})))")
+        f"or m.split('.')[0] in {HEAVY!r})))"
+    )
     assert loaded == ["nao_arena._checkout"]
 
 
@@ -58,7 +80,8 @@ def test_a_name_imports_what_it_needs_only():
         "import json, sys, nao_arena\n"
         "nao_arena.Arena, nao_arena.load_map, nao_arena.select_acceleration\n"
         "print(json.dumps(sorted({m.split('.')[0] for m in sys.modules} "
-        "& {'pettingzoo', 'pygame', 'gymnasium'})))")
+        "& {'pettingzoo', 'pygame', 'gymnasium'})))"
+    )
     assert loaded == []
 
 
@@ -72,11 +95,20 @@ def test_each_export_is_its_definition(name: str):
 def test_the_type_checking_block_imports_every_export():
     """Type checkers see each export where it is defined (the block mirrors _EXPORTS)."""
     tree = ast.parse((ROOT / "nao_arena" / "__init__.py").read_text(encoding="utf-8"))
-    blocks = [node for node in tree.body if isinstance(node, ast.If)
-              and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING"]
+    blocks = [
+        node
+        for node in tree.body
+        if isinstance(node, ast.If)
+        and isinstance(node.test, ast.Name)
+        and node.test.id == "TYPE_CHECKING"
+    ]
     assert len(blocks) == 1
-    seen = {alias.name: node.module for node in ast.walk(blocks[0])
-            if isinstance(node, ast.ImportFrom) for alias in node.names}
+    seen = {
+        alias.name: node.module
+        for node in ast.walk(blocks[0])
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+    }
     assert seen == nao_arena._EXPORTS
 
 

@@ -78,9 +78,14 @@ def machine() -> dict[str, str]:
     import numba
     import pymunk
 
-    return {"system": platform.system(), "machine": platform.machine(),
-            "python": _minor(platform.python_version()), "numpy": _minor(np.__version__),
-            "numba": _minor(numba.__version__), "pymunk": _minor(pymunk.version)}
+    return {
+        "system": platform.system(),
+        "machine": platform.machine(),
+        "python": _minor(platform.python_version()),
+        "numpy": _minor(np.__version__),
+        "numba": _minor(numba.__version__),
+        "pymunk": _minor(pymunk.version),
+    }
 
 
 def must_run(here: dict[str, str]) -> bool:
@@ -112,8 +117,11 @@ def _env_digest(env, steps: int, seed: int) -> str:
             out.update(np.ascontiguousarray(obs[name], dtype=np.float64).tobytes())
         if not env.agents:
             break
-        actions = {a: env.action_space(a).sample() * 0 + rng.uniform(-2, 2, 2).astype(
-            env.action_space(a).dtype) for a in env.agents}
+        actions = {
+            a: env.action_space(a).sample() * 0
+            + rng.uniform(-2, 2, 2).astype(env.action_space(a).dtype)
+            for a in env.agents
+        }
         obs, rewards, _, _, infos = env.step(actions)
         for name in sorted(rewards):
             out.update(np.float64(rewards[name]).tobytes())
@@ -144,7 +152,7 @@ def cases() -> dict[str, Callable[[], str]]:
     out: dict[str, Callable[[], str]] = {}
     for map_name, agent, predictor, steps in ARENA_CASES:
         key = f"{map_name}/{agent}/{predictor or 'map'}/{steps}"
-        out[key] = (lambda m=map_name, a=agent, p=predictor, s=steps: arena_hash(m, a, p, s))
+        out[key] = lambda m=map_name, a=agent, p=predictor, s=steps: arena_hash(m, a, p, s)
     out["env/crossing/nao_features/60"] = env_features_hash
     out["shield/circle_swap/60"] = shield_hash
     return out
@@ -162,9 +170,11 @@ def _recorded() -> dict:
     for rec in _records():
         if rec["machine"] == here:
             return rec["hashes"]
-    why = (f"golden hashes recorded for {[r['machine'] for r in _records()]}, this is "
-           f"{here}: install the versions pyproject.toml pins, or record this library set "
-           f"(python {__file__} --record) after checking that nothing else changed")
+    why = (
+        f"golden hashes recorded for {[r['machine'] for r in _records()]}, this is "
+        f"{here}: install the versions pyproject.toml pins, or record this library set "
+        f"(python {__file__} --record) after checking that nothing else changed"
+    )
     if must_run(here):
         pytest.fail(why)
     pytest.skip(why)

@@ -87,9 +87,17 @@ def hostile(tmp_path: Path) -> str:
 
 
 def task(tmp_path: Path, agent: str, timeout: float | None = 20.0, **kw) -> EpisodeTask:
-    return EpisodeTask(map="circle_swap", agent=agent, episode=0, seed=0, overrides={"n": 2},
-                       time_limit=2.0, path=str(tmp_path / "x.json"), episode_timeout=timeout,
-                       **kw)
+    return EpisodeTask(
+        map="circle_swap",
+        agent=agent,
+        episode=0,
+        seed=0,
+        overrides={"n": 2},
+        time_limit=2.0,
+        path=str(tmp_path / "x.json"),
+        episode_timeout=timeout,
+        **kw,
+    )
 
 
 def one_line(capsys) -> str:
@@ -142,13 +150,20 @@ def test_the_budget_is_enforced_from_outside():
 def test_os_exit_in_act_fails_the_episode_not_the_trial(tmp_path, hostile, capsys):
     record = compute_episode(task(tmp_path, f"{hostile}:Exits"))
     assert record["result"] is None
-    assert record["error"].startswith("EpisodeProcessEnded: the episode's process exited "
-                                      "with status 0")
+    assert record["error"].startswith(
+        "EpisodeProcessEnded: the episode's process exited with status 0"
+    )
     assert main(["run", "circle_swap", *RUN, "--agent", f"{hostile}:Exits"]) == 2
     assert one_line(capsys).startswith("nao-arena: error: EpisodeProcessEnded:")
     # a trial records it and goes on to its summary
-    config = TrialConfig(maps=("circle_swap",), agents=("goal", f"{hostile}:Exits"),
-                         episodes=2, out=tmp_path / "out", overrides={"n": 2}, time_limit=2.0)
+    config = TrialConfig(
+        maps=("circle_swap",),
+        agents=("goal", f"{hostile}:Exits"),
+        episodes=2,
+        out=tmp_path / "out",
+        overrides={"n": 2},
+        time_limit=2.0,
+    )
     result = run_trial(config, progress=None)
     rows = {r["agent"]: r for r in result.summary}
     assert rows[f"{hostile}:Exits"]["failed_episodes"] == 2
@@ -168,8 +183,10 @@ def test_a_fork_in_act_ends_when_act_returns(tmp_path, hostile, monkeypatch):
     # the same episode in this process: its forks end too, and change nothing
     monkeypatch.setenv("FORK_MARKER", str(tmp_path / "forked_here"))
     spec = load_map("circle_swap", n=2).model_copy(
-        update={"episode": load_map("circle_swap", n=2).episode.model_copy(
-            update={"time_limit": 2.0})})
+        update={
+            "episode": load_map("circle_swap", n=2).episode.model_copy(update={"time_limit": 2.0})
+        }
+    )
     here = Arena(spec, ArenaOptions(agent=f"{hostile}:Forks")).run(0)
     assert len((tmp_path / "forked_here").read_text().split()) == 2
     assert here.trajectory_hash == record["result"]["trajectory_hash"]
@@ -188,15 +205,28 @@ def test_an_agent_that_blocks_the_alarm_is_stopped_from_outside(tmp_path, hostil
     took = time.monotonic() - start
     assert record["error"] == "EpisodeTimeout: episode exceeded its wall-clock budget of 0.5 s"
     assert took < 0.5 + GRACE + 10.0
-    assert main(["run", "circle_swap", *RUN, "--agent", f"{hostile}:Spins",
-                 "--episode-timeout", "0.5"]) == 2
-    assert one_line(capsys) == ("nao-arena: error: EpisodeTimeout: episode exceeded its "
-                                "wall-clock budget of 0.5 s")
+    assert (
+        main(
+            ["run", "circle_swap", *RUN, "--agent", f"{hostile}:Spins", "--episode-timeout", "0.5"]
+        )
+        == 2
+    )
+    assert one_line(capsys) == (
+        "nao-arena: error: EpisodeTimeout: episode exceeded its wall-clock budget of 0.5 s"
+    )
 
 
 def test_a_thread_left_running_does_not_keep_run_alive(hostile):
-    cmd = [sys.executable, "-m", "nao_arena.cli", "run", "circle_swap", *RUN, "--agent",
-           f"{hostile}:Lingers"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "nao_arena.cli",
+        "run",
+        "circle_swap",
+        *RUN,
+        "--agent",
+        f"{hostile}:Lingers",
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "map circle_swap" in done.stdout
@@ -205,13 +235,33 @@ def test_a_thread_left_running_does_not_keep_run_alive(hostile):
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
 def test_killing_a_trial_leaves_no_worker_behind(tmp_path):
     slow = tmp_path / "slow.py"
-    slow.write_text("import time\nimport numpy as np\n\nclass Slow:\n"
-                    "    def reset(self, spec, rng):\n        pass\n\n"
-                    "    def act(self, obs):\n        time.sleep(0.05)\n"
-                    "        return np.zeros(2)\n")
-    cmd = [sys.executable, "-m", "nao_arena.cli", "trial", "--map", "circle_swap", "--set",
-           "n=2", "--agent", f"{slow}:Slow", "--episodes", "4", "--workers", "2",
-           "--time-limit", "60", "--out", str(tmp_path / "out"), "--quiet"]
+    slow.write_text(
+        "import time\nimport numpy as np\n\nclass Slow:\n"
+        "    def reset(self, spec, rng):\n        pass\n\n"
+        "    def act(self, obs):\n        time.sleep(0.05)\n"
+        "        return np.zeros(2)\n"
+    )
+    cmd = [
+        sys.executable,
+        "-m",
+        "nao_arena.cli",
+        "trial",
+        "--map",
+        "circle_swap",
+        "--set",
+        "n=2",
+        "--agent",
+        f"{slow}:Slow",
+        "--episodes",
+        "4",
+        "--workers",
+        "2",
+        "--time-limit",
+        "60",
+        "--out",
+        str(tmp_path / "out"),
+        "--quiet",
+    ]
     main_process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 240
@@ -266,8 +316,9 @@ def test_the_workers_warm_up_is_not_the_episodes(tmp_path):
         assert record["error"] is None, record["error"]
         print(len(_plan_period.overloads))
     """)
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=600, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=tmp_path
+    )
     assert done.returncode == 0, done.stderr
     assert int(done.stdout.split()[-1]) >= 1
 
@@ -276,24 +327,29 @@ def test_the_workers_warm_up_is_not_the_episodes(tmp_path):
 
 
 def test_too_many_faults_fail_the_episode(tmp_path, hostile, capsys):
-    arena = Arena(load_map("circle_swap", n=2),
-                  ArenaOptions(agent=f"{hostile}:Raises", max_faults=5))
+    arena = Arena(
+        load_map("circle_swap", n=2), ArenaOptions(agent=f"{hostile}:Raises", max_faults=5)
+    )
     arena.reset(0)
     for _ in range(2):
         arena.step()  # 4 faults
-    with pytest.raises(TooManyFaults, match="6 agent faults by t = 0.2 s, more than the 5 "
-                                            "allowed .* RuntimeError: no plan"):
+    with pytest.raises(
+        TooManyFaults,
+        match="6 agent faults by t = 0.2 s, more than the 5 allowed .* RuntimeError: no plan",
+    ):
         arena.step()
     record = compute_episode(task(tmp_path, f"{hostile}:Raises", max_faults=3))
     assert record["error"].startswith("TooManyFaults: 4 agent faults")
-    assert main(["run", "circle_swap", *RUN, "--agent", f"{hostile}:Raises",
-                 "--max-faults", "0"]) == 2
+    assert (
+        main(["run", "circle_swap", *RUN, "--agent", f"{hostile}:Raises", "--max-faults", "0"]) == 2
+    )
     assert one_line(capsys).startswith("nao-arena: error: TooManyFaults: 2 agent faults")
     # without a limit the episode runs, and says loudly that it was all faults
     assert main(["run", "circle_swap", *RUN, "--agent", f"{hostile}:Raises"]) == 0
     warning = one_line(capsys)
-    assert warning.startswith("nao-arena: warning: 40 of 40 robot-steps were agent faults "
-                              "(2 robots: swap0, swap1)")
+    assert warning.startswith(
+        "nao-arena: warning: 40 of 40 robot-steps were agent faults (2 robots: swap0, swap1)"
+    )
     with pytest.raises(ValueError, match="max_faults"):
         ArenaOptions(max_faults=-1)
 
@@ -324,9 +380,15 @@ def test_a_class_that_is_no_agent_is_refused_before_it_is_made(tmp_path, hostile
 
 
 def test_a_trial_records_max_faults_in_its_settings(tmp_path, hostile):
-    config = TrialConfig(maps=("circle_swap",), agents=(f"{hostile}:Raises",), episodes=1,
-                         out=tmp_path / "out", overrides={"n": 2}, time_limit=1.0,
-                         max_faults=2)
+    config = TrialConfig(
+        maps=("circle_swap",),
+        agents=(f"{hostile}:Raises",),
+        episodes=1,
+        out=tmp_path / "out",
+        overrides={"n": 2},
+        time_limit=1.0,
+        max_faults=2,
+    )
     run_trial(config, progress=None)
     settings = json.loads((tmp_path / "out" / "trial.json").read_text())
     assert settings["max_faults"] == 2
@@ -344,8 +406,19 @@ def _temporaries(folder: Path) -> list[str]:
 @pytest.mark.parametrize("how", [signal.SIGTERM, signal.SIGKILL])
 def test_a_killed_recording_leaves_no_temporary_file(tmp_path, how):
     out = tmp_path / "episode.gif"
-    cmd = [sys.executable, "-m", "nao_arena.cli", "run", "circle_swap", "--set", "n=8",
-           "--render", "gif", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "nao_arena.cli",
+        "run",
+        "circle_swap",
+        "--set",
+        "n=8",
+        "--render",
+        "gif",
+        "--out",
+        str(out),
+    ]
     process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and not _temporaries(tmp_path):
@@ -378,8 +451,9 @@ def test_temporary_files_of_live_writers_are_kept(tmp_path):
     try:
         alive = tmp_path / f".x.json.{sleeper.pid}.abc.tmp"
         alive.write_text("")
-        dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                              capture_output=True, text=True).stdout.strip()
+        dead = subprocess.run(
+            [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+        ).stdout.strip()
         stale = tmp_path / f".x.json.{dead}.abc.tmp"
         stale.write_text("")
         other = tmp_path / f".y.json.{dead}.abc.tmp"
@@ -404,16 +478,39 @@ def test_a_full_disk_during_a_trial_is_one_line(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(trial_run, "write_record", full)
     out = tmp_path / "out"
-    assert main(["trial", "--map", "circle_swap", "--set", "n=2", "--agent", "goal",
-                 "--episodes", "1", "--time-limit", "1", "--out", str(out), "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                "circle_swap",
+                "--set",
+                "n=2",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--time-limit",
+                "1",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     err = one_line(capsys)
     assert err.startswith("nao-arena: error: ") and "No space left on device" in err
     assert "run the same command again to resume" in err
 
 
-@pytest.mark.parametrize("command", [["figures", "--out", "/proc/nao-arena-x"],
-                                     ["trial", "--map", "circle_swap", "--agent", "goal",
-                                      "--out", "/proc/nao-arena-x"]])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["figures", "--out", "/proc/nao-arena-x"],
+        ["trial", "--map", "circle_swap", "--agent", "goal", "--out", "/proc/nao-arena-x"],
+    ],
+)
 def test_an_output_folder_that_cannot_be_made_is_one_line(command, capsys):
     assert main(command) == 2
     err = one_line(capsys)
@@ -423,8 +520,9 @@ def test_an_output_folder_that_cannot_be_made_is_one_line(command, capsys):
 def test_absurd_time_limits_are_refused(capsys):
     for value in ("1e300", "1e6"):
         assert main(["run", "circle_swap", "--time-limit", value]) == 2
-        assert one_line(capsys).startswith("nao-arena: error: --time-limit: expected a "
-                                           "number of seconds > 0 and <= 100000")
+        assert one_line(capsys).startswith(
+            "nao-arena: error: --time-limit: expected a number of seconds > 0 and <= 100000"
+        )
     # a time limit within bounds but too many control periods for the map's dt
     from nao_arena.maps import MapError, with_time_limit
 

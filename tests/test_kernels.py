@@ -108,7 +108,8 @@ def test_parts_for_agents():
 def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch):
     """Kernels compiled ahead in worker processes are in the cache; a fresh process then
     loads them without compiling; the callee is compiled before its caller."""
-    (tmp_path / "ahead_kernels.py").write_text(textwrap.dedent("""
+    (tmp_path / "ahead_kernels.py").write_text(
+        textwrap.dedent("""
         from numba import njit
 
         @njit(cache=True)
@@ -118,15 +119,20 @@ def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch):
         @njit(cache=True)
         def outer(x):
             return inner(x) + 1.0
-    """))
+    """)
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     inner = Kernel("ahead_kernels", "inner", ("float64",), (), ("core",), 0.1)
     outer = Kernel("ahead_kernels", "outer", ("float64",), (inner.key,), ("core",), 0.1)
     manifest = Manifest(numba.__version__, {inner.key: inner, outer.key: outer})
     assert missing_kernels(["core"], manifest) == [outer.key]  # only what no kernel calls
     order = []
-    report = compile_ahead(["core"], jobs=2, manifest=manifest,
-                           on_done=lambda done, total, key: order.append((done, total, key)))
+    report = compile_ahead(
+        ["core"],
+        jobs=2,
+        manifest=manifest,
+        on_done=lambda done, total, key: order.append((done, total, key)),
+    )
     assert report.kernels == 2 and not report.failed and report.jobs == 2
     assert order == [(1, 2, inner.key), (2, 2, outer.key)]
     assert missing_kernels(["core"], manifest) == []
@@ -142,19 +148,22 @@ def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch):
         assert ahead_kernels.outer(1.5) == 4.0 and ahead_kernels.inner(1.0) == 2.0
         print(compiled)
     """)
-    out = subprocess.run([sys.executable, "-c", probe], cwd=tmp_path, capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, capture_output=True, text=True, check=True
+    )
     assert out.stdout.strip() == "[]"
 
 
 def test_a_stale_manifest_entry_is_reported_not_raised(tmp_path, monkeypatch):
     (tmp_path / "stale_kernels.py").write_text(
-        "from numba import njit\n\n@njit(cache=True)\ndef f(x):\n    return x + 1\n")
+        "from numba import njit\n\n@njit(cache=True)\ndef f(x):\n    return x + 1\n"
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     gone = Kernel("stale_kernels", "g", ("float64",), (), ("core",), 0.1)
     fine = Kernel("stale_kernels", "f", ("float64",), (), ("core",), 0.1)
-    report = compile_ahead(["core"], jobs=1,
-                           manifest=Manifest("", {gone.key: gone, fine.key: fine}))
+    report = compile_ahead(
+        ["core"], jobs=1, manifest=Manifest("", {gone.key: gone, fine.key: fine})
+    )
     assert list(report.failed) == [gone.key] and report.kernels == 2
 
 
@@ -179,11 +188,18 @@ def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
         record_episode(arena, os.path.join(sys.argv[1], "x.gif"), max_steps=2)
         print(json.dumps(sorted(key for key, (_, sig, _) in _loaded_kernels().items()
                                 if _nameable(repr(t) for t in sig))))
-    """).replace("from nao_arena.maps import available_maps",
-                 "from nao_arena.maps import available_maps, load_map")
+    """).replace(
+        "from nao_arena.maps import available_maps",
+        "from nao_arena.maps import available_maps, load_map",
+    )
     # run from tmp_path: `python -c` imports from its working folder first
-    out = subprocess.run([sys.executable, "-c", probe, str(tmp_path)], cwd=tmp_path,
-                         capture_output=True, text=True, check=False)
+    out = subprocess.run(
+        [sys.executable, "-c", probe, str(tmp_path)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     used = set(json.loads(out.stdout.splitlines()[-1]))
     missing = used - set(load_manifest().kernels)

@@ -20,11 +20,26 @@ from nao_arena.maps import (
 
 BAD = Path(__file__).parent / "bad_maps"
 SHIPPED = [
-    "circle_swap", "circle_swap_perturbed", "corridor", "crossing", "crossing_streams",
-    "crossing_streams_perturbed", "crowd", "dense_swap", "dense_swap_perturbed", "doorway",
-    "doorway_perturbed", "intersection", "intersection_perturbed", "pillar_corridor",
-    "pillar_corridor_perturbed", "roundabout", "roundabout_crossing", "two_lane_road",
-    "warehouse_aisles", "warehouse_aisles_perturbed",
+    "circle_swap",
+    "circle_swap_perturbed",
+    "corridor",
+    "crossing",
+    "crossing_streams",
+    "crossing_streams_perturbed",
+    "crowd",
+    "dense_swap",
+    "dense_swap_perturbed",
+    "doorway",
+    "doorway_perturbed",
+    "intersection",
+    "intersection_perturbed",
+    "pillar_corridor",
+    "pillar_corridor_perturbed",
+    "roundabout",
+    "roundabout_crossing",
+    "two_lane_road",
+    "warehouse_aisles",
+    "warehouse_aisles_perturbed",
 ]
 
 
@@ -41,7 +56,7 @@ def test_shipped_map_loads(name: str) -> None:
     bodies = spec.bodies()
     assert [b.index for b in bodies] == list(range(len(bodies)))
     assert all(b.kind == "robot" for b in bodies[: spec.n_robots])
-    assert all(b.kind == "traffic" for b in bodies[spec.n_robots:])
+    assert all(b.kind == "traffic" for b in bodies[spec.n_robots :])
     segs, radii = spec.wall_segments()
     assert segs.shape == (len(radii), 2, 2)
 
@@ -52,9 +67,13 @@ def test_roundabout_is_the_papers_scene() -> None:
     assert sorted(g.lane.radius for g in spec.traffic) == [20.0, 24.0, 28.0]
     assert all(4.0 <= g.speed <= 8.0 and g.radius == 1.0 for g in spec.traffic)
     crossers = [
-        r for r in spec.robots
-        if np.hypot(*r.start) > 28 + 2 and np.hypot(*r.goal) > 28 + 2
-        and np.dot(r.start, r.goal) < 0 and r.agent == "nao" and r.predictor == "known_path"
+        r
+        for r in spec.robots
+        if np.hypot(*r.start) > 28 + 2
+        and np.hypot(*r.goal) > 28 + 2
+        and np.dot(r.start, r.goal) < 0
+        and r.agent == "nao"
+        and r.predictor == "known_path"
     ]
     assert crossers
 
@@ -126,7 +145,10 @@ def test_layout_robots_get_the_template() -> None:
 
 def test_parse_overrides_types() -> None:
     assert parse_overrides(["n=20", "speed=5.5", "agent=orca", "flag=true"]) == {
-        "n": 20, "speed": 5.5, "agent": "orca", "flag": True,
+        "n": 20,
+        "speed": 5.5,
+        "agent": "orca",
+        "flag": True,
     }
     with pytest.raises(MapError, match="expected name=value"):
         parse_overrides(["n20"])
@@ -161,10 +183,12 @@ def test_unknown_map_name_lists_the_shipped_maps() -> None:
 
 
 def test_map_from_dict_and_route_goal() -> None:
-    spec = map_from_dict({
-        "bounds": {"min": [-5, -5], "max": [5, 5]},
-        "robots": [{"start": [0, 0], "route": [[1, 1], [2, 2]]}],
-    })
+    spec = map_from_dict(
+        {
+            "bounds": {"min": [-5, -5], "max": [5, 5]},
+            "robots": [{"start": [0, 0], "route": [[1, 1], [2, 2]]}],
+        }
+    )
     assert spec.robots[0].goal == (2.0, 2.0) and spec.robots[0].name == "robot0"
     assert spec.physics.dt == 0.1 and spec.physics.substeps == 10
 
@@ -198,8 +222,10 @@ BAD_CASES = {
     "point_too_short.yaml": ("walls[0].a", "expected at least 2 items"),
     "nonconvex_polygon.yaml": ("walls[0].points", "expected a convex polygon"),
     "zero_substeps.yaml": ("physics.substeps", "expected a positive number, got 0"),
-    "unknown_builder.yaml": ("layouts[0].builder",
-                             "expected one of circle_swap, crowd, queue, stream"),
+    "unknown_builder.yaml": (
+        "layouts[0].builder",
+        "expected one of circle_swap, crowd, queue, stream",
+    ),
     "bad_layout_arg.yaml": ("layouts[0].args.n", "expected a positive number, got -3"),
     "unknown_layout_arg.yaml": ("layouts[0].args.diameter", "unknown key; expected one of: n"),
     "crowd_too_dense.yaml": ("layouts[0]", "cannot place 200 robots"),
@@ -211,10 +237,15 @@ BAD_CASES = {
     "duplicate_key.yaml": ("line 3, column 56", "the key 'radius' twice in one mapping"),
     "tiny_dt.yaml": ("physics.dt", "expected a number >= 0.001, got 1e-09"),
     "huge_dt.yaml": ("physics.dt", "expected a number <= 1000000.0, got 1e+300"),
-    "many_neighbours.yaml": ("sensing.max_neighbours",
-                             "expected a number <= 10000, got 1000000000"),
-    "too_many_steps.yaml": ("episode.time_limit", "expected at most 1000000 control periods "
-                            "per episode (time_limit / physics.dt), got 5000 s / 0.001 s"),
+    "many_neighbours.yaml": (
+        "sensing.max_neighbours",
+        "expected a number <= 10000, got 1000000000",
+    ),
+    "too_many_steps.yaml": (
+        "episode.time_limit",
+        "expected at most 1000000 control periods "
+        "per episode (time_limit / physics.dt), got 5000 s / 0.001 s",
+    ),
     "huge_bounds.yaml": ("bounds.min[0]", "expected a number >= -1000000.0, got -1e+300"),
     "deep_nesting.yaml": ("line 1, column 58", "at most 50 levels of nesting"),
     "not_utf8.yaml": ("byte 43", "expected UTF-8 text (invalid start byte)"),
@@ -225,7 +256,8 @@ BAD_CASES = {
     "huge_substeps.yaml": ("physics.substeps", "expected a number <= 1000, got 100000000"),
     "huge_traffic_count.yaml": ("traffic[0].count", "expected a number <= 10000, got 1000000000"),
     "too_many_bodies.yaml": (
-        "traffic[1].count", "expected at most 10000 bodies (robots and traffic vehicles) in a "
+        "traffic[1].count",
+        "expected at most 10000 bodies (robots and traffic vehicles) in a "
         "map, got 10001 with this group's vehicles",
     ),
     "huge_layout_n.yaml": ("layouts[0].args.n", "expected a number <= 10000, got 1000000000"),
@@ -241,15 +273,18 @@ BAD_CASES = {
     "nan_time_limit.yaml": ("episode.time_limit", "expected a finite number, got nan"),
     # names checked when the map loads
     "unknown_agent.yaml": (
-        "robots[0].agent", "expected one of nao, ao, vo, orca, goal, lane, or a name given "
+        "robots[0].agent",
+        "expected one of nao, ao, vo, orca, goal, lane, or a name given "
         "with --agent NAME=REFERENCE, got 'superbot'",
     ),
     "unknown_options_agent.yaml": (
-        "robots[0].agent_options_for", "expected one of nao, ao, vo, orca, goal, lane, or a "
+        "robots[0].agent_options_for",
+        "expected one of nao, ao, vo, orca, goal, lane, or a "
         "name given with --agent NAME=REFERENCE, got 'naoo'",
     ),
     "unknown_predictor.yaml": (
-        "layouts[0].robot.predictor", "expected one of constant_velocity, "
+        "layouts[0].robot.predictor",
+        "expected one of constant_velocity, "
         "constant_acceleration, turn_rate, known_path, shared_plan, got 'crystal_ball'",
     ),
 }
@@ -284,25 +319,73 @@ EVERY_NUMBER: dict = {
         {"type": "segment", "a": [-5, 20], "b": [5, 20], "thickness": 0.2},
         {"type": "polygon", "points": [[30, -40], [32, -40], [32, -38]]},
     ],
-    "robots": [{"start": [0, 0], "goal": [1, 1], "route": [[1, 1]], "velocity": [0.5, 0],
-                "radius": 0.3, "mass": 1, "a_max": 2, "v_max": 1.5}],
+    "robots": [
+        {
+            "start": [0, 0],
+            "goal": [1, 1],
+            "route": [[1, 1]],
+            "velocity": [0.5, 0],
+            "radius": 0.3,
+            "mass": 1,
+            "a_max": 2,
+            "v_max": 1.5,
+        }
+    ],
     "layouts": [
-        {"builder": "stream", "args": {"n": 2, "origin": [-10, -10], "direction": [1, 0],
-                                       "distance": 5, "spacing": 1, "width": 1, "perturb": 0},
-         "robot": {"radius": 0.3, "mass": 1, "a_max": 2, "v_max": 1.5}},
-        {"builder": "circle_swap", "args": {"n": 3, "radius": 3, "center": [20, 30],
-                                            "angle": 0.5, "perturb": 0.1}},
-        {"builder": "crowd", "args": {"n": 2, "region_min": [-45, -45], "region_max": [-30, -30],
-                                      "min_gap": 0.2, "min_travel": 0, "max_tries": 1000}},
+        {
+            "builder": "stream",
+            "args": {
+                "n": 2,
+                "origin": [-10, -10],
+                "direction": [1, 0],
+                "distance": 5,
+                "spacing": 1,
+                "width": 1,
+                "perturb": 0,
+            },
+            "robot": {"radius": 0.3, "mass": 1, "a_max": 2, "v_max": 1.5},
+        },
+        {
+            "builder": "circle_swap",
+            "args": {"n": 3, "radius": 3, "center": [20, 30], "angle": 0.5, "perturb": 0.1},
+        },
+        {
+            "builder": "crowd",
+            "args": {
+                "n": 2,
+                "region_min": [-45, -45],
+                "region_max": [-30, -30],
+                "min_gap": 0.2,
+                "min_travel": 0,
+                "max_tries": 1000,
+            },
+        },
     ],
     "traffic": [
-        {"lane": {"type": "circle", "center": [0, 0], "radius": 30, "start_angle": 0},
-         "speed": 2, "count": 2, "spacing": 90, "offset": 0, "phase_jitter": 0, "radius": 1,
-         "mass": 1000, "a_max": 3, "v_max": 3, "time_headway": 1, "min_gap": 2},
+        {
+            "lane": {"type": "circle", "center": [0, 0], "radius": 30, "start_angle": 0},
+            "speed": 2,
+            "count": 2,
+            "spacing": 90,
+            "offset": 0,
+            "phase_jitter": 0,
+            "radius": 1,
+            "mass": 1000,
+            "a_max": 3,
+            "v_max": 3,
+            "time_headway": 1,
+            "min_gap": 2,
+        },
         {"lane": {"type": "polyline", "points": [[-40, 45], [40, 45]]}, "speed": 1},
     ],
-    "physics": {"dt": 0.1, "substeps": 10, "elasticity": 0.2, "friction": 0,
-                "collision_slop": 0.005, "iterations": 10},
+    "physics": {
+        "dt": 0.1,
+        "substeps": 10,
+        "elasticity": 0.2,
+        "friction": 0,
+        "collision_slop": 0.005,
+        "iterations": 10,
+    },
     "episode": {"time_limit": "$t", "goal_tolerance": 0.3},
     "sensing": {"range": 30, "max_neighbours": 5},
 }
@@ -311,8 +394,12 @@ EVERY_NUMBER: dict = {
 def _number_paths(node: object, path: str = "") -> list[str]:
     """Paths (as in map errors) of the numbers in node, outside ``parameters``."""
     if isinstance(node, dict):
-        return [q for k, v in node.items() if k != "parameters"
-                for q in _number_paths(v, f"{path}.{k}".lstrip("."))]
+        return [
+            q
+            for k, v in node.items()
+            if k != "parameters"
+            for q in _number_paths(v, f"{path}.{k}".lstrip("."))
+        ]
     if isinstance(node, list):
         return [q for i, v in enumerate(node) for q in _number_paths(v, f"{path}[{i}]")]
     return [path] if isinstance(node, int | float) and not isinstance(node, bool) else []
@@ -370,10 +457,11 @@ def test_bounds_at_their_caps_load() -> None:
     assert (spec.physics.substeps, spec.physics.iterations) == (1000, 1000)
     # 10000 bodies in all: one robot and 9999 vehicles on a long lane
     lane = {"type": "polyline", "points": [[-40, -40], [40, -40]]}
-    crowded = {"bounds": {"min": [-50, -50], "max": [50, 50]},
-               "robots": [{"start": [0, 0], "goal": [1, 1]}],
-               "traffic": [{"lane": lane, "speed": 1, "count": 9999, "spacing": 0.008,
-                            "radius": 0.003}]}
+    crowded = {
+        "bounds": {"min": [-50, -50], "max": [50, 50]},
+        "robots": [{"start": [0, 0], "goal": [1, 1]}],
+        "traffic": [{"lane": lane, "speed": 1, "count": 9999, "spacing": 0.008, "radius": 0.003}],
+    }
     assert len(map_from_dict(crowded).bodies()) == 10_000
 
 
@@ -384,14 +472,17 @@ def test_agent_references_and_plugins_pass_the_map_check(monkeypatch) -> None:
 
     robot = {"start": [0, 0], "goal": [1, 1]}
     refs = ["path/to/mine.py:Mine", "some.module:Agent", "lane"]
-    data = {"bounds": {"min": [-9, -9], "max": [9, 9]},
-            "robots": [{**robot, "start": [2 * i, 0], "agent": a} for i, a in enumerate(refs)]}
+    data = {
+        "bounds": {"min": [-9, -9], "max": [9, 9]},
+        "robots": [{**robot, "start": [2 * i, 0], "agent": a} for i, a in enumerate(refs)],
+    }
     assert [r.agent for r in map_from_dict(data, trusted=True).robots] == refs
     data["robots"].append({**robot, "start": [-4, 0], "agent": "myplug"})
     with pytest.raises(MapError, match=r"robots\[3\]\.agent: expected one of"):
         map_from_dict(data, trusted=True)
-    monkeypatch.setattr(agent_module, "_plugins",
-                        lambda: {"myplug": SimpleNamespace(value="pkg.mod:Cls")})
+    monkeypatch.setattr(
+        agent_module, "_plugins", lambda: {"myplug": SimpleNamespace(value="pkg.mod:Cls")}
+    )
     assert map_from_dict(data, trusted=True).robots[3].agent == "myplug"
 
 
@@ -411,8 +502,11 @@ def test_a_map_naming_code_is_refused_unless_trusted(field, ref) -> None:
     named = map_from_dict(data, agents={"mine": ref}).robots[0]
     assert getattr(named, field) == ref
     # through a parameter: the map's own default is refused, the caller's value is not
-    data = {"bounds": data["bounds"], "parameters": {"who": ref},
-            "robots": [{**robot, field: "$who"}]}
+    data = {
+        "bounds": data["bounds"],
+        "parameters": {"who": ref},
+        "robots": [{**robot, field: "$who"}],
+    }
     with pytest.raises(MapError, match="--trust-map"):
         map_from_dict(data)
     assert getattr(map_from_dict(data, who=ref).robots[0], field) == ref
@@ -428,7 +522,8 @@ def test_running_a_map_that_names_code_runs_no_code(tmp_path) -> None:
         "  - start: [0, 0]\n"
         "    goal: [1, 1]\n"
         "    agent: 'subprocess:Popen'\n"
-        f"    agent_options: {{args: 'touch {marker}', shell: true}}\n")
+        f"    agent_options: {{args: 'touch {marker}', shell: true}}\n"
+    )
     from nao_arena.cli import main
 
     assert main(["run", str(path), "--time-limit", "0.5"]) == 2
@@ -443,6 +538,8 @@ def test_unknown_agent_from_a_parameter_names_the_field() -> None:
         load_map("circle_swap", agent="superbot")
     msg = str(info.value)
     assert msg.startswith("maps/circle_swap.yaml: layouts[0].robot.agent: expected one of nao")
+
+
 def _scene(spec: MapSpec) -> list[np.ndarray]:
     """A map's start state (every body's position and velocity, traffic phases included)
     and its robots' goals."""
@@ -460,8 +557,9 @@ def test_a_declared_seed_changes_the_scene(name: str) -> None:
     if "seed" not in spec.parameters:
         return  # a map without randomness declares no seed (circle_swap, corridor)
     a, b = _scene(load_map(name, seed=0)), _scene(load_map(name, seed=1))
-    assert any(x.shape != y.shape or not np.array_equal(x, y)
-               for x, y in zip(a, b, strict=True)), f"{name}: seeds 0 and 1 give one scene"
+    assert any(x.shape != y.shape or not np.array_equal(x, y) for x, y in zip(a, b, strict=True)), (
+        f"{name}: seeds 0 and 1 give one scene"
+    )
 
 
 def test_maps_package_parts_use_only_public_names() -> None:
@@ -474,7 +572,13 @@ def test_maps_package_parts_use_only_public_names() -> None:
 
     folder = Path(maps.__file__).parent
     assert {p.stem for p in folder.glob("*.py")} >= {
-        "__init__", "schema", "layouts", "errors", "loader", "reference"}
+        "__init__",
+        "schema",
+        "layouts",
+        "errors",
+        "loader",
+        "reference",
+    }
     for path in folder.glob("*.py"):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("nao_arena"):

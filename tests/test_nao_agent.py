@@ -23,17 +23,35 @@ from nao_arena.obstacles import RADIUS_CUT, obstacle_paths
 from nao_arena.sensing import Neighbours, Observation, SensingBatch, neighbour_lists
 
 
-def observation(pos=(0.0, 0.0), vel=(1.0, 0.0), goal=(10.0, 0.0), nb_pos=(3.0, 0.0),
-                nb_vel=(0.0, 0.0), kind="robot", radius=0.3) -> Observation:
+def observation(
+    pos=(0.0, 0.0),
+    vel=(1.0, 0.0),
+    goal=(10.0, 0.0),
+    nb_pos=(3.0, 0.0),
+    nb_vel=(0.0, 0.0),
+    kind="robot",
+    radius=0.3,
+) -> Observation:
     nb = Neighbours(
-        ids=np.array([1]), kinds=(kind,), positions=np.array([nb_pos], dtype=float),
-        velocities=np.array([nb_vel], dtype=float), accelerations=np.zeros((1, 2)),
+        ids=np.array([1]),
+        kinds=(kind,),
+        positions=np.array([nb_pos], dtype=float),
+        velocities=np.array([nb_vel], dtype=float),
+        accelerations=np.zeros((1, 2)),
         radii=np.array([radius]),
     )
     return Observation(
-        time=0.0, dt=0.1, robot_id=0, position=np.array(pos, dtype=float),
-        velocity=np.array(vel, dtype=float), acceleration=np.zeros(2), radius=radius,
-        a_max=2.0, v_max=1.5, goal=np.array(goal, dtype=float), neighbours=nb,
+        time=0.0,
+        dt=0.1,
+        robot_id=0,
+        position=np.array(pos, dtype=float),
+        velocity=np.array(vel, dtype=float),
+        acceleration=np.zeros(2),
+        radius=radius,
+        a_max=2.0,
+        v_max=1.5,
+        goal=np.array(goal, dtype=float),
+        neighbours=nb,
     )
 
 
@@ -72,13 +90,16 @@ def test_a_young_adjustment_that_becomes_inadmissible_is_repaired_locally():
     assert sel.status == "adjusted"
     path = ag.last_obstacles()
     # just past the boundary, towards the neighbour straight ahead: inadmissible
-    bad = next(b for b in (first + s * (np.array([2.0, 0.0]) - first)
-                           for s in np.linspace(0.01, 1.0, 100))
-               if not ag.admissible(obs, b))
+    bad = next(
+        b
+        for b in (first + s * (np.array([2.0, 0.0]) - first) for s in np.linspace(0.01, 1.0, 100))
+        if not ag.admissible(obs, b)
+    )
     ag.current = bad
     desired = agent().act(observation(nb_pos=(50.0, 50.0)))
-    expected = repair_acceleration(ag.current, desired, obs.velocity, path, AccelLimits(2.0),
-                                   v_max=1.5)
+    expected = repair_acceleration(
+        ag.current, desired, obs.velocity, path, AccelLimits(2.0), v_max=1.5
+    )
     assert expected is not None
     got = ag.act(obs)
     np.testing.assert_array_equal(got, expected)
@@ -174,22 +195,38 @@ def _held_scene(extra: list[tuple[float, float]], speed: float = 0.0) -> Sensing
     bodies = np.zeros(1, dtype=np.int64)
     start, index = neighbour_lists(bodies, pos, 15.0, 10)
     return SensingBatch(
-        time=0.0, dt=0.1, positions=pos, velocities=vel, accelerations=np.zeros((n, 2)),
-        radii=np.full(n, 0.5), a_max=np.full(n, 2.0), v_max=np.full(n, 1.5),
-        kinds=np.array(["robot"] * n), plans=None, known_paths=None, path_times=np.zeros(0),
-        bodies=bodies, goals=np.array([[0.0, 10.0]]), routes=(None,),
-        walls=np.zeros((0, 2, 2)), wall_radius=np.zeros(0), nb_start=start, nb_index=index,
+        time=0.0,
+        dt=0.1,
+        positions=pos,
+        velocities=vel,
+        accelerations=np.zeros((n, 2)),
+        radii=np.full(n, 0.5),
+        a_max=np.full(n, 2.0),
+        v_max=np.full(n, 1.5),
+        kinds=np.array(["robot"] * n),
+        plans=None,
+        known_paths=None,
+        path_times=np.zeros(0),
+        bodies=bodies,
+        goals=np.array([[0.0, 10.0]]),
+        routes=(None,),
+        walls=np.zeros((0, 2, 2)),
+        wall_radius=np.zeros(0),
+        nb_start=start,
+        nb_index=index,
     )
 
 
-@pytest.mark.parametrize(("extra", "held"), [
-    ([], True),                 # held by a standing robot, room behind: counts
-    ([(3.0, -1.5)], True),      # a body behind but more than 1 m off the surface
-    ([(0.8, -1.0)], False),     # boxed in: a body within 1 m behind (a jam)
-    ([(1.3, 0.3)], True),       # a body close beside, towards the goal: still counts
-])
-def test_only_a_robot_held_by_standing_robots_with_room_behind_counts_toward_switching(
-        extra, held):
+@pytest.mark.parametrize(
+    ("extra", "held"),
+    [
+        ([], True),  # held by a standing robot, room behind: counts
+        ([(3.0, -1.5)], True),  # a body behind but more than 1 m off the surface
+        ([(0.8, -1.0)], False),  # boxed in: a body within 1 m behind (a jam)
+        ([(1.3, 0.3)], True),  # a body close beside, towards the goal: still counts
+    ],
+)
+def test_only_a_robot_held_by_standing_robots_with_room_behind_counts_toward_switching(extra, held):
     """The time toward switch_side_after counts while the nearest neighbour stands within
     1 m and nothing is within 1 m behind the robot (away from its goal): held behind a
     parked row, not packed in a jam, where switching sides would go against the crowd."""
@@ -201,23 +238,34 @@ def test_only_a_robot_held_by_standing_robots_with_room_behind_counts_toward_swi
     assert _held_by_standing(moving, rows, np.array([0.5]), moving.goals).tolist() == [False]
 
 
-def _held_by_standing(batch: SensingBatch, rows: np.ndarray, rad: np.ndarray,
-                      goals: np.ndarray) -> np.ndarray:
+def _held_by_standing(
+    batch: SensingBatch, rows: np.ndarray, rad: np.ndarray, goals: np.ndarray
+) -> np.ndarray:
     """The compiled held test (:func:`held_by_standing_kernel`) of the batch rows ``rows``."""
     out = np.zeros(len(rows), dtype=np.bool_)
     f = np.ascontiguousarray
-    held_by_standing_kernel(f(batch.nb_start), f(batch.nb_index), f(rows), f(batch.bodies),
-                            f(batch.positions), f(batch.velocities), f(batch.radii), f(rad),
-                            f(goals), out)
+    held_by_standing_kernel(
+        f(batch.nb_start),
+        f(batch.nb_index),
+        f(rows),
+        f(batch.bodies),
+        f(batch.positions),
+        f(batch.velocities),
+        f(batch.radii),
+        f(rad),
+        f(goals),
+        out,
+    )
     return out
 
 
-def _held_reference(batch: SensingBatch, rows: np.ndarray, rad: np.ndarray,
-                   goals: np.ndarray) -> np.ndarray:
+def _held_reference(
+    batch: SensingBatch, rows: np.ndarray, rad: np.ndarray, goals: np.ndarray
+) -> np.ndarray:
     """The held test in plain numpy, robot by robot (the compiled one's reference)."""
     out = np.zeros(len(rows), dtype=bool)
     for i, row in enumerate(rows.tolist()):
-        nbs = batch.nb_index[batch.nb_start[row]:batch.nb_start[row + 1]]
+        nbs = batch.nb_index[batch.nb_start[row] : batch.nb_start[row + 1]]
         if not len(nbs):
             continue
         own = batch.positions[batch.bodies[row]]
@@ -230,8 +278,7 @@ def _held_reference(batch: SensingBatch, rows: np.ndarray, rad: np.ndarray,
 
 
 @settings(max_examples=150, deadline=None)
-@given(st.integers(1, 40), st.integers(0, 2**32 - 1), st.floats(0.5, 6.0),
-       st.integers(0, 10))
+@given(st.integers(1, 40), st.integers(0, 2**32 - 1), st.floats(0.5, 6.0), st.integers(0, 10))
 def test_held_by_standing_matches_a_robot_by_robot_reference(n, seed, spread, cap):
     """The compiled held test gives the reference's answer for every robot of random
     crowds (half of the bodies standing, goals anywhere, some robots without neighbours)."""
@@ -244,11 +291,26 @@ def test_held_by_standing_matches_a_robot_by_robot_reference(n, seed, spread, ca
     k = len(bodies)
     goals = rng.uniform(-10.0, 10.0, (k, 2))
     batch = SensingBatch(
-        time=0.0, dt=0.1, positions=pos, velocities=vel, accelerations=np.zeros((n, 2)),
-        radii=radii, a_max=np.full(n, 2.0), v_max=np.full(n, 1.5),
-        kinds=np.array(["robot"] * n), plans=None, known_paths=None, path_times=np.zeros(0),
-        bodies=bodies, goals=goals, routes=(None,) * k, walls=np.zeros((0, 2, 2)),
-        wall_radius=np.zeros(0), nb_start=start, nb_index=index)
+        time=0.0,
+        dt=0.1,
+        positions=pos,
+        velocities=vel,
+        accelerations=np.zeros((n, 2)),
+        radii=radii,
+        a_max=np.full(n, 2.0),
+        v_max=np.full(n, 1.5),
+        kinds=np.array(["robot"] * n),
+        plans=None,
+        known_paths=None,
+        path_times=np.zeros(0),
+        bodies=bodies,
+        goals=goals,
+        routes=(None,) * k,
+        walls=np.zeros((0, 2, 2)),
+        wall_radius=np.zeros(0),
+        nb_start=start,
+        nb_index=index,
+    )
     rows = rng.permutation(k).astype(np.int64)
     rad = radii[bodies[rows]]
     want = _held_reference(batch, rows, rad, goals[rows])
@@ -272,13 +334,25 @@ def random_batch(rng: np.random.Generator, n_robots: int, odd: str) -> SensingBa
     start, index = neighbour_lists(bodies, pos, 4.0)
     walls = np.array([[[-4.0, -4.0], [4.0, -4.0]], [[4.0, -4.0], [4.0, 4.0]]])
     return SensingBatch(
-        time=0.0, dt=0.1, positions=pos, velocities=vel,
-        accelerations=rng.uniform(-1.0, 1.0, (n, 2)), radii=rng.uniform(0.2, 0.4, n),
-        a_max=np.full(n, 2.0), v_max=np.full(n, 1.5),
-        kinds=np.array(["robot"] * n_robots + ["traffic"] * 2), plans=None, known_paths=None,
-        path_times=np.zeros(0), bodies=bodies, goals=rng.uniform(-6.0, 6.0, (n_robots, 2)),
-        routes=(None,) * n_robots, walls=walls, wall_radius=np.full(2, 0.05),
-        nb_start=start, nb_index=index,
+        time=0.0,
+        dt=0.1,
+        positions=pos,
+        velocities=vel,
+        accelerations=rng.uniform(-1.0, 1.0, (n, 2)),
+        radii=rng.uniform(0.2, 0.4, n),
+        a_max=np.full(n, 2.0),
+        v_max=np.full(n, 1.5),
+        kinds=np.array(["robot"] * n_robots + ["traffic"] * 2),
+        plans=None,
+        known_paths=None,
+        path_times=np.zeros(0),
+        bodies=bodies,
+        goals=rng.uniform(-6.0, 6.0, (n_robots, 2)),
+        routes=(None,) * n_robots,
+        walls=walls,
+        wall_radius=np.full(2, 0.05),
+        nb_start=start,
+        nb_index=index,
     )
 
 
@@ -288,18 +362,22 @@ def outcome(res: object) -> object:
 
 @pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
 @settings(max_examples=25, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n_robots=st.integers(1, 6),
-       odd=st.sampled_from(["", "nan", "inf"]),
-       infeasible=st.sampled_from(["auto", "latest_contact"]), samples=st.sampled_from([None, 4]))
-def test_act_on_an_observation_is_act_batch_on_the_arenas_batch(seed, n_robots, odd, infeasible,
-                                                               samples):
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n_robots=st.integers(1, 6),
+    odd=st.sampled_from(["", "nan", "inf"]),
+    infeasible=st.sampled_from(["auto", "latest_contact"]),
+    samples=st.sampled_from([None, 4]),
+)
+def test_act_on_an_observation_is_act_batch_on_the_arenas_batch(
+    seed, n_robots, odd, infeasible, samples
+):
     """act (the one-robot batch of an observation) and act_batch (every robot of the
     arena's batch) decide alike, step after step: accelerations, failures, selections,
     detours and the obstacles tested, also for non-finite input and with no braking."""
     rng = np.random.default_rng(seed)
     # stopping plans act across the batch (a batch of one has no one to yield to)
-    options = {"infeasible": infeasible, "samples": samples, "margin": 0.3,
-               "stopping_plans": False}
+    options = {"infeasible": infeasible, "samples": samples, "margin": 0.3, "stopping_plans": False}
     together = [NAOAgent(**options) for _ in range(n_robots)]
     alone = [NAOAgent(**options) for _ in range(n_robots)]
     for k in range(n_robots):
@@ -334,11 +412,13 @@ def test_the_one_robot_batch_gives_back_the_observation():
         np.testing.assert_array_equal(getattr(again, name), getattr(obs, name))
     assert (again.radius, again.a_max, again.v_max) == (obs.radius, obs.a_max, obs.v_max)
     for name in ("positions", "velocities", "accelerations", "radii"):
-        np.testing.assert_array_equal(getattr(again.neighbours, name),
-                                      getattr(obs.neighbours, name))
+        np.testing.assert_array_equal(
+            getattr(again.neighbours, name), getattr(obs.neighbours, name)
+        )
     assert again.neighbours.kinds == obs.neighbours.kinds
-    no_goal = SensingBatch.of_observation(observation(goal=(0.0, 0.0)).__class__(
-        **{**obs.__dict__, "goal": None}))
+    no_goal = SensingBatch.of_observation(
+        observation(goal=(0.0, 0.0)).__class__(**{**obs.__dict__, "goal": None})
+    )
     assert np.all(np.isnan(no_goal.goals))
 
 
@@ -377,8 +457,12 @@ def test_last_obstacles_and_admissible_report_what_act_tested():
 
 @pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
 @settings(max_examples=25, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n_robots=st.integers(1, 6),
-       odd=st.sampled_from(["", "nan", "inf"]), v_pref=st.sampled_from([None, 0.8, 3.0]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n_robots=st.integers(1, 6),
+    odd=st.sampled_from(["", "nan", "inf"]),
+    v_pref=st.sampled_from([None, 0.8, 3.0]),
+)
 def test_goal_seeking_in_bulk_is_goal_seeking_robot_by_robot(seed, n_robots, odd, v_pref):
     """GoalAgent.act_batch and NAO's goal seeking (goal_seeking_accels) compute what
     goal_seeking_accel computes for each robot, bit for bit (also for non-finite input)."""
@@ -392,11 +476,17 @@ def test_goal_seeking_in_bulk_is_goal_seeking_robot_by_robot(seed, n_robots, odd
 
 @pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # the non-finite input
 @settings(max_examples=150, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 30),
-       odd=st.sampled_from(["", "nan", "inf", "at_goal"]), turned=st.booleans(),
-       per_row_tau=st.booleans(), targets_missing=st.booleans())
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, 30),
+    odd=st.sampled_from(["", "nan", "inf", "at_goal"]),
+    turned=st.booleans(),
+    per_row_tau=st.booleans(),
+    targets_missing=st.booleans(),
+)
 def test_compiled_goal_seeking_is_the_numpy_reference_bit_for_bit(
-        seed, n, odd, turned, per_row_tau, targets_missing):
+    seed, n, odd, turned, per_row_tau, targets_missing
+):
     """goal_seeking_accels (compiled) gives the vectorised numpy reference's accelerations
     bit for bit: heading offsets, per-row time constants, robots without a target,
     robots on their goal, far and near goals, non-finite input."""
@@ -407,7 +497,7 @@ def test_compiled_goal_seeking_is_the_numpy_reference_bit_for_bit(
     a_max = rng.uniform(0.5, 3.0, n)
     cap = rng.uniform(0.2, 2.0, n)
     if odd == "at_goal":
-        targets[:: 2] = pos[:: 2]
+        targets[::2] = pos[::2]
     elif odd:
         vel[rng.integers(n)] = float(odd)
         targets[rng.integers(n), rng.integers(2)] = float(odd)
@@ -415,8 +505,9 @@ def test_compiled_goal_seeking_is_the_numpy_reference_bit_for_bit(
     tau = rng.uniform(0.2, 1.0, n) if per_row_tau else 0.5
     has = rng.random(n) < 0.8 if targets_missing else None
     got = goal_seeking_accels(targets, pos, vel, a_max, cap, offsets, tau, has_target=has)
-    want = goal_seeking_accels_reference(targets, pos, vel, a_max, cap, offsets, tau,
-                                         has_target=has)
+    want = goal_seeking_accels_reference(
+        targets, pos, vel, a_max, cap, offsets, tau, has_target=has
+    )
     np.testing.assert_array_equal(got, want)
 
 
@@ -449,7 +540,7 @@ def test_keep_candidates_and_member_lists_are_their_plain_definitions(seed, n):
     nb_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     nb_index = rng.integers(0, 100, nb_start[-1]).astype(np.int64)
     start, index = member_lists(nb_start, nb_index, members)
-    want = [nb_index[nb_start[r]:nb_start[r + 1]] for r in members.tolist()]
+    want = [nb_index[nb_start[r] : nb_start[r + 1]] for r in members.tolist()]
     assert np.diff(start).tolist() == [len(w) for w in want]
     assert index.tolist() == (np.concatenate(want).tolist() if want else [])
 
@@ -459,18 +550,19 @@ def test_obstacle_paths_cut_radii_inside_the_margin_and_keep_walls_within_reach(
     centres = np.array([[[1.5, 1.0]] * 3, [[5.0, 1.0]] * 3])  # world frame, at rest
     position = np.array([1.0, 1.0])
     # segments 0.3 m, 2 m and 8 m away (world frame), grown radii 0.5 m
-    walls = np.array([[[0.0, 1.3], [2.0, 1.3]], [[0.0, 3.0], [2.0, 3.0]],
-                      [[0.0, 9.0], [2.0, 9.0]]])
+    walls = np.array([[[0.0, 1.3], [2.0, 1.3]], [[0.0, 3.0], [2.0, 3.0]], [[0.0, 9.0], [2.0, 9.0]]])
     walls_r = np.array([0.5, 0.5, 0.5])
-    cut = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls, walls_r,
-                         wall_reach=4.0)
+    cut = obstacle_paths(
+        times, centres, np.array([0.75, 0.75]), position, walls, walls_r, wall_reach=4.0
+    )
     np.testing.assert_array_equal(cut.radius, [0.5 * RADIUS_CUT, 0.75])
     np.testing.assert_array_equal(cut.c[:, 0], [[0.5, 0.0], [4.0, 0.0]])
     # the nearest wall cut to just under its distance, the far one beyond reach left out
     np.testing.assert_allclose(cut.wall_radius, [0.3 * RADIUS_CUT, 0.5], rtol=1e-12)
     np.testing.assert_array_equal(cut.walls, walls[:2] - position)
-    whole = obstacle_paths(times, centres, np.array([0.75, 0.75]), position, walls, walls_r,
-                           cut=False)
+    whole = obstacle_paths(
+        times, centres, np.array([0.75, 0.75]), position, walls, walls_r, cut=False
+    )
     np.testing.assert_array_equal(whole.radius, [0.75, 0.75])
     np.testing.assert_array_equal(whole.wall_radius, [0.5, 0.5, 0.5])
     assert obstacle_paths(times, np.zeros((0, 3, 2)), np.zeros(0), position).n_obstacles == 0
@@ -487,10 +579,17 @@ def test_traffic_near_follows_each_kinds_array_even_when_remembered():
     def batch(kinds: np.ndarray) -> SimpleNamespace:
         # robot 0 (body 0) sees body 1, robot 1 (body 2) sees body 2
         return SimpleNamespace(
-            kinds=kinds, nb_start=np.array([0, 1, 2]), nb_index=np.array([1, 2]),
-            bodies=np.array([0, 2]), positions=np.zeros((3, 2)), velocities=np.zeros((3, 2)),
-            radii=np.full(3, 0.5), a_max=np.full(3, 2.0), v_max=np.full(3, 1.5),
-            goals=np.zeros((2, 2)))
+            kinds=kinds,
+            nb_start=np.array([0, 1, 2]),
+            nb_index=np.array([1, 2]),
+            bodies=np.array([0, 2]),
+            positions=np.zeros((3, 2)),
+            velocities=np.zeros((3, 2)),
+            radii=np.full(3, 0.5),
+            a_max=np.full(3, 2.0),
+            v_max=np.full(3, 1.5),
+            goals=np.zeros((2, 2)),
+        )
 
     def traffic_near(b: SimpleNamespace) -> list[bool]:
         return _own_rows(b, np.array([0, 1]))[6].tolist()

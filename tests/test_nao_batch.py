@@ -21,8 +21,9 @@ from nao_arena.agents.nao import NAOAgent
 from nao_arena.sensing import SensingBatch, neighbour_lists
 
 
-def crowd(rng: np.random.Generator, n_robots: int, traffic: int, walls: bool, odd: str,
-          spread: float) -> SensingBatch:
+def crowd(
+    rng: np.random.Generator, n_robots: int, traffic: int, walls: bool, odd: str, spread: float
+) -> SensingBatch:
     """n_robots robots (bodies 0 ..) and ``traffic`` cars (after them) within ``spread`` m
     of the origin, some standing, some slow; walls: a corner of an 8 m box; odd: "nan"
     (a car's velocity unknown), "inf" (robot 0 infinitely fast), "goal" (some goals
@@ -35,25 +36,46 @@ def crowd(rng: np.random.Generator, n_robots: int, traffic: int, walls: bool, od
     if odd == "inf":
         vel[0] = (np.inf, 0.0)
     goals = pos[:n_robots] + rng.normal(0.0, 3.0, (n_robots, 2)) * rng.choice(
-        [0.01, 1.0], (n_robots, 1))
+        [0.01, 1.0], (n_robots, 1)
+    )
     routes: list = [None] * n_robots
     if odd == "goal":
         goals[rng.random(n_robots) < 0.5] = np.nan
         goals[0] = np.nan
         routes[0] = rng.uniform(-5.0, 5.0, (3, 2))
-    bodies = rng.permutation(n)[:n_robots].astype(np.int64) if traffic == 0 else np.arange(
-        n_robots, dtype=np.int64)
+    bodies = (
+        rng.permutation(n)[:n_robots].astype(np.int64)
+        if traffic == 0
+        else np.arange(n_robots, dtype=np.int64)
+    )
     start, index = neighbour_lists(bodies, pos, 4.0, int(rng.integers(1, 12)))
-    segs = (np.array([[[-4.0, -4.0], [4.0, -4.0]], [[4.0, -4.0], [4.0, 4.0]]]) if walls
-            else np.zeros((0, 2, 2)))
+    segs = (
+        np.array([[[-4.0, -4.0], [4.0, -4.0]], [[4.0, -4.0], [4.0, 4.0]]])
+        if walls
+        else np.zeros((0, 2, 2))
+    )
     return SensingBatch(
-        time=0.0, dt=0.1, positions=pos, velocities=vel,
-        accelerations=rng.uniform(-1.0, 1.0, (n, 2)), radii=rng.uniform(0.2, 0.5, n),
-        a_max=rng.choice([2.0, 1.0], n), v_max=rng.choice([1.5, 1.0], n),
-        kinds=np.array(["robot"] * n_robots + ["traffic"] * traffic), plans=None,
-        known_paths=None, path_times=np.zeros(0), bodies=bodies, goals=goals, routes=routes,
-        walls=segs, wall_radius=np.full(len(segs), 0.05), nb_start=start, nb_index=index,
-        substeps=int(rng.choice([1, 10])))
+        time=0.0,
+        dt=0.1,
+        positions=pos,
+        velocities=vel,
+        accelerations=rng.uniform(-1.0, 1.0, (n, 2)),
+        radii=rng.uniform(0.2, 0.5, n),
+        a_max=rng.choice([2.0, 1.0], n),
+        v_max=rng.choice([1.5, 1.0], n),
+        kinds=np.array(["robot"] * n_robots + ["traffic"] * traffic),
+        plans=None,
+        known_paths=None,
+        path_times=np.zeros(0),
+        bodies=bodies,
+        goals=goals,
+        routes=routes,
+        walls=segs,
+        wall_radius=np.full(len(segs), 0.05),
+        nb_start=start,
+        nb_index=index,
+        substeps=int(rng.choice([1, 10])),
+    )
 
 
 def _broken_predictor(times: np.ndarray, nb: object) -> np.ndarray:
@@ -106,11 +128,18 @@ def agent_options(draw: st.DrawFn) -> dict:
 
 
 @settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 9), traffic=st.sampled_from([0, 2]),
-       walls=st.booleans(), odd=st.sampled_from(["", "", "nan", "inf", "goal"]),
-       spread=st.sampled_from([1.5, 3.0, 6.0]), options=st.data())
-def test_the_fused_batch_step_is_the_former_step_bit_for_bit(seed, n, traffic, walls, odd,
-                                                             spread, options):
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, 9),
+    traffic=st.sampled_from([0, 2]),
+    walls=st.booleans(),
+    odd=st.sampled_from(["", "", "nan", "inf", "goal"]),
+    spread=st.sampled_from([1.5, 3.0, 6.0]),
+    options=st.data(),
+)
+def test_the_fused_batch_step_is_the_former_step_bit_for_bit(
+    seed, n, traffic, walls, odd, spread, options
+):
     """NAOAgent.act_batch against the former numpy glue between the same kernels
     (tests/reference/nao_batch_reference.py), over five steps of random crowds: the
     accelerations, the errors and every agent's table row and generator alike."""
@@ -138,8 +167,12 @@ def test_the_fused_batch_step_is_the_former_step_bit_for_bit(seed, n, traffic, w
 
 
 @settings(max_examples=150, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 20),
-       odd=st.sampled_from(["", "nan", "inf"]), turned=st.booleans())
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, 20),
+    odd=st.sampled_from(["", "nan", "inf"]),
+    turned=st.booleans(),
+)
 def test_desired_rows_is_goal_seeking_at_the_agents_cap_bit_for_bit(seed, n, odd, turned):
     """desired_rows: goal_seeking_accels (checked against its numpy reference in
     test_nao_agent.py) at min(v_pref, v_max) (v_max where v_pref is NaN; a NaN v_max
@@ -165,8 +198,9 @@ def test_desired_rows_is_goal_seeking_at_the_agents_cap_bit_for_bit(seed, n, odd
         got = desired_rows(targets, has, pos, vel, a_max, v_max, real, opt)
         v_pref = opt[:, columns.V_PREF]
         cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
-        want = goal_seeking_accels(targets, pos, vel, a_max, cap, real[:, columns.DETOUR],
-                                   has_target=has)
+        want = goal_seeking_accels(
+            targets, pos, vel, a_max, cap, real[:, columns.DETOUR], has_target=has
+        )
     assert same_up_to_nan_sign(got, want)
 
 
@@ -187,13 +221,24 @@ def test_own_rows_gathers_each_robots_state_and_traffic_flag(seed, n, cars):
     traffic[rng.permutation(total)[:cars]] = True
     start, index = neighbour_lists(bodies, pos, 1.5)
     rows = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
-    got = own_rows(rows, bodies, pos, vel, radii, a_max, v_max, goals, start, index,
-                   traffic if cars else np.zeros(0, dtype=bool))
+    got = own_rows(
+        rows,
+        bodies,
+        pos,
+        vel,
+        radii,
+        a_max,
+        v_max,
+        goals,
+        start,
+        index,
+        traffic if cars else np.zeros(0, dtype=bool),
+    )
     b = bodies[rows]
     want = (pos[b], vel[b], radii[b], a_max[b], v_max[b], goals[rows])
     for g, w in zip(got[:6], want, strict=True):
         assert g.tobytes() == w.tobytes()
-    near = [bool(traffic[index[start[r]:start[r + 1]]].any()) for r in rows.tolist()]
+    near = [bool(traffic[index[start[r] : start[r + 1]]].any()) for r in rows.tolist()]
     assert got[6].tolist() == near
     assert got[7] == bool(np.isfinite(goals[rows]).all())
     assert not math.isnan(float(got[2].sum()))

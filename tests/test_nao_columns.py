@@ -26,8 +26,18 @@ from nao_arena.agents._nao_decide import (
 from nao_arena.agents.nao import NAOAgent, _brakes_when_infeasible, _holds, _take_decision
 from nao_arena.geometry.selection import Selection
 
-STATE = ("age", "crawl_time", "free_time", "detour", "detour_turns", "side", "best_distance",
-         "since_progress", "settling", "around_wall")
+STATE = (
+    "age",
+    "crawl_time",
+    "free_time",
+    "detour",
+    "detour_turns",
+    "side",
+    "best_distance",
+    "since_progress",
+    "settling",
+    "around_wall",
+)
 
 
 def agents(n: int, seed: int = 0) -> list[NAOAgent]:
@@ -51,9 +61,13 @@ def scramble(ag: NAOAgent, rng: np.random.Generator) -> None:
 
 def snapshot(ag: NAOAgent) -> tuple:
     sel = ag.last_selection
-    return (tuple(getattr(ag, name) for name in STATE), tuple(ag.current.tolist()),
-            None if sel is None else (sel.status, tuple(sel.accel.tolist()), sel.evaluations),
-            ag.margin, ag.v_pref)
+    return (
+        tuple(getattr(ag, name) for name in STATE),
+        tuple(ag.current.tolist()),
+        None if sel is None else (sel.status, tuple(sel.accel.tolist()), sel.evaluations),
+        ag.margin,
+        ag.v_pref,
+    )
 
 
 def test_batches_with_other_members_gather_the_rows_unchanged():
@@ -136,8 +150,9 @@ def test_the_batch_liveness_step_is_each_agents_own_step(seed, n):
         held = rng.random(n) < 0.5
         live = rng.random(n) < 0.9
         turn = np.empty(n, dtype=np.bool_)
-        columns.liveness_batch(live, pos, vel, goals, rad, v_max, held, 0.1, table.real,
-                               table.whole, table.opt, turn)
+        columns.liveness_batch(
+            live, pos, vel, goals, rad, v_max, held, 0.1, table.real, table.whole, table.opt, turn
+        )
         for i in np.flatnonzero(turn).tolist():
             batch_agents[i]._turn_detour()
         to_goal = np.hypot(goals[:, 0] - pos[:, 0], goals[:, 1] - pos[:, 1])
@@ -145,8 +160,13 @@ def test_the_batch_liveness_step_is_each_agents_own_step(seed, n):
         for i, b in enumerate(own_agents):
             if not live[i]:
                 continue
-            b._detour_step(bool(to_goal[i] > 4 * rad[i]), bool(crawling[i]), 0.1,
-                           float(to_goal[i]), bool(held[i]))
+            b._detour_step(
+                bool(to_goal[i] > 4 * rad[i]),
+                bool(crawling[i]),
+                0.1,
+                float(to_goal[i]),
+                bool(held[i]),
+            )
             b.settling = bool(to_goal[i] <= b.goal_zone)
             b.age += 0.1
         for a, b in zip(batch_agents, own_agents, strict=True):
@@ -160,17 +180,29 @@ def test_young_adjustments_and_applied_decisions_are_their_plain_definitions(see
     group = agents(n, seed % 1000)
     for ag in group:
         scramble(ag, rng)
-        ag.last_selection = (None if rng.random() < 0.2 else Selection(
-            rng.normal(size=2), str(rng.choice(["desired", "adjusted", "infeasible"])), None,
-            math.inf, 3))
+        ag.last_selection = (
+            None
+            if rng.random() < 0.2
+            else Selection(
+                rng.normal(size=2),
+                str(rng.choice(["desired", "adjusted", "infeasible"])),
+                None,
+                math.inf,
+                3,
+            )
+        )
     table = columns.columns_of(group)
     m = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
     holds = _holds(table, m)
     for j, i in enumerate(m.tolist()):
         ag = group[i]
         sel = ag.last_selection
-        assert holds[j] == (sel is not None and sel.status == "adjusted" and not ag.settling
-                            and ag.age < ag.reselect_after - 1e-9)
+        assert holds[j] == (
+            sel is not None
+            and sel.status == "adjusted"
+            and not ag.settling
+            and ag.age < ag.reselect_after - 1e-9
+        )
     status = rng.choice([0, 1, 2], len(m)).astype(np.int64)
     kind = rng.choice([REPAIRED, DESIRED, ADJUSTED, INFEASIBLE, -1], len(m)).astype(np.int64)
     accel = rng.normal(size=(len(m), 2))
@@ -221,7 +253,8 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
     traffic = rng.random(n) < 0.3  # per robot (row of the table)
     for i in m.tolist():
         group[i].infeasible = twins[i].infeasible = str(
-            rng.choice(["brake", "auto", "latest_contact"]))
+            rng.choice(["brake", "auto", "latest_contact"])
+        )
     # speeds from standing still to far beyond the limits; a_max down to subnormal
     vel = rng.normal(size=(n, 2)) * rng.choice([0.0, 1e-300, 1.0, 1e300], size=(n, 1))
     a_max = rng.choice([2.0, 0.5, 1e-310], n)
@@ -229,15 +262,22 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
     out = rng.normal(size=(n, 2))
     expected = out.copy()
     settled = np.zeros(len(m), dtype=np.bool_)
-    apply_braking(m, status, kind, tested, traffic, vel, a_max, dt, table.real, table.whole,
-                  out, settled)
+    apply_braking(
+        m, status, kind, tested, traffic, vel, a_max, dt, table.real, table.whole, out, settled
+    )
     decided = (kind, np.zeros((len(m), 2)), tested)
     for j, i in enumerate(m.tolist()):
-        acted = (status[j] == 0 and kind[j] == INFEASIBLE
-                 and _brakes_when_infeasible(twins[i], bool(traffic[i])))
+        acted = (
+            status[j] == 0
+            and kind[j] == INFEASIBLE
+            and _brakes_when_infeasible(twins[i], bool(traffic[i]))
+        )
         assert settled[j] == acted
-        done = (_take_decision(twins[i], decided, j, vel[i], float(a_max[i]), dt,
-                               bool(traffic[i])) if acted else None)
+        done = (
+            _take_decision(twins[i], decided, j, vel[i], float(a_max[i]), dt, bool(traffic[i]))
+            if acted
+            else None
+        )
         if done is not None:
             expected[i] = done
         ag, tw = group[i], twins[i]
@@ -245,7 +285,10 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
         assert ag.current.tobytes() == tw.current.tobytes() and ag.age == tw.age
         sel, tsel = ag.last_selection, tw.last_selection
         assert (sel.status, sel.accel.tobytes(), sel.evaluations) == (
-            tsel.status, tsel.accel.tobytes(), tsel.evaluations)
+            tsel.status,
+            tsel.accel.tobytes(),
+            tsel.evaluations,
+        )
 
 
 def test_the_infeasible_option_is_a_checked_column():
@@ -255,7 +298,8 @@ def test_the_infeasible_option_is_a_checked_column():
         ag.infeasible = label
     assert [ag.infeasible for ag in group] == ["brake", "latest_contact", "auto"]
     assert table.whole[:, columns.FALLBACK].tolist() == [
-        columns.FALLBACKS.index(v) for v in ("brake", "latest_contact", "auto")]
+        columns.FALLBACKS.index(v) for v in ("brake", "latest_contact", "auto")
+    ]
     with pytest.raises(ValueError, match="infeasible"):
         group[0].infeasible = "swerve"
     assert group[0].infeasible == "brake"

@@ -56,8 +56,14 @@ def test_the_field_is_the_octile_distance_in_the_open_and_bends_round_a_wall():
 
 
 def test_a_walled_in_goal_has_no_path_and_keeps_its_target():
-    box = np.array([[[-1.0, -1.0], [1.0, -1.0]], [[1.0, -1.0], [1.0, 1.0]],
-                    [[1.0, 1.0], [-1.0, 1.0]], [[-1.0, 1.0], [-1.0, -1.0]]])
+    box = np.array(
+        [
+            [[-1.0, -1.0], [1.0, -1.0]],
+            [[1.0, -1.0], [1.0, 1.0]],
+            [[1.0, 1.0], [-1.0, 1.0]],
+            [[-1.0, 1.0], [-1.0, -1.0]],
+        ]
+    )
     grid = navigation_grid(box, np.zeros(4), 0.3, np.array([[-5.0, -5.0], [5.0, 5.0]]))
     goal = np.array([[0.0, 0.0]])
     field = grid.field(goal[0])
@@ -75,8 +81,13 @@ def _sampled_clearance(a, b, walls, half):
 
 
 @settings(deadline=None, max_examples=200)
-@given(ax=st.floats(-5, 5), ay=st.floats(-5, 5), bx=st.floats(-5, 5), by=st.floats(-5, 5),
-       sight=st.floats(0.0, 1.0))
+@given(
+    ax=st.floats(-5, 5),
+    ay=st.floats(-5, 5),
+    bx=st.floats(-5, 5),
+    by=st.floats(-5, 5),
+    sight=st.floats(0.0, 1.0),
+)
 def test_line_of_sight_matches_a_sampled_segment(ax, ay, bx, by, sight):
     walls = np.array([[[0.0, -3.0], [0.0, 3.0]], [[1.0, 1.0], [4.0, 2.0]]])
     half = np.array([0.1, 0.05])
@@ -116,9 +127,18 @@ TRAP = {
         {"type": "segment", "a": [2.0, 2.0], "b": [2.0, -2.0], "thickness": 0.2},
         {"type": "segment", "a": [2.0, -2.0], "b": [-2.0, -2.0], "thickness": 0.2},
     ],
-    "robots": [{"name": "r", "start": [0.0, 0.0], "goal": [8.0, 0.0], "radius": 0.3,
-                "a_max": 2.0, "v_max": 1.5, "agent": "nao",
-                "agent_options": {"navigate": True}}],
+    "robots": [
+        {
+            "name": "r",
+            "start": [0.0, 0.0],
+            "goal": [8.0, 0.0],
+            "radius": 0.3,
+            "a_max": 2.0,
+            "v_max": 1.5,
+            "agent": "nao",
+            "agent_options": {"navigate": True},
+        }
+    ],
     "episode": {"time_limit": 60.0, "goal_tolerance": 0.1},
 }
 

@@ -16,26 +16,47 @@ from nao_arena.geometry.selection import _ring_radii, _unit_rings
 def _wall_ahead(gap: float) -> PiecewisePath:
     """One obstacle at rest ``gap`` m ahead (radius 0.5 m), over 3 s."""
     t = np.array([0.0, 3.0])
-    return PiecewisePath(t=t, c=np.array([[[gap, 0.0]]]), velocity=np.zeros((1, 1, 2)),
-                         acceleration=np.zeros((1, 1, 2)), radius=np.array([0.5]))
+    return PiecewisePath(
+        t=t,
+        c=np.array([[[gap, 0.0]]]),
+        velocity=np.zeros((1, 1, 2)),
+        acceleration=np.zeros((1, 1, 2)),
+        radius=np.array([0.5]),
+    )
 
 
 def _select_disc(desired: tuple[float, float], path: PiecewisePath) -> Outcome:
     status, _, _, _ = select_disc(
-        np.array(desired), np.array([1.0, 0.0]), 2.0, 1.5, *path.arrays, 0.0, 1e-3,
-        _ring_radii(2.0, 4), _unit_rings(4, 16), 64, 6, 16.0, 0.0)
+        np.array(desired),
+        np.array([1.0, 0.0]),
+        2.0,
+        1.5,
+        *path.arrays,
+        0.0,
+        1e-3,
+        _ring_radii(2.0, 4),
+        _unit_rings(4, 16),
+        64,
+        6,
+        16.0,
+        0.0,
+    )
     return status
 
 
-@pytest.mark.parametrize(("desired", "gap", "expected"), [
-    ((0.0, 0.0), 10.0, Outcome.DESIRED),
-    ((2.0, 0.0), 2.0, Outcome.ADJUSTED),
-])
+@pytest.mark.parametrize(
+    ("desired", "gap", "expected"),
+    [
+        ((0.0, 0.0), 10.0, Outcome.DESIRED),
+        ((2.0, 0.0), 2.0, Outcome.ADJUSTED),
+    ],
+)
 def test_compiled_selection_returns_outcomes(desired, gap, expected) -> None:
     status = _select_disc(desired, _wall_ahead(gap))
     assert isinstance(status, Outcome) and status is expected
-    sel = select_acceleration(desired, [1.0, 0.0], _wall_ahead(gap), AccelLimits(2.0),
-                              v_max=1.5, with_clearance=False)
+    sel = select_acceleration(
+        desired, [1.0, 0.0], _wall_ahead(gap), AccelLimits(2.0), v_max=1.5, with_clearance=False
+    )
     assert sel.status == expected.label
 
 
@@ -44,16 +65,39 @@ def test_batched_decision_uses_the_selections_codes() -> None:
     2 meant DESIRED in one and 'nothing admissible' in the other)."""
     times = np.linspace(0.0, 3.0, 7)
     pred = np.zeros((1, 7, 2))
-    lists = (np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 2, 2)),
-             np.zeros(0), np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64))
-    kind, accel, _ = decide(times, pred, path_excursions(pred), lists, np.array([0.3]),
-                            np.array([0]), np.zeros((1, 2)), np.array([[1.0, 0.0]]),
-                            np.array([0.3]), np.array([2.0]), np.array([1.5]),
-                            np.zeros(1, dtype=bool), np.zeros((1, 2)), np.array([[0.5, 0.0]]))
+    lists = (
+        np.zeros(2, dtype=np.int64),
+        np.zeros(0, dtype=np.int64),
+        np.zeros((0, 2, 2)),
+        np.zeros(0),
+        np.zeros(2, dtype=np.int64),
+        np.zeros(0, dtype=np.int64),
+    )
+    kind, accel, _ = decide(
+        times,
+        pred,
+        path_excursions(pred),
+        lists,
+        np.array([0.3]),
+        np.array([0]),
+        np.zeros((1, 2)),
+        np.array([[1.0, 0.0]]),
+        np.array([0.3]),
+        np.array([2.0]),
+        np.array([1.5]),
+        np.zeros(1, dtype=bool),
+        np.zeros((1, 2)),
+        np.array([[0.5, 0.0]]),
+    )
     assert kind[0] == Outcome.DESIRED == _select_disc((0.0, 0.0), _wall_ahead(10.0))
     np.testing.assert_array_equal(accel[0], [0.5, 0.0])
 
 
 def test_labels_are_the_user_facing_statuses() -> None:
-    assert [o.label for o in Outcome] == ["undecided", "desired", "adjusted", "infeasible",
-                                          "repaired"]
+    assert [o.label for o in Outcome] == [
+        "undecided",
+        "desired",
+        "adjusted",
+        "infeasible",
+        "repaired",
+    ]

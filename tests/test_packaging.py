@@ -31,12 +31,20 @@ def test_import_exports_only_its_api():
 
     from conftest import PLAIN_CHECKOUT
 
-    code = ("import json, nao_arena; print(json.dumps([nao_arena.__all__, "
-            "[n for n in dir(nao_arena) if not n.startswith('_')]]))")
+    code = (
+        "import json, nao_arena; print(json.dumps([nao_arena.__all__, "
+        "[n for n in dir(nao_arena) if not n.startswith('_')]]))"
+    )
     # from tests/: the installed package, or (plain checkout) the repository's
     env = dict(os.environ, PYTHONPATH=str(ROOT)) if PLAIN_CHECKOUT else None
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True, cwd=ROOT / "tests", env=env)
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=ROOT / "tests",
+        env=env,
+    )
     exported, public = json.loads(proc.stdout)
     assert "__version__" in exported and "Arena" in exported  # the list: test_front_door.py
     assert public == sorted(n for n in exported if not n.startswith("_"))
@@ -52,8 +60,7 @@ def test_version_has_one_source():
     tomllib = pytest.importorskip("tomllib")
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert "version" not in config["project"] and "version" in config["project"]["dynamic"]
-    assert config["tool"]["setuptools"]["dynamic"]["version"] == {
-        "attr": "nao_arena.__version__"}
+    assert config["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "nao_arena.__version__"}
     assert version("nao-arena") == nao_arena.__version__
 
 
@@ -76,19 +83,39 @@ def test_a_plain_install_has_every_file(tmp_path):
 
     # a copy of the sources: setuptools would reuse a stale build/ folder of the checkout
     source = tmp_path / "source"
-    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(
-        ".*", "build", "dist", "*.egg-info", "__pycache__", "results", "figures"))
+    shutil.copytree(
+        ROOT,
+        source,
+        ignore=shutil.ignore_patterns(
+            ".*", "build", "dist", "*.egg-info", "__pycache__", "results", "figures"
+        ),
+    )
     target = tmp_path / "site"
     proc = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--quiet", "--target",
-         str(target), str(source)], capture_output=True, text=True, check=False)
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--no-deps",
+            "--quiet",
+            "--target",
+            str(target),
+            str(source),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     installed = target / "nao_arena"
     assert (installed / "py.typed").is_file()
     manifest = (ROOT / "nao_arena" / "kernels.json").read_bytes()
     assert (installed / "kernels.json").read_bytes() == manifest
-    packages = {init.parent.relative_to(ROOT / "nao_arena").as_posix()
-                for init in (ROOT / "nao_arena").rglob("__init__.py")}
+    packages = {
+        init.parent.relative_to(ROOT / "nao_arena").as_posix()
+        for init in (ROOT / "nao_arena").rglob("__init__.py")
+    }
     for package in packages:
         assert (installed / package / "__init__.py").is_file(), package
     agents = {p.name for p in (ROOT / "agents").glob("*.py")}
@@ -110,8 +137,12 @@ def plain_python(tmp_path: Path) -> Path:
     env_dir = tmp_path / "venv"
     venv.EnvBuilder(with_pip=False).create(env_dir)
     python = env_dir / ("Scripts/python.exe" if sys.platform == "win32" else "bin/python")
-    proc = subprocess.run([str(python), "-c", "import site; print(site.getsitepackages()[0])"],
-                          capture_output=True, text=True, check=True)
+    proc = subprocess.run(
+        [str(python), "-c", "import site; print(site.getsitepackages()[0])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     folders = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
     folders += [p for p in site.getsitepackages() if p not in folders]
     (Path(proc.stdout.strip()) / "dependencies.pth").write_text("\n".join(folders) + "\n")
@@ -128,14 +159,34 @@ def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
 
     python = plain_python(tmp_path)
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
-    plain = subprocess.run([str(python), "-c", "import nao_arena.agents as a; print(a.__file__)"],
-                           cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+    plain = subprocess.run(
+        [str(python), "-c", "import nao_arena.agents as a; print(a.__file__)"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert plain.returncode == 0, plain.stderr  # not installed there, found in the checkout
     assert plain.stdout.strip() == str(ROOT / "agents" / "__init__.py")
     proc = subprocess.run(
-        [str(python), "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",
-         "tests/test_front_door.py", "tests/test_borrow.py"],
-        cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+        [
+            str(python),
+            "-m",
+            "pytest",
+            "-q",
+            "-rs",
+            "-p",
+            "no:cacheprovider",
+            "tests/test_front_door.py",
+            "tests/test_borrow.py",
+        ],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     # the one test marked `installed` (it starts a Python process) skips, and says why
     assert " passed, 1 skipped" in proc.stdout, proc.stdout[-3000:]
@@ -147,7 +198,8 @@ def test_a_checkout_maps_the_folders_as_pyproject_does():
 
     tomllib = pytest.importorskip("tomllib")
     mapping = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"][
-        "package-dir"]
+        "package-dir"
+    ]
     assert {name: folder for name, folder in mapping.items() if name != "nao_arena"} == FOLDERS
 
 
@@ -167,9 +219,11 @@ def test_a_checkout_works_like_an_install(tmp_path):
         "env = nao_arena.parallel_env('crossing')\n"
         "from nao_arena.agent import load_agent\n"
         "import inspect\n"
-        "print(len(env.possible_agents), inspect.getfile(load_agent('orca')))\n")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          cwd=tmp_path, timeout=300)
+        "print(len(env.possible_agents), inspect.getfile(load_agent('orca')))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     robots, orca = proc.stdout.split()
     assert int(robots) == 12 and orca == str(ROOT / "agents" / "orca.py")

@@ -22,9 +22,13 @@ TIMES = np.linspace(0.0, 4.0, 41)
 
 def one(p, v, a, **extra) -> Neighbours:
     return Neighbours(
-        ids=np.array([0]), kinds=("traffic",), positions=np.array([p], float),
-        velocities=np.array([v], float), accelerations=np.array([a], float),
-        radii=np.array([1.0]), **extra,
+        ids=np.array([0]),
+        kinds=("traffic",),
+        positions=np.array([p], float),
+        velocities=np.array([v], float),
+        accelerations=np.array([a], float),
+        radii=np.array([1.0]),
+        **extra,
     )
 
 
@@ -50,7 +54,9 @@ def euler_arc(p, v, a, times, steps=200_000):
 
 @settings(max_examples=15, deadline=None)
 @given(
-    radius=st.floats(5.0, 50.0), speed=st.floats(1.0, 10.0), ccw=st.booleans(),
+    radius=st.floats(5.0, 50.0),
+    speed=st.floats(1.0, 10.0),
+    ccw=st.booleans(),
     phase=st.floats(0.0, 6.28),
 )
 def test_turn_rate_follows_a_circular_lane(radius, speed, ccw, phase):
@@ -78,10 +84,12 @@ def test_known_path_uses_the_true_path_and_falls_back():
     pred = known_path(TIMES, nb)[0]
     expected = np.stack([2.0 * TIMES, np.zeros_like(TIMES)], axis=1)
     np.testing.assert_allclose(pred, expected, atol=1e-12)
-    unknown = one((0, 0), (1, 0), (0, 0), path_times=path_times,
-                  known_paths=np.full_like(truth, np.nan))
-    np.testing.assert_allclose(known_path(TIMES, unknown)[0],
-                               np.stack([TIMES, 0 * TIMES], 1), atol=1e-9)
+    unknown = one(
+        (0, 0), (1, 0), (0, 0), path_times=path_times, known_paths=np.full_like(truth, np.nan)
+    )
+    np.testing.assert_allclose(
+        known_path(TIMES, unknown)[0], np.stack([TIMES, 0 * TIMES], 1), atol=1e-9
+    )
 
 
 def test_shared_plan_uses_committed_acceleration():

@@ -56,9 +56,13 @@ class Case:
 
     def mask(self) -> NDArray[np.bool_]:
         path = sampled_path(self.times, self.centers, self.radius)
-        return relevant_obstacles(np.ascontiguousarray(self.v, dtype=np.float64),
-                                  float(self.a_max), float(self.v_max), *path.moving_arrays,
-                                  float(self.margin))
+        return relevant_obstacles(
+            np.ascontiguousarray(self.v, dtype=np.float64),
+            float(self.a_max),
+            float(self.v_max),
+            *path.moving_arrays,
+            float(self.margin),
+        )
 
     def accelerations(self) -> FloatArray:
         """The rim circle, random interior points of the disc and a = 0."""
@@ -73,8 +77,16 @@ class Case:
 def forward_min_distances(case: Case, n: int, accels: FloatArray) -> FloatArray:
     """(K,) forward-simulated minimum centre distance to obstacle n for each acceleration
     (exact wherever it comes near radius + margin)."""
-    return screened_min_distance(case.v, accels, case.v_max, case.a_max, case.times,
-                                 case.centers[n], case.radius[n] + case.margin, N_GRID)
+    return screened_min_distance(
+        case.v,
+        accels,
+        case.v_max,
+        case.a_max,
+        case.times,
+        case.centers[n],
+        case.radius[n] + case.margin,
+        N_GRID,
+    )
 
 
 def check_left_out(case: Case) -> list[float]:
@@ -144,12 +156,21 @@ def cases(draw: st.DrawFn) -> Case:
         else:  # static, around the distance the robot can reach
             ang = draw(st.one_of(st.just(math.atan2(vc[1], vc[0])), floats(-math.pi, math.pi)))
             reach = min(float(np.hypot(*vc)) * h + 0.5 * a_max * h * h, v_max * h)
-            c = np.broadcast_to(unit(ang) * (r + margin + draw(floats(0.8, 1.3)) * reach),
-                                (times.size, 2))
+            c = np.broadcast_to(
+                unit(ang) * (r + margin + draw(floats(0.8, 1.3)) * reach), (times.size, 2)
+            )
         centers.append(np.asarray(c, dtype=np.float64))
         radius.append(r)
-    return Case(v, a_max, v_max, margin, times, np.array(centers), np.array(radius),
-                draw(st.integers(0, 2**32 - 1)))
+    return Case(
+        v,
+        a_max,
+        v_max,
+        margin,
+        times,
+        np.array(centers),
+        np.array(radius),
+        draw(st.integers(0, 2**32 - 1)),
+    )
 
 
 # ------------------------------------------------------------------ tests
@@ -173,16 +194,16 @@ def comoving_case(delta: float, v_max: float = math.inf, v=(0.8, -0.3)) -> Case:
     times = np.linspace(0.0, 2.0, 5)
     vc = Robot.make(v, (0.0, 0.0), v_max).v
     c = unit(RIM_ANGLES[5]) * (r + margin + 0.5 * a_max * 4.0 + delta) + times[:, None] * vc
-    return Case(np.asarray(v, dtype=np.float64), a_max, v_max, margin, times, c[None],
-                np.array([r]), 0)
+    return Case(
+        np.asarray(v, dtype=np.float64), a_max, v_max, margin, times, c[None], np.array([r]), 0
+    )
 
 
 def test_obstacle_on_the_path_is_relevant() -> None:
     """A static obstacle ahead of the robot, hit at a = 0, is in the mask."""
     times = np.linspace(0.0, 3.0, 4)
     centers = np.array([[[2.0, 0.0]] * 4, [[40.0, 40.0]] * 4])
-    case = Case(np.array([1.0, 0.0]), 0.5, math.inf, 0.1, times, centers,
-                np.array([0.3, 0.3]), 0)
+    case = Case(np.array([1.0, 0.0]), 0.5, math.inf, 0.1, times, centers, np.array([0.3, 0.3]), 0)
     res = simulate(case.v, (0.0, 0.0), Polyline.make(times, centers[0]), 0.3)
     assert res.clearance < 0  # the forward simulation collides
     assert case.mask().tolist() == [True, False]
@@ -221,8 +242,16 @@ def test_unreachable_obstacles_are_left_out(delta: float) -> None:
     case = comoving_case(delta)
     assert case.mask().tolist() == [False]
     check_left_out(case)
-    far = Case(np.array([1.0, 0.0]), 2.0, math.inf, 0.0, np.linspace(0.0, 2.0, 3),
-               np.full((1, 3, 2), 100.0), np.array([1.0]), 0)
+    far = Case(
+        np.array([1.0, 0.0]),
+        2.0,
+        math.inf,
+        0.0,
+        np.linspace(0.0, 2.0, 3),
+        np.full((1, 3, 2), 100.0),
+        np.array([1.0]),
+        0,
+    )
     assert far.mask().tolist() == [False]
 
 

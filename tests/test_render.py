@@ -66,8 +66,13 @@ def test_record_gif_from_arena(tmp_path):
 def test_record_env_subsampled_mp4(tmp_path):
     e = parallel_env("roundabout", time_limit=1.0)
     rng = np.random.default_rng(0)
-    out = record_episode(e, tmp_path / "r.mp4", fps=5.0, seed=0,
-                         policy=lambda obs: {a: rng.uniform(-1, 1, 2) for a in obs})
+    out = record_episode(
+        e,
+        tmp_path / "r.mp4",
+        fps=5.0,
+        seed=0,
+        policy=lambda obs: {a: rng.uniform(-1, 1, 2) for a in obs},
+    )
     assert out.is_file() and out.stat().st_size > 1000
     frames = iio.mimread(out, format="FFMPEG")
     assert len(frames) == 6  # 1 s at 5 fps of simulated time, plus the first frame

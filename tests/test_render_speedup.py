@@ -62,8 +62,12 @@ def _frames(name: str, reference: type[Viewer], **params):
         for _ in range(7):
             arena.step()
         for selected in sorted({0, n // 2, n - 1, (5 * frame_no + 1) % n}):
-            yield (viewer.draw(arena, selected=selected), ref.draw(arena, selected=selected),
-                   viewer, (name, frame_no, selected))
+            yield (
+                viewer.draw(arena, selected=selected),
+                ref.draw(arena, selected=selected),
+                viewer,
+                (name, frame_no, selected),
+            )
 
 
 @pytest.mark.parametrize("name", ["circle_swap", "crossing", "roundabout", "dense_swap"])
@@ -74,7 +78,7 @@ def test_frames_without_walls_are_pixel_identical_to_the_first_written(name):
         assert np.array_equal(frame, expected), where
         surface = pygame.surfarray.array3d(viewer.surface).transpose(1, 0, 2)
         assert np.array_equal(frame, surface) and frame.flags.writeable
-        panel = frame[:, frame.shape[0]:].reshape(-1, 1, 3)
+        panel = frame[:, frame.shape[0] :].reshape(-1, 1, 3)
         regions += int(np.any(np.all(panel == neighbour_colours[None], axis=-1)))
     assert regions > 0  # some neighbour's region was drawn, so it was compared
 
@@ -84,7 +88,7 @@ def test_frames_with_walls_are_pixel_identical_to_the_exact_walls_region(name):
     wall_region_seen = 0
     for frame, expected, _, where in _frames(name, ExactReferenceViewer):
         assert np.array_equal(frame, expected), where
-        panel = frame[:, frame.shape[0]:]
+        panel = frame[:, frame.shape[0] :]
         wall_region_seen += int(np.all(panel == _WALL_REGION, axis=-1).sum() > 0)
     assert wall_region_seen > 0  # the walls' region was drawn, so it was compared
 
@@ -116,8 +120,9 @@ def test_only_the_walls_region_differs_from_the_first_written(name):
     changed = misjudged = 0
     for grid, obs, path, walls, reach in _panel_scenes(name):
         lab, shown = Viewer._panel_labels(grid, obs, path, walls, reach)
-        old, old_shown = panel_labels_reference(grid, obs, path, walls, reach,
-                                                wall_clearance_sampled)
+        old, old_shown = panel_labels_reference(
+            grid, obs, path, walls, reach, wall_clearance_sampled
+        )
         assert shown == old_shown
         differ = lab != old
         assert np.all((lab[differ] == -2) | (old[differ] == -2))
@@ -126,8 +131,7 @@ def test_only_the_walls_region_differs_from_the_first_written(name):
             exact = wall_clearance_exact(a[None], obs.velocity, obs.v_max, horizon, walls)[0]
             sampled = wall_clearance_sampled(a[None], obs.velocity, obs.v_max, horizon, walls)[0]
             samples = 20001
-            sim = _simulated_wall_clearance(obs.velocity, a, obs.v_max, horizon, *walls,
-                                            samples)
+            sim = _simulated_wall_clearance(obs.velocity, a, obs.v_max, horizon, *walls, samples)
             tol = 0.5 * obs.v_max * horizon / (samples - 1) + 1e-9
             assert exact < 0 and sim - tol <= exact <= sim + 1e-9
             misjudged += abs(sampled - sim) > tol
@@ -146,8 +150,11 @@ def _simulated_wall_clearance(v, a, v_max, horizon, segs, grown, samples):
     if aa > 0 and np.isfinite(v_max):
         tau = (-av + math.sqrt(max(av * av - aa * (vv - v_max * v_max), 0.0))) / aa
     ts = np.minimum(t, tau)[:, None]
-    x = v * ts + 0.5 * a * ts * ts + (v + a * (tau if np.isfinite(tau) else 0.0)) \
-        * np.maximum(t - tau, 0.0)[:, None]
+    x = (
+        v * ts
+        + 0.5 * a * ts * ts
+        + (v + a * (tau if np.isfinite(tau) else 0.0)) * np.maximum(t - tau, 0.0)[:, None]
+    )
     best = np.inf
     for (p, q), r in zip(segs, grown, strict=True):
         u = q - p
@@ -163,14 +170,17 @@ _coord = st.floats(-6.0, 6.0, allow_nan=False)
 
 @settings(max_examples=40, deadline=None)
 @given(
-    speed=st.floats(0.0, 1.0), heading=st.floats(0.0, 2 * math.pi),
-    v_max=st.floats(0.3, 2.5), a_max=st.floats(0.3, 3.0),
+    speed=st.floats(0.0, 1.0),
+    heading=st.floats(0.0, 2 * math.pi),
+    v_max=st.floats(0.3, 2.5),
+    a_max=st.floats(0.3, 3.0),
     segs=st.lists(st.tuples(_coord, _coord, _coord, _coord), min_size=1, max_size=4),
     grown=st.lists(st.floats(0.1, 1.0), min_size=4, max_size=4),
     horizon=st.sampled_from([1.0, 3.0, 6.0]),
 )
-def test_walls_region_matches_a_forward_simulation(speed, heading, v_max, a_max, segs, grown,
-                                                   horizon):
+def test_walls_region_matches_a_forward_simulation(
+    speed, heading, v_max, a_max, segs, grown, horizon
+):
     """The walls' clearance of the panel's accelerations against the robot's path simulated
     on a fine time grid: the same sign except within the sampling's tolerance (half the
     most the path moves between samples, m) of the boundary, and where negative the same
@@ -180,7 +190,7 @@ def test_walls_region_matches_a_forward_simulation(speed, heading, v_max, a_max,
     gx, gy = np.meshgrid(xs, xs[::-1])
     grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
     walls = np.array(segs, dtype=float).reshape(-1, 2, 2)
-    grown_w = np.array(grown[:len(walls)])
+    grown_w = np.array(grown[: len(walls)])
     got = wall_clearances(grid, v, v_max, horizon, walls, grown_w)
     samples = 20001
     tol = 0.5 * v_max * horizon / (samples - 1) + 1e-9  # the path moves <= v_max between
@@ -202,12 +212,13 @@ def test_walls_region_matches_a_forward_simulation(speed, heading, v_max, a_max,
     grown=st.lists(st.floats(0.0, 1.5), min_size=6, max_size=6),
     horizon=st.sampled_from([1.0, 3.0, 4.5]),
 )
-def test_wall_clearances_are_the_segment_kernel_where_negative(velocity, v_max, segs, grown,
-                                                               horizon):
+def test_wall_clearances_are_the_segment_kernel_where_negative(
+    velocity, v_max, segs, grown, horizon
+):
     xs = np.linspace(-2.0, 2.0, 21)
     gx, gy = np.meshgrid(xs, xs[::-1])
     grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
-    walls = (np.array(segs, dtype=float).reshape(-1, 2, 2), np.array(grown[:len(segs)]))
+    walls = (np.array(segs, dtype=float).reshape(-1, 2, 2), np.array(grown[: len(segs)]))
     v = np.array(velocity)
     got = wall_clearances(grid, v, v_max, horizon, *walls)
     want = wall_clearance_exact(grid, v, v_max, horizon, walls)
@@ -232,20 +243,27 @@ def _scene(data, n_neighbours: int, n_walls: int):
         turn = data.draw(st.floats(-0.8, 0.8))
         ang = turn * times
         rot = np.stack([np.cos(ang), -np.sin(ang), np.sin(ang), np.cos(ang)], 1).reshape(-1, 2, 2)
-        path = start + np.cumsum(np.concatenate([[np.zeros(2)], (rot[:-1] @ vel)
-                                                 * np.diff(times)[:, None]]), axis=0)
+        path = start + np.cumsum(
+            np.concatenate([[np.zeros(2)], (rot[:-1] @ vel) * np.diff(times)[:, None]]), axis=0
+        )
         r = data.draw(st.floats(0.2, 1.2))
         centres.append(path)
         radii.append(min(r, float(np.hypot(*start)) * RADIUS_CUT))
-    path = sampled_path(times, np.array(centres).reshape(n_neighbours, len(times), 2),
-                        np.array(radii)) if n_neighbours else None
+    path = (
+        sampled_path(times, np.array(centres).reshape(n_neighbours, len(times), 2), np.array(radii))
+        if n_neighbours
+        else None
+    )
     walls = None
     if n_walls:
         segs = np.array([[data.draw(_coord) for _ in range(4)] for _ in range(n_walls)])
-        walls = (segs.reshape(-1, 2, 2), np.array([data.draw(st.floats(0.2, 1.0))
-                                                  for _ in range(n_walls)]))
-    obs = SimpleNamespace(velocity=speed * np.array([math.cos(heading), math.sin(heading)]),
-                          v_max=v_max, a_max=a_max)
+        walls = (
+            segs.reshape(-1, 2, 2),
+            np.array([data.draw(st.floats(0.2, 1.0)) for _ in range(n_walls)]),
+        )
+    obs = SimpleNamespace(
+        velocity=speed * np.array([math.cos(heading), math.sin(heading)]), v_max=v_max, a_max=a_max
+    )
     return obs, path, walls, times
 
 
@@ -281,8 +299,19 @@ def test_labels_at_a_neighbours_boundary_follow_the_exact_clearance(nudge):
     clear = path_clearance(grid, v, path, v_max=1.0).clearance[:, 0]
     assert np.sum(np.abs(clear) < BAND) >= 1  # the probe lies in the band
     t, c, w, b = path.t, path.c, path.velocity, path.acceleration
-    lab = panel_labels(grid, v, 1.0, t, c, w, b, path.radius, piece_sweep(t, w, b),
-                       np.zeros((0, 2, 2)), np.zeros(0))
+    lab = panel_labels(
+        grid,
+        v,
+        1.0,
+        t,
+        c,
+        w,
+        b,
+        path.radius,
+        piece_sweep(t, w, b),
+        np.zeros((0, 2, 2)),
+        np.zeros(0),
+    )
     np.testing.assert_array_equal(lab, np.where(clear < 0, 0, -1))
 
 
@@ -310,8 +339,9 @@ def test_labels_where_neighbour_and_wall_tie_follow_the_exact_comparison(nudge):
     accelerations, give or take a few ulps: the walls show exactly where their clearance is
     negative and below the neighbour's."""
     times, centres, v, grid, walls = _tie_scene()
-    dist = path_clearance(grid, v, sampled_path(times, centres[None], np.zeros(1)),
-                          v_max=1.0).clearance[:, 0]
+    dist = path_clearance(
+        grid, v, sampled_path(times, centres[None], np.zeros(1)), v_max=1.0
+    ).clearance[:, 0]
     wall = wall_clearance_exact(grid, v, 1.0, 3.0, walls)
     k = int(np.argmin(np.where(wall < -0.05, np.abs(dist - wall - 0.6), np.inf)))
     path = sampled_path(times, centres[None], np.array([_nudged(float(dist[k] - wall[k]), nudge)]))
@@ -333,11 +363,9 @@ def test_labels_where_two_neighbours_tie_follow_the_exact_comparison(nudge, swap
     times, centres, v, grid, _ = _tie_scene()
     other = centres[::-1] * [1.0, -1.0] + [0.5, 0.8]
     both = np.array([other, centres] if swap else [centres, other])
-    dist = path_clearance(grid, v, sampled_path(times, both, np.zeros(2)),
-                          v_max=1.0).clearance
+    dist = path_clearance(grid, v, sampled_path(times, both, np.zeros(2)), v_max=1.0).clearance
     r0 = 0.6
-    k = int(np.argmin(np.where(dist[:, 0] < r0 - 0.05, np.abs(dist[:, 1] - dist[:, 0]),
-                               np.inf)))
+    k = int(np.argmin(np.where(dist[:, 0] < r0 - 0.05, np.abs(dist[:, 1] - dist[:, 0]), np.inf)))
     r1 = _nudged(float(dist[k, 1] - (dist[k, 0] - r0)), nudge)
     path = sampled_path(times, both, np.array([r0, r1]))
     clear = path_clearance(grid, v, path, v_max=1.0).clearance
@@ -368,8 +396,19 @@ def test_an_empty_horizon_is_decided_by_the_exact_clearance():
     path = sampled_path([0.0], centres, np.array([0.8, 0.5]))
     grid = np.array([[0.0, 0.0], [1.0, 0.0]])
     t, c, w, b = path.t, path.c, path.velocity, path.acceleration
-    lab = panel_labels(grid, np.zeros(2), 1.0, t, c, w, b, path.radius, piece_sweep(t, w, b),
-                       np.zeros((0, 2, 2)), np.zeros(0))
+    lab = panel_labels(
+        grid,
+        np.zeros(2),
+        1.0,
+        t,
+        c,
+        w,
+        b,
+        path.radius,
+        piece_sweep(t, w, b),
+        np.zeros((0, 2, 2)),
+        np.zeros(0),
+    )
     clear = path_clearance(grid, np.zeros(2), path, v_max=1.0).clearance
     assert np.all(clear[:, 0] < 0) and np.all(clear[:, 1] > 0)
     np.testing.assert_array_equal(lab, [0, 0])
@@ -379,12 +418,10 @@ def test_an_empty_horizon_is_decided_by_the_exact_clearance():
 @given(
     velocity=st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0)),
     v_max=st.floats(0.1, 3.0),
-    accels=st.lists(st.tuples(st.floats(-4.0, 4.0), st.floats(-4.0, 4.0)), min_size=1,
-                    max_size=8),
+    accels=st.lists(st.tuples(st.floats(-4.0, 4.0), st.floats(-4.0, 4.0)), min_size=1, max_size=8),
     horizon=st.floats(0.1, 6.0),
 )
 def test_own_paths_are_bit_identical_to_the_reference(velocity, v_max, accels, horizon):
     times = np.linspace(0.0, horizon, 31)
     v, a = np.array(velocity), np.array(accels, dtype=float)
-    assert np.array_equal(_own_paths(v, a, v_max, times),
-                          own_paths_reference(v, a, v_max, times))
+    assert np.array_equal(_own_paths(v, a, v_max, times), own_paths_reference(v, a, v_max, times))

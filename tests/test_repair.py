@@ -36,9 +36,7 @@ except ImportError:  # pragma: no cover
 
 FloatArray = NDArray[np.float64]
 
-SETTINGS = settings(
-    max_examples=70, deadline=None, suppress_health_check=[HealthCheck.too_slow]
-)
+SETTINGS = settings(max_examples=70, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 RING_RADII = (0.05, 0.1, 0.2, 0.4)  # x a_max, from the function's documentation
 RING_POINTS = 12
 LIMIT_SLACK = 1e-9  # relative slack on the limit disc
@@ -62,15 +60,15 @@ class Scene:
         return sampled_path(self.times, self.centers, self.radius)
 
     def repair(self) -> FloatArray | None:
-        return repair_acceleration(self.previous, self.desired, self.v, self.path(),
-                                   self.limits, v_max=self.v_max)
+        return repair_acceleration(
+            self.previous, self.desired, self.v, self.path(), self.limits, v_max=self.v_max
+        )
 
     def candidates(self) -> FloatArray:
         """The 48 ring candidates around ``previous``, projected onto the limit set."""
         ang = 2 * np.pi * np.arange(RING_POINTS) / RING_POINTS
         unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-        raw = np.concatenate([self.previous + r * self.limits.a_max * unit
-                              for r in RING_RADII])
+        raw = np.concatenate([self.previous + r * self.limits.a_max * unit for r in RING_RADII])
         return self.limits.project(raw)
 
     def forward_clearance(self, accels: FloatArray) -> FloatArray:
@@ -79,8 +77,9 @@ class Scene:
         accels = np.atleast_2d(accels)
         out = np.full(len(accels), np.inf)
         for c, r in zip(self.centers, self.radius, strict=True):
-            dist = screened_min_distance(self.v, accels, self.v_max, self.limits.a_max,
-                                         self.times, c, r + KNIFE_EDGE, N_GRID)
+            dist = screened_min_distance(
+                self.v, accels, self.v_max, self.limits.a_max, self.times, c, r + KNIFE_EDGE, N_GRID
+            )
             out = np.minimum(out, dist - r)
         return out
 
@@ -132,15 +131,16 @@ def scenes(draw: st.DrawFn) -> Scene:
         centers.append(np.asarray(c, dtype=np.float64))
         radius.append(r)
     desired = draw(vec(1.3 * a_max))
-    return Scene(v, previous, desired, limits, v_max, times, np.array(centers),
-                 np.array(radius))
+    return Scene(v, previous, desired, limits, v_max, times, np.array(centers), np.array(radius))
 
 
 def describe(scene: Scene) -> str:
-    return (f"previous={scene.previous.tolist()}, desired={scene.desired.tolist()}, "
-            f"v={scene.v.tolist()}, a_max={scene.limits.a_max}, v_max={scene.v_max}, "
-            f"times={scene.times.tolist()}, centers={scene.centers.tolist()}, "
-            f"radius={scene.radius.tolist()}")
+    return (
+        f"previous={scene.previous.tolist()}, desired={scene.desired.tolist()}, "
+        f"v={scene.v.tolist()}, a_max={scene.limits.a_max}, v_max={scene.v_max}, "
+        f"times={scene.times.tolist()}, centers={scene.centers.tolist()}, "
+        f"radius={scene.radius.tolist()}"
+    )
 
 
 # ------------------------------------------------------------------ 1. admissibility
@@ -186,8 +186,10 @@ def check_nearest(scene: Scene, a: FloatArray | None) -> str:
     tie = 1e-12 * max(1.0, best if math.isfinite(best) else 1.0)
     # knife-edge candidates at least as near as the nearest sure one may be returned
     maybe = edge & (dist <= best + tie)
-    ctx = (f"clearances {np.sort(clear)[:6].tolist()}, nearest sure {best}, "
-           f"{int(np.sum(sure))} sure / {int(np.sum(edge))} knife-edge ({describe(scene)})")
+    ctx = (
+        f"clearances {np.sort(clear)[:6].tolist()}, nearest sure {best}, "
+        f"{int(np.sum(sure))} sure / {int(np.sum(edge))} knife-edge ({describe(scene)})"
+    )
     if a is None:
         assert not np.any(sure), f"None, but an admissible candidate exists: {ctx}"
         return "none"
@@ -198,8 +200,7 @@ def check_nearest(scene: Scene, a: FloatArray | None) -> str:
     if np.any(hit & maybe):
         return "knife-edge"
     assert np.any(hit & sure), (
-        f"{a.tolist()} (forward clearance {float(np.max(clear[hit])):.3e}) is not "
-        f"admissible: {ctx}"
+        f"{a.tolist()} (forward clearance {float(np.max(clear[hit])):.3e}) is not admissible: {ctx}"
     )
     assert d <= best + tie, f"{a.tolist()} is {d} from desired, an admissible one {best}: {ctx}"
     return "previous" if np.array_equal(a, scene.previous) else "moved"
@@ -220,8 +221,9 @@ def test_random_scenes_cover_both_outcomes() -> None:
     are not vacuous). Measured over 200 scenes: about 55 % None, 45 % a candidate."""
     seen = {"none": 0, "candidate": 0}
 
-    @settings(max_examples=60, deadline=None, database=None,
-              suppress_health_check=[HealthCheck.too_slow])
+    @settings(
+        max_examples=60, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow]
+    )
     @given(scenes())
     def run(scene: Scene) -> None:
         seen["none" if scene.repair() is None else "candidate"] += 1
@@ -238,9 +240,16 @@ def test_boxed_in_returns_none() -> None:
     (forward simulation), and the repair reports None."""
     times = np.linspace(0.0, 2.0, 5)
     centers = np.broadcast_to(np.array([0.5, 0.0]), (1, 5, 2)).copy()
-    scene = Scene(v=np.array([1.0, 0.0]), previous=np.zeros(2), desired=np.array([0.3, 0.2]),
-                  limits=AccelLimits(1.0), v_max=math.inf, times=times, centers=centers,
-                  radius=np.array([0.4]))
+    scene = Scene(
+        v=np.array([1.0, 0.0]),
+        previous=np.zeros(2),
+        desired=np.array([0.3, 0.2]),
+        limits=AccelLimits(1.0),
+        v_max=math.inf,
+        times=times,
+        centers=centers,
+        radius=np.array([0.4]),
+    )
     clear = scene.forward_clearance(scene.candidates())
     assert np.all(clear < -0.1), clear  # every candidate collides, far from knife-edge
     assert scene.repair() is None
@@ -253,9 +262,16 @@ def test_closing_ring_returns_none() -> None:
     ang = 2 * np.pi * np.arange(12) / 12
     dirs = np.stack([np.cos(ang), np.sin(ang)], 1)
     centers = dirs[:, None, :] * np.maximum(2.0 - 1.5 * times, 0.0)[None, :, None]
-    scene = Scene(v=np.array([0.5, -0.2]), previous=np.array([0.3, 0.1]),
-                  desired=np.array([-1.0, 0.5]), limits=AccelLimits(1.0), v_max=1.0,
-                  times=times, centers=centers, radius=np.full(12, 0.6))
+    scene = Scene(
+        v=np.array([0.5, -0.2]),
+        previous=np.array([0.3, 0.1]),
+        desired=np.array([-1.0, 0.5]),
+        limits=AccelLimits(1.0),
+        v_max=1.0,
+        times=times,
+        centers=centers,
+        radius=np.full(12, 0.6),
+    )
     assert np.all(scene.forward_clearance(scene.candidates()) < -0.1)
     assert scene.repair() is None
 
@@ -265,9 +281,16 @@ def test_repair_moves_away_from_a_colliding_previous() -> None:
     returns a different, admissible candidate: the one nearest desired."""
     times = np.linspace(0.0, 2.0, 5)
     centers = np.broadcast_to(np.array([1.6, 0.0]), (1, 5, 2)).copy()
-    scene = Scene(v=np.array([1.0, 0.0]), previous=np.zeros(2), desired=np.array([0.5, 0.0]),
-                  limits=AccelLimits(3.0), v_max=math.inf, times=times, centers=centers,
-                  radius=np.array([0.5]))
+    scene = Scene(
+        v=np.array([1.0, 0.0]),
+        previous=np.zeros(2),
+        desired=np.array([0.5, 0.0]),
+        limits=AccelLimits(3.0),
+        v_max=math.inf,
+        times=times,
+        centers=centers,
+        radius=np.array([0.5]),
+    )
     assert scene.forward_clearance(scene.previous)[0] < -0.1  # previous collides
     a = scene.repair()
     assert a is not None
@@ -280,9 +303,16 @@ def test_repair_moves_away_from_a_colliding_previous() -> None:
 def test_admissible_candidates_without_obstacles() -> None:
     """Without obstacles every candidate is admissible: the nearest to desired wins."""
     times = np.linspace(0.0, 2.0, 3)
-    scene = Scene(v=np.array([0.4, 0.1]), previous=np.array([1.9, 0.0]),
-                  desired=np.array([5.0, 1.0]), limits=AccelLimits(2.0), v_max=1.5,
-                  times=times, centers=np.zeros((0, 3, 2)), radius=np.zeros(0))
+    scene = Scene(
+        v=np.array([0.4, 0.1]),
+        previous=np.array([1.9, 0.0]),
+        desired=np.array([5.0, 1.0]),
+        limits=AccelLimits(2.0),
+        v_max=1.5,
+        times=times,
+        centers=np.zeros((0, 3, 2)),
+        radius=np.zeros(0),
+    )
     a = scene.repair()
     cands = scene.candidates()
     expect = cands[int(np.argmin(np.hypot(*(cands - scene.desired).T)))]
@@ -309,7 +339,9 @@ def test_non_finite_input_returns_none(name: str) -> None:
     kw.update(NON_FINITE[name])
     # no obstacles: with finite input every candidate would be admissible
     path = sampled_path(times, np.zeros((0, 3, 2)), np.zeros(0))
-    assert repair_acceleration(kw["previous"], kw["desired"], (0.3, 0.0), path,
-                               AccelLimits(1.0)) is None
+    assert (
+        repair_acceleration(kw["previous"], kw["desired"], (0.3, 0.0), path, AccelLimits(1.0))
+        is None
+    )
     finite = repair_acceleration((0.2, 0.1), (0.5, 0.5), (0.3, 0.0), path, AccelLimits(1.0))
     assert finite is not None

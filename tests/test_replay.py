@@ -76,8 +76,7 @@ def test_replayed_frames_equal_the_live_frames(scene, tmp_path, monkeypatch):
 def test_a_frame_reached_by_a_jump_is_the_live_frame(tmp_path, monkeypatch):
     """After a jump (back and forth) the trails are rebuilt from the logged rows: pixel for
     pixel the live frame (headless frames carry no wall-clock line)."""
-    live, log = live_frames("roundabout", 4, {"predictor": "turn_rate"}, 0, tmp_path,
-                            monkeypatch)
+    live, log = live_frames("roundabout", 4, {"predictor": "turn_rate"}, 0, tmp_path, monkeypatch)
     replayer = Replayer(log)
     for step in (12, 3, 13, 0):
         frame = replayer.frame(step, 0)
@@ -85,8 +84,9 @@ def test_a_frame_reached_by_a_jump_is_the_live_frame(tmp_path, monkeypatch):
 
 
 def test_the_decision_view_shows_the_next_command(tmp_path, monkeypatch):
-    _, log = live_frames("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 0,
-                         tmp_path, monkeypatch)
+    _, log = live_frames(
+        "circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 0, tmp_path, monkeypatch
+    )
     replayer = Replayer(log)
     replayer.frame(9, 0, decision=True)
     arena = replayer.arena
@@ -98,8 +98,9 @@ def test_the_decision_view_shows_the_next_command(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_cli_writes_a_frame_and_a_video(tmp_path, monkeypatch, capsys):
-    live, log = live_frames("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 1,
-                            tmp_path, monkeypatch)
+    live, log = live_frames(
+        "circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 1, tmp_path, monkeypatch
+    )
     path = str(log.path)
     png = tmp_path / "frame.png"
     assert main(["replay", path, "--at", "0.5", "--robot", "swap1", "--png", str(png)]) == 0
@@ -107,25 +108,31 @@ def test_cli_writes_a_frame_and_a_video(tmp_path, monkeypatch, capsys):
     expected = Replayer(log).frame(5, 1)
     assert np.array_equal(frame, expected)
     gif = tmp_path / "span.gif"
-    assert main(["replay", path, "--render", "gif", "--out", str(gif), "--from", "0.3",
-                 "--to", "0.8"]) == 0
+    assert (
+        main(["replay", path, "--render", "gif", "--out", str(gif), "--from", "0.3", "--to", "0.8"])
+        == 0
+    )
     assert len(iio.mimread(gif)) == 6  # 0.3 .. 0.8 s at one frame per step
     assert f"wrote {gif}" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--png", "f.png"], "--at"),
-    (["--at", "0.2", "--png", "f.png", "--render", "gif"], "drop --render"),
-    (["--render", "gif"], "--out"),
-    (["--render", "mp4", "--out", "x.gif"], ".mp4"),
-    (["--out", "x.gif"], "--render gif|mp4"),
-    (["--at", "99", "--png", "f.png"], "within the episode"),
-    (["--robot", "nobody", "--at", "0", "--png", "f.png"], "robots: swap0, swap1"),
-    ([], "cannot open a window"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--png", "f.png"], "--at"),
+        (["--at", "0.2", "--png", "f.png", "--render", "gif"], "drop --render"),
+        (["--render", "gif"], "--out"),
+        (["--render", "mp4", "--out", "x.gif"], ".mp4"),
+        (["--out", "x.gif"], "--render gif|mp4"),
+        (["--at", "99", "--png", "f.png"], "within the episode"),
+        (["--robot", "nobody", "--at", "0", "--png", "f.png"], "robots: swap0, swap1"),
+        ([], "cannot open a window"),
+    ],
+)
 def test_replay_option_errors(argv, message, tmp_path, monkeypatch, capsys):
-    _, log = live_frames("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 0,
-                         tmp_path, monkeypatch)
+    _, log = live_frames(
+        "circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 0, tmp_path, monkeypatch
+    )
     monkeypatch.chdir(tmp_path)
     assert main(["replay", str(log.path), *argv]) == 2
     err = capsys.readouterr().err
@@ -135,8 +142,9 @@ def test_replay_option_errors(argv, message, tmp_path, monkeypatch, capsys):
 def test_the_window_jumps_to_the_next_contact_and_explains_it(tmp_path, monkeypatch):
     import pygame
 
-    _, log = live_frames("circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 0,
-                         tmp_path, monkeypatch)
+    _, log = live_frames(
+        "circle_swap", 0, {"n": 2, "radius": 1.0, "agent": "goal"}, 0, tmp_path, monkeypatch
+    )
     asked = []
 
     def explain(number):

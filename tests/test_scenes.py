@@ -32,27 +32,36 @@ from nao_arena.trials import make_map
 
 SCENES = ["doorway", "intersection", "warehouse_aisles", "pillar_corridor"]
 SEEDS = range(20)
-TIME_LIMIT = {"doorway": 300.0, "intersection": 120.0, "warehouse_aisles": 180.0,
-              "pillar_corridor": 150.0}
+TIME_LIMIT = {
+    "doorway": 300.0,
+    "intersection": 120.0,
+    "warehouse_aisles": 180.0,
+    "pillar_corridor": 150.0,
+}
 """The maps' time limits (s): the stated limits of the evidence."""
 
 # ------------------------------------------------------------------ the queue builder
 
+
 def _ctx(seed: int = 0) -> LayoutContext:
-    return LayoutContext(Bounds(min=(-100.0, -100.0), max=(100.0, 100.0)), 0.3,
-                         np.random.default_rng(seed))
+    return LayoutContext(
+        Bounds(min=(-100.0, -100.0), max=(100.0, 100.0)), 0.3, np.random.default_rng(seed)
+    )
 
 
-queue_args = st.fixed_dictionaries({
-    "n": st.integers(1, 12),
-    "origin": st.tuples(floats(-20, 20), floats(-20, 20)),
-    "direction": st.tuples(floats(-1, 1), floats(-1, 1)).filter(
-        lambda d: math.hypot(*d) > 1e-3),
-    "distance": floats(0.1, 30),
-    "spacing": floats(0.1, 3),
-    "width": st.integers(1, 4),
-    "perturb": st.sampled_from([0.0, 0.1, 0.5]),
-})
+queue_args = st.fixed_dictionaries(
+    {
+        "n": st.integers(1, 12),
+        "origin": st.tuples(floats(-20, 20), floats(-20, 20)),
+        "direction": st.tuples(floats(-1, 1), floats(-1, 1)).filter(
+            lambda d: math.hypot(*d) > 1e-3
+        ),
+        "distance": floats(0.1, 30),
+        "spacing": floats(0.1, 3),
+        "width": st.integers(1, 4),
+        "perturb": st.sampled_from([0.0, 0.1, 0.5]),
+    }
+)
 
 
 @given(queue_args, floats(0.1, 3), st.one_of(st.none(), st.integers(1, 4)), st.integers(0, 9))
@@ -60,8 +69,7 @@ def test_queue_starts_are_streams_and_its_goals_a_block(args, goal_spacing, goal
     """The starts (and the seeded draws) are exactly ``stream``'s; each goal is its start's
     displacement added to the goal block: goal_width abreast (default width), goal_spacing
     apart, the front row distance ahead of the starts' front row."""
-    placed = queue(QueueArgs(**args, goal_spacing=goal_spacing, goal_width=goal_width),
-                   _ctx(seed))
+    placed = queue(QueueArgs(**args, goal_spacing=goal_spacing, goal_width=goal_width), _ctx(seed))
     streamed = stream(StreamArgs(**args), _ctx(seed))
     assert [s for s, _ in placed] == [s for s, _ in streamed]
     d = np.asarray(args["direction"]) / math.hypot(*args["direction"])
@@ -69,12 +77,19 @@ def test_queue_starts_are_streams_and_its_goals_a_block(args, goal_spacing, goal
     w = args["width"] if goal_width is None else goal_width
     for k, ((start, goal), (_, stream_goal)) in enumerate(zip(placed, streamed, strict=True)):
         row, col = divmod(k, args["width"])
-        unperturbed = (np.asarray(args["origin"]) - row * args["spacing"] * d
-                       + (col - (args["width"] - 1) / 2) * args["spacing"] * nrm)
+        unperturbed = (
+            np.asarray(args["origin"])
+            - row * args["spacing"] * d
+            + (col - (args["width"] - 1) / 2) * args["spacing"] * nrm
+        )
         shift = np.asarray(start) - unperturbed
         grow, gcol = divmod(k, w)
-        block = (np.asarray(args["origin"]) + args["distance"] * d
-                 - grow * goal_spacing * d + (gcol - (w - 1) / 2) * goal_spacing * nrm)
+        block = (
+            np.asarray(args["origin"])
+            + args["distance"] * d
+            - grow * goal_spacing * d
+            + (gcol - (w - 1) / 2) * goal_spacing * nrm
+        )
         assert np.allclose(goal, block + shift, atol=1e-9)
         if goal_spacing == args["spacing"] and w == args["width"]:
             assert np.allclose(goal, stream_goal, atol=1e-9)
@@ -84,18 +99,29 @@ def test_queue_is_registered_and_validates_its_arguments():
     assert LAYOUTS["queue"] == (QueueArgs, queue)
     base = {"bounds": {"min": [-20, -20], "max": [20, 20]}}
     args = {"n": 2, "origin": [0, 0], "direction": [1, 0], "distance": 5, "spacing": 1}
-    spec = map_from_dict({**base, "layouts": [
-        {"builder": "queue", "args": {**args, "goal_spacing": 2, "goal_width": 1}}]})
+    spec = map_from_dict(
+        {
+            **base,
+            "layouts": [{"builder": "queue", "args": {**args, "goal_spacing": 2, "goal_width": 1}}],
+        }
+    )
     assert [r.goal for r in spec.robots] == [(5.0, 0.0), (3.0, 0.0)]
     with pytest.raises(MapError, match=r"layouts\[0\]\.args\.goal_spacing: required field"):
         map_from_dict({**base, "layouts": [{"builder": "queue", "args": args}]})
     for key, bad in (("goal_spacing", 0), ("goal_spacing", True), ("goal_width", 0)):
         with pytest.raises(MapError, match=rf"layouts\[0\]\.args\.{key}: expected a"):
-            map_from_dict({**base, "layouts": [
-                {"builder": "queue", "args": {**args, "goal_spacing": 2, key: bad}}]})
+            map_from_dict(
+                {
+                    **base,
+                    "layouts": [
+                        {"builder": "queue", "args": {**args, "goal_spacing": 2, key: bad}}
+                    ],
+                }
+            )
 
 
 # ------------------------------------------------------------------ the scenes' geometry
+
 
 def _wall_surfaces(spec: MapSpec) -> list[tuple[np.ndarray, float]]:
     """Every wall as (segments (k, 2, 2) m, half-thickness m): the map's walls in order,
@@ -115,8 +141,10 @@ def _wall_surfaces(spec: MapSpec) -> list[tuple[np.ndarray, float]]:
 def _gap(a: tuple[np.ndarray, float], b: tuple[np.ndarray, float]) -> float:
     """Distance (m) between two walls' surfaces (their segments do not cross)."""
     (sa, ha), (sb, hb) = a, b
-    ends = min(point_segment_distances(sa.reshape(-1, 2), sb).min(),
-               point_segment_distances(sb.reshape(-1, 2), sa).min())
+    ends = min(
+        point_segment_distances(sa.reshape(-1, 2), sb).min(),
+        point_segment_distances(sb.reshape(-1, 2), sa).min(),
+    )
     return float(ends) - ha - hb
 
 
@@ -130,16 +158,27 @@ def _pairs(spec: MapSpec) -> tuple[np.ndarray, np.ndarray]:
 def _same_scene_under(spec: MapSpec, transform) -> None:
     """The map is symmetric under ``transform`` (points (n, 2) -> (n, 2)): walls onto
     walls, (start, goal) pairs onto pairs."""
+
     def key(points: np.ndarray) -> tuple:
         return tuple(sorted(map(tuple, np.round(points, 9).tolist())))
 
     walls = {key(np.asarray(w.points, float)) for w in spec.walls}
     assert {key(transform(np.asarray(w.points, float))) for w in spec.walls} == walls
     starts, goals = _pairs(spec)
-    pairs = set(zip(map(tuple, np.round(starts, 9).tolist()),
-                    map(tuple, np.round(goals, 9).tolist()), strict=True))
-    moved = set(zip(map(tuple, np.round(transform(starts), 9).tolist()),
-                    map(tuple, np.round(transform(goals), 9).tolist()), strict=True))
+    pairs = set(
+        zip(
+            map(tuple, np.round(starts, 9).tolist()),
+            map(tuple, np.round(goals, 9).tolist()),
+            strict=True,
+        )
+    )
+    moved = set(
+        zip(
+            map(tuple, np.round(transform(starts), 9).tolist()),
+            map(tuple, np.round(transform(goals), 9).tolist()),
+            strict=True,
+        )
+    )
     assert moved == pairs
 
 
@@ -164,15 +203,15 @@ def test_scene_robots_and_episode_are_the_crowd_maps(name):
         spec = load_map(variant)
         assert spec.physics.dt == 0.1 and spec.episode.goal_tolerance == 0.1
         assert spec.episode.time_limit == TIME_LIMIT[name]
-        assert all(0.3 <= r.radius <= 0.5 and r.a_max == 2.0 and r.v_max == 1.5
-                   for r in spec.robots)
+        assert all(
+            0.3 <= r.radius <= 0.5 and r.a_max == 2.0 and r.v_max == 1.5 for r in spec.robots
+        )
         params = {"n", "agent", "predictor", "time_limit"}
         if variant == name:
             assert set(spec.parameters) == params
         else:
             assert set(spec.parameters) == params | {"perturb", "seed"}
-        small = load_map(variant, n=1, agent="orca", predictor="constant_velocity",
-                         time_limit=9.0)
+        small = load_map(variant, n=1, agent="orca", predictor="constant_velocity", time_limit=9.0)
         groups = len(spec.robots) // spec.parameters["n"]
         assert len(small.robots) == groups and small.episode.time_limit == 9.0
         assert {(r.agent, r.predictor) for r in small.robots} == {("orca", "constant_velocity")}
@@ -185,7 +224,8 @@ def test_perturbed_variant_moves_starts_and_goals_alike_within_perturb(name):
     sym = load_map(name)
     s0, g0 = _pairs(sym)
     assert [(r.start, r.goal) for r in load_map(f"{name}_perturbed", perturb=0.0).robots] == [
-        (r.start, r.goal) for r in sym.robots]
+        (r.start, r.goal) for r in sym.robots
+    ]
     seen = []
     for seed in (0, 1):
         starts, goals = _pairs(load_map(f"{name}_perturbed", seed=seed))
@@ -256,7 +296,8 @@ def test_pillar_corridor_pillars_leave_room_for_two_way_flow():
 # ------------------------------------------------------------------ the evidence
 
 EPISODES = [(name, 0) for name in SCENES] + [
-    (f"{name}_perturbed", seed) for name in SCENES for seed in SEEDS]
+    (f"{name}_perturbed", seed) for name in SCENES for seed in SEEDS
+]
 
 
 def _scene(name: str) -> str:
@@ -264,8 +305,9 @@ def _scene(name: str) -> str:
 
 
 def _run(name: str, seed: int, agent: str):
-    arena = Arena(make_map(name, seed, {"time_limit": TIME_LIMIT[_scene(name)]}),
-                  ArenaOptions(agent=agent))
+    arena = Arena(
+        make_map(name, seed, {"time_limit": TIME_LIMIT[_scene(name)]}), ArenaOptions(agent=agent)
+    )
     return arena, arena.run(seed=seed)
 
 

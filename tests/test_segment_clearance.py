@@ -46,8 +46,9 @@ def simulated(v, a, v_max, p, q, horizon):
     if 0.0 < robot.tau < horizon:
         t = np.sort(np.append(t, robot.tau))
     d = point_segment_distance(robot.position(t), np.asarray(p, float), np.asarray(q, float))
-    speed = max(float(np.hypot(*robot.v)), float(np.hypot(*(robot.v + robot.a *
-                                                            min(robot.tau, horizon)))))
+    speed = max(
+        float(np.hypot(*robot.v)), float(np.hypot(*(robot.v + robot.a * min(robot.tau, horizon))))
+    )
     return float(d.min()), speed * horizon / (N_SAMPLES - 1) / 2.0
 
 
@@ -69,14 +70,20 @@ coord = st.floats(-4.0, 4.0, allow_nan=False)
 
 @settings(deadline=None, max_examples=200)
 @given(
-    vx=st.floats(-2.0, 2.0), vy=st.floats(-2.0, 2.0),
-    ax=st.floats(-3.0, 3.0), ay=st.floats(-3.0, 3.0),
+    vx=st.floats(-2.0, 2.0),
+    vy=st.floats(-2.0, 2.0),
+    ax=st.floats(-3.0, 3.0),
+    ay=st.floats(-3.0, 3.0),
     v_max=st.floats(0.2, 2.5),
-    px=coord, py=coord, angle=st.floats(0.0, 2.0 * math.pi), length=st.floats(0.0, 4.0),
+    px=coord,
+    py=coord,
+    angle=st.floats(0.0, 2.0 * math.pi),
+    length=st.floats(0.0, 4.0),
     horizon=st.floats(0.05, 5.0),
 )
-def test_min_distance_matches_forward_simulation(vx, vy, ax, ay, v_max, px, py, angle, length,
-                                                 horizon):
+def test_min_distance_matches_forward_simulation(
+    vx, vy, ax, ay, v_max, px, py, angle, length, horizon
+):
     """Kernel minimum within [sampled min - sampling error, sampled min] for random paths
     (saturating or not, starting above v_max or not) and segments (including points)."""
     p = (px, py)
@@ -86,10 +93,14 @@ def test_min_distance_matches_forward_simulation(vx, vy, ax, ay, v_max, px, py, 
 
 @settings(deadline=None, max_examples=200)
 @given(
-    vx=st.floats(-1.0, 1.0), vy=st.floats(-1.0, 1.0),
-    ax=st.floats(-2.0, 2.0), ay=st.floats(-2.0, 2.0),
-    px=st.floats(-1.5, 1.5), py=st.floats(-1.5, 1.5),
-    qx=st.floats(-1.5, 1.5), qy=st.floats(-1.5, 1.5),
+    vx=st.floats(-1.0, 1.0),
+    vy=st.floats(-1.0, 1.0),
+    ax=st.floats(-2.0, 2.0),
+    ay=st.floats(-2.0, 2.0),
+    px=st.floats(-1.5, 1.5),
+    py=st.floats(-1.5, 1.5),
+    qx=st.floats(-1.5, 1.5),
+    qy=st.floats(-1.5, 1.5),
 )
 def test_min_distance_near_walls(vx, vy, ax, ay, px, py, qx, qy):
     """Segments close to the start (often crossed or touched): same bounds."""
@@ -112,8 +123,9 @@ def test_grazing_parabola():
     """The parabola y = 0.5 t - 0.25 t^2 peaks at 0.25 (t = 1, x = 1) under a wall at
     y = 0.25 + r: the minimum is r at that one instant, found exactly (sampling misses it)."""
     r = 0.3
-    d = assert_matches_simulation((1.0, 0.5), (0.0, -0.5), 5.0, (0.0, 0.25 + r),
-                                  (2.0, 0.25 + r), 3.0)
+    d = assert_matches_simulation(
+        (1.0, 0.5), (0.0, -0.5), 5.0, (0.0, 0.25 + r), (2.0, 0.25 + r), 3.0
+    )
     assert d == pytest.approx(r, abs=1e-12)
 
 
@@ -156,8 +168,7 @@ def test_zero_length_segment_is_a_point():
     d = assert_matches_simulation((1.0, 0.0), (0.0, 0.0), 2.0, (2.0, 1.0), (2.0, 1.0), 4.0)
     assert d == pytest.approx(1.0, abs=1e-14)
     d = assert_matches_simulation((0.5, 0.2), (0.3, -0.4), 1.0, (1.0, -0.5), (1.0, -0.5), 4.0)
-    c = ao_clearance(np.array([[0.3, -0.4]]), (0.5, 0.2), (1.0, -0.5), 0.0, horizon=4.0,
-                     v_max=1.0)
+    c = ao_clearance(np.array([[0.3, -0.4]]), (0.5, 0.2), (1.0, -0.5), 0.0, horizon=4.0, v_max=1.0)
     assert d == pytest.approx(float(c.clearance[0]), abs=1e-12)
 
 
@@ -199,8 +210,9 @@ def test_batched_minimum_and_index():
         assert index == int(np.argmin(each))
         for limit in (d - 1e-6, d + 1e-6):
             assert segments_admissible(v, a, 1.5, walls, half, limit, 0.0, 3.0) == (limit < d)
-    d, index = segments_min_distance(np.zeros(2), np.zeros(2), 1.0, np.zeros((0, 2, 2)),
-                                     np.zeros(0), 1.0)
+    d, index = segments_min_distance(
+        np.zeros(2), np.zeros(2), 1.0, np.zeros((0, 2, 2)), np.zeros(0), 1.0
+    )
     assert (d, index) == (math.inf, -1)
 
 

@@ -31,9 +31,7 @@ except ImportError:  # pragma: no cover
 
 FloatArray = NDArray[np.float64]
 
-SETTINGS = settings(
-    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow]
-)
+SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 LIMIT_SLACK = 1e-9  # relative slack on the limit set
 CLEAR_SLACK = 1e-9  # m, below the margin
 
@@ -53,8 +51,15 @@ class Scene:
         return sampled_path(self.times, self.centers, self.radius)
 
     def select(self, **kw):
-        return select_acceleration(self.desired, self.v, self.path(), self.limits,
-                                   margin=self.margin, v_max=self.v_max, **kw)
+        return select_acceleration(
+            self.desired,
+            self.v,
+            self.path(),
+            self.limits,
+            margin=self.margin,
+            v_max=self.v_max,
+            **kw,
+        )
 
     def forward_clearance(self, a: FloatArray) -> float:
         """min over obstacles of the brute-force clearance of acceleration a."""
@@ -110,8 +115,9 @@ def scenes(draw: st.DrawFn, box: bool | None = None, n_max: int = 15) -> Scene:
     t0 = draw(st.one_of(st.just(0.0), floats(0.01, 0.3)))
     times = np.linspace(t0, horizon, n_t)
     n = draw(st.integers(1, n_max))
-    centers = np.array([obstacle_path(draw, times, draw(st.sampled_from(["line", "arc"])))
-                        for _ in range(n)])
+    centers = np.array(
+        [obstacle_path(draw, times, draw(st.sampled_from(["line", "arc"]))) for _ in range(n)]
+    )
     radius = np.array([draw(floats(0.2, 1.0)) for _ in range(n)])
     a_max = draw(floats(0.5, 5.0))
     if box is None:
@@ -194,8 +200,9 @@ def grid_best(scene: Scene, n: int = 61) -> tuple[float, float]:
     gx, gy = np.meshgrid(xs, xs, indexing="ij")
     grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
     grid = grid[np.hypot(*grid.T) <= a_max]
-    clear = nao_clearance(grid, scene.v, scene.times, scene.centers, scene.radius,
-                          v_max=scene.v_max).reshape(len(grid), -1)
+    clear = nao_clearance(
+        grid, scene.v, scene.times, scene.centers, scene.radius, v_max=scene.v_max
+    ).reshape(len(grid), -1)
     ok = np.min(clear, axis=1) >= scene.margin
     if not np.any(ok):
         return math.inf, float(xs[1] - xs[0])
@@ -303,8 +310,9 @@ def test_no_obstacles_keeps_desired(v, desired, a_max, far) -> None:
 # ------------------------------------------------------------------ 9. infeasible
 
 
-def closing_ring(n: int = 12, start: float = 2.0, speed: float = 1.5, radius: float = 0.6,
-                 horizon: float = 2.0) -> tuple[FloatArray, FloatArray, FloatArray]:
+def closing_ring(
+    n: int = 12, start: float = 2.0, speed: float = 1.5, radius: float = 0.6, horizon: float = 2.0
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     times = np.linspace(0.0, horizon, 9)
     ang = 2 * np.pi * np.arange(n) / n
     dirs = np.stack([np.cos(ang), np.sin(ang)], 1)
@@ -335,8 +343,9 @@ def test_boxed_in_is_infeasible_and_postpones_contact(v, v_max) -> None:
     times, centers, radius = closing_ring()
     a_max = 1.0
     v = np.asarray(v)
-    sel = select_acceleration((0.3, 0.2), v, sampled_path(times, centers, radius),
-                              AccelLimits(a_max), v_max=v_max)
+    sel = select_acceleration(
+        (0.3, 0.2), v, sampled_path(times, centers, radius), AccelLimits(a_max), v_max=v_max
+    )
     assert sel.status == "infeasible" and not sel.feasible
     assert np.all(np.isfinite(sel.accel)) and in_limits(sel.accel, AccelLimits(a_max))
     # reported first contact is the real one
@@ -349,8 +358,9 @@ def test_boxed_in_is_infeasible_and_postpones_contact(v, v_max) -> None:
 def test_overlapping_obstacle_is_infeasible() -> None:
     times = np.linspace(0.0, 2.0, 5)
     centers = np.broadcast_to(np.array([0.2, 0.1]), (1, 5, 2))
-    sel = select_acceleration((1.0, 0.0), (0.5, 0.0), sampled_path(times, centers, [1.0]),
-                              AccelLimits(2.0))
+    sel = select_acceleration(
+        (1.0, 0.0), (0.5, 0.0), sampled_path(times, centers, [1.0]), AccelLimits(2.0)
+    )
     assert sel.status == "infeasible"
     assert np.all(np.isfinite(sel.accel)) and in_limits(sel.accel, AccelLimits(2.0))
     assert sel.time_of_first_contact == 0.0
@@ -377,8 +387,15 @@ def test_missed_feasible_pocket_minimal_reproduction() -> None:
 
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.integers(6, 16), floats(1.5, 3.0), floats(0.8, 2.5), floats(0.4, 0.8),
-       floats(0.3, 2.0), vec(1.0), vec(2.0))
+@given(
+    st.integers(6, 16),
+    floats(1.5, 3.0),
+    floats(0.8, 2.5),
+    floats(0.4, 0.8),
+    floats(0.3, 2.0),
+    vec(1.0),
+    vec(2.0),
+)
 def test_random_closing_rings_maximise_first_contact(n, start, speed, radius, a_max, v, d):
     """Measured (150 random rings, seed 3, 2000 random disc samples): among infeasible
     results the shortfall of the chosen first contact behind the best sample is, as a
@@ -429,10 +446,12 @@ DEGENERATE = {
     "single sample at t = 0": dict(times=np.array([0.0])),
     "obstacle at the robot": dict(centers=np.zeros((3, 4, 2))),
     # BUG: ZeroDivisionError in kernel.nao_disks (t^2 underflows to 0)
-    "horizon 1e-170, obstacle at the robot": dict(times=np.array([0.0, 1e-170]),
-                                                  centers=np.zeros((1, 2, 2))),
-    "first sample at 5e-324, obstacle at the robot": dict(times=np.array([5e-324, 1.0]),
-                                                         centers=np.zeros((1, 2, 2))),
+    "horizon 1e-170, obstacle at the robot": dict(
+        times=np.array([0.0, 1e-170]), centers=np.zeros((1, 2, 2))
+    ),
+    "first sample at 5e-324, obstacle at the robot": dict(
+        times=np.array([5e-324, 1.0]), centers=np.zeros((1, 2, 2))
+    ),
     "zero radius at the robot": dict(centers=np.zeros((1, 4, 2)), radius=np.zeros(1)),
     "zero v_max": dict(v_max=0.0),
     "huge margin": dict(margin=1e6),
@@ -444,17 +463,28 @@ DEGENERATE = {
 def test_degenerate_input_never_nan_never_raises(name: str, shape: str) -> None:
     """Box limits go through the Python search, the plain disc through the compiled one."""
     kw = dict(
-        desired=(1.0, 0.5), v=(0.5, 0.0), limits=AccelLimits(2.0, (-1.0, -1.5), (1.5, 1.0)),
-        times=np.linspace(0.0, 2.0, 4), centers=np.array([[[2.0, 0.0]] * 4]),
-        radius=None, v_max=math.inf, margin=0.0,
+        desired=(1.0, 0.5),
+        v=(0.5, 0.0),
+        limits=AccelLimits(2.0, (-1.0, -1.5), (1.5, 1.0)),
+        times=np.linspace(0.0, 2.0, 4),
+        centers=np.array([[[2.0, 0.0]] * 4]),
+        radius=None,
+        v_max=math.inf,
+        margin=0.0,
     )
     kw.update(DEGENERATE[name])
     n, t = kw["centers"].shape[0], len(kw["times"])
     centers = np.ascontiguousarray(np.broadcast_to(kw["centers"][:, :1], (n, t, 2)))
     radius = kw["radius"] if kw["radius"] is not None else np.full(n, 0.5)
     limits = kw["limits"] if shape == "box" else AccelLimits(kw["limits"].a_max)
-    sel = select_acceleration(kw["desired"], kw["v"], sampled_path(kw["times"], centers, radius),
-                              limits, margin=kw["margin"], v_max=kw["v_max"])
+    sel = select_acceleration(
+        kw["desired"],
+        kw["v"],
+        sampled_path(kw["times"], centers, radius),
+        limits,
+        margin=kw["margin"],
+        v_max=kw["v_max"],
+    )
     a = np.asarray(sel.accel)
     assert a.shape == (2,) and np.all(np.isfinite(a)), sel
     assert in_limits(a, limits)
@@ -479,12 +509,14 @@ def test_fallback_when_nothing_is_admissible() -> None:
     returned (projected onto the limits) with status "infeasible"; its clearance and
     contact time are reported only when asked for."""
     times = np.linspace(0.0, 2.0, 21)
-    ring = 1.5 * np.stack([np.cos(np.arange(12) * np.pi / 6),
-                           np.sin(np.arange(12) * np.pi / 6)], axis=1)
+    ring = 1.5 * np.stack(
+        [np.cos(np.arange(12) * np.pi / 6), np.sin(np.arange(12) * np.pi / 6)], axis=1
+    )
     path = sampled_path(times, np.repeat(ring[:, None, :], len(times), 1), np.full(12, 0.9))
     limits = AccelLimits(2.0)
-    quick = select_acceleration((1.0, 0.0), (2.0, 0.0), path, limits, with_clearance=False,
-                                fallback=(-5.0, 0.0))
+    quick = select_acceleration(
+        (1.0, 0.0), (2.0, 0.0), path, limits, with_clearance=False, fallback=(-5.0, 0.0)
+    )
     assert quick.status == "infeasible" and quick.clearance is None
     np.testing.assert_array_equal(quick.accel, (-2.0, 0.0))
     full = select_acceleration((1.0, 0.0), (2.0, 0.0), path, limits, fallback=(-5.0, 0.0))
@@ -494,9 +526,11 @@ def test_fallback_when_nothing_is_admissible() -> None:
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.floats(allow_nan=True, allow_infinity=True, width=64),
-       st.floats(allow_nan=True, allow_infinity=True, width=64),
-       st.floats(0.0, 10.0))
+@given(
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.floats(0.0, 10.0),
+)
 def test_projecting_one_acceleration_is_projecting_a_row_of_them(x, y, a_max):
     """project((2,)) takes a scalar shortcut on the disc: bit for bit the batch result
     (non-finite components become 0, the result lies in the disc)."""

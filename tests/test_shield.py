@@ -42,8 +42,12 @@ def _random_actions(e, rng) -> dict[str, np.ndarray]:
 
 
 def _tiny_map(tmp_path, robots, time_limit=5.0):
-    data = {"name": "tiny", "bounds": {"min": [-15, -15], "max": [15, 15]},
-            "robots": robots, "episode": {"time_limit": time_limit}}
+    data = {
+        "name": "tiny",
+        "bounds": {"min": [-15, -15], "max": [15, 15]},
+        "robots": robots,
+        "episode": {"time_limit": time_limit},
+    }
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
@@ -87,7 +91,8 @@ def _contacts_of_nao(name: str, seed: int) -> int:
 @pytest.mark.slow
 @pytest.mark.parametrize("name, without_at_least", [("circle_swap", 5), ("crossing", 50)])
 def test_the_shield_keeps_random_actions_as_free_of_contacts_as_the_nao_agent(
-        name, without_at_least):
+    name, without_at_least
+):
     # circle_swap: 10 robots, crossing: 12; every robot controlled, 20 seeds
     bare = shielded = nao = replaced = 0
     for seed in EVIDENCE_SEEDS:
@@ -165,8 +170,10 @@ def test_nothing_admissible_falls_back_to_braking(tmp_path):
     # closing at 2 x 1.5 m/s with 0.6 m between the surfaces: every acceleration touches
     # (each robot needs 0.56 m to stop); the nao agent's fallback brakes towards standing
     # still, at a_max
-    robots = [dict(HEAD_ON[0], start=[-0.6, 0.0], velocity=[1.5, 0.0]),
-              dict(HEAD_ON[1], start=[0.6, 0.0], velocity=[-1.5, 0.0])]
+    robots = [
+        dict(HEAD_ON[0], start=[-0.6, 0.0], velocity=[1.5, 0.0]),
+        dict(HEAD_ON[1], start=[0.6, 0.0], velocity=[-1.5, 0.0]),
+    ]
     e = NAOShield(parallel_env(_tiny_map(tmp_path, robots)))
     e.reset(seed=0)
     *_, infos = e.step({"left": np.array([1.0, 0.0]), "right": np.array([0.0, 0.5])})
@@ -186,8 +193,9 @@ def _reference_step(e, ref_agents, actions):
         i = base.possible_agents.index(a)
         k = base.controlled_robots[i]
         a_max = float(base.arena.world.a_max[base.arena.robot_ids[k]])
-        want = clip_accelerations(np.clip(np.asarray(actions[a], float), -1, 1)[None] * a_max,
-                                  [a_max])[0]
+        want = clip_accelerations(
+            np.clip(np.asarray(actions[a], float), -1, 1)[None] * a_max, [a_max]
+        )[0]
         out[a] = ref_agents[i].nearest_admissible(batch.observation(k), want)
     return out
 
@@ -195,12 +203,15 @@ def _reference_step(e, ref_agents, actions):
 KEPT_REPAIRED_ADJUSTED = {"kept", "repaired", "adjusted"}
 
 
-@pytest.mark.parametrize("name, kw, statuses", [
-    ("crossing", {}, KEPT_REPAIRED_ADJUSTED),
-    ("circle_swap", {}, KEPT_REPAIRED_ADJUSTED),
-    # traffic near: nothing admissible -> the acceleration that postpones contact longest
-    ("two_lane_road", {"controlled": ["overtaker"]}, {"repaired", "adjusted", "infeasible"}),
-])
+@pytest.mark.parametrize(
+    "name, kw, statuses",
+    [
+        ("crossing", {}, KEPT_REPAIRED_ADJUSTED),
+        ("circle_swap", {}, KEPT_REPAIRED_ADJUSTED),
+        # traffic near: nothing admissible -> the acceleration that postpones contact longest
+        ("two_lane_road", {"controlled": ["overtaker"]}, {"repaired", "adjusted", "infeasible"}),
+    ],
+)
 def test_the_shield_selects_robot_by_robot_what_it_selects_at_once(name, kw, statuses):
     # nearest_admissible_batch (the shield) against nearest_admissible robot by robot,
     # bit for bit
@@ -224,8 +235,9 @@ def test_the_shield_selects_robot_by_robot_what_it_selects_at_once(name, kw, sta
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(2, 8), steps=st.integers(1, 12))
 def test_selected_accelerations_are_admissible_or_the_fallback(seed, n, steps):
     # n robots in a walled 7 m box (the map's seed 0), random actions drawn from seed
-    e = NAOShield(parallel_env("crowd", n=n, lo=-3.5, hi=3.5, seed=0, reseed_map=False,
-                               time_limit=5.0))
+    e = NAOShield(
+        parallel_env("crowd", n=n, lo=-3.5, hi=3.5, seed=0, reseed_map=False, time_limit=5.0)
+    )
     e.reset(seed=seed)
     rng = np.random.default_rng(seed)
     refs = e._make_agents(None)
@@ -252,8 +264,7 @@ def test_the_ao_shield_predicts_constant_accelerations_and_options_reach_the_age
     assert all(ag.predictor_name == "constant_acceleration" for ag in e.shield_agents)
     assert all(ag.horizon == 2.0 and ag.margin == 0.05 for ag in e.shield_agents)
     nao = NAOShield(parallel_env("circle_swap", n=3))
-    assert all(ag.predictor_name == "turn_rate" and ag.horizon == 3.0
-               for ag in nao.shield_agents)
+    assert all(ag.predictor_name == "turn_rate" and ag.horizon == 3.0 for ag in nao.shield_agents)
 
 
 # ---------------------------------------------------------------- infos and statuses
@@ -262,8 +273,17 @@ def test_the_ao_shield_predicts_constant_accelerations_and_options_reach_the_age
 def test_infos_carry_the_shield_entry_after_reset_and_every_step():
     e = NAOShield(parallel_env("crossing", time_limit=3.0))
     _, infos = e.reset(seed=2)
-    assert all(i["shield"] == {"intervened": False, "correction": 0.0, "status": "reset",
-                               "desired": None, "applied": None} for i in infos.values())
+    assert all(
+        i["shield"]
+        == {
+            "intervened": False,
+            "correction": 0.0,
+            "status": "reset",
+            "desired": None,
+            "applied": None,
+        }
+        for i in infos.values()
+    )
     rng = np.random.default_rng(2)
     while e.agents:
         live = list(e.agents)
@@ -288,8 +308,9 @@ NEAR_AND_FAR = [
 
 
 def test_keep_finished_finished_agents_are_not_shielded(tmp_path):
-    e = NAOShield(parallel_env(_tiny_map(tmp_path, NEAR_AND_FAR), keep_finished=True,
-                               after_done="hold"))
+    e = NAOShield(
+        parallel_env(_tiny_map(tmp_path, NEAR_AND_FAR), keep_finished=True, after_done="hold")
+    )
     e.reset(seed=0)
     zero = np.zeros(2, dtype=np.float32)
     _, _, _, _, infos = e.step({"near_0": zero, "far_0": zero})
@@ -299,9 +320,13 @@ def test_keep_finished_finished_agents_are_not_shielded(tmp_path):
     while e.agents:
         _, _, _, _, infos = e.step({"near_0": np.ones(2), "far_0": np.array([-1.0, 0.0])})
         steps += 1
-        assert infos["near_0"]["shield"] == {"intervened": False, "correction": 0.0,
-                                             "status": "finished", "desired": None,
-                                             "applied": None}
+        assert infos["near_0"]["shield"] == {
+            "intervened": False,
+            "correction": 0.0,
+            "status": "finished",
+            "desired": None,
+            "applied": None,
+        }
         assert infos["far_0"]["shield"]["status"] == "kept"
     assert steps == 50 and e.statuses == {"kept": 51}
 
@@ -323,9 +348,14 @@ def test_keep_finished_through_the_supersuit_vector_env():
 # ---------------------------------------------------------------- the PettingZoo API
 
 
-@pytest.mark.parametrize("name, kw", [("circle_swap", {"n": 3}),
-                                      ("roundabout", {}),
-                                      ("circle_swap", {"n": 3, "keep_finished": True})])
+@pytest.mark.parametrize(
+    "name, kw",
+    [
+        ("circle_swap", {"n": 3}),
+        ("roundabout", {}),
+        ("circle_swap", {"n": 3, "keep_finished": True}),
+    ],
+)
 def test_the_shield_passes_the_api_tests(name, kw):
     kw = {"time_limit": 1.5, **kw}
     parallel_api_test(NAOShield(parallel_env(name, **kw)), num_cycles=30)
@@ -348,9 +378,11 @@ def test_spaces_agents_and_state_are_the_envs():
     assert aec.agents == inner.possible_agents
 
 
-COPIES = {"pickle": lambda x: pickle.loads(pickle.dumps(x)),
-          "cloudpickle": lambda x: cloudpickle.loads(cloudpickle.dumps(x)),
-          "deepcopy": copy.deepcopy}
+COPIES = {
+    "pickle": lambda x: pickle.loads(pickle.dumps(x)),
+    "cloudpickle": lambda x: cloudpickle.loads(cloudpickle.dumps(x)),
+    "deepcopy": copy.deepcopy,
+}
 
 
 @pytest.mark.slow

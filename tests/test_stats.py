@@ -24,8 +24,12 @@ def two(radius: float = 0.5, **kw) -> EpisodeStats:
     return EpisodeStats([radius, radius], ["robot", "robot"], ["a", "b"], dt=0.1, **kw)
 
 
-def feed(stats: EpisodeStats, path: np.ndarray, accels: np.ndarray | None = None,
-         goal: np.ndarray | None = None) -> list:
+def feed(
+    stats: EpisodeStats,
+    path: np.ndarray,
+    accels: np.ndarray | None = None,
+    goal: np.ndarray | None = None,
+) -> list:
     """Feed positions path (T, N, 2) sampled every dt; velocities from differences."""
     dt = stats.dt
     events = []
@@ -65,8 +69,15 @@ def test_segment_distance_against_sampling() -> None:
     assert np.all(d <= dense + 1e-12)
     np.testing.assert_allclose(d, dense, atol=1e-3)
     # a crossing has distance 0
-    assert segment_distances(np.array([[0.0, -1.0]]), np.array([[0.0, 1.0]]),
-                             np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]]))[0] == 0.0
+    assert (
+        segment_distances(
+            np.array([[0.0, -1.0]]),
+            np.array([[0.0, 1.0]]),
+            np.array([[-1.0, 0.0]]),
+            np.array([[1.0, 0.0]]),
+        )[0]
+        == 0.0
+    )
 
 
 @pytest.mark.slow
@@ -78,7 +89,8 @@ def test_sweep_pairs_equals_brute_force() -> None:
         i, j = sweep_pairs(lo, hi)
         got = sorted(zip(i.tolist(), j.tolist(), strict=True))
         want = sorted(
-            (a, b) for a, b in combinations(range(n), 2)
+            (a, b)
+            for a, b in combinations(range(n), 2)
             if np.all(lo[a] <= hi[b]) and np.all(lo[b] <= hi[a])
         )
         assert got == want
@@ -130,14 +142,16 @@ def test_one_event_per_contact_episode_with_hysteresis() -> None:
 
 
 def test_resting_contact_in_the_world_is_one_episode() -> None:
-    spec = map_from_dict({
-        "bounds": {"min": [-10, -10], "max": [10, 10]},
-        "robots": [
-            {"start": [-1.0, 0.0], "goal": [5, 0], "radius": 0.5},
-            {"start": [1.0, 0.0], "goal": [-5, 0], "radius": 0.5},
-        ],
-        "physics": {"elasticity": 0.0},
-    })
+    spec = map_from_dict(
+        {
+            "bounds": {"min": [-10, -10], "max": [10, 10]},
+            "robots": [
+                {"start": [-1.0, 0.0], "goal": [5, 0], "radius": 0.5},
+                {"start": [1.0, 0.0], "goal": [-5, 0], "radius": 0.5},
+            ],
+            "physics": {"elasticity": 0.0},
+        }
+    )
     world = World(spec)
     stats = EpisodeStats(world.radii, world.kinds, world.names, dt=world.dt)
     push = np.array([[2.0, 0.0], [-2.0, 0.0]])
@@ -145,8 +159,9 @@ def test_resting_contact_in_the_world_is_one_episode() -> None:
     for k in range(80):
         cmd = push if k < 50 else -push  # pushing for 5 s, then backing away
         new = world.step(cmd)
-        stats.update(state.time, state.positions, new.positions, new.velocities, cmd,
-                     np.zeros(2, bool))
+        stats.update(
+            state.time, state.positions, new.positions, new.velocities, cmd, np.zeros(2, bool)
+        )
         state = new
     assert len(stats.contacts) == 1
     assert np.isfinite(stats.contacts[0].end_time)
@@ -223,8 +238,9 @@ def test_time_to_collision_head_on() -> None:
 
 
 def test_goal_path_length_and_adjustments() -> None:
-    stats = EpisodeStats([0.3], ["robot"], ["r"], dt=0.1,
-                         config=StatsConfig(adjustment_threshold=0.1))
+    stats = EpisodeStats(
+        [0.3], ["robot"], ["r"], dt=0.1, config=StatsConfig(adjustment_threshold=0.1)
+    )
     path = np.array([[[0.1 * k, 0.0]] for k in range(21)])
     acc = np.zeros((20, 1, 2))
     acc[3:6, 0, 0] = 1.0  # change up at step 3, down at step 6
@@ -244,7 +260,10 @@ def test_faults_are_recorded() -> None:
     stats = two()
     stats.record_fault(0.3, 1, "returned NaN")
     assert stats.summary().faults[0].to_dict() == {
-        "time": 0.3, "robot": 1, "name": "b", "message": "returned NaN",
+        "time": 0.3,
+        "robot": 1,
+        "name": "b",
+        "message": "returned NaN",
     }
 
 
@@ -333,10 +352,12 @@ def sweep_pairs_numpy(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 @settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), substeps=st.integers(1, 12),
-       scale=st.sampled_from([1e-3, 1.0, 30.0]))
-def test_swept_distances_equal_the_numpy_reference(seed: int, substeps: int,
-                                                   scale: float) -> None:
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    substeps=st.integers(1, 12),
+    scale=st.sampled_from([1e-3, 1.0, 30.0]),
+)
+def test_swept_distances_equal_the_numpy_reference(seed: int, substeps: int, scale: float) -> None:
     """The compiled per-substep distances of a new contact's event are the numpy
     reference's bit for bit (paths with repeated points included)."""
     rng = np.random.default_rng(seed)
@@ -393,6 +414,7 @@ class ReferenceStats:
             if m > 1:
                 return (path[k + 1, body] - path[k, body]) / (dt / m)
             return v0[body]
+
         # robot metrics
         active = s.is_robot & ~s.reached
         step = p1 - p0
@@ -407,8 +429,9 @@ class ReferenceStats:
         # the broad phase's visiting order
         pad = 0.5 * cfg.separation_range
         ahead = p1 + v1 * cfg.ttc_horizon
-        lo_x = np.concatenate([np.minimum(path[:, :, 0].min(axis=0), ahead[:, 0])
-                               - (s.radii + pad), s._wall_lo[:, 0]])
+        lo_x = np.concatenate(
+            [np.minimum(path[:, :, 0].min(axis=0), ahead[:, 0]) - (s.radii + pad), s._wall_lo[:, 0]]
+        )
         rank = np.empty(n + nw, dtype=np.int64)
         rank[np.argsort(lo_x, kind="stable")] = np.arange(n + nw)
 
@@ -464,10 +487,15 @@ class ReferenceStats:
         if m == 1:
             sep = per_substep[0] - reach
         else:  # the closest points of swept_disc_distances, the root of the least square
-            closest = [rel[k] + (rel[k + 1] - rel[k]) * swept_disc_distances(
-                rel[k], rel[k + 1])[1][:, None] for k in range(m)]
-            sep = np.sqrt(np.min([c[:, 0] * c[:, 0] + c[:, 1] * c[:, 1] for c in closest],
-                                 axis=0)) - reach
+            closest = [
+                rel[k]
+                + (rel[k + 1] - rel[k]) * swept_disc_distances(rel[k], rel[k + 1])[1][:, None]
+                for k in range(m)
+            ]
+            sep = (
+                np.sqrt(np.min([c[:, 0] * c[:, 0] + c[:, 1] * c[:, 1] for c in closest], axis=0))
+                - reach
+            )
         near = np.flatnonzero(sep < cfg.separation_range)
         if len(near):
             i, j, sep, reach, d1 = i[near], j[near], sep[near], reach[near], d1[near]
@@ -481,8 +509,13 @@ class ReferenceStats:
                 q = first_touch(per_substep[:, k], float(reach[k]))
                 tc, nrm = first_disc_touch(rel[q, k], rel[q + 1, k], float(reach[k]))
                 return ContactEvent(
-                    time=t + (q + tc) / m * dt, a=a, b=b, kind_a=s.kinds[a],
-                    kind_b=s.kinds[b], name_a=s.names[a], name_b=s.names[b],
+                    time=t + (q + tc) / m * dt,
+                    a=a,
+                    b=b,
+                    kind_a=s.kinds[a],
+                    kind_b=s.kinds[b],
+                    name_a=s.names[a],
+                    name_b=s.names[b],
                     impact_speed=max(0.0, -float((approach(q, b) - approach(q, a)) @ nrm)),
                     max_penetration=float(-sep[k]),
                 )
@@ -508,19 +541,26 @@ class ReferenceStats:
             segs = s.wall_segments
             reach = s.radii[i] + s.wall_radii[w]
             a, b = segs[w, 0], segs[w, 1]
-            per_substep = np.array([segment_distances(path[k, i], path[k + 1, i], a, b)
-                                    for k in range(m)])
+            per_substep = np.array(
+                [segment_distances(path[k, i], path[k + 1, i], a, b) for k in range(m)]
+            )
             sep = per_substep.min(axis=0) - reach
             sep_end = point_segment(p1[i], a, b) - reach
 
             def make_wall(k):
                 body, wall = int(i[k]), int(w[k])
                 q = first_touch(per_substep[:, k], float(reach[k]))
-                tc, nrm_k = first_wall_touch(path[q, body], path[q + 1, body], a[k], b[k],
-                                              float(reach[k]))
+                tc, nrm_k = first_wall_touch(
+                    path[q, body], path[q + 1, body], a[k], b[k], float(reach[k])
+                )
                 return ContactEvent(
-                    time=t + (q + tc) / m * dt, a=body, b=wall, kind_a=s.kinds[body],
-                    kind_b="wall", name_a=s.names[body], name_b=f"wall{wall}",
+                    time=t + (q + tc) / m * dt,
+                    a=body,
+                    b=wall,
+                    kind_a=s.kinds[body],
+                    kind_b="wall",
+                    name_a=s.names[body],
+                    name_b=f"wall{wall}",
                     impact_speed=max(0.0, -float(approach(q, body) @ nrm_k)),
                     max_penetration=float(-sep[k]),
                 )
@@ -597,8 +637,17 @@ def test_compiled_update_equals_numpy_reference(seed: int, substeps: int | None)
     assert sum(r["near_misses"] for r in want["robots"]) > 0
     for stats in runs:  # bit-identical, events in the same order, run after run
         assert stats.summary().to_dict() == want
-        for name in ("min_separation", "min_ttc", "path_length", "near_misses",
-                     "adjustments", "_prox", "_prox_contact", "_touch_bb", "_touch_bw"):
+        for name in (
+            "min_separation",
+            "min_ttc",
+            "path_length",
+            "near_misses",
+            "adjustments",
+            "_prox",
+            "_prox_contact",
+            "_touch_bb",
+            "_touch_bw",
+        ):
             assert np.array_equal(getattr(stats, name), getattr(ref.s, name)), name
 
 
@@ -640,8 +689,9 @@ def test_wall_contact_ends_when_the_robot_backs_away() -> None:
 def _liveness_run(tracks: np.ndarray, goals: np.ndarray, tol: float = 0.3, **cfg):
     """Feed tracks (T, N, 2) every 0.1 s with goal flags from a tolerance; the summary."""
     n = tracks.shape[1]
-    stats = EpisodeStats(np.full(n, 0.2), ["robot"] * n, dt=0.1, goals=goals,
-                         config=StatsConfig(**cfg))
+    stats = EpisodeStats(
+        np.full(n, 0.2), ["robot"] * n, dt=0.1, goals=goals, config=StatsConfig(**cfg)
+    )
     at_goal = np.hypot(*(tracks - goals[None]).transpose(2, 0, 1)) <= tol
     feed(stats, tracks, goal=at_goal[1:])
     return stats.summary()
@@ -661,8 +711,9 @@ def test_stuck_time_counts_steps_without_progress_after_the_first_window() -> No
     # creeping 0.04 m/s (0.08 m per 2 s window) is below the 0.1 m progress: still stuck
     t = np.arange(steps + 1) * 0.1
     creep = np.stack([0.04 * t, 0 * t], axis=1)[:, None]
-    assert _liveness_run(creep, np.array([[5.0, 0.0]]), stuck_window=2.0).robots[0] \
-        .stuck_time == pytest.approx(8.0)
+    assert _liveness_run(creep, np.array([[5.0, 0.0]]), stuck_window=2.0).robots[
+        0
+    ].stuck_time == pytest.approx(8.0)
     walk = np.stack([0.3 * t, 0 * t], axis=1)[:, None]
     s = _liveness_run(walk, np.array([[5.0, 0.0]]), stuck_window=2.0)
     assert s.robots[0].stuck_time == 0.0 and np.isnan(s.deadlock_time)
@@ -695,8 +746,9 @@ def test_liveness_in_the_arena_summary() -> None:
         assert r["timed_out"] == (not r["reached_goal"])
 
 
-def _liveness_reference(dt, p1, goals, goal, robots, reached, goal_dist, slot, progress,
-                        time_away, stuck_time):
+def _liveness_reference(
+    dt, p1, goals, goal, robots, reached, goal_dist, slot, progress, time_away, stuck_time
+):
     """The liveness bookkeeping as numpy operations (the recorder's former code)."""
     at_goal = goal & robots
     time_away = time_away + dt * (reached & ~goal & robots)
@@ -726,11 +778,13 @@ def test_liveness_kernel_is_the_numpy_bookkeeping_bit_for_bit(seed, n) -> None:
     goal_dist[rng.random((window, n)) < 0.3] = np.nan  # too early
     slot = int(rng.integers(0, window))
     time_away, stuck_time = rng.random(n), rng.random(n)
-    expected = _liveness_reference(0.1, p1, goals, goal, robots, reached, goal_dist, slot,
-                                   0.1, time_away, stuck_time)
+    expected = _liveness_reference(
+        0.1, p1, goals, goal, robots, reached, goal_dist, slot, 0.1, time_away, stuck_time
+    )
     at_goal = np.zeros(n, dtype=bool)
-    deadlocked = liveness_kernel(0.1, p1, goals, goal, robots, reached, goal_dist, slot, 0.1,
-                                 at_goal, time_away, stuck_time)
+    deadlocked = liveness_kernel(
+        0.1, p1, goals, goal, robots, reached, goal_dist, slot, 0.1, at_goal, time_away, stuck_time
+    )
     got = (at_goal, time_away, goal_dist, stuck_time, deadlocked)
     for g, e in zip(got[:4], expected[:4], strict=True):
         assert g.tobytes() == e.tobytes()

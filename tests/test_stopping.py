@@ -16,17 +16,33 @@ from nao_arena.world import World
 DT, SUBSTEPS, A_MAX, V_MAX, RADIUS = 0.1, 10, 2.0, 1.5, 0.5
 
 
-def robots_map(starts: np.ndarray, goals: np.ndarray, velocities: np.ndarray | None = None,
-               walls: list[dict] | None = None) -> MapSpec:
-    robots = [{"start": list(map(float, s)), "goal": list(map(float, g)),
-               "velocity": [0.0, 0.0] if velocities is None else list(map(float, v)),
-               "radius": RADIUS, "a_max": A_MAX, "v_max": V_MAX}
-              for s, g, v in zip(starts, goals,
-                                 velocities if velocities is not None else starts, strict=True)]
-    return map_from_dict({
-        "bounds": {"min": [-100, -100], "max": [100, 100]}, "robots": robots,
-        "walls": walls or [], "physics": {"dt": DT, "substeps": SUBSTEPS},
-    })
+def robots_map(
+    starts: np.ndarray,
+    goals: np.ndarray,
+    velocities: np.ndarray | None = None,
+    walls: list[dict] | None = None,
+) -> MapSpec:
+    robots = [
+        {
+            "start": list(map(float, s)),
+            "goal": list(map(float, g)),
+            "velocity": [0.0, 0.0] if velocities is None else list(map(float, v)),
+            "radius": RADIUS,
+            "a_max": A_MAX,
+            "v_max": V_MAX,
+        }
+        for s, g, v in zip(
+            starts, goals, velocities if velocities is not None else starts, strict=True
+        )
+    ]
+    return map_from_dict(
+        {
+            "bounds": {"min": [-100, -100], "max": [100, 100]},
+            "robots": robots,
+            "walls": walls or [],
+            "physics": {"dt": DT, "substeps": SUBSTEPS},
+        }
+    )
 
 
 def brake_accel(v: np.ndarray) -> np.ndarray:
@@ -64,8 +80,7 @@ def test_plan_is_the_path_the_world_drives() -> None:
     world.reset()
     pos, vel = world.positions.copy(), world.velocities.copy()
     accel = rng.uniform(-3.0, 3.0, (n, 2))
-    plans = [stopping_plan(pos[i], vel[i], accel[i], A_MAX, V_MAX, DT, SUBSTEPS)
-             for i in range(n)]
+    plans = [stopping_plan(pos[i], vel[i], accel[i], A_MAX, V_MAX, DT, SUBSTEPS) for i in range(n)]
     driven = [pos[None].copy()]
     command = accel
     for _ in range(12):
@@ -76,10 +91,11 @@ def test_plan_is_the_path_the_world_drives() -> None:
     for i in range(n):
         p = plans[i]
         assert len(p) < len(path)
-        np.testing.assert_allclose(path[:len(p), i], p, atol=1e-9)
+        np.testing.assert_allclose(path[: len(p), i], p, atol=1e-9)
         # after the plan ends the robot stands at its last point
-        np.testing.assert_allclose(path[len(p):, i], np.broadcast_to(p[-1], path[len(p):, i].shape),
-                                   atol=1e-9)
+        np.testing.assert_allclose(
+            path[len(p) :, i], np.broadcast_to(p[-1], path[len(p) :, i].shape), atol=1e-9
+        )
     assert np.all(np.hypot(*world.velocities.T) < 1e-9)
 
 
@@ -110,15 +126,17 @@ def test_plan_clearance_is_the_sampled_minimum(u: list[float]) -> None:
     assert got >= sampled - step - 1e-12
 
 
-def reference_rule(pos: np.ndarray, vel: np.ndarray, desired: np.ndarray,
-                   margin: float) -> np.ndarray:
+def reference_rule(
+    pos: np.ndarray, vel: np.ndarray, desired: np.ndarray, margin: float
+) -> np.ndarray:
     """The rule written plainly: every pair by exact plan clearance, robots switching to
     braking in robot order until nothing conflicts."""
     n = len(pos)
-    want = [stopping_plan(pos[i], vel[i], desired[i], A_MAX, V_MAX, DT, SUBSTEPS)
-            for i in range(n)]
-    stand = [stopping_plan(pos[i], vel[i], brake_accel(vel[i:i + 1])[0], A_MAX, V_MAX, DT,
-                           SUBSTEPS) for i in range(n)]
+    want = [stopping_plan(pos[i], vel[i], desired[i], A_MAX, V_MAX, DT, SUBSTEPS) for i in range(n)]
+    stand = [
+        stopping_plan(pos[i], vel[i], brake_accel(vel[i : i + 1])[0], A_MAX, V_MAX, DT, SUBSTEPS)
+        for i in range(n)
+    ]
     brake = np.zeros(n, dtype=bool)
     changed = True
     while changed:
@@ -127,8 +145,11 @@ def reference_rule(pos: np.ndarray, vel: np.ndarray, desired: np.ndarray,
             if brake[i]:
                 continue
             for j in range(n):
-                if j != i and plan_clearance(want[i], stand[j] if brake[j] else want[j],
-                                             SUBSTEPS) < 2 * RADIUS + margin:
+                if (
+                    j != i
+                    and plan_clearance(want[i], stand[j] if brake[j] else want[j], SUBSTEPS)
+                    < 2 * RADIUS + margin
+                ):
                     brake[i] = changed = True
                     break
     return brake
@@ -146,18 +167,23 @@ def test_commit_matches_the_plain_rule_and_leaves_plans_clear(seed: int, n: int)
     desired = rng.uniform(-2.5, 2.5, (n, 2))
     margin = 0.01
     ones = np.ones(n)
-    brake, braking = commit_plans(pos, vel, desired, RADIUS * ones, A_MAX * ones,
-                                  V_MAX * ones, DT, SUBSTEPS, margin)
+    brake, braking = commit_plans(
+        pos, vel, desired, RADIUS * ones, A_MAX * ones, V_MAX * ones, DT, SUBSTEPS, margin
+    )
     np.testing.assert_allclose(braking, brake_accel(vel), rtol=1e-15, atol=1e-15)
     np.testing.assert_array_equal(brake, reference_rule(pos, vel, desired, margin))
-    stand = [stopping_plan(pos[i], vel[i], brake_accel(vel[i:i + 1])[0], A_MAX, V_MAX, DT,
-                           SUBSTEPS) for i in range(n)]
-    final = [stand[i] if brake[i] else
-             stopping_plan(pos[i], vel[i], desired[i], A_MAX, V_MAX, DT, SUBSTEPS)
-             for i in range(n)]
+    stand = [
+        stopping_plan(pos[i], vel[i], brake_accel(vel[i : i + 1])[0], A_MAX, V_MAX, DT, SUBSTEPS)
+        for i in range(n)
+    ]
+    final = [
+        stand[i]
+        if brake[i]
+        else stopping_plan(pos[i], vel[i], desired[i], A_MAX, V_MAX, DT, SUBSTEPS)
+        for i in range(n)
+    ]
     pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
-    if all(plan_clearance(stand[i], stand[j], SUBSTEPS) >= 2 * RADIUS + margin
-           for i, j in pairs):
+    if all(plan_clearance(stand[i], stand[j], SUBSTEPS) >= 2 * RADIUS + margin for i, j in pairs):
         for i, j in pairs:
             assert plan_clearance(final[i], final[j], SUBSTEPS) >= 2 * RADIUS + margin
 
@@ -180,8 +206,19 @@ def run_goal_seekers(spec: MapSpec, with_rule: bool, periods: int) -> float:
         desired = (to_goal / np.maximum(dist, 1e-9)[:, None] * speed[:, None] - vel) / 0.3
         command = desired
         if with_rule:
-            brake, braking = commit_plans(pos, vel, desired, RADIUS * ones, A_MAX * ones,
-                                          V_MAX * ones, DT, SUBSTEPS, 0.005, walls, half)
+            brake, braking = commit_plans(
+                pos,
+                vel,
+                desired,
+                RADIUS * ones,
+                A_MAX * ones,
+                V_MAX * ones,
+                DT,
+                SUBSTEPS,
+                0.005,
+                walls,
+                half,
+            )
             command = np.where(brake[:, None], braking, desired)
         world.step(command)
         sub = world.substep_positions
@@ -218,8 +255,17 @@ def test_non_finite_input_brakes_nobody() -> None:
         arrays[which][1, 0] = bad
         brake, braking = commit_plans(arrays["pos"], arrays["vel"], arrays["desired"], *args)
         assert not brake.any() and not braking.any(), which
-    empty = commit_plans(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0),
-                         np.zeros(0), np.zeros(0), DT, SUBSTEPS, 0.01)
+    empty = commit_plans(
+        np.zeros((0, 2)),
+        np.zeros((0, 2)),
+        np.zeros((0, 2)),
+        np.zeros(0),
+        np.zeros(0),
+        np.zeros(0),
+        DT,
+        SUBSTEPS,
+        0.01,
+    )
     assert empty[0].shape == (0,) and empty[1].shape == (0, 2)
 
 
@@ -252,8 +298,9 @@ def short_sighted_swap(stopping_plans: bool):
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import load_map
 
-    options = ArenaOptions(agent_options={"horizon": 0.3, "margin": 0.0,
-                                          "stopping_plans": stopping_plans})
+    options = ArenaOptions(
+        agent_options={"horizon": 0.3, "margin": 0.0, "stopping_plans": stopping_plans}
+    )
     arena = Arena(load_map("dense_swap_perturbed", n=30, time_limit=120.0), options)
     summary = arena.run(seed=0)
     return arena, summary
@@ -284,6 +331,5 @@ def test_a_yield_is_recorded_in_the_episode_log(tmp_path) -> None:
     arena.recorder = EpisodeRecorder()
     arena.run(seed=0, max_steps=200)
     log = read_log(write_log(arena.recorder.finish(), tmp_path / "swap.parquet"))
-    statuses = {log.status_of(step, robot) for step in range(1, log.n_steps)
-                for robot in range(30)}
+    statuses = {log.status_of(step, robot) for step in range(1, log.n_steps) for robot in range(30)}
     assert "yielded" in statuses

@@ -101,16 +101,29 @@ def test_follower_brakes_behind_a_slow_leader() -> None:
 @pytest.mark.slow
 def test_fast_lane_never_rear_ends_a_slow_one_in_the_world() -> None:
     """Two groups on one straight lane: fast cars catch up with a slow car and queue."""
-    spec = map_from_dict({
-        "bounds": {"min": [-10, -10], "max": [600, 10]},
-        "robots": [{"start": [0, 8], "goal": [1, 8]}],
-        "traffic": [
-            {"lane": {"type": "polyline", "points": [[0, 0], [600, 0]]}, "speed": 2.0,
-             "count": 1, "offset": 60.0, "a_max": 3.0},
-            {"lane": {"type": "polyline", "points": [[0, 0], [600, 0]]}, "speed": 10.0,
-             "count": 3, "spacing": 12.0, "offset": 0.0, "a_max": 3.0},
-        ],
-    })
+    spec = map_from_dict(
+        {
+            "bounds": {"min": [-10, -10], "max": [600, 10]},
+            "robots": [{"start": [0, 8], "goal": [1, 8]}],
+            "traffic": [
+                {
+                    "lane": {"type": "polyline", "points": [[0, 0], [600, 0]]},
+                    "speed": 2.0,
+                    "count": 1,
+                    "offset": 60.0,
+                    "a_max": 3.0,
+                },
+                {
+                    "lane": {"type": "polyline", "points": [[0, 0], [600, 0]]},
+                    "speed": 10.0,
+                    "count": 3,
+                    "spacing": 12.0,
+                    "offset": 0.0,
+                    "a_max": 3.0,
+                },
+            ],
+        }
+    )
     world = World(spec)
     lane = spec.traffic[0].lane_geometry()
     idx = np.arange(1, 5)
@@ -127,13 +140,20 @@ def test_fast_lane_never_rear_ends_a_slow_one_in_the_world() -> None:
             prm = FollowerParams(speed=2.0 if k == 0 else 10.0, a_max=3.0)
             lead = None if leader[k] < 0 else idx[leader[k]]
             a[car] = follower_accel(
-                lane, prm, world.dt, state.positions[car], state.velocities[car], 1.0,
+                lane,
+                prm,
+                world.dt,
+                state.positions[car],
+                state.velocities[car],
+                1.0,
                 None if lead is None else state.positions[lead],
-                None if lead is None else state.velocities[lead], 1.0,
+                None if lead is None else state.velocities[lead],
+                1.0,
             )
         new = world.step(a)
-        stats.update(state.time, state.positions, new.positions, new.velocities, a,
-                     np.zeros(world.n, bool))
+        stats.update(
+            state.time, state.positions, new.positions, new.velocities, a, np.zeros(world.n, bool)
+        )
         state = new
         min_gap = min(min_gap, float(np.min(gap)))
     assert stats.summary().contacts == []
@@ -196,8 +216,9 @@ def test_traffic_does_not_import_maps() -> None:
 
     tree = ast.parse(inspect.getsource(traffic_module))
     imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
-    imported |= {a.name for node in ast.walk(tree) if isinstance(node, ast.Import)
-                 for a in node.names}
+    imported |= {
+        a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names
+    }
     assert not {m for m in imported if m and m.startswith("nao_arena")}
 
 
@@ -210,5 +231,7 @@ def test_lane_traffic_from_any_traffic_map() -> None:
     a, b = LaneTraffic.from_map(spec), LaneTraffic.from_map(stand_in)
     np.testing.assert_array_equal(a.indices, b.indices)
     state = World(spec).state()
-    np.testing.assert_array_equal(a.accelerations(state.positions, state.velocities),
-                                  b.accelerations(state.positions, state.velocities))
+    np.testing.assert_array_equal(
+        a.accelerations(state.positions, state.velocities),
+        b.accelerations(state.positions, state.velocities),
+    )

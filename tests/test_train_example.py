@@ -33,8 +33,14 @@ def need_sb3():
 
 def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    return subprocess.run([sys.executable, str(SCRIPT), *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=900)
+    return subprocess.run(
+        [sys.executable, str(SCRIPT), *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
 
 
 def final_losses(stdout: str) -> dict[str, float]:
@@ -76,8 +82,11 @@ def test_shield_flag_uses_the_shield_or_says_it_is_missing(tmp_path):
 def test_shield_flag_without_the_module_exits_with_a_message(monkeypatch):
     example = load_example()
     monkeypatch.setitem(sys.modules, "nao_arena.shield", None)  # as if not installed
-    with pytest.raises(SystemExit, match=r"--shield needs nao_arena\.shield\.NAOShield \(a "
-                                         r"wrapper of a parallel env: NAOShield\(parallel_env"):
+    with pytest.raises(
+        SystemExit,
+        match=r"--shield needs nao_arena\.shield\.NAOShield \(a "
+        r"wrapper of a parallel env: NAOShield\(parallel_env",
+    ):
         example.make_env(1, seed=0, shield=True)
 
 
@@ -89,8 +98,11 @@ def test_shield_flag_wraps_the_parallel_env(monkeypatch):
         wrapped.append(par)
         return par
 
-    monkeypatch.setitem(sys.modules, "nao_arena.shield",
-                        types.SimpleNamespace(NAOShield=shield, __name__="nao_arena.shield"))
+    monkeypatch.setitem(
+        sys.modules,
+        "nao_arena.shield",
+        types.SimpleNamespace(NAOShield=shield, __name__="nao_arena.shield"),
+    )
     vec = example.make_env(1, seed=0, shield=True)
     try:
         assert len(wrapped) == 1 and wrapped[0].metadata["name"] == "crowd_v0"
@@ -106,9 +118,14 @@ def test_a_non_finite_loss_fails_the_run(monkeypatch, capsys):
     class Diverged:  # PPO whose last update produced NaN
         def __init__(self, policy, env, **kwargs):
             self.num_timesteps = 0
-            self.logger = types.SimpleNamespace(name_to_value={
-                "train/loss": float("nan"), "train/policy_gradient_loss": 0.0,
-                "train/value_loss": float("inf"), "train/entropy_loss": -1.0})
+            self.logger = types.SimpleNamespace(
+                name_to_value={
+                    "train/loss": float("nan"),
+                    "train/policy_gradient_loss": 0.0,
+                    "train/value_loss": float("inf"),
+                    "train/entropy_loss": -1.0,
+                }
+            )
 
         def learn(self, total_timesteps, callback):
             self.num_timesteps = total_timesteps

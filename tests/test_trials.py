@@ -36,14 +36,31 @@ from nao_arena.trials import (
 
 SMALL = {"n": 4}
 STABLE_KEYS = {
-    "map", "agent", "episodes", "robots", "collisions", "collision_rate", "collision_rate_ci95",
-    "success_rate", "median_time_to_goal_s", "min_separation_m", "adjustments_per_s",
+    "map",
+    "agent",
+    "episodes",
+    "robots",
+    "collisions",
+    "collision_rate",
+    "collision_rate_ci95",
+    "success_rate",
+    "median_time_to_goal_s",
+    "min_separation_m",
+    "adjustments_per_s",
 }
 
 
 def small(out: Path, workers: int = 1, **kw) -> TrialConfig:
-    settings = dict(maps=("circle_swap_perturbed",), agents=("goal", "nao"), episodes=2,
-                    seed=7, workers=workers, out=out, overrides=SMALL, time_limit=15.0)
+    settings = dict(
+        maps=("circle_swap_perturbed",),
+        agents=("goal", "nao"),
+        episodes=2,
+        seed=7,
+        workers=workers,
+        out=out,
+        overrides=SMALL,
+        time_limit=15.0,
+    )
     settings.update(kw)
     return TrialConfig(**settings)
 
@@ -77,14 +94,22 @@ def test_wilson_interval():
 
 def test_files_and_summary(one_worker):
     out, summary = one_worker
-    for name in ("episodes.parquet", "collisions.parquet", "summary.json", "trial.json",
-                 "episodes.csv", "collisions.csv", "summary.csv"):
+    for name in (
+        "episodes.parquet",
+        "collisions.parquet",
+        "summary.json",
+        "trial.json",
+        "episodes.csv",
+        "collisions.csv",
+        "summary.csv",
+    ):
         assert (out / name).is_file(), name
     assert len(list((out / "episodes").glob("*.json"))) == 4
     assert not list(out.rglob("*.tmp"))
     assert json.loads((out / "summary.json").read_text()) == summary
     assert [(r["map"], r["agent"]) for r in summary] == [
-        ("circle_swap_perturbed", "goal"), ("circle_swap_perturbed", "nao")
+        ("circle_swap_perturbed", "goal"),
+        ("circle_swap_perturbed", "nao"),
     ]
     episodes = pq.read_table(out / "episodes.parquet")
     assert episodes.num_rows == 2 * 2 * 4
@@ -107,7 +132,8 @@ def test_files_and_summary(one_worker):
         assert row["collision_rate"] == sum(r["collisions"] > 0 for r in cell) / len(cell)
         assert row["adjustments_per_s"] >= 0
         assert row["collisions"] == sum(
-            1 for c in contacts.to_pylist()
+            1
+            for c in contacts.to_pylist()
             if c["agent"] == row["agent"] and "robot" in (c["kind_a"], c["kind_b"])
         )
     by_agent = {r["agent"]: r for r in summary}
@@ -143,9 +169,11 @@ def test_resume_recomputes_only_missing_episodes(tmp_path):
     victim.unlink()
     (tmp_path / "summary.json").unlink()
     ran: list[tuple[str, int]] = []
-    second = run_trial(config, progress=None,
-                       on_episode=lambda rec: ran.append((rec["key"]["agent"],
-                                                          rec["key"]["episode"])))
+    second = run_trial(
+        config,
+        progress=None,
+        on_episode=lambda rec: ran.append((rec["key"]["agent"], rec["key"]["episode"])),
+    )
     assert ran == [("nao", 1)] and second.ran == 1 and second.skipped == 3
     for f in files:
         if f != victim:
@@ -229,23 +257,41 @@ def test_trajectory_hash_is_the_sha256_of_positions_and_velocities():
 
 
 def _robot(collided: bool, arrived: bool = True) -> dict:
-    return {"index": 0, "name": "r", "reached_goal": arrived, "success": arrived and not collided,
-            "time_to_goal": 10.0 if arrived else None, "path_length": 10.0,
-            "collisions": int(collided), "wall_collisions": 0, "near_misses": 0,
-            "min_separation": 0.5, "min_ttc": None, "adjustments": 2, "adjustment_rate": 0.2}
+    return {
+        "index": 0,
+        "name": "r",
+        "reached_goal": arrived,
+        "success": arrived and not collided,
+        "time_to_goal": 10.0 if arrived else None,
+        "path_length": 10.0,
+        "collisions": int(collided),
+        "wall_collisions": 0,
+        "near_misses": 0,
+        "min_separation": 0.5,
+        "min_ttc": None,
+        "adjustments": 2,
+        "adjustment_rate": 0.2,
+    }
 
 
-def _record(episode: int, collided: int, robots: int = 10, digest: str | None = None,
-            duration: float = 3600.0) -> dict:
+def _record(
+    episode: int,
+    collided: int,
+    robots: int = 10,
+    digest: str | None = None,
+    duration: float = 3600.0,
+) -> dict:
     """A synthetic episode record: ``collided`` of ``robots`` robots touched a wall once."""
     contact = {"kind_a": "robot", "kind_b": "wall"}
     return {
         "key": {"map": "m", "agent": "a", "episode": episode},
         "error": None,
         "result": {
-            "duration": duration, "steps": 100,
+            "duration": duration,
+            "steps": 100,
             "robots": [_robot(k < collided) for k in range(robots)],
-            "contacts": [contact] * collided, "faults": [],
+            "contacts": [contact] * collided,
+            "faults": [],
             "trajectory_hash": f"{episode:064x}" if digest is None else digest,
         },
     }
@@ -276,8 +322,17 @@ def test_summary_keys_are_documented_and_the_legend_defines_every_column():
     for key in SUMMARY_KEYS:
         assert f"``{key}``" in trials.__doc__, key
     head = format_table([]).splitlines()[0]
-    for column in ("episodes", "distinct", "success", "collision rate", "contacts",
-                   "contacts/robot-h", "median TTG s", "min sep m", "adj/s"):
+    for column in (
+        "episodes",
+        "distinct",
+        "success",
+        "collision rate",
+        "contacts",
+        "contacts/robot-h",
+        "median TTG s",
+        "min sep m",
+        "adj/s",
+    ):
         assert column in head
         assert any(line.strip().startswith(f"{column}:") for line in TABLE_LEGEND.splitlines())
     assert TABLE_LEGEND in format_table([])
@@ -320,8 +375,15 @@ def test_repeated_episodes_are_detected_and_counted_once_in_the_intervals():
 
 
 def test_a_trial_of_a_map_without_randomness_reports_its_repeats(tmp_path):
-    config = TrialConfig(maps=("circle_swap",), agents=("goal",), episodes=3, seed=0,
-                         out=tmp_path, overrides={"n": 4}, time_limit=2.0)
+    config = TrialConfig(
+        maps=("circle_swap",),
+        agents=("goal",),
+        episodes=3,
+        seed=0,
+        out=tmp_path,
+        overrides={"n": 4},
+        time_limit=2.0,
+    )
     (row,) = run_trial(config, progress=None).summary
     assert row["episodes"] == 3 and row["distinct_episodes"] == 1
     assert row["robots"] == 12 and row["distinct_robots"] == 4
@@ -333,15 +395,23 @@ def test_distinct_episodes_of_a_seeded_map(one_worker):
     for row in summary:
         assert row["distinct_episodes"] == 2 and row["distinct_robots"] == row["robots"] == 8
         assert row["collision_rate_ci95"] == list(
-            wilson_interval(row["robots_collided"], row["robots"]))
+            wilson_interval(row["robots_collided"], row["robots"])
+        )
 
 
 # --------------------------------------------------------------------------- the output folder
 
 
 def quick(out: Path, **kw) -> TrialConfig:
-    settings = dict(maps=("circle_swap_perturbed",), agents=("goal",), episodes=1, seed=7,
-                    out=out, overrides=SMALL, time_limit=3.0)
+    settings = dict(
+        maps=("circle_swap_perturbed",),
+        agents=("goal",),
+        episodes=1,
+        seed=7,
+        out=out,
+        overrides=SMALL,
+        time_limit=3.0,
+    )
     settings.update(kw)
     return TrialConfig(**settings)
 
@@ -355,8 +425,23 @@ def test_a_second_trial_on_a_folder_in_use_fails_at_once(tmp_path, capsys):
         with pytest.raises(ResultsFolderError) as info:
             run_trial(quick(tmp_path, seed=8), progress=None)
         refused.append(str(info.value))
-        args = ["trial", "--map", "circle_swap_perturbed", "--agent", "goal", "--episodes", "1",
-                "--seed", "7", "--out", str(tmp_path), "--set", "n=4", "--time-limit", "3"]
+        args = [
+            "trial",
+            "--map",
+            "circle_swap_perturbed",
+            "--agent",
+            "goal",
+            "--episodes",
+            "1",
+            "--seed",
+            "7",
+            "--out",
+            str(tmp_path),
+            "--set",
+            "n=4",
+            "--time-limit",
+            "3",
+        ]
         assert main(args) == 2
         refused.append(capsys.readouterr().err)
 
@@ -380,9 +465,28 @@ def test_other_settings_in_the_same_folder_are_refused(tmp_path, capsys):
         run_trial(quick(tmp_path, overrides={"n": 5}), progress=None)
     with pytest.raises(ResultsFolderError, match="agents"):
         run_trial(quick(tmp_path, agents=("goal", "nao")), progress=None)
-    assert main(["trial", "--map", "circle_swap_perturbed", "--agent", "goal",
-                 "--episodes", "1", "--seed", "8", "--out", str(tmp_path), "--set", "n=4",
-                 "--time-limit", "3"]) == 2
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                "circle_swap_perturbed",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--seed",
+                "8",
+                "--out",
+                str(tmp_path),
+                "--set",
+                "n=4",
+                "--time-limit",
+                "3",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(tmp_path) in err and "seed 7 there, 8 now" in err
     assert {name: (tmp_path / name).read_bytes() for name in before} == before
@@ -417,15 +521,23 @@ def test_report_table_shows_counts_and_the_legend(one_worker, tmp_path):
 
     out, summary = one_worker
     text = report_text(out)
-    by_agent = {line.split()[1]: line for line in text.splitlines()
-                if line.startswith("circle_swap_perturbed")}
+    by_agent = {
+        line.split()[1]: line
+        for line in text.splitlines()
+        if line.startswith("circle_swap_perturbed")
+    }
     assert "8/8 (100 %) [" in by_agent["goal"] and "0/8 (0 %)" in by_agent["goal"]
     assert TABLE_LEGEND in text
     assert [rate_label(r) for r in summary] == ["8/8", "0/8"]
     # a summary.json from before the counts: counts from rate x robots
-    old = [{k: v for k, v in row.items() if k in STABLE_KEYS | {"failed_episodes",
-                                                                 "success_rate_ci95"}}
-           for row in summary]
+    old = [
+        {
+            k: v
+            for k, v in row.items()
+            if k in STABLE_KEYS | {"failed_episodes", "success_rate_ci95"}
+        }
+        for row in summary
+    ]
     (tmp_path / "summary.json").write_text(json.dumps(old))
     goal_line = report_text(tmp_path).splitlines()[2]
     assert goal_line.split()[1] == "goal" and "8/8 (100 %) [" in goal_line
@@ -435,10 +547,16 @@ def test_report_table_shows_counts_and_the_legend(one_worker, tmp_path):
 def test_liveness_counts_in_the_summary_and_the_table():
     """Timed-out, stuck, left-the-goal and deadlocked robot-episodes are counted from the
     episode records (records without the liveness fields count as none)."""
+
     def robot(arrived: bool, stuck: float, away: float, at_end: bool) -> dict:
-        return {**_robot(False, arrived), "stuck_time": stuck,
-                "time_away_after_arrival": away, "at_goal_at_end": at_end,
-                "final_goal_distance": 0.1 if at_end else 2.0, "timed_out": not arrived}
+        return {
+            **_robot(False, arrived),
+            "stuck_time": stuck,
+            "time_away_after_arrival": away,
+            "at_goal_at_end": at_end,
+            "final_goal_distance": 0.1 if at_end else 2.0,
+            "timed_out": not arrived,
+        }
 
     records = [_record(e, 0, robots=0) for e in range(3)]
     records[0]["result"]["robots"] = [robot(True, 0.0, 0.0, True), robot(False, 12.0, 0.0, False)]
@@ -490,7 +608,8 @@ def test_results_and_table_do_not_depend_on_running() -> None:
     imports = {p: _nao_imports(importlib.import_module(f"nao_arena.trials.{p}")) for p in parts}
     for part in ("results", "table"):
         assert not {"nao_arena.trials.run", "nao_arena.arena", "nao_arena.agent"} & set(
-            imports[part]), part
+            imports[part]
+        ), part
     assert imports["table"] == {}
     for part, found in imports.items():
         private = [n for names in found.values() for n in names if n.startswith("_")]

@@ -24,8 +24,21 @@ from nao_arena.cli import main
 from nao_arena.trials import TrialConfig, episode_path, run_trial
 
 MAP = "circle_swap_perturbed"
-GRID = ["--map", MAP, "--agent", "goal,nao", "--episodes", "3", "--seed", "5",
-        "--set", "n=4", "--time-limit", "12", "--csv"]
+GRID = [
+    "--map",
+    MAP,
+    "--agent",
+    "goal,nao",
+    "--episodes",
+    "3",
+    "--seed",
+    "5",
+    "--set",
+    "n=4",
+    "--time-limit",
+    "12",
+    "--csv",
+]
 TABLES = ("episodes.parquet", "collisions.parquet")
 TEXTS = ("summary.json", "episodes.csv", "collisions.csv", "summary.csv")
 
@@ -41,8 +54,16 @@ def need_ray():
 
 def grid(out: Path, **kw) -> TrialConfig:
     """The grid of GRID: 1 map x 2 agents x 3 episodes, 4 robots, 12 s."""
-    settings = dict(maps=(MAP,), agents=("goal", "nao"), episodes=3, seed=5, out=out,
-                    overrides={"n": 4}, time_limit=12.0, csv=True)
+    settings = dict(
+        maps=(MAP,),
+        agents=("goal", "nao"),
+        episodes=3,
+        seed=5,
+        out=out,
+        overrides={"n": 4},
+        time_limit=12.0,
+        csv=True,
+    )
     settings.update(kw)
     return TrialConfig(**settings)
 
@@ -135,9 +156,11 @@ def test_ray_gives_the_same_results_as_local(ray, local_run, tmp_path):
         ray.shutdown()
     out, summary = local_run
     seen: list[tuple[str, int]] = []
-    result = run_trial(grid(tmp_path, backend="ray", workers=2), progress=None,
-                       on_episode=lambda r: seen.append((r["key"]["agent"],
-                                                         r["key"]["episode"])))
+    result = run_trial(
+        grid(tmp_path, backend="ray", workers=2),
+        progress=None,
+        on_episode=lambda r: seen.append((r["key"]["agent"], r["key"]["episode"])),
+    )
     assert not ray.is_initialized()  # it started a local Ray instance, and shut it down
     assert result.ran == 6 and result.skipped == 0
     assert sorted(seen) == [(a, e) for a in ("goal", "nao") for e in range(3)]
@@ -153,8 +176,7 @@ def ray_session(ray):
     """A local Ray instance opened by the test (so the backend must leave it running)."""
     if ray.is_initialized():
         ray.shutdown()
-    ray.init(address="local", num_cpus=2, include_dashboard=False,
-             logging_level=logging.ERROR)
+    ray.init(address="local", num_cpus=2, include_dashboard=False, logging_level=logging.ERROR)
     yield ray
     ray.shutdown()
 
@@ -169,8 +191,7 @@ def test_cli_backend_ray_resume_and_address(ray_session, local_run, tmp_path, ca
     episode_path(resumed, MAP, "nao", 2).unlink()
     for name in TABLES + TEXTS:
         (resumed / name).unlink()
-    assert main(["trial", *GRID, "--out", str(resumed), "--backend", "ray",
-                 "--workers", "2"]) == 0
+    assert main(["trial", *GRID, "--out", str(resumed), "--backend", "ray", "--workers", "2"]) == 0
     captured = capsys.readouterr()
     assert "1 episodes run, 5 already done" in captured.out
     assert "episodes 6/6" in captured.err
@@ -182,9 +203,25 @@ def test_cli_backend_ray_resume_and_address(ray_session, local_run, tmp_path, ca
     address = ray.get_runtime_context().gcs_address
     env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_ADDRESS")}
     proc = subprocess.run(
-        [sys.executable, "-m", "nao_arena.cli", "trial", *GRID, "--out", str(joined),
-         "--backend", "ray", "--address", address, "--quiet"],
-        capture_output=True, text=True, env=env, timeout=180, cwd=tmp_path,
+        [
+            sys.executable,
+            "-m",
+            "nao_arena.cli",
+            "trial",
+            *GRID,
+            "--out",
+            str(joined),
+            "--backend",
+            "ray",
+            "--address",
+            address,
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=180,
+        cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr
     assert "6 episodes run, 0 already done" in proc.stdout
@@ -201,8 +238,9 @@ def test_a_cluster_that_loses_a_node_gives_the_same_results(ray, local_run, tmp_
     if ray.is_initialized():
         ray.shutdown()
     out, summary = local_run
-    cluster = Cluster(initialize_head=True, head_node_args={
-        "num_cpus": 0, "include_dashboard": False})
+    cluster = Cluster(
+        initialize_head=True, head_node_args={"num_cpus": 0, "include_dashboard": False}
+    )
     try:
         kept = cluster.add_node(num_cpus=1)
         lost = cluster.add_node(num_cpus=1)
@@ -216,8 +254,9 @@ def test_a_cluster_that_loses_a_node_gives_the_same_results(ray, local_run, tmp_
                 cluster.remove_node(lost, allow_graceful=False)
                 killed.append(lost.node_id)
 
-        result = run_trial(grid(tmp_path, backend="ray", workers=2), progress=None,
-                           on_episode=on_episode)
+        result = run_trial(
+            grid(tmp_path, backend="ray", workers=2), progress=None, on_episode=on_episode
+        )
         assert killed and killed[0] in nodes_before and kept.node_id in nodes_before
         assert result.ran == 6 and result.summary == summary
         assert_same_results(out, tmp_path)

@@ -69,7 +69,7 @@ def test_legend_explains_every_symbol_with_the_drawn_colours(crowd):
     # one colour per neighbour: the legend says so and shows several, the paths' and the
     # regions' colours (regions are the paths' colours lightened)
     assert "colour = neighbour" in path.label and "colour = neighbour" in nao.label
-    assert len(path.colours) > 1 and path.colours == tuple(_PALETTE[:len(path.colours)])
+    assert len(path.colours) > 1 and path.colours == tuple(_PALETTE[: len(path.colours)])
     assert nao.colours == tuple(_mix(c, 0.55) for c in path.colours)
     ring = next(e for e in legend.values() if "hollow ring" in e.label)
     assert ring.symbol == "ring" and ring.colours == path.colours
@@ -109,14 +109,13 @@ def test_panel_axes_are_named_and_every_tick_labelled(crowd):
 @given(arrays(np.int64, (6, 6), elements=st.integers(-2, 2)))
 def test_edge_runs_cover_exactly_the_regions_on_each_edge(labels):
     runs = edge_runs(labels)
-    edges = {"top": labels[0], "bottom": labels[-1], "left": labels[:, 0],
-             "right": labels[:, -1]}
+    edges = {"top": labels[0], "bottom": labels[-1], "left": labels[:, 0], "right": labels[:, -1]}
     for name, line in edges.items():
         covered = np.full(len(line), -1)
         mine = [r for r in runs if r.edge == name]
         for r in mine:
-            assert r.stop > r.start and np.all(line[r.start:r.stop] == r.label)
-            covered[r.start:r.stop] = r.label
+            assert r.stop > r.start and np.all(line[r.start : r.stop] == r.label)
+            covered[r.start : r.stop] = r.label
         assert np.array_equal(covered, line)
         for a, b in itertools.pairwise(mine):  # maximal runs
             assert a.stop <= b.start and (a.stop < b.start or a.label != b.label)
@@ -126,8 +125,12 @@ def test_edge_runs_example():
     lab = np.full((4, 4), -1)
     lab[0, 1:3] = 0
     lab[:, 3] = -2
-    assert edge_runs(lab) == [EdgeRun("top", 1, 3, 0), EdgeRun("top", 3, 4, -2),
-                              EdgeRun("bottom", 3, 4, -2), EdgeRun("right", 0, 4, -2)]
+    assert edge_runs(lab) == [
+        EdgeRun("top", 1, 3, 0),
+        EdgeRun("top", 3, 4, -2),
+        EdgeRun("bottom", 3, 4, -2),
+        EdgeRun("right", 0, 4, -2),
+    ]
 
 
 def test_regions_cut_by_the_panel_edge_are_marked(crowd):
@@ -138,8 +141,7 @@ def test_regions_cut_by_the_panel_edge_are_marked(crowd):
     region = [tuple(int(v * 0.6) for v in c) for c in viewer._region_colours()]
     band_colours = {tuple(px) for px in frame[:, 800:].reshape(-1, 3)}
     for run in runs:
-        assert region[len(_PALETTE) if run.label < 0 else run.label % len(_PALETTE)] \
-            in band_colours
+        assert region[len(_PALETTE) if run.label < 0 else run.label % len(_PALETTE)] in band_colours
 
 
 def test_short_accelerations_are_rings_that_both_show():
@@ -191,8 +193,9 @@ def test_recordings_do_not_depend_on_the_wall_clock(monkeypatch, tmp_path):
     frames = []
     for k, step in enumerate((0.001, 3.0)):
         _fake_clock(monkeypatch, step)
-        out = record_episode(Arena(load_map("circle_swap", n=3)), tmp_path / f"{k}.gif",
-                             max_steps=3, seed=0)
+        out = record_episode(
+            Arena(load_map("circle_swap", n=3)), tmp_path / f"{k}.gif", max_steps=3, seed=0
+        )
         frames.append(np.asarray(iio.mimread(out)))
     assert np.array_equal(frames[0], frames[1])
 
@@ -250,7 +253,7 @@ def test_keys_cycle_the_selected_robot_and_toggle_the_keys_line():
 
 def test_readme_lists_every_key():
     text = README.read_text(encoding="utf-8")
-    section = text[text.index("**Viewer.**"):]
+    section = text[text.index("**Viewer.**") :]
     for key, what in KEYS:
         assert f"`{key}`" in section and what in section, key
 
@@ -258,10 +261,11 @@ def test_readme_lists_every_key():
 def test_scale_label_sits_on_a_light_box(crowd):
     _, viewer, frame = crowd
     x, y, w, h = viewer.info.scale_box
-    beside = frame[y:y + h, x + w + 1:x + w + 40]
-    assert np.all(beside == viewer_module._WALL, axis=-1).any(), \
+    beside = frame[y : y + h, x + w + 1 : x + w + 40]
+    assert np.all(beside == viewer_module._WALL, axis=-1).any(), (
         "the crowd scene's bottom wall runs under the scale bar"
-    box = frame[y + 1:y + h - 1, x + 1:x + w - 1].astype(float)
+    )
+    box = frame[y + 1 : y + h - 1, x + 1 : x + w - 1].astype(float)
     assert np.median(box.mean(axis=-1)) > 200
     assert any(re.fullmatch(r"[0-9.]+ m", t) for t in viewer.info.texts)
 
@@ -269,12 +273,22 @@ def test_scale_label_sits_on_a_light_box(crowd):
 def _close_neighbour(arena: Arena) -> Observation:
     """Robot 0 of ``arena`` with one neighbour 0.05 m away (surfaces), inside the margin."""
     obs = arena.observations()[0]
-    nb = Neighbours(ids=np.array([1]), kinds=("robot",),
-                    positions=(obs.position + [0.65, 0.0])[None],
-                    velocities=np.zeros((1, 2)), accelerations=np.zeros((1, 2)),
-                    radii=np.array([0.3]))
-    return dataclasses.replace(obs, radius=0.3, velocity=np.zeros(2), neighbours=nb,
-                               walls=np.zeros((0, 2, 2)), wall_radius=np.zeros(0))
+    nb = Neighbours(
+        ids=np.array([1]),
+        kinds=("robot",),
+        positions=(obs.position + [0.65, 0.0])[None],
+        velocities=np.zeros((1, 2)),
+        accelerations=np.zeros((1, 2)),
+        radii=np.array([0.3]),
+    )
+    return dataclasses.replace(
+        obs,
+        radius=0.3,
+        velocity=np.zeros(2),
+        neighbours=nb,
+        walls=np.zeros((0, 2, 2)),
+        wall_radius=np.zeros(0),
+    )
 
 
 def test_the_panel_sees_a_neighbour_inside_the_margin_as_the_agent_does():

@@ -45,9 +45,15 @@ def simulated_distances(v, a, v_max, walls, horizon=HORIZON, n=N_SAMPLES):
 def walls_only(walls, radii) -> PiecewisePath:
     """A path with no moving obstacle and the given walls (robot-relative) and radii."""
     empty = sampled_path(TIMES, np.zeros((0, len(TIMES), 2)), np.zeros(0))
-    return PiecewisePath(empty.t, empty.c, empty.velocity, empty.acceleration, empty.radius,
-                         np.asarray(walls, dtype=float).reshape(-1, 2, 2),
-                         np.asarray(radii, dtype=float))
+    return PiecewisePath(
+        empty.t,
+        empty.c,
+        empty.velocity,
+        empty.acceleration,
+        empty.radius,
+        np.asarray(walls, dtype=float).reshape(-1, 2, 2),
+        np.asarray(radii, dtype=float),
+    )
 
 
 def step_error(v, a, horizon=HORIZON, n=N_SAMPLES):
@@ -81,8 +87,7 @@ def wall_scenes(draw):
 @given(scene=wall_scenes())
 def test_a_selected_acceleration_keeps_every_wall_clear_in_forward_simulation(scene):
     walls, radii, v, desired, v_max = scene
-    sel = select_acceleration(desired, v, walls_only(walls, radii), AccelLimits(2.0),
-                              v_max=v_max)
+    sel = select_acceleration(desired, v, walls_only(walls, radii), AccelLimits(2.0), v_max=v_max)
     if not sel.feasible:
         return
     assert float(np.hypot(*sel.accel)) <= 2.0 * (1 + 1e-9)
@@ -101,12 +106,21 @@ def test_a_selected_acceleration_keeps_every_wall_clear_in_forward_simulation(sc
 
 
 @settings(deadline=None, max_examples=150)
-@given(vx=st.floats(-1.5, 1.5), vy=st.floats(-1.5, 1.5), ax=st.floats(-2.0, 2.0),
-       ay=st.floats(-2.0, 2.0), v_max=st.sampled_from([1.0, 1.5, math.inf]),
-       px=st.floats(-4.0, 4.0), py=st.floats(-4.0, 4.0), dx=st.floats(-4.0, 4.0),
-       dy=st.floats(-4.0, 4.0), r=st.floats(0.05, 1.5))
-def test_first_contact_and_closest_approach_match_forward_simulation(vx, vy, ax, ay, v_max,
-                                                                    px, py, dx, dy, r):
+@given(
+    vx=st.floats(-1.5, 1.5),
+    vy=st.floats(-1.5, 1.5),
+    ax=st.floats(-2.0, 2.0),
+    ay=st.floats(-2.0, 2.0),
+    v_max=st.sampled_from([1.0, 1.5, math.inf]),
+    px=st.floats(-4.0, 4.0),
+    py=st.floats(-4.0, 4.0),
+    dx=st.floats(-4.0, 4.0),
+    dy=st.floats(-4.0, 4.0),
+    r=st.floats(0.05, 1.5),
+)
+def test_first_contact_and_closest_approach_match_forward_simulation(
+    vx, vy, ax, ay, v_max, px, py, dx, dy, r
+):
     """wall_scan's first time within r and its time of closest approach, against the
     sampled path: the first sample within r lies within a sampling step after the
     kernel's first contact (or the kernel finds none and no sample is within r - the
@@ -117,8 +131,7 @@ def test_first_contact_and_closest_approach_match_forward_simulation(vx, vy, ax,
     d = d[0]
     cvx, cvy, tau, _ = candidate_setup(vx, vy, ax, ay, v_max, HORIZON)
     out = np.empty(3)
-    wall_scan(cvx, cvy, ax, ay, tau, HORIZON, px, py, px + dx, py + dy, r, True, np.empty(3),
-              out)
+    wall_scan(cvx, cvy, ax, ay, tau, HORIZON, px, py, px + dx, py + dy, r, True, np.empty(3), out)
     err = step_error(v, a)
     first = out[2]
     inside = np.flatnonzero(d <= r)
@@ -147,13 +160,27 @@ def test_wall_disks_of_the_picture_are_inside_the_nao(seed):
     centre m at time t drives the robot (no speed limit) within the wall's radius at t,
     and so does every point of the disk (distance at t at most the radius)."""
     rng = np.random.default_rng(seed)
-    walls = np.stack([rng.normal(size=(2, 2)) * 3.0,
-                      rng.normal(size=(2, 2)) * 3.0], axis=1)
+    walls = np.stack([rng.normal(size=(2, 2)) * 3.0, rng.normal(size=(2, 2)) * 3.0], axis=1)
     radii = rng.uniform(0.3, 0.8, size=2)
     v = rng.normal(size=2)
     empty = np.zeros((0, len(TIMES) - 1, 2))
-    rows = nao_disk_samples(v, TIMES, empty, empty, empty, np.zeros(0), walls, radii, 0.0, 2,
-                            np.zeros(2), 4.0, 2.0, 16.0, 0.02)
+    rows = nao_disk_samples(
+        v,
+        TIMES,
+        empty,
+        empty,
+        empty,
+        np.zeros(0),
+        walls,
+        radii,
+        0.0,
+        2,
+        np.zeros(2),
+        4.0,
+        2.0,
+        16.0,
+        0.02,
+    )
     assert len(rows)
     for mx, my, rho, _ in rows:
         t = math.sqrt(2.0 * radii.max() / rho) if rho > 0 else math.inf
@@ -163,8 +190,9 @@ def test_wall_disks_of_the_picture_are_inside_the_nao(seed):
             tt = math.sqrt(2.0 * r / rho)
             for rim in (0.0, 1.0):
                 ang = rng.uniform(0.0, 2.0 * math.pi)
-                a = np.array([mx, my]) + rim * rho * (1 - 1e-9) * np.array([math.cos(ang),
-                                                                          math.sin(ang)])
+                a = np.array([mx, my]) + rim * rho * (1 - 1e-9) * np.array(
+                    [math.cos(ang), math.sin(ang)]
+                )
                 x = v * tt + 0.5 * a * tt * tt
                 dist = min(point_segment_distance(x[None], w[0], w[1])[0] for w in walls)
                 ok = ok or dist <= r * (1 + 1e-9) + 1e-9
@@ -178,11 +206,12 @@ def test_the_selection_is_the_nearest_admissible_acceleration_on_a_simulated_gri
     selection by more than its tolerance and sliver depth (1 % of a_max) plus the grid's
     half-diagonal (no speed limit: the exact disk picture)."""
     rng = np.random.default_rng(100 + seed)
-    walls = np.stack([rng.normal(size=(3, 2)) * 2.5,
-                      rng.normal(size=(3, 2)) * 2.5], axis=1)
+    walls = np.stack([rng.normal(size=(3, 2)) * 2.5, rng.normal(size=(3, 2)) * 2.5], axis=1)
     radii = rng.uniform(0.3, 0.6, size=3)
-    keep = [point_segment_distance(np.zeros((1, 2)), w[0], w[1])[0] > r + 0.1
-            for w, r in zip(walls, radii, strict=True)]
+    keep = [
+        point_segment_distance(np.zeros((1, 2)), w[0], w[1])[0] > r + 0.1
+        for w, r in zip(walls, radii, strict=True)
+    ]
     walls, radii = walls[keep], radii[keep]
     v = rng.normal(size=2)
     desired = rng.normal(size=2) * 1.5
@@ -207,8 +236,15 @@ def test_path_clearance_reports_walls_after_the_obstacles():
     """Columns: the moving obstacles, then the walls, each against the simulation."""
     moving = sampled_path(TIMES, np.array([[[3.0, 0.0]] * len(TIMES)]), np.array([0.5]))
     wall = np.array([[[-1.0, 2.0], [1.0, 2.0]]])
-    path = PiecewisePath(moving.t, moving.c, moving.velocity, moving.acceleration,
-                         moving.radius, wall, np.array([0.4]))
+    path = PiecewisePath(
+        moving.t,
+        moving.c,
+        moving.velocity,
+        moving.acceleration,
+        moving.radius,
+        wall,
+        np.array([0.4]),
+    )
     res = path_clearance(np.array([[0.0, 0.5]]), np.zeros(2), path)
     assert res.clearance.shape == (1, 2)
     _, d = simulated_distances(np.zeros(2), np.array([0.0, 0.5]), math.inf, wall)
@@ -222,11 +258,25 @@ def test_path_clearance_reports_walls_after_the_obstacles():
 def test_walls_must_come_in_pairs_of_ends():
     empty = sampled_path(TIMES, np.zeros((0, len(TIMES), 2)), np.zeros(0))
     with pytest.raises(ValueError, match="walls: expected shape"):
-        PiecewisePath(empty.t, empty.c, empty.velocity, empty.acceleration, empty.radius,
-                      np.zeros((1, 2)), np.zeros(1))
+        PiecewisePath(
+            empty.t,
+            empty.c,
+            empty.velocity,
+            empty.acceleration,
+            empty.radius,
+            np.zeros((1, 2)),
+            np.zeros(1),
+        )
     with pytest.raises(ValueError, match="wall_radius: expected shape"):
-        PiecewisePath(empty.t, empty.c, empty.velocity, empty.acceleration, empty.radius,
-                      np.zeros((1, 2, 2)), np.zeros(2))
+        PiecewisePath(
+            empty.t,
+            empty.c,
+            empty.velocity,
+            empty.acceleration,
+            empty.radius,
+            np.zeros((1, 2, 2)),
+            np.zeros(2),
+        )
 
 
 GAP_MAP = """

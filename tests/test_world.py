@@ -22,23 +22,37 @@ LIMIT_RTOL = 1e-9
 MODEL_ATOL = 1e-12
 
 
-def spread_map(n: int, v_max: float = 1.5, a_max: float = 2.0, spacing: float = 100.0,
-               velocities: np.ndarray | None = None, substeps: int = 10) -> MapSpec:
+def spread_map(
+    n: int,
+    v_max: float = 1.5,
+    a_max: float = 2.0,
+    spacing: float = 100.0,
+    velocities: np.ndarray | None = None,
+    substeps: int = 10,
+) -> MapSpec:
     """n robots on a wide grid: they never meet within a short run."""
     side = int(np.ceil(np.sqrt(n)))
     robots = []
     for k in range(n):
         start = [spacing * (k % side), spacing * (k // side)]
         v = [0.0, 0.0] if velocities is None else list(velocities[k])
-        robots.append({
-            "start": start, "goal": start, "velocity": v, "radius": 0.5,
-            "a_max": a_max, "v_max": v_max,
-        })
-    return map_from_dict({
-        "bounds": {"min": [-1000, -1000], "max": [2000, 2000]},
-        "robots": robots,
-        "physics": {"dt": 0.1, "substeps": substeps},
-    })
+        robots.append(
+            {
+                "start": start,
+                "goal": start,
+                "velocity": v,
+                "radius": 0.5,
+                "a_max": a_max,
+                "v_max": v_max,
+            }
+        )
+    return map_from_dict(
+        {
+            "bounds": {"min": [-1000, -1000], "max": [2000, 2000]},
+            "robots": robots,
+            "physics": {"dt": 0.1, "substeps": substeps},
+        }
+    )
 
 
 def goal_seeking(spec: MapSpec, world: World, pos: np.ndarray, vel: np.ndarray) -> np.ndarray:
@@ -132,16 +146,31 @@ def test_speed_limit_holds_through_contacts() -> None:
 
 
 def test_contact_overspeed_is_scaled_not_teleported() -> None:
-    spec = map_from_dict({
-        "bounds": {"min": [-50, -50], "max": [50, 50]},
-        "robots": [
-            {"start": [-3, 0], "goal": [10, 0], "velocity": [4, 0], "radius": 0.5,
-             "mass": 50.0, "a_max": 1.0, "v_max": 4.0},
-            {"start": [0, 0], "goal": [-10, 0], "radius": 0.5, "mass": 1.0,
-             "a_max": 1.0, "v_max": 0.5},
-        ],
-        "physics": {"elasticity": 1.0},
-    })
+    spec = map_from_dict(
+        {
+            "bounds": {"min": [-50, -50], "max": [50, 50]},
+            "robots": [
+                {
+                    "start": [-3, 0],
+                    "goal": [10, 0],
+                    "velocity": [4, 0],
+                    "radius": 0.5,
+                    "mass": 50.0,
+                    "a_max": 1.0,
+                    "v_max": 4.0,
+                },
+                {
+                    "start": [0, 0],
+                    "goal": [-10, 0],
+                    "radius": 0.5,
+                    "mass": 1.0,
+                    "a_max": 1.0,
+                    "v_max": 0.5,
+                },
+            ],
+            "physics": {"elasticity": 1.0},
+        }
+    )
     world = World(spec)
     prev = world.state()
     for _ in range(20):
@@ -167,14 +196,16 @@ def test_overspeed_is_scaled_back_and_gains_no_speed() -> None:
 
 
 def test_walls_stop_robots() -> None:
-    spec = map_from_dict({
-        "bounds": {"min": [-5, -5], "max": [5, 5], "walls": True},
-        "walls": [{"type": "polygon", "points": [[1, -1], [2, -1], [2, 1], [1, 1]]}],
-        "robots": [
-            {"start": [0, 0], "goal": [4, 0], "v_max": 3.0, "a_max": 5.0},
-            {"start": [0, 3], "goal": [0, 4.5], "v_max": 3.0, "a_max": 5.0},
-        ],
-    })
+    spec = map_from_dict(
+        {
+            "bounds": {"min": [-5, -5], "max": [5, 5], "walls": True},
+            "walls": [{"type": "polygon", "points": [[1, -1], [2, -1], [2, 1], [1, 1]]}],
+            "robots": [
+                {"start": [0, 0], "goal": [4, 0], "v_max": 3.0, "a_max": 5.0},
+                {"start": [0, 3], "goal": [0, 4.5], "v_max": 3.0, "a_max": 5.0},
+            ],
+        }
+    )
     world = World(spec)
     for _ in range(100):
         state = world.step(np.array([[5.0, 0.0], [0.0, 5.0]]))
@@ -260,7 +291,11 @@ def _run_digest(hashseed: str) -> str:
     # run from the tests folder: from the repository root, ``-c`` would import the
     # source tree instead of the installed package
     res = subprocess.run(
-        [sys.executable, "-c", RUN_SCRIPT], capture_output=True, text=True, env=env, check=True,
+        [sys.executable, "-c", RUN_SCRIPT],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
         cwd=os.path.dirname(os.path.abspath(__file__)),
     )
     return res.stdout.strip()
@@ -318,8 +353,9 @@ def test_compiled_substeps_are_pymunks_own_steps(monkeypatch: pytest.MonkeyPatch
         assert np.array_equal(a, b)
     radii = World(load_map("crowd", n=40, lo=-6.0, hi=6.0, seed=5)).radii
     centres = fast[2].reshape(-1, len(radii), 2)
-    gaps = (np.hypot(*(centres[:, :, None] - centres[:, None]).transpose(3, 0, 1, 2))
-            - (radii[:, None] + radii[None]))
+    gaps = np.hypot(*(centres[:, :, None] - centres[:, None]).transpose(3, 0, 1, 2)) - (
+        radii[:, None] + radii[None]
+    )
     assert (gaps[:, ~np.eye(len(radii), dtype=bool)] < 0).any()  # the loops met contacts
 
 
@@ -353,7 +389,11 @@ def test_shipped_map_runs_200_steps(name: str) -> None:
     traffic = LaneTraffic.from_map(spec)
     state = world.state()
     stats = EpisodeStats(
-        world.radii, world.kinds, world.names, world.wall_segments(), world.dt,
+        world.radii,
+        world.kinds,
+        world.names,
+        world.wall_segments(),
+        world.dt,
         velocities=state.velocities,
     )
     goals = np.array([r.goal for r in spec.robots], float)
@@ -473,7 +513,10 @@ def test_resets_do_not_leak_memory() -> None:
     the allocator's noise alone reached 2.8 MiB), after a first churn of the same size that
     settles the allocator's high-water mark (a smaller one left a one-off 2.1 MiB rise)."""
     res = subprocess.run(
-        [sys.executable, "-c", LEAK_SCRIPT], capture_output=True, text=True, check=True,
+        [sys.executable, "-c", LEAK_SCRIPT],
+        capture_output=True,
+        text=True,
+        check=True,
         cwd=os.path.dirname(os.path.abspath(__file__)),
     )
     assert float(res.stdout) < 2.0

@@ -74,7 +74,9 @@ DEFAULT_BUILD = HERE / "build"
 #: maxNeighbors 10, timeHorizon 10 s, RVO2's timeHorizonObst 10 s); radius, speed
 #: and acceleration are the scenes'.
 PEER_SETTINGS: dict[str, float] = {
-    "neighbor-dist": 15.0, "max-neighbors": 10, "time-horizon": 10.0,
+    "neighbor-dist": 15.0,
+    "max-neighbors": 10,
+    "time-horizon": 10.0,
     "time-horizon-obst": 10.0,
 }
 
@@ -83,7 +85,9 @@ PEER_SETTINGS: dict[str, float] = {
 #: takes the new velocity at once, so only accelInterval = dt keeps the acceleration
 #: of a step within a_max; ``avo2`` uses its Circle example's 2 s.
 PEER_METHODS: dict[str, tuple[str, float | None]] = {
-    "rvo2": ("rvo2", None), "avo2": ("avo2", 2.0), "avo2-dt": ("avo2", None),
+    "rvo2": ("rvo2", None),
+    "avo2": ("avo2", 2.0),
+    "avo2-dt": ("avo2", None),
 }
 
 
@@ -121,8 +125,11 @@ class Row:
 
 
 #: --variants: which maps of each scene run (perturbed or not).
-VARIANTS: dict[str, tuple[bool, ...]] = {"both": (False, True), "symmetric": (False,),
-                                         "perturbed": (True,)}
+VARIANTS: dict[str, tuple[bool, ...]] = {
+    "both": (False, True),
+    "symmetric": (False,),
+    "perturbed": (True,),
+}
 
 
 def swap_scene(n: int, perturbed: bool, seed: int, time_limit: float) -> Scene:
@@ -144,8 +151,9 @@ def streams_scene(n: int, perturbed: bool, seed: int, time_limit: float) -> Scen
     return Scene(f"{name} n={n}x2", name, over)
 
 
-def window_figures(walls: np.ndarray, dt: float, window: float,
-                   robots: int) -> tuple[float, float, int]:
+def window_figures(
+    walls: np.ndarray, dt: float, window: float, robots: int
+) -> tuple[float, float, int]:
     """(mean, worst-window us per agent-step, steps in the window) of per-step wall
     times (s); the window is ``window`` simulated seconds (the whole run if shorter)."""
     span = min(len(walls), max(1, round(window / dt)))
@@ -162,7 +170,8 @@ def motion_peaks(path: np.ndarray, dt: float) -> tuple[float, float]:
         return 0.0, 0.0
     dv = np.diff(np.concatenate([np.zeros((1, *v.shape[1:])), v]), axis=0)
     return float(np.hypot(*v.transpose(2, 0, 1)).max()), float(
-        np.hypot(*dv.transpose(2, 0, 1)).max() / dt)
+        np.hypot(*dv.transpose(2, 0, 1)).max() / dt
+    )
 
 
 def configured_source(build: Path) -> Path | None:
@@ -183,17 +192,23 @@ def build_drivers(rvo2: Path | None, avo2: Path | None, build: Path) -> dict[str
     peers = {"rvo2": rvo2, "avo2": avo2}
     for peer, src in peers.items():
         if src is not None and not (src / "src").is_dir():
-            raise SystemExit(f"--{peer} {src}: expected a checkout of the peer "
-                             f"(a folder with src/), not found")
+            raise SystemExit(
+                f"--{peer} {src}: expected a checkout of the peer (a folder with src/), not found"
+            )
     defs = [f"-D{p.upper()}_DIR={s.resolve() if s else ''}" for p, s in peers.items()]
     source = configured_source(build)
     if source is not None and source != HERE:
-        raise SystemExit(f"--build {build}: expected a build folder of {HERE} (or a new "
-                         f"folder), got one configured from {source}")
+        raise SystemExit(
+            f"--build {build}: expected a build folder of {HERE} (or a new "
+            f"folder), got one configured from {source}"
+        )
     build.mkdir(parents=True, exist_ok=True)
     quiet = {"stdout": subprocess.DEVNULL}
-    subprocess.run(["cmake", "-S", str(HERE), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-                    *defs], check=True, **quiet)
+    subprocess.run(
+        ["cmake", "-S", str(HERE), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release", *defs],
+        check=True,
+        **quiet,
+    )
     subprocess.run(["cmake", "--build", str(build), "-j", "1"], check=True, **quiet)
     return {p: build / f"driver_{p}" for p, s in peers.items() if s is not None}
 
@@ -203,15 +218,18 @@ def _arena(scene: Scene, agent: str) -> Any:
     query (the 10 nearest within 15 m)."""
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import load_map
+
     spec = load_map(scene.map_name, **scene.overrides)
     return Arena(spec, ArenaOptions(agent=agent))
 
 
-def run_peer(method: str, driver: Path, scene: Scene, seed: int, seconds: float,
-             window: float, workdir: Path) -> tuple[Row, np.ndarray]:
+def run_peer(
+    method: str, driver: Path, scene: Scene, seed: int, seconds: float, window: float, workdir: Path
+) -> tuple[Row, np.ndarray]:
     """One peer method on one scene: the driver's run, re-checked with nao_arena's
     statistics; with the wall time (s) of each timed step."""
     from nao_arena.stats import EpisodeStats
+
     arena = _arena(scene, "goal")
     state = arena.reset(seed)
     ids = arena.robot_ids
@@ -221,12 +239,19 @@ def run_peer(method: str, driver: Path, scene: Scene, seed: int, seconds: float,
     n, dt = len(ids), arena.world.dt
     ep = arena.spec.episode
     scene_file, out_file = workdir / "scene.txt", workdir / "out.bin"
-    lines = [str(n)] + [" ".join(repr(float(v)) for v in (*s, *g))
-                        for s, g in zip(starts, goals, strict=True)]
+    lines = [str(n)] + [
+        " ".join(repr(float(v)) for v in (*s, *g)) for s, g in zip(starts, goals, strict=True)
+    ]
     scene_file.write_text("\n".join(lines) + "\n")
-    opts = {"dt": dt, "time-limit": ep.time_limit, "tolerance": ep.goal_tolerance,
-            "radius": robot.radius, "max-speed": robot.v_max, "max-accel": robot.a_max,
-            **PEER_SETTINGS}
+    opts = {
+        "dt": dt,
+        "time-limit": ep.time_limit,
+        "tolerance": ep.goal_tolerance,
+        "radius": robot.radius,
+        "max-speed": robot.v_max,
+        "max-accel": robot.a_max,
+        **PEER_SETTINGS,
+    }
     if driver.name == "driver_avo2":
         interval = PEER_METHODS[method][1]
         opts["accel-interval"] = dt if interval is None else interval
@@ -237,26 +262,44 @@ def run_peer(method: str, driver: Path, scene: Scene, seed: int, seconds: float,
     rows = np.fromfile(out_file, dtype=np.float64).reshape(-1, 1 + 2 * n)
     walls, path = rows[1:, 0], rows[:, 1:].reshape(-1, n, 2)
     steps = len(walls)
-    stats = EpisodeStats(radii, ["robot"] * n, walls=(arena.walls, arena.wall_radius),
-                         dt=dt, velocities=np.zeros((n, 2)), goals=goals)
+    stats = EpisodeStats(
+        radii,
+        ["robot"] * n,
+        walls=(arena.walls, arena.wall_radius),
+        dt=dt,
+        velocities=np.zeros((n, 2)),
+        goals=goals,
+    )
     v_prev = np.zeros((n, 2))
     for k in range(steps):
         v = (path[k + 1] - path[k]) / dt
         reached = np.hypot(*(path[k + 1] - goals).T) <= ep.goal_tolerance
         stats.update(k * dt, path[k], path[k + 1], v, (v - v_prev) / dt, reached)
         v_prev = v
-    timed = walls[:max(1, round(seconds / dt))]
+    timed = walls[: max(1, round(seconds / dt))]
     mean, worst, span = window_figures(timed, dt, window, n)
-    all_in = np.all(np.hypot(*(path[1:] - goals).transpose(2, 0, 1)) <= ep.goal_tolerance,
-                    axis=1)
+    all_in = np.all(np.hypot(*(path[1:] - goals).transpose(2, 0, 1)) <= ep.goal_tolerance, axis=1)
     arrival = f"{(int(np.argmax(all_in)) + 1) * dt:.1f}" if all_in.any() else "timeout"
     deepest = max((c.max_penetration for c in stats.contacts), default=0.0)
-    return Row(scene.name, method, steps * dt, steps, n, mean, worst, span,
-               *motion_peaks(path, dt), len(stats.contacts), deepest, arrival), timed
+    return Row(
+        scene.name,
+        method,
+        steps * dt,
+        steps,
+        n,
+        mean,
+        worst,
+        span,
+        *motion_peaks(path, dt),
+        len(stats.contacts),
+        deepest,
+        arrival,
+    ), timed
 
 
-def run_arena(scene: Scene, agent: str, seed: int, seconds: float,
-              window: float) -> tuple[Row, np.ndarray]:
+def run_arena(
+    scene: Scene, agent: str, seed: int, seconds: float, window: float
+) -> tuple[Row, np.ndarray]:
     """One nao_arena agent on one scene: each whole arena step timed, and its sensing
     and act_batch calls, for at most ``seconds`` simulated seconds, after the untimed
     warm-up (``bench_crowds.warm_up``) and one untimed step; with the wall time (s) of
@@ -264,6 +307,7 @@ def run_arena(scene: Scene, agent: str, seed: int, seconds: float,
     if str(HERE.parent) not in sys.path:
         sys.path.insert(0, str(HERE.parent))
     from bench_crowds import PhaseClock, warm_up
+
     warm_up(agent)
     arena = _arena(scene, agent)
     arena.reset(seed)
@@ -290,9 +334,22 @@ def run_arena(scene: Scene, agent: str, seed: int, seconds: float,
     contacts = arena.stats.contacts
     deepest = max((c.max_penetration for c in contacts), default=0.0)
     per = 1e6 / (n * len(walls))
-    return Row(scene.name, agent, len(walls) * dt, len(walls), n, mean, worst, span,
-               *motion_peaks(np.array(path), dt), len(contacts), deepest, arrival,
-               per * phases.sums["sense"], per * phases.sums["act_batch"]), np.array(walls)
+    return Row(
+        scene.name,
+        agent,
+        len(walls) * dt,
+        len(walls),
+        n,
+        mean,
+        worst,
+        span,
+        *motion_peaks(np.array(path), dt),
+        len(contacts),
+        deepest,
+        arrival,
+        per * phases.sums["sense"],
+        per * phases.sums["act_batch"],
+    ), np.array(walls)
 
 
 def fastest(runs: list[tuple[Row, np.ndarray]], window: float) -> Row:
@@ -302,20 +359,26 @@ def fastest(runs: list[tuple[Row, np.ndarray]], window: float) -> Row:
     from those; ``sense`` and ``act_batch`` the least of the runs' means."""
     first = runs[0][0]
     for row, _ in runs[1:]:
-        if (row.steps, row.contacts, row.arrival) != (first.steps, first.contacts,
-                                                       first.arrival):
-            raise SystemExit(f"{first.scene} {first.method}: repeated runs differ "
-                             f"({first.steps} steps, {first.contacts} contacts, arrival "
-                             f"{first.arrival} against {row.steps}, {row.contacts}, "
-                             f"{row.arrival}): expected deterministic runs")
+        if (row.steps, row.contacts, row.arrival) != (first.steps, first.contacts, first.arrival):
+            raise SystemExit(
+                f"{first.scene} {first.method}: repeated runs differ "
+                f"({first.steps} steps, {first.contacts} contacts, arrival "
+                f"{first.arrival} against {row.steps}, {row.contacts}, "
+                f"{row.arrival}): expected deterministic runs"
+            )
     if len(runs) == 1:
         return first
     walls = np.min(np.stack([w for _, w in runs]), axis=0)
     dt = first.span / first.steps  # the scene's control period (s)
     mean, worst, span = window_figures(walls, dt, window, first.robots)
-    return replace(first, mean_us=mean, worst_us=worst, window_steps=span,
-                   sense_us=min(r.sense_us for r, _ in runs),
-                   act_us=min(r.act_us for r, _ in runs))
+    return replace(
+        first,
+        mean_us=mean,
+        worst_us=worst,
+        window_steps=span,
+        sense_us=min(r.sense_us for r, _ in runs),
+        act_us=min(r.act_us for r, _ in runs),
+    )
 
 
 def _ints(text: str) -> list[int]:
@@ -337,17 +400,21 @@ def pin_one_core() -> int:
 
 def print_table(rows: list[Row], window: float) -> None:
     """The rows as a fixed-width table; window: the worst window's simulated seconds."""
-    header = (f"{'scene':34} {'method':7} {'robots':>6} {'span s':>6} {'steps':>5} "
-              f"{'mean us (agent-steps)':>22} {f'worst{window:g}s us (agent-steps)':>26} "
-              f"{'v max':>5} {'a max':>5} {'contacts':>8} {'deepest mm':>10} {'all at goal s':>13}")
+    header = (
+        f"{'scene':34} {'method':7} {'robots':>6} {'span s':>6} {'steps':>5} "
+        f"{'mean us (agent-steps)':>22} {f'worst{window:g}s us (agent-steps)':>26} "
+        f"{'v max':>5} {'a max':>5} {'contacts':>8} {'deepest mm':>10} {'all at goal s':>13}"
+    )
     print(header)
     print("-" * len(header))
     for r in rows:
         mean = f"{r.mean_us:9.2f} ({r.steps * r.robots})"
         worst = f"{r.worst_us:9.2f} ({r.window_steps * r.robots})"
-        print(f"{r.scene:34} {r.method:7} {r.robots:6d} {r.span:6.1f} {r.steps:5d} "
-              f"{mean:>22} {worst:>26} {r.max_speed:5.2f} {r.max_accel:5.1f} "
-              f"{r.contacts:8d} {1e3 * r.deepest:10.2f} {r.arrival:>13}")
+        print(
+            f"{r.scene:34} {r.method:7} {r.robots:6d} {r.span:6.1f} {r.steps:5d} "
+            f"{mean:>22} {worst:>26} {r.max_speed:5.2f} {r.max_accel:5.1f} "
+            f"{r.contacts:8d} {1e3 * r.deepest:10.2f} {r.arrival:>13}"
+        )
 
 
 #: The peer methods each nao_arena agent's decision is set beside.
@@ -358,10 +425,14 @@ def print_decisions(rows: list[Row]) -> None:
     """For nao_arena's rows: whole step, sense, act_batch and their sum (mean us per
     agent-step), beside the mean doStep of the peer (:data:`PEER_OF`) on the same
     scene in the same run, and the sum over it."""
-    header = (f"{'scene':34} {'agent':6} {'whole us':>9} {'sense us':>9} {'act_batch us':>12} "
-              f"{'sense+act us':>12} {'peer':>7} {'doStep us':>9} {'(sense+act)/doStep':>18}")
-    print("\nnao_arena's decision with its neighbour finding (sense + act_batch) against "
-          "the peer's doStep (its own neighbour search included), mean us per agent-step")
+    header = (
+        f"{'scene':34} {'agent':6} {'whole us':>9} {'sense us':>9} {'act_batch us':>12} "
+        f"{'sense+act us':>12} {'peer':>7} {'doStep us':>9} {'(sense+act)/doStep':>18}"
+    )
+    print(
+        "\nnao_arena's decision with its neighbour finding (sense + act_batch) against "
+        "the peer's doStep (its own neighbour search included), mean us per agent-step"
+    )
     print(header)
     print("-" * len(header))
     for r in rows:
@@ -370,62 +441,105 @@ def print_decisions(rows: list[Row]) -> None:
         own = r.sense_us + r.act_us
         peers = [p for p in rows if p.scene == r.scene and p.method in PEER_OF.get(r.method, ())]
         for p in peers or [None]:
-            tail = (f"{p.method:>7} {p.mean_us:9.2f} {own / p.mean_us:18.1f}" if p
-                    else f"{'-':>7} {'-':>9} {'-':>18}")
-            print(f"{r.scene:34} {r.method:6} {r.mean_us:9.2f} {r.sense_us:9.2f} "
-                  f"{r.act_us:12.2f} {own:12.2f} {tail}")
+            tail = (
+                f"{p.method:>7} {p.mean_us:9.2f} {own / p.mean_us:18.1f}"
+                if p
+                else f"{'-':>7} {'-':>9} {'-':>18}"
+            )
+            print(
+                f"{r.scene:34} {r.method:6} {r.mean_us:9.2f} {r.sense_us:9.2f} "
+                f"{r.act_us:12.2f} {own:12.2f} {tail}"
+            )
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rvo2", default=os.environ.get("RVO2_DIR"),
-                        help="checkout of github.com/snape/RVO2 (or env RVO2_DIR)")
-    parser.add_argument("--avo2", default=os.environ.get("AVO2_DIR"),
-                        help="checkout of github.com/snape/AVO2 (or env AVO2_DIR)")
-    parser.add_argument("--build", default=str(DEFAULT_BUILD),
-                        help="build folder of the drivers (default benchmarks/peers/build)")
+    parser.add_argument(
+        "--rvo2",
+        default=os.environ.get("RVO2_DIR"),
+        help="checkout of github.com/snape/RVO2 (or env RVO2_DIR)",
+    )
+    parser.add_argument(
+        "--avo2",
+        default=os.environ.get("AVO2_DIR"),
+        help="checkout of github.com/snape/AVO2 (or env AVO2_DIR)",
+    )
+    parser.add_argument(
+        "--build",
+        default=str(DEFAULT_BUILD),
+        help="build folder of the drivers (default benchmarks/peers/build)",
+    )
     parser.add_argument("--sizes", default="10,30,100", help="circle swap robot counts")
     parser.add_argument("--streams", default="20", help="crossing streams: robots per stream")
     parser.add_argument("--agents", default="nao,orca", help="nao_arena agents")
-    parser.add_argument("--peer-methods", default=",".join(PEER_METHODS),
-                        help=f"peer methods, of {', '.join(PEER_METHODS)}")
-    parser.add_argument("--seconds", type=float, default=500.0,
-                        help="simulated seconds timed (nao_arena episodes stop there)")
-    parser.add_argument("--time-limit", type=float, default=500.0,
-                        help="episode time limit (s)")
-    parser.add_argument("--window", type=float, default=10.0,
-                        help="simulated seconds of the worst window")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="start noise of the perturbed maps and nao_arena's agents")
-    parser.add_argument("--repeat", type=int, default=1,
-                        help="runs of every method per scene, alternating; each step's "
-                             "time is its least over the runs (less noise from the machine)")
+    parser.add_argument(
+        "--peer-methods",
+        default=",".join(PEER_METHODS),
+        help=f"peer methods, of {', '.join(PEER_METHODS)}",
+    )
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        default=500.0,
+        help="simulated seconds timed (nao_arena episodes stop there)",
+    )
+    parser.add_argument("--time-limit", type=float, default=500.0, help="episode time limit (s)")
+    parser.add_argument(
+        "--window", type=float, default=10.0, help="simulated seconds of the worst window"
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="start noise of the perturbed maps and nao_arena's agents",
+    )
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="runs of every method per scene, alternating; each step's "
+        "time is its least over the runs (less noise from the machine)",
+    )
     parser.add_argument("--peers-only", action="store_true", help="leave nao_arena's agents out")
-    parser.add_argument("--variants", choices=sorted(VARIANTS), default="both",
-                        help="the symmetric maps, the perturbed ones or both")
+    parser.add_argument(
+        "--variants",
+        choices=sorted(VARIANTS),
+        default="both",
+        help="the symmetric maps, the perturbed ones or both",
+    )
     args = parser.parse_args(argv)
     rvo2, avo2 = _dir(args.rvo2), _dir(args.avo2)
     if rvo2 is None and avo2 is None:
-        raise SystemExit("--rvo2/--avo2: expected the path of a checkout of at least one "
-                         "peer (or RVO2_DIR / AVO2_DIR), got neither")
+        raise SystemExit(
+            "--rvo2/--avo2: expected the path of a checkout of at least one "
+            "peer (or RVO2_DIR / AVO2_DIR), got neither"
+        )
     methods = [m for m in args.peer_methods.split(",") if m.strip()]
     for m in methods:
         if m not in PEER_METHODS:
-            raise SystemExit(f"--peer-methods: unknown method {m!r}, expected one of "
-                             f"{', '.join(PEER_METHODS)}")
+            raise SystemExit(
+                f"--peer-methods: unknown method {m!r}, expected one of {', '.join(PEER_METHODS)}"
+            )
     core = pin_one_core()
     drivers = build_drivers(rvo2, avo2, Path(args.build))
     missing = {PEER_METHODS[m][0] for m in methods} - set(drivers)
     if missing:
-        raise SystemExit(f"--peer-methods {args.peer_methods}: needs the checkout of "
-                         f"{', '.join(sorted(missing))} (--{'/--'.join(sorted(missing))})")
-    print(f"# one core (cpu {core}); peers' settings: {PEER_SETTINGS}, "
-          f"AVO2 accelInterval (s, None = dt): "
-          f"{ {m: PEER_METHODS[m][1] for m in methods if PEER_METHODS[m][0] == 'avo2'} }",
-          flush=True)
-    scenes = [make(n, p, args.seed, args.time_limit)
-              for make, sizes in ((swap_scene, args.sizes), (streams_scene, args.streams))
-              for n in _ints(sizes) for p in VARIANTS[args.variants]]
+        raise SystemExit(
+            f"--peer-methods {args.peer_methods}: needs the checkout of "
+            f"{', '.join(sorted(missing))} (--{'/--'.join(sorted(missing))})"
+        )
+    print(
+        f"# one core (cpu {core}); peers' settings: {PEER_SETTINGS}, "
+        f"AVO2 accelInterval (s, None = dt): "
+        f"{ {m: PEER_METHODS[m][1] for m in methods if PEER_METHODS[m][0] == 'avo2'} }",
+        flush=True,
+    )
+    scenes = [
+        make(n, p, args.seed, args.time_limit)
+        for make, sizes in ((swap_scene, args.sizes), (streams_scene, args.streams))
+        for n in _ints(sizes)
+        for p in VARIANTS[args.variants]
+    ]
     agents = [] if args.peers_only else [a for a in args.agents.split(",") if a.strip()]
     if args.repeat < 1:
         raise SystemExit(f"--repeat: expected at least 1 run, got {args.repeat}")
@@ -436,13 +550,16 @@ def main(argv: list[str] | None = None) -> None:
             for _ in range(args.repeat):  # every method once per round: noise hits all
                 for method in methods:
                     driver = drivers[PEER_METHODS[method][0]]
-                    runs.setdefault(method, []).append(run_peer(
-                        method, driver, scene, args.seed, args.seconds, args.window,
-                        Path(tmp)))
+                    runs.setdefault(method, []).append(
+                        run_peer(
+                            method, driver, scene, args.seed, args.seconds, args.window, Path(tmp)
+                        )
+                    )
                     print(f"# {runs[method][-1][0]}", flush=True)
                 for agent in agents:
-                    runs.setdefault(agent, []).append(run_arena(
-                        scene, agent, args.seed, args.seconds, args.window))
+                    runs.setdefault(agent, []).append(
+                        run_arena(scene, agent, args.seed, args.seconds, args.window)
+                    )
                     print(f"# {runs[agent][-1][0]}", flush=True)
             rows += [fastest(r, args.window) for r in runs.values()]
     print_table(rows, args.window)

@@ -20,9 +20,11 @@ def constructors(
 
     def parallel_env(render_mode: str | None = None, **kwargs: Any) -> NaoArenaParallelEnv:
         if "map" in kwargs:
-            raise TypeError(f"{name}.parallel_env: the map is fixed ({map_name!r}), got "
-                            f"map={kwargs['map']!r}; use nao_arena.parallel_env(map, ...) "
-                            f"for another map")
+            raise TypeError(
+                f"{name}.parallel_env: the map is fixed ({map_name!r}), got "
+                f"map={kwargs['map']!r}; use nao_arena.parallel_env(map, ...) "
+                f"for another map"
+            )
         par = NaoArenaParallelEnv(map_name, render_mode=render_mode, **kwargs)
         par.metadata = {**par.metadata, "name": name}
         return par
@@ -32,7 +34,8 @@ def constructors(
 
     parallel_env.__doc__ = (
         f"{name}: the PettingZoo ParallelEnv on the map {map_name!r}; keywords: EnvOptions "
-        f"fields and map parameters (see nao_arena.environment).")
+        f"fields and map parameters (see nao_arena.environment)."
+    )
     env.__doc__ = f"{name}: the AEC form of :func:`parallel_env`."
     for f in (parallel_env, env):
         f.__module__ = module  # pickled by reference to the module's attribute

@@ -67,8 +67,9 @@ class ObstacleBoundary:
         return allp[np.all(np.isfinite(allp), axis=1)]
 
 
-def _split_runs(points: NDArray[np.float64], keep: NDArray[np.bool_],
-                extra: NDArray[np.float64] | None = None):
+def _split_runs(
+    points: NDArray[np.float64], keep: NDArray[np.bool_], extra: NDArray[np.float64] | None = None
+):
     """Keep the rows in ``keep``; insert NaN rows where runs of kept rows break."""
     rows = []
     extras = []
@@ -149,8 +150,10 @@ def bao_boundary(
             times = np.sqrt(2.0 * tangent_len / s)
         out[name] = (pts, times)
     return ObstacleBoundary(
-        left=out["left"][0], right=out["right"][0],
-        left_times=out["left"][1], right_times=out["right"][1],
+        left=out["left"][0],
+        right=out["right"][0],
+        left_times=out["left"][1],
+        right_times=out["right"][1],
     )
 
 
@@ -269,8 +272,10 @@ def ao_boundary_paper(
         idx = idx[np.argsort(-t_p[idx])]
         branches[name] = (acc[idx], t_p[idx])
     return ObstacleBoundary(
-        left=branches["left"][0], right=branches["right"][0],
-        left_times=branches["left"][1], right_times=branches["right"][1],
+        left=branches["left"][0],
+        right=branches["right"][0],
+        left_times=branches["left"][1],
+        right_times=branches["right"][1],
         arc=_horizon_arc(v, path, 720, extent),
     )
 
@@ -402,8 +407,10 @@ def path_boundary(
                 corners.append(piece)
                 corners.append(np.full((1, 2), np.nan))
     return ObstacleBoundary(
-        left=out["left"][0], right=out["right"][0],
-        left_times=out["left"][1], right_times=out["right"][1],
+        left=out["left"][0],
+        right=out["right"][0],
+        left_times=out["left"][1],
+        right_times=out["right"][1],
         arc=_horizon_arc(v, path, 720, extent),
         corners=np.concatenate(corners[:-1]) if corners else _empty(),
     )

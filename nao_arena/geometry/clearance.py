@@ -65,16 +65,25 @@ class PiecewisePath:
         if self.walls.ndim != 3 or self.walls.shape[1:] != (2, 2):
             raise ValueError(f"walls: expected shape (W, 2, 2), got {self.walls.shape}")
         if self.wall_radius.shape != (self.walls.shape[0],):
-            raise ValueError(f"wall_radius: expected shape ({self.walls.shape[0]},), "
-                             f"got {self.wall_radius.shape}")
+            raise ValueError(
+                f"wall_radius: expected shape ({self.walls.shape[0]},), "
+                f"got {self.wall_radius.shape}"
+            )
 
     @property
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
         """(t, c, velocity, acceleration, radius, walls, wall_radius): the path as the
         compiled kernels take it (their arguments seg_t, seg_c, seg_w, seg_b, radius,
         walls, wall_r)."""
-        return (self.t, self.c, self.velocity, self.acceleration, self.radius, self.walls,
-                self.wall_radius)
+        return (
+            self.t,
+            self.c,
+            self.velocity,
+            self.acceleration,
+            self.radius,
+            self.walls,
+            self.wall_radius,
+        )
 
     @property
     def moving_arrays(self) -> tuple[NDArray[np.float64], ...]:
@@ -124,8 +133,9 @@ def _broadcast(x: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.fl
     try:
         return np.ascontiguousarray(np.broadcast_to(arr, shape))
     except ValueError:
-        raise ValueError(f"{name}: expected shape {shape} or broadcastable to it, "
-                         f"got {arr.shape}") from None
+        raise ValueError(
+            f"{name}: expected shape {shape} or broadcastable to it, got {arr.shape}"
+        ) from None
 
 
 def _radius_array(radius: ArrayLike, n: int) -> NDArray[np.float64]:
@@ -235,9 +245,7 @@ def path_clearance(
     clear = np.empty((k, n))
     tmin = np.empty((k, n))
     tfirst = np.empty((k, n))
-    clearance_kernel(
-        cand_v, a, float(v_max), *path.arrays, clear, tmin, tfirst
-    )
+    clearance_kernel(cand_v, a, float(v_max), *path.arrays, clear, tmin, tfirst)
     if single_a:
         clear, tmin, tfirst = clear[0], tmin[0], tfirst[0]
     return Clearance(clear, tmin, tfirst)

@@ -58,7 +58,6 @@ from nao_arena.geometry.outcome import Outcome
 __all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
 
 
-
 @dataclass(frozen=True)
 class AccelLimits:
     """The set of commandable accelerations (m/s^2, world axes).
@@ -191,14 +190,21 @@ class _Tester:
         margin: float,
         v_max: float,
     ) -> None:
-        keep = relevant_obstacles(
-            v, limits.a_max, v_max, *path.moving_arrays, margin
+        keep = relevant_obstacles(v, limits.a_max, v_max, *path.moving_arrays, margin)
+        walls, wall_r = relevant_walls(
+            v,
+            limits.a_max,
+            v_max,
+            path.horizon,
+            np.ascontiguousarray(path.walls),
+            np.ascontiguousarray(path.wall_radius),
+            margin,
         )
-        walls, wall_r = relevant_walls(v, limits.a_max, v_max, path.horizon,
-                                       np.ascontiguousarray(path.walls),
-                                       np.ascontiguousarray(path.wall_radius), margin)
-        if (keep.all() and len(walls) == path.n_walls
-                and all(a.flags.c_contiguous for a in path.arrays[1:])):
+        if (
+            keep.all()
+            and len(walls) == path.n_walls
+            and all(a.flags.c_contiguous for a in path.arrays[1:])
+        ):
             self.path = path  # already only the relevant obstacles (agents filter first)
         else:
             idx = np.flatnonzero(keep)
@@ -208,7 +214,8 @@ class _Tester:
                 np.ascontiguousarray(path.velocity[idx]),
                 np.ascontiguousarray(path.acceleration[idx]),
                 np.ascontiguousarray(path.radius[idx]),
-                walls, wall_r,
+                walls,
+                wall_r,
             )
         self.sweep = piece_sweep(self.path.t, self.path.velocity, self.path.acceleration)
         self.v = v
@@ -234,8 +241,13 @@ class _Tester:
         res = np.empty(len(idx), dtype=bool)
         p = self.path
         admissible_kernel(
-            np.ascontiguousarray(np.broadcast_to(self.v, cand.shape)), cand, self.v_max,
-            *p.arrays, self.sweep, self.margin, res,
+            np.ascontiguousarray(np.broadcast_to(self.v, cand.shape)),
+            cand,
+            self.v_max,
+            *p.arrays,
+            self.sweep,
+            self.margin,
+            res,
         )
         self.count += len(idx)
         out[idx] = res
@@ -248,8 +260,12 @@ class _Tester:
             return out
         p = self.path
         latest_contact_kernel(
-            np.ascontiguousarray(np.broadcast_to(self.v, a.shape)), a, self.v_max,
-            *p.arrays, self.sweep, out,
+            np.ascontiguousarray(np.broadcast_to(self.v, a.shape)),
+            a,
+            self.v_max,
+            *p.arrays,
+            self.sweep,
+            out,
         )
         return out
 
@@ -270,8 +286,9 @@ class _Tester:
         self._one[0, 0] = x
         self._one[0, 1] = y
         p = self.path
-        admissible_kernel(self._v1, self._one, self.v_max, *p.arrays,
-                          self.sweep, self.margin, self._res1)
+        admissible_kernel(
+            self._v1, self._one, self.v_max, *p.arrays, self.sweep, self.margin, self._res1
+        )
         return bool(self._res1[0])
 
 
@@ -313,8 +330,9 @@ def _unit_rings(rings: int, points: int) -> NDArray[np.float64]:
     """(rings, points, 2) unit vectors of the fallback rings (ring i turned by 0.5 i rad)."""
     unit = _RING_SETS.get((rings, points))
     if unit is None:
-        unit = np.ascontiguousarray(np.stack(
-            [_ring(np.zeros(2), 1.0, points, 0.5 * i) for i in range(rings)]))
+        unit = np.ascontiguousarray(
+            np.stack([_ring(np.zeros(2), 1.0, points, 0.5 * i) for i in range(rings)])
+        )
         if len(_RING_SETS) < 64:
             _RING_SETS[(rings, points)] = unit
     return unit
@@ -325,20 +343,33 @@ def _ring_candidates(
 ) -> NDArray[np.float64]:
     """The fallback rings around a_d (m/s^2), radii innermost first, projected onto the
     limit set: (len(radii) * points, 2)."""
-    return limits.project(np.concatenate(
-        [_ring(a_d, rad, points, 0.5 * i) for i, rad in enumerate(radii)]))
+    return limits.project(
+        np.concatenate([_ring(a_d, rad, points, 0.5 * i) for i, rad in enumerate(radii)])
+    )
 
 
-def _bisect(t: _Tester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float,
-            give_up: float = math.inf):
+def _bisect(
+    t: _Tester,
+    bad: NDArray[np.float64],
+    good: NDArray[np.float64],
+    tol: float,
+    give_up: float = math.inf,
+):
     """Shrink [bad, good] to a boundary point within tol; returns the admissible end.
     ``give_up``: stop once bad is that far from where it started (see the kernel's
     ``_bisect_disc``; for box limits)."""
     if t.limits.box_lo is None:
         p = t.path
         gx, gy, count = bisect_disc(
-            np.asarray(bad, dtype=np.float64), np.asarray(good, dtype=np.float64), tol,
-            t.limits.a_max, t.v, t.v_max, *p.arrays, t.sweep, t.margin,
+            np.asarray(bad, dtype=np.float64),
+            np.asarray(good, dtype=np.float64),
+            tol,
+            t.limits.a_max,
+            t.v,
+            t.v_max,
+            *p.arrays,
+            t.sweep,
+            t.margin,
         )
         t.count += count
         return np.array([gx, gy])
@@ -395,18 +426,33 @@ def select_acceleration(
     if limits.box_lo is None:
         # steps 1-3 below, compiled for the limit disc
         status, x, y, count = select_disc(
-            a_d, v_arr, limits.a_max, float(v_max), np.ascontiguousarray(path.t),
-            np.ascontiguousarray(path.c), np.ascontiguousarray(path.velocity),
-            np.ascontiguousarray(path.acceleration), np.ascontiguousarray(path.radius),
-            np.ascontiguousarray(path.walls), np.ascontiguousarray(path.wall_radius),
-            float(margin), tol, radii, _unit_rings(rings, ring_points), _MAX_DISKS,
-            _DISKS_PER_PIECE, _DISKS_PER_SECOND, _SLIVER_DEPTH * limits.a_max)
+            a_d,
+            v_arr,
+            limits.a_max,
+            float(v_max),
+            np.ascontiguousarray(path.t),
+            np.ascontiguousarray(path.c),
+            np.ascontiguousarray(path.velocity),
+            np.ascontiguousarray(path.acceleration),
+            np.ascontiguousarray(path.radius),
+            np.ascontiguousarray(path.walls),
+            np.ascontiguousarray(path.wall_radius),
+            float(margin),
+            tol,
+            radii,
+            _unit_rings(rings, ring_points),
+            _MAX_DISKS,
+            _DISKS_PER_PIECE,
+            _DISKS_PER_SECOND,
+            _SLIVER_DEPTH * limits.a_max,
+        )
         found = a_d if status == Outcome.DESIRED else np.array([x, y])
         if status != Outcome.INFEASIBLE and not with_clearance:
             return Selection(found, Outcome(status).label, None, math.inf, count)
         if status == Outcome.INFEASIBLE and fallback is not None and not with_clearance:
-            return Selection(_projected_fallback(fallback, limits), _INFEASIBLE, None,
-                             math.inf, count)
+            return Selection(
+                _projected_fallback(fallback, limits), _INFEASIBLE, None, math.inf, count
+            )
     tester = _Tester(v_arr, path, limits, float(margin), float(v_max))
 
     def done(a: NDArray[np.float64], status: str) -> Selection:
@@ -417,8 +463,9 @@ def select_acceleration(
         res = path_clearance(a, v_arr, tester.path, v_max=v_max)
         clear = float(np.min(res.clearance)) if res.clearance.size else math.inf
         first = float(np.min(res.time_of_first_contact)) if res.clearance.size else math.inf
-        return Selection(a, status, clear, first if status == _INFEASIBLE else math.inf,
-                         tester.count)
+        return Selection(
+            a, status, clear, first if status == _INFEASIBLE else math.inf, tester.count
+        )
 
     if limits.box_lo is None:
         tester.count = count
@@ -433,8 +480,11 @@ def select_acceleration(
     #    possible, then least penetration
     if fallback is not None:
         return done(_projected_fallback(fallback, limits), _INFEASIBLE)
-    cand = np.ascontiguousarray(np.concatenate(
-        [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]))
+    cand = np.ascontiguousarray(
+        np.concatenate(
+            [a_d[None], _ring_candidates(a_d, radii, ring_points, limits), np.zeros((1, 2))]
+        )
+    )
     return done(_latest_contact_search(tester, cand, limits, v_arr, v_max), _INFEASIBLE)
 
 
@@ -448,8 +498,12 @@ def _projected_fallback(fallback: ArrayLike, limits: AccelLimits) -> NDArray[np.
 
 
 def _search_boxed(
-    tester: _Tester, a_d: NDArray[np.float64], radii: NDArray[np.float64], ring_points: int,
-    limits: AccelLimits, tol: float,
+    tester: _Tester,
+    a_d: NDArray[np.float64],
+    radii: NDArray[np.float64],
+    ring_points: int,
+    limits: AccelLimits,
+    tol: float,
 ) -> tuple[NDArray[np.float64], str] | None:
     """Steps 1-3 of :func:`select_acceleration` (what :func:`select_disc` does for the
     limit disc) in Python, for box limits: (acceleration, status) or None."""
@@ -469,7 +523,7 @@ def _search_boxed(
     ring_ok = tester.ok(ring_cands).reshape(len(radii), ring_points)
     for i in range(len(radii)):
         if np.any(ring_ok[i]):
-            cand = ring_cands[i * ring_points:(i + 1) * ring_points]
+            cand = ring_cands[i * ring_points : (i + 1) * ring_points]
             good = cand[ring_ok[i]]
             dist = np.hypot(*(good - a_d).T)
             start = _bisect(tester, a_d, good[int(np.argmin(dist))], tol)
@@ -514,18 +568,29 @@ def repair_acceleration(
     if limits.box_lo is None:
         # the loop below, compiled
         found, x, y, _ = repair_disc(
-            prev, want, limits.a_max, _REPAIR_STEPS, _REPAIR_UNIT, v_arr, float(v_max),
-            np.ascontiguousarray(path.t), np.ascontiguousarray(path.c),
-            np.ascontiguousarray(path.velocity), np.ascontiguousarray(path.acceleration),
-            np.ascontiguousarray(path.radius), np.ascontiguousarray(path.walls),
-            np.ascontiguousarray(path.wall_radius))
+            prev,
+            want,
+            limits.a_max,
+            _REPAIR_STEPS,
+            _REPAIR_UNIT,
+            v_arr,
+            float(v_max),
+            np.ascontiguousarray(path.t),
+            np.ascontiguousarray(path.c),
+            np.ascontiguousarray(path.velocity),
+            np.ascontiguousarray(path.acceleration),
+            np.ascontiguousarray(path.radius),
+            np.ascontiguousarray(path.walls),
+            np.ascontiguousarray(path.wall_radius),
+        )
         return np.array([x, y]) if found else None
     tester = _Tester(v_arr, path, limits, 0.0, float(v_max))
     cand = np.concatenate([prev + limits.a_max * r * _REPAIR_UNIT for r in _REPAIR_STEPS])
     cand = limits.project(cand)
     # nearest the desired acceleration first: the first admissible one wins
     cand = np.ascontiguousarray(
-        cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]), kind="stable")])
+        cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]), kind="stable")]
+    )
     ok = tester.ok(cand)
     hits = np.flatnonzero(ok)
     return cand[hits[0]].copy() if len(hits) else None
@@ -543,8 +608,14 @@ def _slide_towards(
     if limits.box_lo is None:
         p = tester.path
         x, y, count = slide_disc(
-            np.asarray(a_d, dtype=np.float64), np.asarray(best, dtype=np.float64), tol,
-            limits.a_max, tester.v, tester.v_max, *p.arrays, tester.sweep,
+            np.asarray(a_d, dtype=np.float64),
+            np.asarray(best, dtype=np.float64),
+            tol,
+            limits.a_max,
+            tester.v,
+            tester.v_max,
+            *p.arrays,
+            tester.sweep,
             tester.margin,
         )
         tester.count += count
@@ -642,23 +713,34 @@ def _nearest_by_disks(
     while last < limit:
         last *= 2.0
     samples = nao_disk_samples(
-        tester.v, *p.arrays, tester.margin, _DISKS_PER_PIECE,
-        a_d, last, a_max, _DISKS_PER_SECOND, _SLIVER_DEPTH * a_max,
+        tester.v,
+        *p.arrays,
+        tester.margin,
+        _DISKS_PER_PIECE,
+        a_d,
+        last,
+        a_max,
+        _DISKS_PER_SECOND,
+        _SLIVER_DEPTH * a_max,
     )
     if max_disks is None:
         return _try_ball(tester, a_d, nao_disks_within(samples, reach), reach, tol)
     # Ball by ball, every ball's candidates within a smaller ball are that ball's
     # (nearest first, the same points) and fail again, so the largest ball within
     # the disk cap alone decides as a doubling from the smallest would.
-    chosen, disks = capped_disks(samples, radius_order(samples), 0.5 * reach,
-                                  max(limit, reach), max_disks)
+    chosen, disks = capped_disks(
+        samples, radius_order(samples), 0.5 * reach, max(limit, reach), max_disks
+    )
     if chosen < 0.0:
         return None
     return _try_ball(tester, a_d, disks, chosen, tol)
 
 
 def _try_ball(
-    tester: _Tester, a_d: NDArray[np.float64], disks: NDArray[np.float64], reach: float,
+    tester: _Tester,
+    a_d: NDArray[np.float64],
+    disks: NDArray[np.float64],
+    reach: float,
     tol: float,
 ) -> NDArray[np.float64] | None:
     """The nearest candidate outside ``disks`` within ``reach`` of a_d that is admissible
@@ -670,8 +752,19 @@ def _try_ball(
     if tester.limits.box_lo is None:
         # the loop below, compiled
         found, x, y, count, _ = try_candidates_disc(
-            cands, 0, reach, a_d, tol, a_max, tester.v, tester.v_max, *p.arrays, tester.sweep,
-            tester.margin, disks)
+            cands,
+            0,
+            reach,
+            a_d,
+            tol,
+            a_max,
+            tester.v,
+            tester.v_max,
+            *p.arrays,
+            tester.sweep,
+            tester.margin,
+            disks,
+        )
         tester.count += count
         return np.array([x, y]) if found else None
     for x, y, dist in cands:

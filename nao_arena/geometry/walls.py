@@ -11,7 +11,9 @@ __all__ = ["wall_discs"]
 
 
 def wall_discs(
-    walls: NDArray[np.float64], half_thickness: NDArray[np.float64], grow: float,
+    walls: NDArray[np.float64],
+    half_thickness: NDArray[np.float64],
+    grow: float,
     slack: float = 0.1,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cover wall segments (W, 2, 2) m with static discs.

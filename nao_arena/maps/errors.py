@@ -67,8 +67,10 @@ def _allowed_keys(model: Any, loc: Sequence[Any]) -> list[str] | None:
             tp = targs[1]
         elif origin in (Union, types.UnionType):
             match = [
-                t for t in targs
-                if isinstance(t, type) and issubclass(t, BaseModel)
+                t
+                for t in targs
+                if isinstance(t, type)
+                and issubclass(t, BaseModel)
                 and "type" in t.model_fields
                 and typing.get_args(t.model_fields["type"].annotation) == (el,)
             ]
@@ -104,11 +106,17 @@ def _expectation(err: Mapping[str, Any], model: Any) -> str:
         hint = f"; expected one of: {', '.join(allowed)}" if allowed else ""
         return f"unknown key{hint}"
     if kind == "greater_than":
-        return ("expected a positive number" if ctx.get("gt") == 0
-                else f"expected a number greater than {ctx.get('gt')}") + got
+        return (
+            "expected a positive number"
+            if ctx.get("gt") == 0
+            else f"expected a number greater than {ctx.get('gt')}"
+        ) + got
     if kind == "greater_than_equal":
-        return ("expected a non-negative number" if ctx.get("ge") == 0
-                else f"expected a number >= {ctx.get('ge')}") + got
+        return (
+            "expected a non-negative number"
+            if ctx.get("ge") == 0
+            else f"expected a number >= {ctx.get('ge')}"
+        ) + got
     if kind in ("less_than_equal", "less_than"):
         return f"expected a number <= {ctx.get('le', ctx.get('lt'))}" + got
     if kind in ("float_type", "float_parsing"):

@@ -117,8 +117,13 @@ class CrowdArgs(StrictModel):
 
 
 def _scatter(
-    rng: np.random.Generator, n: int, lo: NDArray[np.float64], hi: NDArray[np.float64],
-    min_dist: float, max_tries: int, avoid: NDArray[np.float64] | None = None,
+    rng: np.random.Generator,
+    n: int,
+    lo: NDArray[np.float64],
+    hi: NDArray[np.float64],
+    min_dist: float,
+    max_tries: int,
+    avoid: NDArray[np.float64] | None = None,
     avoid_dist: float = 0.0,
 ) -> NDArray[np.float64]:
     """n points uniform in [lo, hi] at least min_dist apart (and avoid_dist from avoid[k])."""
@@ -199,7 +204,6 @@ def stream(args: StreamArgs, ctx: LayoutContext) -> Placement:
     return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]
 
 
-
 class QueueArgs(StreamArgs):
     """Arguments of the ``queue`` builder: those of ``stream``, ``goal_spacing`` and
     ``goal_width``."""
@@ -231,11 +235,16 @@ def queue(args: QueueArgs, ctx: LayoutContext) -> Placement:
     return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]
 
 
-def _block(front: NDArray[np.float64], d: NDArray[np.float64], nrm: NDArray[np.float64],
-           n: int, width: int, spacing: float) -> NDArray[np.float64]:
+def _block(
+    front: NDArray[np.float64],
+    d: NDArray[np.float64],
+    nrm: NDArray[np.float64],
+    n: int,
+    width: int,
+    spacing: float,
+) -> NDArray[np.float64]:
     """n points (m) in rows of ``width`` across ``d``, ``spacing`` m apart, the first row
     centred on ``front``, the others behind it (as ``stream`` places its starts)."""
     k = np.arange(n)
     row, col = k // width, k % width
-    return (front - (row * spacing)[:, None] * d
-            + ((col - (width - 1) / 2) * spacing)[:, None] * nrm)
+    return front - (row * spacing)[:, None] * d + ((col - (width - 1) / 2) * spacing)[:, None] * nrm

@@ -29,8 +29,15 @@ from nao_arena.maps.schema import (
     SegmentWall,
 )
 
-__all__ = ["available_maps", "load_map", "map_from_dict", "parse_overrides",
-           "point_segment_distances", "segment_distances_xy", "with_time_limit"]
+__all__ = [
+    "available_maps",
+    "load_map",
+    "map_from_dict",
+    "parse_overrides",
+    "point_segment_distances",
+    "segment_distances_xy",
+    "with_time_limit",
+]
 
 
 # --------------------------------------------------------------------------- parameters
@@ -115,7 +122,6 @@ def _parameters(file: str, raw: Any, overrides: Mapping[str, Any]) -> dict[str, 
 # --------------------------------------------------------------------------- checks
 
 
-
 def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray[np.bool_]:
     e = np.roll(poly, -1, axis=0) - poly
     rel = p[:, None, :] - poly[None]
@@ -123,8 +129,9 @@ def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
 
 
-def segment_distances_xy(xs: NDArray[np.float64], ys: NDArray[np.float64],
-                         segment: NDArray[np.float64]) -> NDArray[np.float64]:
+def segment_distances_xy(
+    xs: NDArray[np.float64], ys: NDArray[np.float64], segment: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Distances m from the points (xs, ys) m (any equal shapes) to one segment (2, 2) m,
     one coordinate at a time (contiguous arrays: the viewer's panel grids)."""
     (ax, ay), (bx, by) = segment
@@ -181,15 +188,18 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
     for i, r in enumerate(spec.robots):
         where = origins[i]
         if not spec.bounds.contains(np.array(r.start))[0]:
-            raise field_error(file, f"{where}.start",
-                              f"expected a point {bounds_text}, got {r.start}")
+            raise field_error(
+                file, f"{where}.start", f"expected a point {bounds_text}, got {r.start}"
+            )
         if not spec.bounds.contains(np.array(r.goal))[0]:
-            raise field_error(file, f"{where}.goal",
-                              f"expected a point {bounds_text}, got {r.goal}")
+            raise field_error(
+                file, f"{where}.goal", f"expected a point {bounds_text}, got {r.goal}"
+            )
         for j, q in enumerate(r.route or []):
             if not spec.bounds.contains(np.array(q))[0]:
-                raise field_error(file, f"{where}.route[{j}]",
-                                  f"expected a point {bounds_text}, got {q}")
+                raise field_error(
+                    file, f"{where}.route[{j}]", f"expected a point {bounds_text}, got {q}"
+                )
     bodies = spec.bodies()
     if not bodies:
         return
@@ -212,7 +222,8 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
             k = int(bad[0])
             field = ".start" if bodies[k].kind == "robot" else ""
             raise field_error(
-                file, name(k) + field,
+                file,
+                name(k) + field,
                 f"expected a start clear of the walls, but the body (radius {radii[k]:g}) "
                 f"overlaps {_wall_name(spec, w)} (surface distance {clear[k]:.3g} m)",
             )
@@ -223,7 +234,8 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
         if len(bad):
             k = int(bad[0])
             raise field_error(
-                file, f"{origins[k]}.goal",
+                file,
+                f"{origins[k]}.goal",
                 f"expected a goal clear of the walls, but it overlaps {_wall_name(spec, w)}",
             )
     # pairwise start overlaps, one row at a time to bound memory
@@ -241,7 +253,8 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
                 where = name(i) + (".start" if bodies[i].kind == "robot" else "")
                 what = f"it overlaps {name(j)}"
             raise field_error(
-                file, where,
+                file,
+                where,
                 f"expected non-overlapping starts, but {what} "
                 f"(distance {d[j]:.3g} m < {radii[i] + radii[j]:.3g} m)",
             )
@@ -250,7 +263,8 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
         s = grp.arc_positions()
         if not lane.closed and (np.min(s) < 0 or np.max(s) > lane.length):
             raise field_error(
-                file, f"traffic[{g}].offset",
+                file,
+                f"traffic[{g}].offset",
                 f"expected all vehicles within the lane's length (0..{lane.length:.4g} m), "
                 f"got arc lengths {np.min(s):.4g}..{np.max(s):.4g} m",
             )
@@ -274,8 +288,8 @@ def _resolve(source: str | Path) -> tuple[str, str]:
     """(display name, text) of a map given by name or path."""
     text_source = str(source)
     path = Path(source)
-    looks_like_path = isinstance(source, Path) or text_source.endswith((".yaml", ".yml")) or (
-        "/" in text_source
+    looks_like_path = (
+        isinstance(source, Path) or text_source.endswith((".yaml", ".yml")) or ("/" in text_source)
     )
     if looks_like_path:
         if not path.is_file():
@@ -283,8 +297,9 @@ def _resolve(source: str | Path) -> tuple[str, str]:
         try:
             return text_source, path.read_text(encoding="utf-8")
         except UnicodeDecodeError as exc:
-            raise MapError(f"{text_source}: byte {exc.start}: expected UTF-8 text "
-                           f"({exc.reason})") from None
+            raise MapError(
+                f"{text_source}: byte {exc.start}: expected UTF-8 text ({exc.reason})"
+            ) from None
         except OSError as exc:
             raise MapError(f"{text_source}: cannot be read ({exc.strerror or exc})") from None
     res = _shipped() / f"{text_source}.yaml"
@@ -313,17 +328,19 @@ class MapYamlLoader(yaml.SafeLoader):
     def compose_node(self, parent: Any, index: Any) -> Any:
         event = self.peek_event()
         if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
-            kind = "an alias (*name)" if isinstance(event, yaml.AliasEvent) else \
-                "an anchor (&name)"
+            kind = "an alias (*name)" if isinstance(event, yaml.AliasEvent) else "an anchor (&name)"
             raise yaml.composer.ComposerError(
-                None, None, f"{kind}: a map holds plain data, without anchors or aliases",
-                event.start_mark)
+                None,
+                None,
+                f"{kind}: a map holds plain data, without anchors or aliases",
+                event.start_mark,
+            )
         self.depth += 1
         try:
             if self.depth > MAX_YAML_DEPTH:
                 raise yaml.composer.ComposerError(
-                    None, None, f"at most {MAX_YAML_DEPTH} levels of nesting",
-                    event.start_mark)
+                    None, None, f"at most {MAX_YAML_DEPTH} levels of nesting", event.start_mark
+                )
             return super().compose_node(parent, index)
         finally:
             self.depth -= 1
@@ -335,8 +352,8 @@ class MapYamlLoader(yaml.SafeLoader):
             if isinstance(key, (str, int, float, bool)) or key is None:
                 if key in seen:
                     raise yaml.constructor.ConstructorError(
-                        None, None, f"the key {key!r} twice in one mapping",
-                        key_node.start_mark)
+                        None, None, f"the key {key!r} twice in one mapping", key_node.start_mark
+                    )
                 seen.add(key)
         return super().construct_mapping(node, deep)
 
@@ -378,8 +395,9 @@ def load_map(
         problem = getattr(exc, "problem", None) or str(exc)
         raise MapError(f"{file}: {where}: expected valid YAML ({problem})") from None
     default_name = Path(file).name.removesuffix(".yaml").removesuffix(".yml")
-    return map_from_dict(data, file, rng=rng, default_name=default_name, trusted=trusted,
-                         agents=agents, **overrides)
+    return map_from_dict(
+        data, file, rng=rng, default_name=default_name, trusted=trusted, agents=agents, **overrides
+    )
 
 
 def map_from_dict(
@@ -427,13 +445,22 @@ def map_from_dict(
     ]
     traffic = [
         g.model_copy(update={"offset": g.offset + float(rng.uniform(0.0, g.phase_jitter))})
-        if g.phase_jitter > 0 else g
+        if g.phase_jitter > 0
+        else g
         for g in mf.traffic
     ]
     spec = MapSpec(
-        name=mf.name or default_name, description=mf.description, source=file,
-        parameters=params, bounds=mf.bounds, walls=mf.walls, robots=named,
-        traffic=traffic, physics=mf.physics, episode=mf.episode, sensing=mf.sensing,
+        name=mf.name or default_name,
+        description=mf.description,
+        source=file,
+        parameters=params,
+        bounds=mf.bounds,
+        walls=mf.walls,
+        robots=named,
+        traffic=traffic,
+        physics=mf.physics,
+        episode=mf.episode,
+        sensing=mf.sensing,
     )
     _check_geometry(file, spec, origins)
     _check_steps(file, "episode.time_limit", spec)
@@ -475,17 +502,21 @@ def _check_names(file: str, mf: MapFile, names: AgentNames) -> MapFile:
             if names.trusted or name in names.callers:
                 return name
             raise field_error(
-                file, where,
+                file,
+                where,
                 f"expected an agent name (built-in, plug-in, or one given with --agent "
                 f"NAME=REFERENCE), got the code reference {name!r}: a map is data, and "
                 "loading this would run code the map names; if you trust this map, run "
-                "it with --trust-map (Python: load_map(..., trusted=True))")
+                "it with --trust-map (Python: load_map(..., trusted=True))",
+            )
         agents = available_agents() if agents is None else agents
         if name not in agents:
             raise field_error(
-                file, where,
+                file,
+                where,
                 f"expected one of {', '.join([*agents, *names.named])}, or a name given "
-                f"with --agent NAME=REFERENCE, got {name!r}")
+                f"with --agent NAME=REFERENCE, got {name!r}",
+            )
         return name
 
     robots = []
@@ -496,10 +527,12 @@ def _check_names(file: str, mf: MapFile, names: AgentNames) -> MapFile:
         robot = _resolved(lay.robot, f"layouts[{i}].robot", resolve)
         layouts.append(lay if robot is lay.robot else lay.model_copy(update={"robot": robot}))
     for where, t in [(f"robots[{i}]", r) for i, r in enumerate(robots)] + [
-            (f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(layouts)]:
+        (f"layouts[{i}].robot", lay.robot) for i, lay in enumerate(layouts)
+    ]:
         if t.predictor not in PREDICTORS:
             raise field_error(
-                file, f"{where}.predictor",
+                file,
+                f"{where}.predictor",
                 f"expected one of {', '.join(PREDICTORS)}, got {t.predictor!r}",
             )
     return mf.model_copy(update={"robots": robots, "layouts": layouts})
@@ -521,10 +554,12 @@ def _check_steps(file: str, path: str, spec: MapSpec) -> None:
     steps = spec.episode.time_limit / spec.physics.dt
     if steps > MAX_STEPS:
         raise field_error(
-            file, path,
+            file,
+            path,
             f"expected at most {MAX_STEPS} control periods per episode (time_limit / "
             f"physics.dt), got {spec.episode.time_limit:g} s / {spec.physics.dt:g} s = "
-            f"{steps:.3g}")
+            f"{steps:.3g}",
+        )
 
 
 def with_time_limit(spec: MapSpec, seconds: float) -> MapSpec:
@@ -532,8 +567,9 @@ def with_time_limit(spec: MapSpec, seconds: float) -> MapSpec:
     ``time_limit``) unless 0 < seconds <= :data:`MAX_TIME_LIMIT` with at most
     :data:`MAX_STEPS` control periods."""
     if not 0 < seconds <= MAX_TIME_LIMIT:
-        raise MapError(f"time_limit: expected a number of s > 0 and <= {MAX_TIME_LIMIT:g}, "
-                       f"got {seconds:g}")
+        raise MapError(
+            f"time_limit: expected a number of s > 0 and <= {MAX_TIME_LIMIT:g}, got {seconds:g}"
+        )
     episode = spec.episode.model_copy(update={"time_limit": float(seconds)})
     spec = spec.model_copy(update={"episode": episode})
     _check_steps(spec.source, "time_limit", spec)
@@ -544,7 +580,8 @@ def _check_total(file: str, path: str, total: int, these: str) -> None:
     """At most :data:`MAX_BODIES` bodies up to and including ``these`` (at path)."""
     if total > MAX_BODIES:
         raise field_error(
-            file, path,
+            file,
+            path,
             f"expected at most {MAX_BODIES} bodies (robots and traffic vehicles) in a map, "
             f"got {total} with {these}",
         )
@@ -556,7 +593,8 @@ def _expand_layout(
     path = f"layouts[{li}]"
     if lay.builder not in LAYOUTS:
         raise field_error(
-            file, f"{path}.builder",
+            file,
+            f"{path}.builder",
             f"expected one of {', '.join(sorted(LAYOUTS))}, got {lay.builder!r}",
         )
     model, fn = LAYOUTS[lay.builder]

@@ -42,8 +42,10 @@ def sections() -> list[tuple[str, type[BaseModel]]]:
         ("robots[]", RobotSpec),
         ("layouts[]", LayoutSpec),
         ("layouts[].robot", RobotTemplate),
-        *[(f"layouts[].args with builder: {name}", model)
-          for name, (model, _) in sorted(LAYOUTS.items())],
+        *[
+            (f"layouts[].args with builder: {name}", model)
+            for name, (model, _) in sorted(LAYOUTS.items())
+        ],
         ("traffic[]", TrafficGroup),
         ("traffic[].lane with type: circle", CircleLaneSpec),
         ("traffic[].lane with type: polyline", PolylineLaneSpec),
@@ -74,10 +76,20 @@ def _kind(prop: Mapping[str, Any]) -> str:
     if kind == "object":
         return "mapping"
     if kind in ("number", "integer"):
-        limits = [f"{op} {prop[key]}" for key, op in (
-            ("gt", ">"), ("exclusiveMinimum", ">"), ("ge", ">="), ("minimum", ">="),
-            ("lt", "<"), ("exclusiveMaximum", "<"), ("le", "<="), ("maximum", "<="),
-        ) if key in prop]
+        limits = [
+            f"{op} {prop[key]}"
+            for key, op in (
+                ("gt", ">"),
+                ("exclusiveMinimum", ">"),
+                ("ge", ">="),
+                ("minimum", ">="),
+                ("lt", "<"),
+                ("exclusiveMaximum", "<"),
+                ("le", "<="),
+                ("maximum", "<="),
+            )
+            if key in prop
+        ]
         return " ".join([kind, ", ".join(limits)]).strip()
     return {"boolean": "true|false", "string": "string"}.get(str(kind), str(kind))
 
@@ -118,7 +130,14 @@ def format_reference() -> str:
     prose = (maps.__doc__ or "").split("\n\n", 1)[1]
     prose = re.sub(r":\w+:`~?([^`]+)`", r"\1", prose).replace("``", "`")
     head = "Every field (generated from the schema; optional: absent or null, see above)"
-    return "\n".join([
-        "nao-arena map files", "===================", "", prose.strip(), "",
-        head, "-" * len(head) + _field_tables(),
-    ])
+    return "\n".join(
+        [
+            "nao-arena map files",
+            "===================",
+            "",
+            prose.strip(),
+            "",
+            head,
+            "-" * len(head) + _field_tables(),
+        ]
+    )

@@ -102,8 +102,12 @@ def _within_magnitude(value: float) -> float:
     return value
 
 
-Num = Annotated[float, BeforeValidator(_no_bool_number), Field(allow_inf_nan=False),
-                AfterValidator(_within_magnitude)]
+Num = Annotated[
+    float,
+    BeforeValidator(_no_bool_number),
+    Field(allow_inf_nan=False),
+    AfterValidator(_within_magnitude),
+]
 Pos = Annotated[Num, Field(gt=0)]
 NonNeg = Annotated[Num, Field(ge=0)]
 Vec2 = tuple[Num, Num]
@@ -307,7 +311,9 @@ class TrafficGroup(StrictModel):
     def follower_params(self) -> FollowerParams:
         """The lane followers' settings."""
         return FollowerParams(
-            speed=self.speed, a_max=self.a_max, time_headway=self.time_headway,
+            speed=self.speed,
+            a_max=self.a_max,
+            time_headway=self.time_headway,
             min_gap=self.min_gap,
         )
 
@@ -409,9 +415,16 @@ class MapSpec(StrictModel):
         for i, r in enumerate(self.robots):
             out.append(
                 BodySpec(
-                    index=len(out), name=r.name or f"robot{i}", kind="robot", start=r.start,
-                    velocity=r.velocity, radius=r.radius, mass=r.mass, a_max=r.a_max,
-                    v_max=r.v_max, robot=i,
+                    index=len(out),
+                    name=r.name or f"robot{i}",
+                    kind="robot",
+                    start=r.start,
+                    velocity=r.velocity,
+                    radius=r.radius,
+                    mass=r.mass,
+                    a_max=r.a_max,
+                    v_max=r.v_max,
+                    robot=i,
                 )
             )
         for g, grp in enumerate(self.traffic):
@@ -423,10 +436,16 @@ class MapSpec(StrictModel):
             for k in range(grp.count):
                 out.append(
                     BodySpec(
-                        index=len(out), name=f"{grp.name or f'traffic{g}'}_{k}", kind="traffic",
+                        index=len(out),
+                        name=f"{grp.name or f'traffic{g}'}_{k}",
+                        kind="traffic",
                         start=(float(pts[k, 0]), float(pts[k, 1])),
-                        velocity=(float(vel[k, 0]), float(vel[k, 1])), radius=grp.radius,
-                        mass=grp.mass, a_max=grp.a_max, v_max=grp.v_max, group=g,
+                        velocity=(float(vel[k, 0]), float(vel[k, 1])),
+                        radius=grp.radius,
+                        mass=grp.mass,
+                        a_max=grp.a_max,
+                        v_max=grp.v_max,
+                        group=g,
                     )
                 )
         return out
@@ -463,5 +482,9 @@ class MapSpec(StrictModel):
         if not self.bounds.walls:
             return []
         (x0, y0), (x1, y1) = self.bounds.min, self.bounds.max
-        return [((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)),
-                ((x0, y1), (x0, y0))]
+        return [
+            ((x0, y0), (x1, y0)),
+            ((x1, y0), (x1, y1)),
+            ((x1, y1), (x0, y1)),
+            ((x0, y1), (x0, y0)),
+        ]

@@ -93,8 +93,21 @@ def _walls_least(vx, vy, ax, ay, v_max, horizon, walls, grown, boxes, stop_below
     for w in range(walls.shape[0]):
         if xhi < boxes[w, 0] or xlo > boxes[w, 1] or yhi < boxes[w, 2] or ylo > boxes[w, 3]:
             continue
-        d = segment_min_distance(vx, vy, ax, ay, v_max, walls[w, 0, 0], walls[w, 0, 1],
-                                 walls[w, 1, 0], walls[w, 1, 1], horizon) - grown[w]
+        d = (
+            segment_min_distance(
+                vx,
+                vy,
+                ax,
+                ay,
+                v_max,
+                walls[w, 0, 0],
+                walls[w, 0, 1],
+                walls[w, 1, 0],
+                walls[w, 1, 1],
+                horizon,
+            )
+            - grown[w]
+        )
         if d < best:
             best = d
             if best < stop_below:
@@ -155,8 +168,14 @@ def _wall_boxes(walls, grown):
 
 
 @njit(cache=True, error_model="numpy")
-def wall_clearances(grid: np.ndarray, v: np.ndarray, v_max: float, horizon: float,
-                    walls: np.ndarray, grown: np.ndarray) -> np.ndarray:
+def wall_clearances(
+    grid: np.ndarray,
+    v: np.ndarray,
+    v_max: float,
+    horizon: float,
+    walls: np.ndarray,
+    grown: np.ndarray,
+) -> np.ndarray:
     """Per acceleration of grid (G, 2) m/s^2 (velocity v (2,) m/s, speed limit v_max m/s):
     the least clearance (G,) m of the path over [0, horizon] s to the walls (W, 2, 2) m
     (robot-relative ends), distance minus grown (W,) m. Exact where negative; elsewhere a
@@ -164,14 +183,16 @@ def wall_clearances(grid: np.ndarray, v: np.ndarray, v_max: float, horizon: floa
     boxes = _wall_boxes(walls, grown)
     out = np.empty(grid.shape[0])
     for k in range(grid.shape[0]):
-        out[k] = _walls_least(v[0], v[1], grid[k, 0], grid[k, 1], v_max, horizon, walls,
-                              grown, boxes, -math.inf)
+        out[k] = _walls_least(
+            v[0], v[1], grid[k, 0], grid[k, 1], v_max, horizon, walls, grown, boxes, -math.inf
+        )
     return out
 
 
 @njit(cache=True, error_model="numpy")
-def _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, windows, n, r, level,
-           buf, out):
+def _below(
+    vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, windows, n, r, level, buf, out
+):
     """Whether neighbour n's exact clearance (radius r m) is below ``level`` (m) for the
     candidate (as :func:`~nao_arena.geometry._kernel.exact.scan_obstacle` takes it):
     :data:`YES`, :data:`NO`, or :data:`UNSURE` where it may lie within :data:`BAND` of
@@ -181,15 +202,55 @@ def _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, window
         return NO  # the clearance is at least -r
     if _out_of_reach(vx, vy, ax, ay, tau, bound, seg_t, seg_c, windows, n, outer):
         return NO
-    if scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
-                     level + BAND, False, buf, out) < 0:
+    if (
+        scan_obstacle(
+            vx,
+            vy,
+            ax,
+            ay,
+            tau,
+            bound,
+            seg_t,
+            seg_c,
+            seg_w,
+            seg_b,
+            sweep,
+            n,
+            r,
+            level + BAND,
+            False,
+            buf,
+            out,
+        )
+        < 0
+    ):
         return NO  # never within r + level + BAND
     inner = r + level - BAND
     if inner > 0.0:
         if out[0] < inner * inner:
             return YES
-        if scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
-                         level - BAND, False, buf, out) >= 0:
+        if (
+            scan_obstacle(
+                vx,
+                vy,
+                ax,
+                ay,
+                tau,
+                bound,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                sweep,
+                n,
+                r,
+                level - BAND,
+                False,
+                buf,
+                out,
+            )
+            >= 0
+        ):
             return YES  # within r + level - BAND
     return UNSURE
 
@@ -197,15 +258,42 @@ def _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, window
 @njit(cache=True, error_model="numpy", inline="always")
 def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, buf, out):
     """Neighbour n's exact clearance (m), as :func:`clearance_kernel` computes it."""
-    scan_obstacle(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
-                  math.inf, True, buf, out)
+    scan_obstacle(
+        vx,
+        vy,
+        ax,
+        ay,
+        tau,
+        bound,
+        seg_t,
+        seg_c,
+        seg_w,
+        seg_b,
+        sweep,
+        n,
+        r,
+        math.inf,
+        True,
+        buf,
+        out,
+    )
     return math.sqrt(out[0]) - r
 
 
 @njit(cache=True, error_model="numpy")
-def panel_labels(grid: np.ndarray, v: np.ndarray, v_max: float, seg_t: np.ndarray,
-                 seg_c: np.ndarray, seg_w: np.ndarray, seg_b: np.ndarray, radius: np.ndarray,
-                 sweep: np.ndarray, walls: np.ndarray, grown: np.ndarray) -> np.ndarray:
+def panel_labels(
+    grid: np.ndarray,
+    v: np.ndarray,
+    v_max: float,
+    seg_t: np.ndarray,
+    seg_c: np.ndarray,
+    seg_w: np.ndarray,
+    seg_b: np.ndarray,
+    radius: np.ndarray,
+    sweep: np.ndarray,
+    walls: np.ndarray,
+    grown: np.ndarray,
+) -> np.ndarray:
     """Label (G,) of each acceleration of grid (G, 2) m/s^2 (see the module): -1 free, -2
     walls, n the neighbour n of the path (seg_t (S + 1,) s, seg_c, seg_w, seg_b (N, S, 2)
     m, m/s, m/s^2, robot-relative, radius (N,) m grown, sweep its
@@ -214,16 +302,52 @@ def panel_labels(grid: np.ndarray, v: np.ndarray, v_max: float, seg_t: np.ndarra
     (W,) m, over the horizon seg_t[-1] s (W = 0: none)."""
     labels = np.empty(grid.shape[0], dtype=np.int64)
     N = seg_c.shape[0]
-    _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep,
-                 _windows(seg_t, seg_c, sweep), walls, grown, _wall_boxes(walls, grown),
-                 np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64), np.empty(N),
-                 np.empty(3), np.empty(3), labels)
+    _fill_labels(
+        grid,
+        v,
+        v_max,
+        seg_t,
+        seg_c,
+        seg_w,
+        seg_b,
+        radius,
+        sweep,
+        _windows(seg_t, seg_c, sweep),
+        walls,
+        grown,
+        _wall_boxes(walls, grown),
+        np.empty(N, dtype=np.int64),
+        np.empty(N, dtype=np.int64),
+        np.empty(N),
+        np.empty(3),
+        np.empty(3),
+        labels,
+    )
     return labels
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, windows, walls,
-                 grown, boxes, cand, state, upper, buf, out, labels):
+def _fill_labels(
+    grid,
+    v,
+    v_max,
+    seg_t,
+    seg_c,
+    seg_w,
+    seg_b,
+    radius,
+    sweep,
+    windows,
+    walls,
+    grown,
+    boxes,
+    cand,
+    state,
+    upper,
+    buf,
+    out,
+    labels,
+):
     """:func:`panel_labels` into labels, with the neighbours' :func:`_windows`, the walls'
     boxes and scratch arrays (cand, state (N,) ints, upper (N,), buf and out (3,)). Arrays
     borrowed here.
@@ -234,10 +358,18 @@ def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, wind
     left is the label; otherwise the exact clearance of the likeliest least, then of each
     other candidate that may lie below the least so far."""
     grid, v, seg_t, seg_c = borrowed(grid), borrowed(v), borrowed(seg_t), borrowed(seg_c)
-    seg_w, seg_b, radius, sweep = borrowed(seg_w), borrowed(seg_b), borrowed(radius), \
-        borrowed(sweep)
-    windows, walls, grown, boxes = borrowed(windows), borrowed(walls), borrowed(grown), \
-        borrowed(boxes)
+    seg_w, seg_b, radius, sweep = (
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    windows, walls, grown, boxes = (
+        borrowed(windows),
+        borrowed(walls),
+        borrowed(grown),
+        borrowed(boxes),
+    )
     cand, state, upper = borrowed(cand), borrowed(state), borrowed(upper)
     buf, out, labels = borrowed(buf), borrowed(out), borrowed(labels)
     N = seg_c.shape[0]
@@ -251,8 +383,25 @@ def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, wind
         for n in range(N):
             s = UNSURE
             if not degenerate:
-                s = _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep,
-                           windows, n, radius[n], 0.0, buf, out)
+                s = _below(
+                    vx,
+                    vy,
+                    ax,
+                    ay,
+                    tau,
+                    bound,
+                    seg_t,
+                    seg_c,
+                    seg_w,
+                    seg_b,
+                    sweep,
+                    windows,
+                    n,
+                    radius[n],
+                    0.0,
+                    buf,
+                    out,
+                )
             if s != NO:
                 cand[m] = n
                 state[m] = s
@@ -260,8 +409,9 @@ def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, wind
                 m += 1
         wall = math.inf
         if walls.shape[0]:
-            wall = _walls_least(v[0], v[1], ax, ay, v_max, horizon, walls, grown, boxes,
-                                -math.inf if m else 0.0)
+            wall = _walls_least(
+                v[0], v[1], ax, ay, v_max, horizon, walls, grown, boxes, -math.inf if m else 0.0
+            )
         if m and wall < 0.0:
             # only a neighbour at or below the walls' clearance can show
             kept = 0
@@ -269,8 +419,25 @@ def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, wind
                 n = cand[i]
                 s = UNSURE
                 if not degenerate:
-                    s = _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep,
-                               windows, n, radius[n], wall, buf, out)
+                    s = _below(
+                        vx,
+                        vy,
+                        ax,
+                        ay,
+                        tau,
+                        bound,
+                        seg_t,
+                        seg_c,
+                        seg_w,
+                        seg_b,
+                        sweep,
+                        windows,
+                        n,
+                        radius[n],
+                        wall,
+                        buf,
+                        out,
+                    )
                 if s != NO:
                     cand[kept] = n
                     state[kept] = s
@@ -290,18 +457,68 @@ def _fill_labels(grid, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, sweep, wind
             if upper[i] < upper[first]:
                 first = i
         owner = cand[first]
-        best = _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, owner,
-                      radius[owner], buf, out)
+        best = _exact(
+            vx,
+            vy,
+            ax,
+            ay,
+            tau,
+            bound,
+            seg_t,
+            seg_c,
+            seg_w,
+            seg_b,
+            sweep,
+            owner,
+            radius[owner],
+            buf,
+            out,
+        )
         for i in range(m):
             n = cand[i]
             if i == first:
                 continue
-            if not degenerate and _below(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w,
-                                         seg_b, sweep, windows, n, radius[n], best, buf,
-                                         out) == NO:
+            if (
+                not degenerate
+                and _below(
+                    vx,
+                    vy,
+                    ax,
+                    ay,
+                    tau,
+                    bound,
+                    seg_t,
+                    seg_c,
+                    seg_w,
+                    seg_b,
+                    sweep,
+                    windows,
+                    n,
+                    radius[n],
+                    best,
+                    buf,
+                    out,
+                )
+                == NO
+            ):
                 continue
-            c = _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n,
-                       radius[n], buf, out)
+            c = _exact(
+                vx,
+                vy,
+                ax,
+                ay,
+                tau,
+                bound,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                sweep,
+                n,
+                radius[n],
+                buf,
+                out,
+            )
             if c < best or (c == best and n < owner):
                 best = c
                 owner = n

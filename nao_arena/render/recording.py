@@ -59,11 +59,19 @@ class Recorder:
 
         if self._suffix == ".gif":
             # the pillow plugin takes the frame duration in ms; loop forever
-            return iio.get_writer(self._tmp, format="GIF", mode="I",
-                                  duration=1000.0 / self.fps, loop=0)
-        return iio.get_writer(self._tmp, format="FFMPEG", mode="I", fps=self.fps,
-                              codec="libx264", quality=7, macro_block_size=8,
-                              ffmpeg_log_level="error")
+            return iio.get_writer(
+                self._tmp, format="GIF", mode="I", duration=1000.0 / self.fps, loop=0
+            )
+        return iio.get_writer(
+            self._tmp,
+            format="FFMPEG",
+            mode="I",
+            fps=self.fps,
+            codec="libx264",
+            quality=7,
+            macro_block_size=8,
+            ffmpeg_log_level="error",
+        )
 
     def add(self, frame: NDArray[np.uint8]) -> None:
         """Append one frame (H, W, 3) uint8."""
@@ -94,8 +102,12 @@ class Recorder:
     def __enter__(self) -> Recorder:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         if exc_type is None:
             self.close()
         else:

@@ -39,8 +39,7 @@ from nao_arena.stats import ContactEvent
 from nao_arena.traffic import LaneTraffic
 from nao_arena.world import World, WorldState
 
-__all__ = ["KEYS", "ReplayArena", "Replayer", "play", "record_replay", "robot_index",
-           "write_frame"]
+__all__ = ["KEYS", "ReplayArena", "Replayer", "play", "record_replay", "robot_index", "write_frame"]
 
 KEYS = """\
 space: play / pause        right, left: one step forward, back
@@ -86,8 +85,9 @@ class ReplayArena:
         self.step_index = -1
         self.decision_row = -1
         self._batch: tuple[int, SensingBatch] | None = None
-        self._predictors = [None if r.predictor is None else get_predictor(r.predictor)
-                            for r in log.robots]
+        self._predictors = [
+            None if r.predictor is None else get_predictor(r.predictor) for r in log.robots
+        ]
 
     @property
     def time(self) -> float:
@@ -106,7 +106,7 @@ class ReplayArena:
         self.decision_row = step + 1 if decision else step
         self.state = log.state(step)
         self.commanded = log.commanded[self.decision_row]
-        self.stats.contacts = self.stats.all_contacts[:log.contacts_by(step)]
+        self.stats.contacts = self.stats.all_contacts[: log.contacts_by(step)]
         self.stats.steps = step if steps is None else steps
         self.stats.reached = log.reached[step]
 
@@ -127,7 +127,9 @@ class ReplayArena:
         detour = float(self.log.detour[self.decision_row, k])
         return PanelAgent(
             times=info.times if self._predictors[k] is not None else None,
-            predict=self._predictors[k], margin=info.margin, v_pref=info.v_pref,
+            predict=self._predictors[k],
+            margin=info.margin,
+            v_pref=info.v_pref,
             detour=0.0 if detour != detour else detour,
             status=self.log.selection_of(self.decision_row, k),
         )
@@ -142,8 +144,9 @@ class ReplayArena:
 class Replayer:
     """Draws the rows of a log with one :class:`Viewer` (see the module docstring)."""
 
-    def __init__(self, log: EpisodeLog, viewer: Viewer | None = None,
-                 options: ViewerOptions | None = None) -> None:
+    def __init__(
+        self, log: EpisodeLog, viewer: Viewer | None = None, options: ViewerOptions | None = None
+    ) -> None:
         self.log = log
         self.viewer = viewer or Viewer(options)
         self.arena = ReplayArena(log)
@@ -153,8 +156,9 @@ class Replayer:
     def frame(self, step: int, selected: int = 0, decision: bool = False) -> NDArray[np.uint8]:
         """Draw row ``step`` (see :meth:`ReplayArena.seek`); returns the frame (H, W, 3)."""
         last = self._last
-        if not (last is not None and not last[1] and not decision
-                and step in (last[0], last[0] + 1)):
+        if not (
+            last is not None and not last[1] and not decision and step in (last[0], last[0] + 1)
+        ):
             # a jump: the trails of the last trail_seconds, without a steps/s estimate
             self.viewer.forget()
             keep = max(2, int(self.viewer.options.trail_seconds / self.log.dt) + 1)
@@ -177,8 +181,9 @@ def robot_index(log: EpisodeLog, robot: int | str | None) -> int:
         return names.index(robot)
     k = int(robot)
     if not 0 <= k < len(names):
-        raise ValueError(f"robot {k}: expected an index 0 .. {len(names) - 1} or a name "
-                         f"({', '.join(names)})")
+        raise ValueError(
+            f"robot {k}: expected an index 0 .. {len(names) - 1} or a name ({', '.join(names)})"
+        )
     return k
 
 
@@ -191,22 +196,32 @@ def _check_time(log: EpisodeLog, t: float, what: str) -> None:
 def _write_png(path: Path, frame: NDArray[np.uint8]) -> Path:
     import imageio.v2 as iio
 
-    atomic_write_with(path, lambda tmp: iio.imwrite(tmp, frame, format="PNG"),
-                      suffix=".tmp.png")
+    atomic_write_with(path, lambda tmp: iio.imwrite(tmp, frame, format="PNG"), suffix=".tmp.png")
     return path
 
 
-def write_frame(log: EpisodeLog, path: str | Path, at: float, selected: int = 0,
-                options: ViewerOptions | None = None) -> Path:
+def write_frame(
+    log: EpisodeLog,
+    path: str | Path,
+    at: float,
+    selected: int = 0,
+    options: ViewerOptions | None = None,
+) -> Path:
     """Write the frame of the last row at or before time ``at`` (s) as a PNG, atomically."""
     _check_time(log, at, "--at")
     frame = Replayer(log, options=options).frame(log.step_at(at), selected)
     return _write_png(Path(path), frame)
 
 
-def record_replay(log: EpisodeLog, path: str | Path, fps: float | None = None,
-                  start: float = 0.0, end: float | None = None, selected: int = 0,
-                  options: ViewerOptions | None = None) -> Path:
+def record_replay(
+    log: EpisodeLog,
+    path: str | Path,
+    fps: float | None = None,
+    start: float = 0.0,
+    end: float | None = None,
+    selected: int = 0,
+    options: ViewerOptions | None = None,
+) -> Path:
     """Record the rows from ``start`` to ``end`` (s; default the last) as a GIF or MP4
     (by the suffix), atomically. fps: frames per second of simulated time (default
     1 / dt: one frame per row); frame k shows the last row at or before start + k / fps."""
@@ -234,10 +249,15 @@ def _contact_rows(log: EpisodeLog) -> list[int]:
     return [int(s) for s in log.contact_steps]
 
 
-def play(log: EpisodeLog, selected: int = 0, start: float = 0.0,
-         options: ViewerOptions | None = None,
-         explain: Callable[[int], tuple[str, NDArray[np.uint8]]] | None = None,
-         max_frames: int | None = None, out: TextIO = sys.stdout) -> int:
+def play(
+    log: EpisodeLog,
+    selected: int = 0,
+    start: float = 0.0,
+    options: ViewerOptions | None = None,
+    explain: Callable[[int], tuple[str, NDArray[np.uint8]]] | None = None,
+    max_frames: int | None = None,
+    out: TextIO = sys.stdout,
+) -> int:
     """Show the log in a window (see :data:`KEYS`) until it is closed; returns the row
     shown last. explain(K) -> (text, picture) of contact K (1-based) for the ``e`` key.
     max_frames: stop after that many frames (None: when the window closes)."""
@@ -288,14 +308,18 @@ def play(log: EpisodeLog, selected: int = 0, start: float = 0.0,
                 elif key == pygame.K_END:
                     step = last
                 elif key in (pygame.K_n, pygame.K_p):
-                    after = [c for c in contacts if c > step] if key == pygame.K_n \
+                    after = (
+                        [c for c in contacts if c > step]
+                        if key == pygame.K_n
                         else [c for c in contacts if c < step]
+                    )
                     if after:
                         step = after[0] if key == pygame.K_n else after[-1]
                         playing = False
                 elif key == pygame.K_e and explain is not None and contacts:
-                    number = next((i + 1 for i, c in enumerate(contacts) if c >= step),
-                                  len(contacts))
+                    number = next(
+                        (i + 1 for i, c in enumerate(contacts) if c >= step), len(contacts)
+                    )
                     text, picture = explain(number)
                     print(text, file=out, flush=True)
                     overlay = picture
@@ -324,7 +348,8 @@ def play(log: EpisodeLog, selected: int = 0, start: float = 0.0,
                 state = "playing" if playing else "paused"
                 pygame.display.set_caption(
                     f"nao_arena replay: t = {log.time[step]:.1f} s, step {step}/{last}, {state}"
-                    f", x{speed:g}" + (f", go to {typed} s" if typed else ""))
+                    f", x{speed:g}" + (f", go to {typed} s" if typed else "")
+                )
                 if playing:
                     ahead += speed
                     move = int(ahead)
@@ -351,6 +376,5 @@ def _show_picture(picture: NDArray[np.uint8]) -> None:
     scale = min(w / surf.get_width(), h / surf.get_height())
     size = (int(surf.get_width() * scale), int(surf.get_height() * scale))
     window.fill((255, 255, 255))
-    window.blit(pygame.transform.smoothscale(surf, size), ((w - size[0]) // 2,
-                                                             (h - size[1]) // 2))
+    window.blit(pygame.transform.smoothscale(surf, size), ((w - size[0]) // 2, (h - size[1]) // 2))
     pygame.display.flip()

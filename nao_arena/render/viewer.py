@@ -85,8 +85,20 @@ if TYPE_CHECKING:
 
     ShownArena: TypeAlias = Arena | ReplayArena  # a live arena or a recorded episode
 
-__all__ = ["AGENT_COLOURS", "FRAME_SIZE", "KEYS", "EdgeRun", "FrameInfo", "LegendEntry",
-           "PanelAgent", "PanelSource", "Viewer", "ViewerOptions", "edge_runs", "panel_agent"]
+__all__ = [
+    "AGENT_COLOURS",
+    "FRAME_SIZE",
+    "KEYS",
+    "EdgeRun",
+    "FrameInfo",
+    "LegendEntry",
+    "PanelAgent",
+    "PanelSource",
+    "Viewer",
+    "ViewerOptions",
+    "edge_runs",
+    "panel_agent",
+]
 
 FRAME_SIZE: tuple[int, int] = (1200, 800)
 """Default frame size (width, height) px."""
@@ -106,8 +118,16 @@ AGENT_COLOURS: dict[str, Colour] = {
 """Fill colour per agent type; plug-in agents get a colour derived from their name."""
 
 _PALETTE: list[Colour] = [
-    (230, 159, 0), (86, 180, 233), (0, 158, 115), (204, 121, 167), (213, 94, 0),
-    (0, 114, 178), (240, 228, 66), (120, 94, 240), (100, 143, 255), (254, 97, 0),
+    (230, 159, 0),
+    (86, 180, 233),
+    (0, 158, 115),
+    (204, 121, 167),
+    (213, 94, 0),
+    (0, 114, 178),
+    (240, 228, 66),
+    (120, 94, 240),
+    (100, 143, 255),
+    (254, 97, 0),
 ]
 _WALL: Colour = (60, 60, 60)
 _WALL_REGION: Colour = (190, 190, 190)
@@ -211,8 +231,9 @@ def _mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
     return tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
 
 
-def _own_paths_xy(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
-                  times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _own_paths_xy(
+    v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float, times: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Displacements under constant accelerations (K, 2), speed saturating at v_max (the
     world's model, see :func:`nao_arena.world.speed_limit_time`): x and y (K, T) m, each
     contiguous (one component at a time, with the arithmetic of :func:`_own_paths`)."""
@@ -234,8 +255,9 @@ def _own_paths_xy(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: fl
     return out[0], out[1]
 
 
-def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
-               times: NDArray[np.float64]) -> NDArray[np.float64]:
+def _own_paths(
+    v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float, times: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Displacements (K, T, 2) m under constant accelerations (K, 2), speed saturating at
     v_max (the world's model, see :func:`nao_arena.world.speed_limit_time`)."""
     return np.stack(_own_paths_xy(v, accels, v_max, times), axis=-1)
@@ -245,8 +267,12 @@ def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
     """Runs of region cells (label != -1) along the four edges of a panel's label grid
     (g, g): row 0 is the top, column 0 the left edge."""
     runs = []
-    for edge, line in (("top", labels[0]), ("bottom", labels[-1]),
-                       ("left", labels[:, 0]), ("right", labels[:, -1])):
+    for edge, line in (
+        ("top", labels[0]),
+        ("bottom", labels[-1]),
+        ("left", labels[:, 0]),
+        ("right", labels[:, -1]),
+    ):
         k = 0
         while k < len(line):
             if line[k] == -1:
@@ -272,8 +298,9 @@ class Viewer:
         self.human = human
         w, h = self.options.size
         if w < h + 200 or h < 400:
-            raise ValueError(f"size: expected width >= height + 200 and height >= 400 px, "
-                             f"got {w}x{h}")
+            raise ValueError(
+                f"size: expected width >= height + 200 and height >= 400 px, got {w}x{h}"
+            )
         if not pygame.font.get_init():
             pygame.font.init()
         self._window: Any = None
@@ -388,11 +415,12 @@ class Viewer:
                 trail.append(p.copy())
             self._last_time = state.time
         contacts = arena.stats.contacts
-        for ev in contacts[self._contacts_seen:]:
+        for ev in contacts[self._contacts_seen :]:
             self._flashes.append((ev.time, ev.a, ev.b, ev.kind_b))
         self._contacts_seen = len(contacts)
-        self._flashes = [f for f in self._flashes
-                         if state.time - f[0] <= self.options.flash_seconds]
+        self._flashes = [
+            f for f in self._flashes if state.time - f[0] <= self.options.flash_seconds
+        ]
         steps = arena.stats.steps
         now = time.perf_counter()
         if self._wall_clock is not None and steps > self._wall_clock[1]:
@@ -420,10 +448,16 @@ class Viewer:
                 dist = float(np.hypot(*to_goal))
                 ahead = 0.25 * side * to_goal / dist if dist > 1e-6 else np.zeros(2)
                 c = arena.state.positions[body] + ahead
-            cx = float(np.clip(c[0], bx0 + side / 2, bx1 - side / 2)) if bw > side \
+            cx = (
+                float(np.clip(c[0], bx0 + side / 2, bx1 - side / 2))
+                if bw > side
                 else (bx0 + bx1) / 2
-            cy = float(np.clip(c[1], by0 + side / 2, by1 - side / 2)) if bh > side \
+            )
+            cy = (
+                float(np.clip(c[1], by0 + side / 2, by1 - side / 2))
+                if bh > side
                 else (by0 + by1) / 2
+            )
             x0, x1, y0, y1 = cx - side / 2, cx + side / 2, cy - side / 2, cy + side / 2
         else:
             pad = 0.03 * max(bw, bh)
@@ -443,8 +477,14 @@ class Viewer:
         q = self._px(tr, p)
         return int(round(q[0])), int(round(q[1]))
 
-    def _draw_world(self, arena: ShownArena, tr: tuple[float, ...], selected: int,
-                    controlled: set[int], obs: Observation | None) -> None:
+    def _draw_world(
+        self,
+        arena: ShownArena,
+        tr: tuple[float, ...],
+        selected: int,
+        controlled: set[int],
+        obs: Observation | None,
+    ) -> None:
         surf = self.surface
         s = tr[0]
         state = arena.state
@@ -452,8 +492,12 @@ class Viewer:
         # bounds
         (bx0, by0), (bx1, by1) = spec.bounds.min, spec.bounds.max
         corners = self._px(tr, np.array([[bx0, by1], [bx1, by0]]))
-        rect = pygame.Rect(int(corners[0, 0]), int(corners[0, 1]),
-                           int(corners[1, 0] - corners[0, 0]), int(corners[1, 1] - corners[0, 1]))
+        rect = pygame.Rect(
+            int(corners[0, 0]),
+            int(corners[0, 1]),
+            int(corners[1, 0] - corners[0, 0]),
+            int(corners[1, 1] - corners[0, 1]),
+        )
         pygame.draw.rect(surf, (255, 255, 255), rect)
         pygame.draw.rect(surf, (200, 200, 200), rect, 1)
         # lanes
@@ -466,7 +510,8 @@ class Viewer:
                 n = max(24, int(2 * math.pi * lane.radius * s / 12))
                 ang = np.linspace(0, 2 * math.pi, n, endpoint=False)
                 pts = np.asarray(lane.center) + lane.radius * np.stack(
-                    [np.cos(ang), np.sin(ang)], 1)
+                    [np.cos(ang), np.sin(ang)], 1
+                )
                 self._dashed(self._px(tr, pts), (190, 190, 186), closed=True)
             else:
                 pts = np.asarray(lane.points, float)
@@ -501,8 +546,13 @@ class Viewer:
         # selected robot: line to goal, predicted paths
         if obs is not None:
             body = int(arena.robot_ids[selected])
-            pygame.draw.line(surf, (170, 170, 170), self._pt(tr, state.positions[body]),
-                             self._pt(tr, arena.goals[selected]), 1)
+            pygame.draw.line(
+                surf,
+                (170, 170, 170),
+                self._pt(tr, state.positions[body]),
+                self._pt(tr, arena.goals[selected]),
+                1,
+            )
             if self.options.predicted_paths:
                 self._draw_predictions(arena, tr, selected, obs)
         # bodies
@@ -542,16 +592,21 @@ class Viewer:
             p = self._pt(tr, state.positions[body])
             r = max(3, int(round(state.radii[body] * s)))
             pygame.draw.circle(surf, (0, 0, 0), p, r + 3, 2)
-            label = self._small.render(arena.robots[selected].name or f"robot{selected}", True,
-                                       _TEXT)
+            label = self._small.render(
+                arena.robots[selected].name or f"robot{selected}", True, _TEXT
+            )
             surf.blit(label, (p[0] + r + 5, p[1] - r - 14))
         # scale bar on a light box, readable over walls and lanes
         bar_m = self._nice(80 / s)
         bar_px = int(bar_m * s)
         label = self._small.render(f"{bar_m:g} m", True, _TEXT)
         x0, y0 = 16, self.options.size[1] - 20
-        box = pygame.Rect(x0 - 6, y0 - label.get_height() - 6,
-                          max(bar_px, label.get_width()) + 12, label.get_height() + 12)
+        box = pygame.Rect(
+            x0 - 6,
+            y0 - label.get_height() - 6,
+            max(bar_px, label.get_width()) + 12,
+            label.get_height() + 12,
+        )
         backing = pygame.Surface(box.size, pygame.SRCALPHA)
         backing.fill((255, 255, 255, 225))
         surf.blit(backing, box.topleft)
@@ -586,8 +641,9 @@ class Viewer:
         for k in range(0, len(pts) - 1, 2):
             pygame.draw.line(self.surface, colour, pts[k].tolist(), pts[k + 1].tolist(), 1)
 
-    def _capsule(self, tr: tuple[float, ...], seg: NDArray[np.float64], half: float,
-                 colour: Colour) -> None:
+    def _capsule(
+        self, tr: tuple[float, ...], seg: NDArray[np.float64], half: float, colour: Colour
+    ) -> None:
         q = self._px(tr, seg)
         width = max(2, int(round(2 * half * tr[0])))
         pygame.draw.line(self.surface, colour, q[0].tolist(), q[1].tolist(), width)
@@ -595,13 +651,19 @@ class Viewer:
             pygame.draw.circle(self.surface, colour, p.tolist(), width / 2)
 
     def _robot_colours(self, arena: ShownArena, controlled: set[int]) -> list[Colour]:
-        return [AGENT_COLOURS["controlled"] if k in controlled else _agent_colour(name)
-                for k, name in enumerate(arena.agent_names)]
+        return [
+            AGENT_COLOURS["controlled"] if k in controlled else _agent_colour(name)
+            for k, name in enumerate(arena.agent_names)
+        ]
 
     # ------------------------------------------------------------------ predictions
 
-    def _predictions(self, arena: ShownArena, selected: int, obs: Observation) -> tuple[
-        NDArray[np.float64], NDArray[np.float64], PiecewisePath,
+    def _predictions(
+        self, arena: ShownArena, selected: int, obs: Observation
+    ) -> tuple[
+        NDArray[np.float64],
+        NDArray[np.float64],
+        PiecewisePath,
         tuple[NDArray[np.float64], NDArray[np.float64]] | None,
     ]:
         """(times (T,) s, predicted neighbour centres (n, T, 2) world m, their paths
@@ -621,14 +683,19 @@ class Viewer:
         if len(obs.walls):
             # the walls within reach as the agent sees them (its radius cut included)
             h = float(times[-1])
-            segs, grown = relative_walls(obs.walls, obs.wall_radius + grow, obs.position,
-                                         obs.v_max * h + 0.5 * obs.a_max * h * h)
+            segs, grown = relative_walls(
+                obs.walls,
+                obs.wall_radius + grow,
+                obs.position,
+                obs.v_max * h + 0.5 * obs.a_max * h * h,
+            )
             if len(segs):
                 walls = (segs, grown)
         return times, centres, path, walls
 
-    def _draw_predictions(self, arena: ShownArena, tr: tuple[float, ...], selected: int,
-                          obs: Observation) -> None:
+    def _draw_predictions(
+        self, arena: ShownArena, tr: tuple[float, ...], selected: int, obs: Observation
+    ) -> None:
         times, centres, _, _ = self._predictions(arena, selected, obs)
         self._horizon = float(times[-1])
         surf = self.surface
@@ -637,8 +704,9 @@ class Viewer:
             q = self._px(tr, centres[j])
             pygame.draw.lines(surf, col, False, q.tolist(), 2)
             end = q[-1]
-            pygame.draw.circle(surf, col, end.tolist(), max(2, int(obs.neighbours.radii[j]
-                                                                   * tr[0])), 1)
+            pygame.draw.circle(
+                surf, col, end.tolist(), max(2, int(obs.neighbours.radii[j] * tr[0])), 1
+            )
         body = int(arena.robot_ids[selected])
         a = arena.commanded[body]
         a_n = float(np.hypot(*a))
@@ -649,8 +717,9 @@ class Viewer:
 
     # ------------------------------------------------------------------ panel
 
-    def _text(self, text: str, pos: tuple[int, int], font: Any = None,
-              colour: Colour = _TEXT) -> None:
+    def _text(
+        self, text: str, pos: tuple[int, int], font: Any = None, colour: Colour = _TEXT
+    ) -> None:
         self.surface.blit((font or self._font).render(text, True, colour), pos)
         self.info.texts.append(text)
 
@@ -660,8 +729,14 @@ class Viewer:
             return "H or ?: show keys"
         return "  ".join(f"{k}: {what}" for k, what in KEYS[:2]) + f"  {KEYS[2][0]}: hide"
 
-    def _draw_panel(self, arena: ShownArena, panel: pygame.Rect, selected: int,
-                    controlled: set[int], obs: Observation | None) -> None:
+    def _draw_panel(
+        self,
+        arena: ShownArena,
+        panel: pygame.Rect,
+        selected: int,
+        controlled: set[int],
+        obs: Observation | None,
+    ) -> None:
         x = panel.left + 14
         state = arena.state
         stats = arena.stats
@@ -671,13 +746,19 @@ class Viewer:
         self._text(f"t = {state.time:6.1f} s  / {limit:g} s     step {self._steps}", (x, 38))
         y = 58
         if self.human:  # the wall-clock rate: in the live window only, never in frames
-            rate = f"{self._rate:6.0f} steps/s ({self._rate * arena.world.dt:.1f}x real time)" \
-                if self._rate > 0 else "-- steps/s"
+            rate = (
+                f"{self._rate:6.0f} steps/s ({self._rate * arena.world.dt:.1f}x real time)"
+                if self._rate > 0
+                else "-- steps/s"
+            )
             self._text(rate, (x, y))
             y += 20
         reached = int(np.sum(stats.reached[arena.robot_ids])) if len(arena.robots) else 0
-        self._text(f"collisions: {robot_contacts} involving robots ({len(stats.contacts)} "
-                   f"total)", (x, y), colour=_RED if robot_contacts else _TEXT)
+        self._text(
+            f"collisions: {robot_contacts} involving robots ({len(stats.contacts)} total)",
+            (x, y),
+            colour=_RED if robot_contacts else _TEXT,
+        )
         self._text(f"robots at goal: {reached} / {len(arena.robots)}", (x, y + 20))
         keys_h = 22 if self.human else 0
         if self.human:
@@ -689,8 +770,11 @@ class Viewer:
         who = "controlled" if selected in controlled else arena.agent_names[selected]
         self._text(f"selected: {name} ({who})", (x, y + 46), self._font)
         speed = float(np.hypot(*state.velocities[body]))
-        self._text(f"|v| = {speed:.2f} / {obs.v_max:g} m/s   a_max = {obs.a_max:g} m/s^2",
-                   (x, y + 68), self._small)
+        self._text(
+            f"|v| = {speed:.2f} / {obs.v_max:g} m/s   a_max = {obs.a_max:g} m/s^2",
+            (x, y + 68),
+            self._small,
+        )
         entries = self.legend_entries(arena, controlled)
         col_w = (panel.right - 14 - x) // 2
         rows = self._legend_rows(entries, col_w)
@@ -703,8 +787,14 @@ class Viewer:
         self._draw_legend(rows, (x, plot.bottom + 64), col_w)
         self.info.legend = entries
 
-    def _draw_accel_space(self, arena: ShownArena, plot: pygame.Rect, selected: int,
-                          controlled: set[int], obs: Observation) -> None:
+    def _draw_accel_space(
+        self,
+        arena: ShownArena,
+        plot: pygame.Rect,
+        selected: int,
+        controlled: set[int],
+        obs: Observation,
+    ) -> None:
         surf = self.surface
         ext = self.options.panel_extent * obs.a_max
         g = self.options.panel_grid
@@ -718,8 +808,9 @@ class Viewer:
         hit = lab != -1
         grid_lab = lab.reshape(g, g)
         if np.any(hit):
-            img[hit] = self._region_colours()[np.where(lab[hit] >= 0, lab[hit] % len(_PALETTE),
-                                                       len(_PALETTE))]
+            img[hit] = self._region_colours()[
+                np.where(lab[hit] >= 0, lab[hit] % len(_PALETTE), len(_PALETTE))
+            ]
             edge = np.zeros((g, g), dtype=bool)
             edge[:-1] |= grid_lab[:-1] != grid_lab[1:]
             edge[1:] |= grid_lab[1:] != grid_lab[:-1]
@@ -750,16 +841,21 @@ class Viewer:
             chosen = chosen * obs.a_max / n
         self._arrow(to_px(np.zeros(2)), to_px(desired), _GREEN, "desired")
         self._arrow(to_px(np.zeros(2)), to_px(chosen), (0, 0, 0), "commanded")
-        self._text("acceleration space (m/s^2), world axes", (plot.left - 40, plot.top - 24),
-                   self._small)
+        self._text(
+            "acceleration space (m/s^2), world axes", (plot.left - 40, plot.top - 24), self._small
+        )
         if selected not in controlled and agent.status is not None:
             status = f"last selection: {agent.status}; " + status
         self._text(status, (plot.left - 40, plot.bottom + 42), self._small, (70, 70, 70))
 
     @staticmethod
-    def _panel_labels(grid: NDArray[np.float64], obs: Observation, path: PiecewisePath,
-                      walls: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
-                      reach: float) -> tuple[NDArray[np.int64], int]:
+    def _panel_labels(
+        grid: NDArray[np.float64],
+        obs: Observation,
+        path: PiecewisePath,
+        walls: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+        reach: float,
+    ) -> tuple[NDArray[np.int64], int]:
         """Per panel acceleration (G, 2) m/s^2: its label (G,) (-1 free, -2 walls, j >= 0 the
         neighbour j of ``path`` with the least clearance, see
         :mod:`nao_arena.render._panel_kernel`) and how many obstacles were within reach.
@@ -768,18 +864,28 @@ class Viewer:
         half-thicknesses (W,) m, or None."""
         idx = np.zeros(0, dtype=np.int64)
         if path.n_obstacles:
-            idx = np.flatnonzero(relevant_obstacles(obs.velocity, reach, obs.v_max,
-                                                    *path.moving_arrays, 0.0))
+            idx = np.flatnonzero(
+                relevant_obstacles(obs.velocity, reach, obs.v_max, *path.moving_arrays, 0.0)
+            )
         segs, grown = walls if walls is not None else (np.zeros((0, 2, 2)), np.zeros(0))
         shown = len(idx) + len(grown)
         if not shown:
             return np.full(len(grid), -1, dtype=np.int64), 0
         c, w, b = (np.ascontiguousarray(x[idx]) for x in path.arrays[1:4])
         t = np.ascontiguousarray(path.t)
-        lab = panel_labels(np.ascontiguousarray(grid), np.ascontiguousarray(obs.velocity, float),
-                           float(obs.v_max), t, c, w, b, np.ascontiguousarray(path.radius[idx]),
-                           piece_sweep(t, w, b), np.ascontiguousarray(segs, float),
-                           np.ascontiguousarray(grown, float))
+        lab = panel_labels(
+            np.ascontiguousarray(grid),
+            np.ascontiguousarray(obs.velocity, float),
+            float(obs.v_max),
+            t,
+            c,
+            w,
+            b,
+            np.ascontiguousarray(path.radius[idx]),
+            piece_sweep(t, w, b),
+            np.ascontiguousarray(segs, float),
+            np.ascontiguousarray(grown, float),
+        )
         own = lab >= 0
         lab[own] = idx[lab[own]]
         return lab, shown
@@ -842,8 +948,9 @@ class Viewer:
         surf.blit(name_y, (plot.left - 40, plot.top))
         self.info.texts += ["a_x (m/s^2)", "a_y (m/s^2)"]
 
-    def _arrow(self, p0: tuple[int, int], p1: tuple[int, int], colour: Colour,
-               name: str = "") -> None:
+    def _arrow(
+        self, p0: tuple[int, int], p1: tuple[int, int], colour: Colour, name: str = ""
+    ) -> None:
         """An arrow p0 -> p1 (px); shorter than ``_MIN_ARROW_PX``: a ring around p1 (the
         desired one larger, so that both show when they coincide)."""
         surf = self.surface
@@ -883,16 +990,19 @@ class Viewer:
         entries += [
             LegendEntry("ring", "selected robot", ((0, 0, 0),)),
             LegendEntry("goal", "goal", (_mix(robot, 0.8),)),
-            LegendEntry("dotted", f"trail (last {self.options.trail_seconds:g} s)",
-                        (_trail_colour(robot),)),
+            LegendEntry(
+                "dotted", f"trail (last {self.options.trail_seconds:g} s)", (_trail_colour(robot),)
+            ),
             LegendEntry("ring", "contact (flashed)", (_RED,)),
         ]
         if self.options.predicted_paths:
             entries += [
-                LegendEntry("line", "neighbour's predicted path (colour = neighbour)",
-                            per_neighbour),
-                LegendEntry("ring", f"hollow ring: its position in {self._horizon:g} s",
-                            per_neighbour),
+                LegendEntry(
+                    "line", "neighbour's predicted path (colour = neighbour)", per_neighbour
+                ),
+                LegendEntry(
+                    "ring", f"hollow ring: its position in {self._horizon:g} s", per_neighbour
+                ),
                 LegendEntry("dashed", "own path under the command", ((0, 0, 0),)),
             ]
         entries += [
@@ -900,11 +1010,19 @@ class Viewer:
             LegendEntry("arrow", "commanded", ((0, 0, 0),), "panel"),
             LegendEntry("circle", "|a| = a_max", ((60, 60, 60),), "panel"),
             LegendEntry("zero", "ring: |a| ~ 0, no arrow", (_GREEN, (0, 0, 0)), "panel"),
-            LegendEntry("swatch", "NAO of a neighbour (colour = neighbour, as its path)",
-                        tuple(_mix(c, 0.55) for c in per_neighbour), "panel"),
+            LegendEntry(
+                "swatch",
+                "NAO of a neighbour (colour = neighbour, as its path)",
+                tuple(_mix(c, 0.55) for c in per_neighbour),
+                "panel",
+            ),
             LegendEntry("swatch", "walls' region", (_WALL_REGION,), "panel"),
-            LegendEntry("cut", "region cut by the edge",
-                        (tuple(int(v * 0.6) for v in _mix(_PALETTE[0], 0.55)),), "panel"),
+            LegendEntry(
+                "cut",
+                "region cut by the edge",
+                (tuple(int(v * 0.6) for v in _mix(_PALETTE[0], 0.55)),),
+                "panel",
+            ),
         ]
         return entries
 
@@ -922,8 +1040,7 @@ class Viewer:
             full = wide
         return rows
 
-    def _draw_legend(self, rows: list[list[LegendEntry]], at: tuple[int, int],
-                     col_w: int) -> None:
+    def _draw_legend(self, rows: list[list[LegendEntry]], at: tuple[int, int], col_w: int) -> None:
         x, y = at
         for row in rows:
             per_row = 3 if row[0].section == "kinds" else 2

@@ -51,8 +51,10 @@ def first_wall_touch(
     if ox * ox + oy * oy <= reach * reach:
         t = 0.0
     else:
-        t = min(_first_root(x0 - ax, y0 - ay, ex, ey, reach),
-                _first_root(x0 - bx, y0 - by, ex, ey, reach))
+        t = min(
+            _first_root(x0 - ax, y0 - ay, ex, ey, reach),
+            _first_root(x0 - bx, y0 - by, ex, ey, reach),
+        )
         side0 = (x0 - ax) * nx + (y0 - ay) * ny
         rate = ex * nx + ey * ny
         if rate != 0.0 and length > 0.0:

@@ -12,8 +12,16 @@ from numba import njit, types
 from numba.typed import Dict
 from numpy.typing import NDArray
 
-__all__ = ["EV_DEEPER", "EV_END", "EV_START", "new_depth_map", "step_kernel",
-           "sweep_pairs", "swept_distances", "swept_wall_distances"]
+__all__ = [
+    "EV_DEEPER",
+    "EV_END",
+    "EV_START",
+    "new_depth_map",
+    "step_kernel",
+    "sweep_pairs",
+    "swept_distances",
+    "swept_wall_distances",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -88,8 +96,9 @@ def _sweep_pairs_kernel(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntAr
 
 
 @njit(cache=True, inline="always")
-def _end_separation(p1: FloatArray, radii: FloatArray, i: int, j: int, out: FloatArray,
-                    q: int) -> None:
+def _end_separation(
+    p1: FloatArray, radii: FloatArray, i: int, j: int, out: FloatArray, q: int
+) -> None:
     """out[q] = separation (m) of bodies i, j at positions p1, unless already computed."""
     if math.isnan(out[q]):
         out[q] = math.hypot(p1[j, 0] - p1[i, 0], p1[j, 1] - p1[i, 1]) - (radii[i] + radii[j])
@@ -114,8 +123,7 @@ def _clip01(x: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _point_segment_1(px: float, py: float, ax: float, ay: float, bx: float,
-                     by: float) -> float:
+def _point_segment_1(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
     """Distance (m) from point p to segment a-b."""
     abx, aby = bx - ax, by - ay
     ll = abx * abx + aby * aby
@@ -125,8 +133,9 @@ def _point_segment_1(px: float, py: float, ax: float, ay: float, bx: float,
 
 
 @njit(cache=True, inline="always")
-def _segment_distance_1(p0x: float, p0y: float, p1x: float, p1y: float, ax: float,
-                        ay: float, bx: float, by: float) -> float:
+def _segment_distance_1(
+    p0x: float, p0y: float, p1x: float, p1y: float, ax: float, ay: float, bx: float, by: float
+) -> float:
     """Minimum distance (m) between segments p0-p1 and a-b (0 if they cross)."""
     ex, ey = p1x - p0x, p1y - p0y
     fx, fy = bx - ax, by - ay
@@ -137,10 +146,11 @@ def _segment_distance_1(p0x: float, p0y: float, p1x: float, p1y: float, ax: floa
     if o1 * o2 < 0 and o3 * o4 < 0:
         return 0.0
     return min(
-        min(_point_segment_1(p0x, p0y, ax, ay, bx, by),
-            _point_segment_1(p1x, p1y, ax, ay, bx, by)),
-        min(_point_segment_1(ax, ay, p0x, p0y, p1x, p1y),
-            _point_segment_1(bx, by, p0x, p0y, p1x, p1y)),
+        min(_point_segment_1(p0x, p0y, ax, ay, bx, by), _point_segment_1(p1x, p1y, ax, ay, bx, by)),
+        min(
+            _point_segment_1(ax, ay, p0x, p0y, p1x, p1y),
+            _point_segment_1(bx, by, p0x, p0y, p1x, p1y),
+        ),
     )
 
 
@@ -183,23 +193,44 @@ def swept_wall_distances(path: FloatArray, a: FloatArray, b: FloatArray) -> Floa
     (a straight line each), and the segment a-b (m)."""
     out = np.empty(path.shape[0] - 1)
     for s in range(path.shape[0] - 1):
-        out[s] = _segment_distance_1(path[s, 0], path[s, 1], path[s + 1, 0], path[s + 1, 1],
-                                     a[0], a[1], b[0], b[1])
+        out[s] = _segment_distance_1(
+            path[s, 0], path[s, 1], path[s + 1, 0], path[s + 1, 1], a[0], a[1], b[0], b[1]
+        )
     return out
 
 
 @njit(cache=True, error_model="numpy")
 def step_kernel(
-    t: float, dt: float, path: FloatArray, v1: FloatArray, acc: FloatArray,
-    a_prev: FloatArray, has_prev: bool, goal: NDArray[np.bool_],
-    radii: FloatArray, is_robot: NDArray[np.bool_],
-    wall_lo: FloatArray, wall_hi: FloatArray, wall_segs: FloatArray, wall_radii: FloatArray,
-    wall_normals: FloatArray, cfg: FloatArray, order: IntArray, n_prox: int,
-    touch_bb: NDArray[np.bool_], touch_bw: NDArray[np.bool_], prox: NDArray[np.bool_],
-    prox_contact: NDArray[np.bool_], depth: Any, path_length: FloatArray,
+    t: float,
+    dt: float,
+    path: FloatArray,
+    v1: FloatArray,
+    acc: FloatArray,
+    a_prev: FloatArray,
+    has_prev: bool,
+    goal: NDArray[np.bool_],
+    radii: FloatArray,
+    is_robot: NDArray[np.bool_],
+    wall_lo: FloatArray,
+    wall_hi: FloatArray,
+    wall_segs: FloatArray,
+    wall_radii: FloatArray,
+    wall_normals: FloatArray,
+    cfg: FloatArray,
+    order: IntArray,
+    n_prox: int,
+    touch_bb: NDArray[np.bool_],
+    touch_bw: NDArray[np.bool_],
+    prox: NDArray[np.bool_],
+    prox_contact: NDArray[np.bool_],
+    depth: Any,
+    path_length: FloatArray,
     adjustments: NDArray[np.int64],
-    reached: NDArray[np.bool_], time_to_goal: FloatArray, min_sep: FloatArray,
-    min_ttc: FloatArray, near_misses: NDArray[np.int64],
+    reached: NDArray[np.bool_],
+    time_to_goal: FloatArray,
+    min_sep: FloatArray,
+    min_ttc: FloatArray,
+    near_misses: NDArray[np.int64],
 ) -> tuple[NDArray[np.int64], FloatArray, int]:
     """One control step of EpisodeStats (see EpisodeStats.update); arrays updated in place.
 
@@ -342,8 +373,12 @@ def step_kernel(
         min_ttc[i] = min(min_ttc[i], ttc)
         min_ttc[j] = min(min_ttc[j], ttc)
         cand[nc] = q
-        nc += ((step_box[i, 0] <= step_box[j, 1]) & (step_box[j, 0] <= step_box[i, 1])
-               & (step_box[i, 2] <= step_box[j, 3]) & (step_box[j, 2] <= step_box[i, 3]))
+        nc += (
+            (step_box[i, 0] <= step_box[j, 1])
+            & (step_box[j, 0] <= step_box[i, 1])
+            & (step_box[i, 2] <= step_box[j, 3])
+            & (step_box[j, 2] <= step_box[i, 3])
+        )
 
     # exact minimum separation over the step; the pairs within range are kept. hypot is
     # slow: it is skipped where squared distances (with a margin far above rounding)
@@ -407,9 +442,19 @@ def step_kernel(
             wi[nwc], wj[nwc] = i, w
             dist = math.inf
             for s in range(last):
-                dist = min(dist, _segment_distance_1(
-                    path[s, i, 0], path[s, i, 1], path[s + 1, i, 0], path[s + 1, i, 1],
-                    ax, ay, bx, by))
+                dist = min(
+                    dist,
+                    _segment_distance_1(
+                        path[s, i, 0],
+                        path[s, i, 1],
+                        path[s + 1, i, 0],
+                        path[s + 1, i, 1],
+                        ax,
+                        ay,
+                        bx,
+                        by,
+                    ),
+                )
             wsep[nwc] = dist - reach
             wend[nwc] = _point_segment_1(p1[i, 0], p1[i, 1], ax, ay, bx, by) - reach
             nwc += 1
@@ -481,9 +526,17 @@ def step_kernel(
 
 @njit(cache=True, error_model="numpy")
 def liveness_kernel(
-    dt: float, p1: FloatArray, goals: FloatArray, goal: NDArray[np.bool_],
-    robots: NDArray[np.bool_], reached: NDArray[np.bool_], goal_dist: FloatArray, slot: int,
-    stuck_progress: float, at_goal: NDArray[np.bool_], time_away: FloatArray,
+    dt: float,
+    p1: FloatArray,
+    goals: FloatArray,
+    goal: NDArray[np.bool_],
+    robots: NDArray[np.bool_],
+    reached: NDArray[np.bool_],
+    goal_dist: FloatArray,
+    slot: int,
+    stuck_progress: float,
+    at_goal: NDArray[np.bool_],
+    time_away: FloatArray,
     stuck_time: FloatArray,
 ) -> bool:
     """The liveness bookkeeping of one step of dt (s) that ends with the bodies at p1

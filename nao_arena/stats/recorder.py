@@ -116,8 +116,16 @@ class EpisodeStats:
         self.adjustments = np.zeros(n, dtype=np.int64)
         self._a_prev: FloatArray | None = None
         cfg = self.config
-        self._cfg = np.array([cfg.separation_range, cfg.ttc_horizon, cfg.near_miss_distance,
-                              cfg.hysteresis, cfg.adjustment_threshold], dtype=float)
+        self._cfg = np.array(
+            [
+                cfg.separation_range,
+                cfg.ttc_horizon,
+                cfg.near_miss_distance,
+                cfg.hysteresis,
+                cfg.adjustment_threshold,
+            ],
+            dtype=float,
+        )
         self._order = np.arange(n + self.n_walls)  # broad phase order, kept between steps
         self.time = 0.0
         self.steps = 0
@@ -168,13 +176,18 @@ class EpisodeStats:
         """
         n = self.n
         if substeps is None:
-            path = np.stack([_c_array(positions_before, np.float64, (n, 2)),
-                             _c_array(positions_after, np.float64, (n, 2))])
+            path = np.stack(
+                [
+                    _c_array(positions_before, np.float64, (n, 2)),
+                    _c_array(positions_after, np.float64, (n, 2)),
+                ]
+            )
         else:
             path = np.ascontiguousarray(substeps, dtype=np.float64)
             if path.ndim != 3 or path.shape[0] < 2 or path.shape[1:] != (n, 2):
-                raise ValueError(f"substeps: expected shape (S + 1, {n}, 2) with S >= 1, "
-                                 f"got {path.shape}")
+                raise ValueError(
+                    f"substeps: expected shape (S + 1, {n}, 2) with S >= 1, got {path.shape}"
+                )
         v1 = _c_array(velocities_after, np.float64, (n, 2))
         acc = _c_array(commanded_accels, np.float64, (n, 2))
         goal = _c_array(goal_reached, np.bool_, (n,))
@@ -183,12 +196,36 @@ class EpisodeStats:
         if not has_prev:
             self._a_prev = np.empty((n, 2))
         codes, vals, self._n_prox = step_kernel(
-            t, self.dt, path, v1, acc, self._a_prev, has_prev, goal,
-            self.radii, self.is_robot, self._wall_lo, self._wall_hi, self.wall_segments,
-            self.wall_radii, self._wall_normals, self._cfg, self._order, self._n_prox,
-            self._touch_bb, self._touch_bw, self._prox, self._prox_contact, self._depth,
-            self.path_length, self.adjustments, self.reached, self.time_to_goal,
-            self.min_separation, self.min_ttc, self.near_misses,
+            t,
+            self.dt,
+            path,
+            v1,
+            acc,
+            self._a_prev,
+            has_prev,
+            goal,
+            self.radii,
+            self.is_robot,
+            self._wall_lo,
+            self._wall_hi,
+            self.wall_segments,
+            self.wall_radii,
+            self._wall_normals,
+            self._cfg,
+            self._order,
+            self._n_prox,
+            self._touch_bb,
+            self._touch_bw,
+            self._prox,
+            self._prox_contact,
+            self._depth,
+            self.path_length,
+            self.adjustments,
+            self.reached,
+            self.time_to_goal,
+            self.min_separation,
+            self.min_ttc,
+            self.near_misses,
         )
         started: list[ContactEvent] = []
         if len(codes):
@@ -205,10 +242,19 @@ class EpisodeStats:
         (after the kernel marked new arrivals)."""
         # the distances one window ago are NaN at first (too early: not stuck)
         deadlocked = liveness_kernel(
-            self.dt, np.ascontiguousarray(p1, dtype=np.float64),
-            _NO_GOALS if self._goals is None else self._goals, goal, self.is_robot,
-            self.reached, self._goal_dist, self.steps % self._window,
-            float(self.config.stuck_progress), self.at_goal, self.time_away, self.stuck_time)
+            self.dt,
+            np.ascontiguousarray(p1, dtype=np.float64),
+            _NO_GOALS if self._goals is None else self._goals,
+            goal,
+            self.is_robot,
+            self.reached,
+            self._goal_dist,
+            self.steps % self._window,
+            float(self.config.stuck_progress),
+            self.at_goal,
+            self.time_away,
+            self.stuck_time,
+        )
         if deadlocked:  # every robot away from its goal is stuck
             self.deadlock_duration += self.dt
             if math.isnan(self.deadlock_time):
@@ -221,7 +267,11 @@ class EpisodeStats:
         return ev
 
     def _apply_events(
-        self, t: float, codes: list[list[int]], vals: list[float], path: FloatArray,
+        self,
+        t: float,
+        codes: list[list[int]],
+        vals: list[float],
+        path: FloatArray,
         started: list[ContactEvent],
     ) -> None:
         """Contact episodes that deepened, started or ended in this step (the kernel's rows);
@@ -264,14 +314,20 @@ class EpisodeStats:
         tc, nrm = first_disc_touch(rel[s], rel[s + 1], reach)
         vrel = self._approach_velocity(path, s, b) - self._approach_velocity(path, s, a)
         return ContactEvent(
-            time=t + (s + tc) / (len(path) - 1) * self.dt, a=a, b=b,
-            kind_a=self.kinds[a], kind_b=self.kinds[b], name_a=self.names[a],
-            name_b=self.names[b], impact_speed=max(0.0, -float(vrel @ nrm)),
+            time=t + (s + tc) / (len(path) - 1) * self.dt,
+            a=a,
+            b=b,
+            kind_a=self.kinds[a],
+            kind_b=self.kinds[b],
+            name_a=self.names[a],
+            name_b=self.names[b],
+            impact_speed=max(0.0, -float(vrel @ nrm)),
             max_penetration=-sep,
         )
 
-    def _wall_event(self, t: float, body: int, wall: int, path: FloatArray,
-                    sep: float) -> ContactEvent:
+    def _wall_event(
+        self, t: float, body: int, wall: int, path: FloatArray, sep: float
+    ) -> ContactEvent:
         reach = float(self.radii[body] + self.wall_radii[wall])
         seg = self.wall_segments[wall]
         own = path[:, body]
@@ -279,9 +335,14 @@ class EpisodeStats:
         tc, nrm = first_wall_touch(own[s], own[s + 1], seg[0], seg[1], reach)
         v = self._approach_velocity(path, s, body)
         return ContactEvent(
-            time=t + (s + tc) / (len(path) - 1) * self.dt, a=body, b=wall,
-            kind_a=self.kinds[body], kind_b="wall", name_a=self.names[body],
-            name_b=f"wall{wall}", impact_speed=max(0.0, -float(v @ nrm)),
+            time=t + (s + tc) / (len(path) - 1) * self.dt,
+            a=body,
+            b=wall,
+            kind_a=self.kinds[body],
+            kind_b="wall",
+            name_a=self.names[body],
+            name_b=f"wall{wall}",
+            impact_speed=max(0.0, -float(v @ nrm)),
             max_penetration=-sep,
         )
 
@@ -310,8 +371,7 @@ class EpisodeStats:
                     index=k,
                     name=self.names[k],
                     reached_goal=bool(self.reached[k]),
-                    success=bool(self.reached[k] and self.collisions[k] == 0
-                                 and self.at_goal[k]),
+                    success=bool(self.reached[k] and self.collisions[k] == 0 and self.at_goal[k]),
                     time_to_goal=float(self.time_to_goal[k]),
                     path_length=float(self.path_length[k]),
                     collisions=int(self.collisions[k]),
@@ -331,7 +391,11 @@ class EpisodeStats:
                 )
             )
         return EpisodeSummary(
-            duration=self.time, steps=self.steps, robots=rows,
-            contacts=list(self.contacts), faults=list(self.faults),
-            deadlock_time=self.deadlock_time, deadlock_duration=self.deadlock_duration,
+            duration=self.time,
+            steps=self.steps,
+            robots=rows,
+            contacts=list(self.contacts),
+            faults=list(self.faults),
+            deadlock_time=self.deadlock_time,
+            deadlock_duration=self.deadlock_duration,
         )

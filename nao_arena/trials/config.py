@@ -34,8 +34,9 @@ __all__ = [
 ]
 
 
-FREE_SETTINGS = frozenset({"workers", "backend", "address", "csv", "retry_failed",
-                           "episode_timeout", "log", "trust_map"})
+FREE_SETTINGS = frozenset(
+    {"workers", "backend", "address", "csv", "retry_failed", "episode_timeout", "log", "trust_map"}
+)
 """Settings that do not change results: they may differ from the ``trial.json`` of the
 output folder (``episodes`` may also grow)."""
 
@@ -105,29 +106,36 @@ class TrialConfig:
         if self.workers < 1:
             raise ValueError(f"workers: expected >= 1, got {self.workers}")
         if self.backend not in BACKENDS:
-            raise ValueError(f"unknown backend {self.backend!r}; choose from "
-                             f"{', '.join(BACKENDS)}")
+            raise ValueError(f"unknown backend {self.backend!r}; choose from {', '.join(BACKENDS)}")
         if self.address is not None and self.backend != "ray":
             raise ValueError("an address is for the ray backend (--backend ray)")
         if self.time_limit is not None and not 0 < self.time_limit < math.inf:
             raise ValueError(f"time limit: expected a finite time > 0 s, got {self.time_limit}")
         if self.episode_timeout is not None and not 0 <= self.episode_timeout < math.inf:
-            raise ValueError(f"episode timeout: expected a number of s >= 0 (0: none), "
-                             f"got {self.episode_timeout}")
-        if self.max_faults is not None and (isinstance(self.max_faults, bool) or not
-                                            isinstance(self.max_faults, int) or
-                                            self.max_faults < 0):
+            raise ValueError(
+                f"episode timeout: expected a number of s >= 0 (0: none), "
+                f"got {self.episode_timeout}"
+            )
+        if self.max_faults is not None and (
+            isinstance(self.max_faults, bool)
+            or not isinstance(self.max_faults, int)
+            or self.max_faults < 0
+        ):
             raise ValueError(f"max faults: expected an integer >= 0, got {self.max_faults!r}")
         if self.log is not None and self.log not in LOG_MODES:
-            raise ValueError(f"log: expected one of {', '.join(LOG_MODES)} (or none), got "
-                             f"{self.log!r}")
+            raise ValueError(
+                f"log: expected one of {', '.join(LOG_MODES)} (or none), got {self.log!r}"
+            )
         if "seed" in self.overrides:
-            raise ValueError("the map parameter 'seed' is set per episode by the trial; "
-                             "choose the trial's root seed instead (--seed)")
+            raise ValueError(
+                "the map parameter 'seed' is set per episode by the trial; "
+                "choose the trial's root seed instead (--seed)"
+            )
         for label, ref in self.agent_refs.items():
             if label not in self.agents:
-                raise ValueError(f"agent label {label!r} is not one of the agents "
-                                 f"{', '.join(self.agents)}")
+                raise ValueError(
+                    f"agent label {label!r} is not one of the agents {', '.join(self.agents)}"
+                )
             _check_label(label, ref)
 
     def reference(self, agent: str) -> str:
@@ -167,8 +175,12 @@ class EpisodeTask:
     def key(self) -> dict[str, Any]:
         """What identifies the episode's result (compared on resume)."""
         key = {
-            "map": self.map, "agent": self.agent, "episode": self.episode, "seed": self.seed,
-            "overrides": dict(self.overrides), "time_limit": self.time_limit,
+            "map": self.map,
+            "agent": self.agent,
+            "episode": self.episode,
+            "seed": self.seed,
+            "overrides": dict(self.overrides),
+            "time_limit": self.time_limit,
         }
         if self.max_faults is not None:
             key["max_faults"] = self.max_faults
@@ -202,8 +214,7 @@ def split_agent(text: str) -> tuple[str, str]:
     if not sep or any(c in label for c in "/:\\"):
         return text.strip(), text.strip()
     if not label or not ref:
-        raise ValueError(f"agent {text!r}: expected NAME=REFERENCE, e.g. "
-                         "mine=path/to/mine.py:Mine")
+        raise ValueError(f"agent {text!r}: expected NAME=REFERENCE, e.g. mine=path/to/mine.py:Mine")
     _check_label(label, ref)
     return label, ref
 
@@ -211,12 +222,16 @@ def split_agent(text: str) -> tuple[str, str]:
 def _check_label(label: str, ref: str) -> None:
     """ValueError unless ``label`` is a plain name that names no other known agent."""
     if not label or any(c in label for c in "/:\\,=") or label != label.strip():
-        raise ValueError(f"agent label {label!r}: expected a short name without "
-                         "'/', ':', ',', '=' or surrounding spaces, e.g. mine")
+        raise ValueError(
+            f"agent label {label!r}: expected a short name without "
+            "'/', ':', ',', '=' or surrounding spaces, e.g. mine"
+        )
     known = available_agents()
     if label in known and label != ref:
-        raise ValueError(f"agent label {label!r} is the name of the agent {known[label]}: "
-                         f"choose another label for {ref}")
+        raise ValueError(
+            f"agent label {label!r} is the name of the agent {known[label]}: "
+            f"choose another label for {ref}"
+        )
 
 
 # --------------------------------------------------------------------------- seeds and maps
@@ -232,9 +247,7 @@ def episode_seed(seed: int, map_name: str, episode: int) -> int:
     return int(child.generate_state(1, dtype=np.uint32)[0])
 
 
-def map_overrides(
-    maps: Sequence[str], overrides: Mapping[str, Any]
-) -> dict[str, dict[str, Any]]:
+def map_overrides(maps: Sequence[str], overrides: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Per map, the overrides among ``overrides`` that it declares as parameters.
 
     Raises :class:`~nao_arena.maps.MapError` for an unknown map, and for an
@@ -251,16 +264,22 @@ def map_overrides(
 
 
 def make_map(
-    name: str, seed: int | None, overrides: Mapping[str, Any] | None = None,
-    time_limit: float | None = None, *, trusted: bool = False,
+    name: str,
+    seed: int | None,
+    overrides: Mapping[str, Any] | None = None,
+    time_limit: float | None = None,
+    *,
+    trusted: bool = False,
     agents: Mapping[str, str] | None = None,
 ) -> MapSpec:
     """Load map ``name`` with ``overrides``; ``seed`` becomes its ``seed`` parameter if it
     declares one; ``time_limit`` (s) replaces its episode time limit if given; ``trusted``
     and ``agents``: what its robots may name (see :func:`nao_arena.maps.load_map`)."""
     params = dict(overrides or {})
-    if seed is not None and "seed" in load_map(name, trusted=trusted, agents=agents,
-                                               **params).parameters:
+    if (
+        seed is not None
+        and "seed" in load_map(name, trusted=trusted, agents=agents, **params).parameters
+    ):
         params["seed"] = seed
     spec = load_map(name, trusted=trusted, agents=agents, **params)
     return spec if time_limit is None else with_time_limit(spec, time_limit)
@@ -288,12 +307,19 @@ def grid_tasks(config: TrialConfig, per_map: Mapping[str, Mapping[str, Any]]) ->
     """All episodes of the grid, in grid order (maps, agents, episodes)."""
     return [
         EpisodeTask(
-            map=m, agent=a, episode=e, seed=episode_seed(config.seed, m, e),
-            overrides=dict(per_map[m]), time_limit=config.time_limit,
-            path=str(episode_path(config.out, m, a, e)), episode_timeout=config.episode_timeout,
-            agent_ref=config.agent_refs.get(a), log=config.log,
+            map=m,
+            agent=a,
+            episode=e,
+            seed=episode_seed(config.seed, m, e),
+            overrides=dict(per_map[m]),
+            time_limit=config.time_limit,
+            path=str(episode_path(config.out, m, a, e)),
+            episode_timeout=config.episode_timeout,
+            agent_ref=config.agent_refs.get(a),
+            log=config.log,
             log_path=str(log_path(config.out, m, a, e)) if config.log else None,
-            max_faults=config.max_faults, trust_map=config.trust_map,
+            max_faults=config.max_faults,
+            trust_map=config.trust_map,
             named_agents=dict(config.agent_refs),
         )
         for m in config.maps

@@ -58,7 +58,8 @@ def _wants_log(mode: str | None, result: Mapping[str, Any] | None) -> bool:
     if mode == "all":
         return True
     return robot_contacts(result) > 0 or any(
-        (r.get("stuck_time") or 0.0) > 0.0 for r in result["robots"])
+        (r.get("stuck_time") or 0.0) > 0.0 for r in result["robots"]
+    )
 
 
 def _lacks_log(task: EpisodeTask, rec: Mapping[str, Any]) -> bool:
@@ -118,10 +119,17 @@ def _compute_here(task: EpisodeTask) -> dict[str, Any]:
     recorder = None
     try:
         with wall_clock_budget(task.episode_timeout):
-            spec = make_map(task.map, task.seed, task.overrides, task.time_limit,
-                            trusted=task.trust_map, agents=task.named_agents)
-            arena = Arena(spec, ArenaOptions(agent=task.agent_ref or task.agent,
-                                             max_faults=task.max_faults))
+            spec = make_map(
+                task.map,
+                task.seed,
+                task.overrides,
+                task.time_limit,
+                trusted=task.trust_map,
+                agents=task.named_agents,
+            )
+            arena = Arena(
+                spec, ArenaOptions(agent=task.agent_ref or task.agent, max_faults=task.max_faults)
+            )
             recorder = _episode_recorder(task, arena)
             record["result"] = arena.run(task.seed).to_dict()
     except KeyboardInterrupt:
@@ -140,16 +148,25 @@ def _episode_recorder(task: EpisodeTask, arena: Arena) -> Any:
     from nao_arena.episode_log import EpisodeRecorder
 
     recorder = EpisodeRecorder(
-        context={"command": "trial", "map": task.map, "agent": task.agent,
-                 "agent_ref": task.agent_ref, "episode": task.episode, "seed": task.seed,
-                 "overrides": dict(task.overrides), "time_limit": task.time_limit},
-        labels=[task.agent] * len(arena.robots))
+        context={
+            "command": "trial",
+            "map": task.map,
+            "agent": task.agent,
+            "agent_ref": task.agent_ref,
+            "episode": task.episode,
+            "seed": task.seed,
+            "overrides": dict(task.overrides),
+            "time_limit": task.time_limit,
+        },
+        labels=[task.agent] * len(arena.robots),
+    )
     arena.recorder = recorder
     return recorder
 
 
-def _write_episode_log(task: EpisodeTask, recorder: Any, arena: Arena,
-                       record: dict[str, Any]) -> None:
+def _write_episode_log(
+    task: EpisodeTask, recorder: Any, arena: Arena, record: dict[str, Any]
+) -> None:
     """Write the episode's log; the record names it (``log``, relative to the results
     folder) or says why it could not be written (``log_error``)."""
     from nao_arena.episode_log import write_log
@@ -176,6 +193,4 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
 
 
 def robot_contacts(result: Mapping[str, Any]) -> int:
-    return sum(
-        1 for c in result["contacts"] if c["kind_a"] == "robot" or c["kind_b"] == "robot"
-    )
+    return sum(1 for c in result["contacts"] if c["kind_a"] == "robot" or c["kind_b"] == "robot")

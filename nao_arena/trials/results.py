@@ -33,14 +33,36 @@ __all__ = [
 
 
 SUMMARY_KEYS: tuple[str, ...] = (
-    "map", "agent", "episodes", "failed_episodes", "robots", "collisions",
-    "collision_rate", "collision_rate_ci95", "success_rate", "success_rate_ci95",
-    "robot_hours", "collisions_per_robot_hour", "median_time_to_goal_s",
-    "min_separation_m", "median_min_separation_m", "near_misses", "adjustments_per_s",
+    "map",
+    "agent",
+    "episodes",
+    "failed_episodes",
+    "robots",
+    "collisions",
+    "collision_rate",
+    "collision_rate_ci95",
+    "success_rate",
+    "success_rate_ci95",
+    "robot_hours",
+    "collisions_per_robot_hour",
+    "median_time_to_goal_s",
+    "min_separation_m",
+    "median_min_separation_m",
+    "near_misses",
+    "adjustments_per_s",
     "faults",
-    "distinct_episodes", "distinct_robots", "robots_collided", "robots_succeeded",
-    "robots_arrived", "adjustments", "driven_s",
-    "robots_timed_out", "robots_stuck", "stuck_s", "robots_left_goal", "robots_away_at_end",
+    "distinct_episodes",
+    "distinct_robots",
+    "robots_collided",
+    "robots_succeeded",
+    "robots_arrived",
+    "adjustments",
+    "driven_s",
+    "robots_timed_out",
+    "robots_stuck",
+    "stuck_s",
+    "robots_left_goal",
+    "robots_away_at_end",
     "episodes_deadlocked",
 )
 
@@ -77,18 +99,26 @@ EPISODE_SCHEMA = pa.schema(
 )
 """Columns of ``episodes.parquet``: one row per robot per episode."""
 
-COLLISION_SCHEMA = pa.schema(_KEY_COLUMNS + _arrow_fields(ContactEvent) + [
-    pa.field("contact", pa.int64()),
-    pa.field("log", pa.string()),
-])
+COLLISION_SCHEMA = pa.schema(
+    _KEY_COLUMNS
+    + _arrow_fields(ContactEvent)
+    + [
+        pa.field("contact", pa.int64()),
+        pa.field("log", pa.string()),
+    ]
+)
 """Columns of ``collisions.parquet``: one row per contact event."""
 
 
 def _episode_rows(rec: Mapping[str, Any]) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Rows of episodes.parquet and collisions.parquet for one record."""
     key = rec["key"]
-    base = {"map": key["map"], "agent": key["agent"], "episode": key["episode"],
-            "seed": key["seed"]}
+    base = {
+        "map": key["map"],
+        "agent": key["agent"],
+        "episode": key["episode"],
+        "seed": key["seed"],
+    }
     result = rec.get("result")
     if rec.get("error") is not None or result is None:
         return [{**base, "error": rec.get("error") or "no result"}], []
@@ -99,11 +129,17 @@ def _episode_rows(rec: Mapping[str, Any]) -> tuple[list[dict[str, Any]], list[di
     for r in result["robots"]:
         row = {**base, "robot": r["name"]}
         row.update({k: v for k, v in r.items() if k != "name"})
-        row.update(faults=faults.get(r["index"], 0), duration=result["duration"],
-                   steps=result["steps"], error=None)
+        row.update(
+            faults=faults.get(r["index"], 0),
+            duration=result["duration"],
+            steps=result["steps"],
+            error=None,
+        )
         robots.append(row)
-    contacts = [{**base, **c, "contact": k, "log": rec.get("log")}
-                for k, c in enumerate(result["contacts"], start=1)]
+    contacts = [
+        {**base, **c, "contact": k, "log": rec.get("log")}
+        for k, c in enumerate(result["contacts"], start=1)
+    ]
     return robots, contacts
 
 
@@ -130,8 +166,11 @@ def _median(values: Sequence[float]) -> float | None:
     return float(np.median(values)) if values else None
 
 
-def summarize(records: Sequence[Mapping[str, Any]], maps: Sequence[str] | None = None,
-              agents: Sequence[str] | None = None) -> list[dict[str, Any]]:
+def summarize(
+    records: Sequence[Mapping[str, Any]],
+    maps: Sequence[str] | None = None,
+    agents: Sequence[str] | None = None,
+) -> list[dict[str, Any]]:
     """The summary.json rows (see :mod:`nao_arena.trials`) of episode records, one per
     map x agent, in the order of ``maps`` x ``agents`` (default: first appearance)."""
     cells: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
@@ -181,12 +220,17 @@ def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]
     collisions = sum(robot_contacts(res) for res in ok)
     robot_seconds = sum(res["duration"] * len(res["robots"]) for res in ok)
     driven = sum(
-        (r["time_to_goal"] if r["reached_goal"] and r["time_to_goal"] is not None
-         else res["duration"])
-        for res in ok for r in res["robots"]
+        (
+            r["time_to_goal"]
+            if r["reached_goal"] and r["time_to_goal"] is not None
+            else res["duration"]
+        )
+        for res in ok
+        for r in res["robots"]
     )
-    times = [r["time_to_goal"] for r in robots if r["reached_goal"] and
-             r["time_to_goal"] is not None]
+    times = [
+        r["time_to_goal"] for r in robots if r["reached_goal"] and r["time_to_goal"] is not None
+    ]
     seps = [r["min_separation"] for r in robots if r["min_separation"] is not None]
     adjustments = sum(r["adjustments"] for r in robots)
     hours = robot_seconds / 3600.0
@@ -219,10 +263,12 @@ def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]
         "robots_timed_out": sum(1 for r in robots if not r["reached_goal"]),
         "robots_stuck": sum(1 for r in robots if (r.get("stuck_time") or 0.0) > 0.0),
         "stuck_s": sum(r.get("stuck_time") or 0.0 for r in robots),
-        "robots_left_goal": sum(1 for r in robots
-                                if (r.get("time_away_after_arrival") or 0.0) > 0.0),
-        "robots_away_at_end": sum(1 for r in robots
-                                  if r["reached_goal"] and not r.get("at_goal_at_end", True)),
+        "robots_left_goal": sum(
+            1 for r in robots if (r.get("time_away_after_arrival") or 0.0) > 0.0
+        ),
+        "robots_away_at_end": sum(
+            1 for r in robots if r["reached_goal"] and not r.get("at_goal_at_end", True)
+        ),
         "episodes_deadlocked": sum(1 for res in ok if res.get("deadlock_time") is not None),
     }
 
@@ -260,10 +306,17 @@ def build_results(
         csv_files = [out / "episodes.csv", out / "collisions.csv", out / "summary.csv"]
         atomic_write_with(csv_files[0], lambda p: pa_csv.write_csv(episodes, p))
         atomic_write_with(csv_files[1], lambda p: pa_csv.write_csv(collisions, p))
-        flat = [{**{k: v for k, v in row.items() if not k.endswith("_ci95")},
-                 **{f"{k}_{side}": (row[k][i] if row[k] is not None else None)
+        flat = [
+            {
+                **{k: v for k, v in row.items() if not k.endswith("_ci95")},
+                **{
+                    f"{k}_{side}": (row[k][i] if row[k] is not None else None)
                     for k in ("collision_rate_ci95", "success_rate_ci95")
-                    for i, side in enumerate(("low", "high"))}} for row in summary]
+                    for i, side in enumerate(("low", "high"))
+                },
+            }
+            for row in summary
+        ]
         flat_table = pa.Table.from_pylist(flat) if flat else pa.table({})
         atomic_write_with(csv_files[2], lambda p: pa_csv.write_csv(flat_table, p))
         files += csv_files

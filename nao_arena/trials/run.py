@@ -51,8 +51,9 @@ class Progress:
     at most every ``interval`` seconds (and at the end).
     """
 
-    def __init__(self, total: int, done: int = 0, stream: TextIO | None = None,
-                 interval: float = 5.0) -> None:
+    def __init__(
+        self, total: int, done: int = 0, stream: TextIO | None = None, interval: float = 5.0
+    ) -> None:
         self.total, self.done, self.resumed = total, done, done
         self.collisions = 0
         self.failed = 0
@@ -80,8 +81,10 @@ class Progress:
         ran = self.done - self.resumed
         left = self.total - self.done
         eta = f"{_duration(elapsed / ran * left)}" if ran else "?"
-        text = (f"episodes {self.done}/{self.total}  elapsed {_duration(elapsed)}  ETA {eta}"
-                f"  collisions {self.collisions}")
+        text = (
+            f"episodes {self.done}/{self.total}  elapsed {_duration(elapsed)}  ETA {eta}"
+            f"  collisions {self.collisions}"
+        )
         if self.failed:
             text += f"  failed {self.failed}"
         return text
@@ -114,8 +117,9 @@ def _validate(config: TrialConfig) -> dict[str, dict[str, Any]]:
     """Check maps, overrides and agents before running anything; per-map overrides."""
     per_map = map_overrides(config.maps, config.overrides)
     for m in config.maps:
-        make_map(m, 0, per_map[m], config.time_limit, trusted=config.trust_map,
-                 agents=config.agent_refs)
+        make_map(
+            m, 0, per_map[m], config.time_limit, trusted=config.trust_map, agents=config.agent_refs
+        )
     for a in config.agents:
         load_agent(config.reference(a))
     return per_map
@@ -140,7 +144,8 @@ def folder_lock(out: Path) -> Iterator[None]:
             holder = fh.read().strip() or "?"
             raise ResultsFolderError(
                 f"results folder {out} is in use by another trial (pid {holder}); wait for "
-                "it to end or choose another --out") from None
+                "it to end or choose another --out"
+            ) from None
         fh.seek(0)
         fh.truncate()
         fh.write(f"{os.getpid()}\n")
@@ -151,8 +156,12 @@ def folder_lock(out: Path) -> Iterator[None]:
 def _settings(config: TrialConfig) -> dict[str, Any]:
     """The trial's settings as ``trial.json`` holds them (JSON types)."""
     settings = {k: v for k, v in asdict(config).items() if k != "out"}
-    settings.update(maps=list(config.maps), agents=list(config.agents),
-                    overrides=dict(config.overrides), agent_refs=dict(config.agent_refs))
+    settings.update(
+        maps=list(config.maps),
+        agents=list(config.agents),
+        overrides=dict(config.overrides),
+        agent_refs=dict(config.agent_refs),
+    )
     return json.loads(json.dumps(settings))
 
 
@@ -177,8 +186,10 @@ def check_folder(out: Path, settings: Mapping[str, Any]) -> None:
         if not isinstance(before, dict):
             raise ValueError("not a JSON object")
     except (OSError, ValueError) as exc:
-        raise ResultsFolderError(f"{path}: cannot read it ({exc}); expected the settings of "
-                                 f"the trial in {out}: repair it or choose another --out") from None
+        raise ResultsFolderError(
+            f"{path}: cannot read it ({exc}); expected the settings of "
+            f"the trial in {out}: repair it or choose another --out"
+        ) from None
     diffs = []
     for key, now in settings.items():
         if key in FREE_SETTINGS:
@@ -196,7 +207,8 @@ def check_folder(out: Path, settings: Mapping[str, Any]) -> None:
         raise ResultsFolderError(
             f"results folder {out} holds another trial ({'; '.join(diffs)}): choose another "
             "--out, or repeat its settings (only workers, backend, address, csv and "
-            "retry_failed may change, and episodes may grow)")
+            "retry_failed may change, and episodes may grow)"
+        )
 
 
 def run_trial(
@@ -227,8 +239,11 @@ def run_trial(
 
 
 def _run_locked(
-    config: TrialConfig, per_map: dict[str, dict[str, Any]], backend: Any,
-    progress: TextIO | None, on_episode: Callable[[dict[str, Any]], None] | None,
+    config: TrialConfig,
+    per_map: dict[str, dict[str, Any]],
+    backend: Any,
+    progress: TextIO | None,
+    on_episode: Callable[[dict[str, Any]], None] | None,
 ) -> TrialResult:
     """:func:`run_trial` once the output folder is locked and checked."""
     out = Path(config.out)
@@ -244,13 +259,21 @@ def _run_locked(
     bar.resumed = bar.done
     if progress is not None and config.episodes > 1:
         for m in config.maps:
-            if "seed" not in make_map(m, None, per_map[m], trusted=config.trust_map,
-                                      agents=config.agent_refs).parameters:
-                progress.write(f"note: map {m} declares no seed parameter: its episodes "
-                               "differ only by the agents' seeds\n")
+            if (
+                "seed"
+                not in make_map(
+                    m, None, per_map[m], trusted=config.trust_map, agents=config.agent_refs
+                ).parameters
+            ):
+                progress.write(
+                    f"note: map {m} declares no seed parameter: its episodes "
+                    "differ only by the agents' seeds\n"
+                )
     if progress is not None and len(todo) < len(tasks):
-        progress.write(f"resuming: {len(tasks) - len(todo)} of {len(tasks)} episodes "
-                       f"already in {out / 'episodes'}\n")
+        progress.write(
+            f"resuming: {len(tasks) - len(todo)} of {len(tasks)} episodes "
+            f"already in {out / 'episodes'}\n"
+        )
 
     def finished(task: EpisodeTask, record: dict[str, Any]) -> None:
         write_record(task, record)

@@ -90,43 +90,64 @@ def _repeat_notes(summary: Sequence[Mapping[str, Any]]) -> list[str]:
                 f"note: {row['map']} x {row['agent']}: {done} episodes but only {distinct} "
                 f"distinct {noun} (the others repeat one exactly); the intervals take the "
                 f"{row.get('distinct_robots')} robot-episodes of distinct episodes as the "
-                "sample size")
+                "sample size"
+            )
     return notes
 
 
 def format_table(summary: Sequence[Mapping[str, Any]], legend: bool = True) -> str:
     """The summary rows as an aligned text table, then a note for each cell with
     repeated episodes and (if legend) :data:`TABLE_LEGEND`."""
-    head = ["map", "agent", "episodes", "distinct", "success", "collision rate [95% CI]",
-            "contacts", "contacts/robot-h", "median TTG s", "min sep m", "adj/s",
-            "timed out", "stuck", "left goal", "deadlocks"]
+    head = [
+        "map",
+        "agent",
+        "episodes",
+        "distinct",
+        "success",
+        "collision rate [95% CI]",
+        "contacts",
+        "contacts/robot-h",
+        "median TTG s",
+        "min sep m",
+        "adj/s",
+        "timed out",
+        "stuck",
+        "left goal",
+        "deadlocks",
+    ]
     body = []
     for row in summary:
         episodes = str(row["episodes"])
         if row.get("failed_episodes"):
             episodes += f" ({row['failed_episodes']} failed)"
         distinct = row.get("distinct_episodes")
-        body.append([
-            str(row["map"]), str(row["agent"]), episodes,
-            "-" if distinct is None else str(distinct),
-            _share(row, "robots_succeeded", "success_rate"),
-            _share(row, "robots_collided", "collision_rate", ci=True),
-            str(row["collisions"]),
-            _num(row.get("collisions_per_robot_hour"), 1),
-            _num(row.get("median_time_to_goal_s"), 1),
-            _num(row.get("min_separation_m"), 3),
-            _num(row.get("adjustments_per_s"), 2),
-            _share(row, "robots_timed_out", ""),
-            _plain(row.get("robots_stuck")),
-            _plain(row.get("robots_left_goal")),
-            _plain(row.get("episodes_deadlocked")),
-        ])
+        body.append(
+            [
+                str(row["map"]),
+                str(row["agent"]),
+                episodes,
+                "-" if distinct is None else str(distinct),
+                _share(row, "robots_succeeded", "success_rate"),
+                _share(row, "robots_collided", "collision_rate", ci=True),
+                str(row["collisions"]),
+                _num(row.get("collisions_per_robot_hour"), 1),
+                _num(row.get("median_time_to_goal_s"), 1),
+                _num(row.get("min_separation_m"), 3),
+                _num(row.get("adjustments_per_s"), 2),
+                _share(row, "robots_timed_out", ""),
+                _plain(row.get("robots_stuck")),
+                _plain(row.get("robots_left_goal")),
+                _plain(row.get("episodes_deadlocked")),
+            ]
+        )
     widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head))]
     left = {0, 1}
 
     def line(cells: Sequence[str]) -> str:
-        return "  ".join(c.ljust(w) if i in left else c.rjust(w)
-                         for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
+        return "  ".join(
+            c.ljust(w) if i in left else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        ).rstrip()
 
     rule = "  ".join("-" * w for w in widths)
     lines = [line(head), rule, *(line(r) for r in body), *_repeat_notes(summary)]

@@ -12,10 +12,14 @@ APPROACH_GAIN = 1.0
 
 
 def goal_seeking_accels_reference(
-    targets: NDArray[np.float64], positions: NDArray[np.float64],
-    velocities: NDArray[np.float64], a_max: NDArray[np.float64],
-    speed_cap: NDArray[np.float64], heading_offset: Sequence[float] | None = None,
-    time_constant: float | NDArray[np.float64] = 0.5, braking: float = 0.5,
+    targets: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    velocities: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    speed_cap: NDArray[np.float64],
+    heading_offset: Sequence[float] | None = None,
+    time_constant: float | NDArray[np.float64] = 0.5,
+    braking: float = 0.5,
     approach_gain: float = APPROACH_GAIN,
     has_target: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64]:

@@ -166,8 +166,9 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
         if lower[i] >= res[max_out - 1, 2]:
             break
         if i < M:
-            k = free_arc_points_ref(disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i,
-                                 a_max, cand, 0)
+            k = free_arc_points_ref(
+                disks[i, 0], disks[i, 1], disks[i, 2], True, q, disks, i, a_max, cand, 0
+            )
         else:
             k = free_arc_points_ref(0.0, 0.0, a_max, False, q, disks, -1, a_max, cand, 0)
         for c in range(max(k, 0)):
@@ -247,8 +248,11 @@ def disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
                 if t <= 0.0:
                     continue
                 dt = t - t0
-                c = (path.c[n, j] + path.velocity[n, j] * dt
-                     + 0.5 * path.acceleration[n, j] * dt * dt)
+                c = (
+                    path.c[n, j]
+                    + path.velocity[n, j] * dt
+                    + 0.5 * path.acceleration[n, j] * dt * dt
+                )
                 m = (c - v * t) * 2.0 / (t * t)
                 rho = rr * 2.0 / (t * t)
                 dq = math.hypot(*(m - q))
@@ -260,11 +264,11 @@ def disk_samples_ref(v, path, margin, n_sub, q, reach, a_max, per_second):
 def repair_ref(t: _Tester, prev, want):
     """repair_acceleration as numpy and a Python loop: rings around prev, projected onto
     the limit disc, nearest ``want`` first, the first admissible one."""
-    cand = np.concatenate([prev + t.limits.a_max * r * selection._REPAIR_UNIT
-                           for r in selection._REPAIR_STEPS])
+    cand = np.concatenate(
+        [prev + t.limits.a_max * r * selection._REPAIR_UNIT for r in selection._REPAIR_STEPS]
+    )
     cand = t.limits.project(cand)
-    cand = cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]),
-                           kind="stable")]
+    cand = cand[np.argsort(np.hypot(cand[:, 0] - want[0], cand[:, 1] - want[1]), kind="stable")]
     for a in cand:
         if t.ok1(a):
             return a

@@ -42,8 +42,9 @@ from nao_arena.sensing import SensingBatch
 from nao_arena.stopping import commit_plans
 
 
-def act_rows_reference(agents: Sequence, batch: SensingBatch,
-                       rows_a: NDArray[np.int64]) -> tuple[NDArray[np.float64], dict]:
+def act_rows_reference(
+    agents: Sequence, batch: SensingBatch, rows_a: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], dict]:
     """The former ``_act_rows``: accelerations (n, 2) m/s^2 and errors by agent."""
     n = len(rows_a)
     cols = columns_of(agents)
@@ -54,22 +55,43 @@ def act_rows_reference(agents: Sequence, batch: SensingBatch,
     a_max, v_max = batch.a_max[bodies], batch.v_max[bodies]
     goals = batch.goals[rows_a]
     live = (whole[:, REPLAN] != 0) | (whole[:, STATUS] == NO_SELECTION)
-    out = real[:, CUR_X:CUR_Y + 1].copy()
+    out = real[:, CUR_X : CUR_Y + 1].copy()
     if not live.any():
         return out, errors
     held = np.zeros(n, dtype=np.bool_)
     f = np.ascontiguousarray
-    held_by_standing_kernel(f(batch.nb_start), f(batch.nb_index), f(rows_a), f(batch.bodies),
-                            f(batch.positions), f(batch.velocities), f(batch.radii), f(rad),
-                            f(goals), held)
+    held_by_standing_kernel(
+        f(batch.nb_start),
+        f(batch.nb_index),
+        f(rows_a),
+        f(batch.bodies),
+        f(batch.positions),
+        f(batch.velocities),
+        f(batch.radii),
+        f(rad),
+        f(goals),
+        held,
+    )
     turn = np.empty(n, dtype=np.bool_)
-    liveness_batch(live, f(pos), f(vel), f(goals), f(rad), f(v_max), held, float(batch.dt),
-                   real, whole, cols.opt, turn)
+    liveness_batch(
+        live,
+        f(pos),
+        f(vel),
+        f(goals),
+        f(rad),
+        f(v_max),
+        held,
+        float(batch.dt),
+        real,
+        whole,
+        cols.opt,
+        turn,
+    )
     for i in np.flatnonzero(turn).tolist():
         agents[i]._turn_detour()
     desired = _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
     traffic_near = _traffic_near_reference(batch, rows_a)
-    current = real[:, CUR_X:CUR_Y + 1].copy()
+    current = real[:, CUR_X : CUR_Y + 1].copy()
     cols.seen = []
     for group in cols.grid_groups(agents):
         m = group[live[group]]
@@ -84,27 +106,95 @@ def act_rows_reference(agents: Sequence, batch: SensingBatch,
             continue
         excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
         holds = _holds(cols, m)
-        status = _keep_current(m, ag0, cols, pred, excursions, lists, batch.radii, pos, vel,
-                               rad, v_max, current, desired, a_max, holds)
-        decided = (_decide(m, status, ag0, cols, pred, excursions, lists, batch.radii, pos,
-                           vel, rad, a_max, v_max, current, desired, holds)
-                   if lists is not None else None)
+        status = _keep_current(
+            m,
+            ag0,
+            cols,
+            pred,
+            excursions,
+            lists,
+            batch.radii,
+            pos,
+            vel,
+            rad,
+            v_max,
+            current,
+            desired,
+            a_max,
+            holds,
+        )
+        decided = (
+            _decide(
+                m,
+                status,
+                ag0,
+                cols,
+                pred,
+                excursions,
+                lists,
+                batch.radii,
+                pos,
+                vel,
+                rad,
+                a_max,
+                v_max,
+                current,
+                desired,
+                holds,
+            )
+            if lists is not None
+            else None
+        )
         settled = status == 1
         if decided is not None:
             apply_decisions(m, status, *decided, real, whole, out, settled)
-            apply_braking(m, status, decided[0], decided[2], traffic_near, vel, a_max,
-                          float(batch.dt), real, whole, out, settled)
+            apply_braking(
+                m,
+                status,
+                decided[0],
+                decided[2],
+                traffic_near,
+                vel,
+                a_max,
+                float(batch.dt),
+                real,
+                whole,
+                out,
+                settled,
+            )
         if not settled.all():
-            _undecided(agents, m, status, settled, decided, errors, out, batch, rows_a,
-                       pred, excursions, vel, a_max, v_max, current, desired, traffic_near)
+            _undecided(
+                agents,
+                m,
+                status,
+                settled,
+                decided,
+                errors,
+                out,
+                batch,
+                rows_a,
+                pred,
+                excursions,
+                vel,
+                a_max,
+                v_max,
+                current,
+                desired,
+                traffic_near,
+            )
     take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
     if errors:
         take[list(errors)] = False
     g = np.flatnonzero(take)
     if len(g):
         brake, braking = commit_plans(
-            *_members((pos, vel, out, rad, a_max, v_max), g), batch.dt, batch.substeps,
-            PLAN_MARGIN, batch.walls.reshape(-1, 2, 2), batch.wall_radius)
+            *_members((pos, vel, out, rad, a_max, v_max), g),
+            batch.dt,
+            batch.substeps,
+            PLAN_MARGIN,
+            batch.walls.reshape(-1, 2, 2),
+            batch.wall_radius,
+        )
         if brake.any():
             yielding = g[brake]
             cols.commit(yielding, braking[brake], YIELDED, 0)
@@ -124,5 +214,6 @@ def _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max):
     targets, has_target = _heading_targets(cols, batch, rows_a, goals, pos)
     v_pref = cols.opt[:, V_PREF]
     cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
-    return goal_seeking_accels(targets, pos, vel, a_max, cap, cols.real[:, DETOUR],
-                               has_target=has_target)
+    return goal_seeking_accels(
+        targets, pos, vel, a_max, cap, cols.real[:, DETOUR], has_target=has_target
+    )

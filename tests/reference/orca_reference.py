@@ -43,8 +43,13 @@ def _det(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
 
 
 def orca_half_plane(
-    rel_pos: NDArray[np.float64], rel_vel: NDArray[np.float64], radius: float,
-    v_own: NDArray[np.float64], horizon: float, dt: float, share: float,
+    rel_pos: NDArray[np.float64],
+    rel_vel: NDArray[np.float64],
+    radius: float,
+    v_own: NDArray[np.float64],
+    horizon: float,
+    dt: float,
+    share: float,
 ) -> HalfPlane:
     """Half-plane for one neighbour at rel_pos (m) with relative velocity v_own - v_other.
 
@@ -67,15 +72,25 @@ def orca_half_plane(
         else:
             leg = math.sqrt(dist2 - r2)
             if _det(rel_pos, w) > 0.0:
-                direction = np.array([
-                    rel_pos[0] * leg - rel_pos[1] * radius,
-                    rel_pos[0] * radius + rel_pos[1] * leg,
-                ]) / dist2
+                direction = (
+                    np.array(
+                        [
+                            rel_pos[0] * leg - rel_pos[1] * radius,
+                            rel_pos[0] * radius + rel_pos[1] * leg,
+                        ]
+                    )
+                    / dist2
+                )
             else:
-                direction = -np.array([
-                    rel_pos[0] * leg + rel_pos[1] * radius,
-                    -rel_pos[0] * radius + rel_pos[1] * leg,
-                ]) / dist2
+                direction = (
+                    -np.array(
+                        [
+                            rel_pos[0] * leg + rel_pos[1] * radius,
+                            -rel_pos[0] * radius + rel_pos[1] * leg,
+                        ]
+                    )
+                    / dist2
+                )
             u = float(rel_vel @ direction) * direction - rel_vel
     else:
         # already overlapping: leave within one control period
@@ -150,9 +165,11 @@ def _lp3(lines, begin, radius, result):
                         continue
                     point = 0.5 * (lines[i].point + lines[j].point)
                 else:
-                    point = lines[i].point + (
-                        _det(lines[j].direction, lines[i].point - lines[j].point) / det
-                    ) * lines[i].direction
+                    point = (
+                        lines[i].point
+                        + (_det(lines[j].direction, lines[i].point - lines[j].point) / det)
+                        * lines[i].direction
+                    )
                 d = lines[j].direction - lines[i].direction
                 n = math.sqrt(float(d @ d))
                 if n <= _EPS:
@@ -181,8 +198,13 @@ class ORCAAgent:
     max_neighbours."""
 
     def __init__(
-        self, horizon: float = 3.0, margin: float = 0.05, v_pref: float | None = None,
-        time_constant: float = 0.3, sensing_range: float = 30.0, max_neighbours: int = 16,
+        self,
+        horizon: float = 3.0,
+        margin: float = 0.05,
+        v_pref: float | None = None,
+        time_constant: float = 0.3,
+        sensing_range: float = 30.0,
+        max_neighbours: int = 16,
     ) -> None:
         self.horizon = horizon
         self.margin = margin
@@ -200,8 +222,13 @@ class ORCAAgent:
         order = np.argsort(np.hypot(*discs.positions.T), kind="stable")[: self.max_neighbours]
         lines = [
             orca_half_plane(
-                discs.positions[k], obs.velocity - discs.velocities[k], float(discs.radii[k]),
-                obs.velocity, self.horizon, obs.dt, 0.5 if discs.reactive[k] else 1.0,
+                discs.positions[k],
+                obs.velocity - discs.velocities[k],
+                float(discs.radii[k]),
+                obs.velocity,
+                self.horizon,
+                obs.dt,
+                0.5 if discs.reactive[k] else 1.0,
             )
             for k in order
         ]

@@ -58,8 +58,9 @@ def turn_rate_motion(times: NDArray[np.float64], nb: Neighbours) -> TurnRateMoti
     return TurnRateMotion(speed, omega, a_t, heading, moving, mid, fine[1:])
 
 
-def hold_still(out: NDArray[np.float64], nb: Neighbours,
-               moving: NDArray[np.bool_]) -> NDArray[np.float64]:
+def hold_still(
+    out: NDArray[np.float64], nb: Neighbours, moving: NDArray[np.bool_]
+) -> NDArray[np.float64]:
     """``out`` (n, T, 2) m with the neighbours at rest held at their positions: a
     neighbour at rest (no heading) stays at rest, its observed acceleration, the mean over
     the last period, being the braking that stopped it (one that sets off from rest is

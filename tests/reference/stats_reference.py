@@ -10,9 +10,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
-def swept_disc_distances(
-    d0: FloatArray, d1: FloatArray
-) -> tuple[FloatArray, FloatArray]:
+def swept_disc_distances(d0: FloatArray, d1: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Minimum centre distance over a step and its time fraction, for linear relative motion.
 
     d0, d1: (K, 2) relative positions (m) at the start and end of the step;
@@ -41,9 +39,7 @@ def cross(u: FloatArray, v: FloatArray) -> FloatArray:
     return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
 
 
-def segment_distances(
-    p0: FloatArray, p1: FloatArray, a: FloatArray, b: FloatArray
-) -> FloatArray:
+def segment_distances(p0: FloatArray, p1: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
     """Minimum distance (K,) m between segments p0-p1 and a-b, all (K, 2) m.
 
     With p0-p1 a centre's linear path over a step, this is the exact

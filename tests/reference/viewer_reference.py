@@ -19,8 +19,9 @@ from nao_arena.world import speed_limit_time
 Walls = tuple[NDArray[np.float64], NDArray[np.float64]]
 
 
-def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float,
-               times: NDArray[np.float64]) -> NDArray[np.float64]:
+def _own_paths(
+    v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float, times: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Displacements (K, T, 2) m under constant accelerations (K, 2), speed saturating at
     v_max."""
     vv = np.broadcast_to(v, accels.shape)
@@ -32,8 +33,13 @@ def _own_paths(v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float
     return x + v_sat[:, None, :] * extra
 
 
-def wall_clearance_sampled(grid: NDArray[np.float64], velocity: NDArray[np.float64],
-                           v_max: float, horizon: float, walls: Walls) -> NDArray[np.float64]:
+def wall_clearance_sampled(
+    grid: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    v_max: float,
+    horizon: float,
+    walls: Walls,
+) -> NDArray[np.float64]:
     """Least clearance (G,) m of the own path under each acceleration of ``grid`` to the
     walls, the path sampled at 41 times (the walls' region as first written)."""
     times = np.linspace(0.0, horizon, 41)
@@ -46,25 +52,41 @@ def wall_clearance_sampled(grid: NDArray[np.float64], velocity: NDArray[np.float
     return wall_clear
 
 
-def wall_clearance_exact(grid: NDArray[np.float64], velocity: NDArray[np.float64],
-                         v_max: float, horizon: float, walls: Walls) -> NDArray[np.float64]:
+def wall_clearance_exact(
+    grid: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    v_max: float,
+    horizon: float,
+    walls: Walls,
+) -> NDArray[np.float64]:
     """Least clearance (G,) m of the own path under each acceleration of ``grid`` to the
     walls: the exact segment kernel at every acceleration against every wall."""
     segs = np.ascontiguousarray(walls[0], dtype=float)
     grown = np.ascontiguousarray(walls[1], dtype=float)
     v = np.ascontiguousarray(velocity, dtype=float)
-    return np.array([segments_min_distance(v, np.ascontiguousarray(a), float(v_max), segs,
-                                           grown, float(horizon))[0] for a in grid])
+    return np.array(
+        [
+            segments_min_distance(
+                v, np.ascontiguousarray(a), float(v_max), segs, grown, float(horizon)
+            )[0]
+            for a in grid
+        ]
+    )
 
 
-WallClearance = Callable[[NDArray[np.float64], NDArray[np.float64], float, float, Walls],
-                         NDArray[np.float64]]
+WallClearance = Callable[
+    [NDArray[np.float64], NDArray[np.float64], float, float, Walls], NDArray[np.float64]
+]
 
 
-def panel_labels_reference(grid: NDArray[np.float64], obs: object, path: PiecewisePath,
-                           walls: Walls | None, reach: float,
-                           wall_clearance: WallClearance = wall_clearance_exact,
-                           ) -> tuple[NDArray[np.int64], int]:
+def panel_labels_reference(
+    grid: NDArray[np.float64],
+    obs: object,
+    path: PiecewisePath,
+    walls: Walls | None,
+    reach: float,
+    wall_clearance: WallClearance = wall_clearance_exact,
+) -> tuple[NDArray[np.int64], int]:
     """Labels (G,) of the panel's accelerations (-1 free, -2 walls, j the neighbour of
     ``path`` with the least clearance) and the number of obstacles within reach, as
     :meth:`nao_arena.render.Viewer._panel_labels` defines them: the neighbour of least
@@ -78,8 +100,9 @@ def panel_labels_reference(grid: NDArray[np.float64], obs: object, path: Piecewi
         idx = np.flatnonzero(relevant_obstacles(velocity, reach, v_max, *path.moving_arrays, 0.0))
         if len(idx):
             shown += len(idx)
-            sub = PiecewisePath(path.t, path.c[idx], path.velocity[idx],
-                                path.acceleration[idx], path.radius[idx])
+            sub = PiecewisePath(
+                path.t, path.c[idx], path.velocity[idx], path.acceleration[idx], path.radius[idx]
+            )
             clear = path_clearance(grid, velocity, sub, v_max=v_max).clearance
             owner = np.argmin(clear, axis=1)
             best = clear[np.arange(len(grid)), owner]

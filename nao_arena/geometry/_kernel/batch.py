@@ -16,9 +16,27 @@ from nao_arena.geometry.borrow import borrowed
 
 
 @njit(cache=True, error_model="numpy")
-def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_half,
-                             wall_start, wall_index, rows, pos, vel, acc, v_max, radius, margin,
-                             excursion, finite_path, out):
+def sampled_admissible_batch(
+    times,
+    pred,
+    nb_start,
+    nb_index,
+    nb_radius,
+    wall_seg,
+    wall_half,
+    wall_start,
+    wall_index,
+    rows,
+    pos,
+    vel,
+    acc,
+    v_max,
+    radius,
+    margin,
+    excursion,
+    finite_path,
+    out,
+):
     """Admissibility of one acceleration per robot against sampled obstacle paths.
 
     For each robot k of ``rows``: its obstacles are the bodies
@@ -40,17 +58,67 @@ def sampled_admissible_batch(times, pred, nb_start, nb_index, nb_radius, wall_se
     most = 0  # the most obstacles a robot has: the scratch rows
     for k in rows:
         most = max(most, nb_start[k + 1] - nb_start[k])
-    _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_half, wall_start,
-                     wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
-                     finite_path, out, np.empty(most, dtype=np.int64), np.empty(most),
-                     np.empty((most, S, 2)), np.empty((most, S, 2)), np.zeros((most, S, 2)),
-                     np.empty((most, S)), np.empty(3), np.empty(3))
+    _admissible_rows(
+        times,
+        pred,
+        nb_start,
+        nb_index,
+        nb_radius,
+        wall_seg,
+        wall_half,
+        wall_start,
+        wall_index,
+        rows,
+        pos,
+        vel,
+        acc,
+        v_max,
+        radius,
+        margin,
+        excursion,
+        finite_path,
+        out,
+        np.empty(most, dtype=np.int64),
+        np.empty(most),
+        np.empty((most, S, 2)),
+        np.empty((most, S, 2)),
+        np.zeros((most, S, 2)),
+        np.empty((most, S)),
+        np.empty(3),
+        np.empty(3),
+    )
 
 
 @njit(cache=True, error_model="numpy")
-def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_half, wall_start,
-                     wall_index, rows, pos, vel, acc, v_max, radius, margin, excursion,
-                     finite_path, out, keep, keep_r, c, w, b, sweep, buf, res):
+def _admissible_rows(
+    times,
+    pred,
+    nb_start,
+    nb_index,
+    nb_radius,
+    wall_seg,
+    wall_half,
+    wall_start,
+    wall_index,
+    rows,
+    pos,
+    vel,
+    acc,
+    v_max,
+    radius,
+    margin,
+    excursion,
+    finite_path,
+    out,
+    keep,
+    keep_r,
+    c,
+    w,
+    b,
+    sweep,
+    buf,
+    res,
+):
     """:func:`sampled_admissible_batch` with its scratch arrays given (rows enough for
     every robot's obstacles; b zero). Arrays borrowed here."""
     times, pred = borrowed(times), borrowed(pred)
@@ -84,14 +152,20 @@ def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_
             body = nb_index[nb_start[k] + i]
             x0 = pred[body, 0, 0] - px
             y0 = pred[body, 0, 1] - py
-            r = min(nb_radius[body] + radius[k] + margin[k],
-                    math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
+            r = min(
+                nb_radius[body] + radius[k] + margin[k], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT
+            )
             if not finite_path[body]:
                 finite = False
                 break
             ex = excursion[body]
-            gap = max(math.sqrt(x0 * x0 + y0 * y0) - travel,
-                      math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half) - ex
+            gap = (
+                max(
+                    math.sqrt(x0 * x0 + y0 * y0) - travel,
+                    math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half,
+                )
+                - ex
+            )
             if gap > (r + 1e-9) * (1.0 + 1e-9):
                 continue
             keep[n] = i
@@ -107,10 +181,13 @@ def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_
             ay0 = wall_seg[d, 0, 1] - py
             bx0 = wall_seg[d, 1, 0] - px
             by0 = wall_seg[d, 1, 1] - py
-            r = min(wall_half[d] + (radius[k] + margin[k]),
-                    math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT)
-            if segment_within(vx, vy, ax, ay, tau, travel, horizon, ax0, ay0, bx0, by0, r, buf,
-                              res):
+            r = min(
+                wall_half[d] + (radius[k] + margin[k]),
+                math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT,
+            )
+            if segment_within(
+                vx, vy, ax, ay, tau, travel, horizon, ax0, ay0, bx0, by0, r, buf, res
+            ):
                 ok = 0
                 break
         if ok == 0 or n == 0:
@@ -120,8 +197,25 @@ def _admissible_rows(times, pred, nb_start, nb_index, nb_radius, wall_seg, wall_
             moving_pieces(pred, nb_index[nb_start[k] + keep[q]], px, py, times, c, w, q)
         fill_sweep(times, w, b, n, sweep)
         for q in range(n):
-            scan_obstacle(vx, vy, ax, ay, tau, bound, times, c, w, b, sweep, q, keep_r[q], 0.0,
-                          False, buf, res)
+            scan_obstacle(
+                vx,
+                vy,
+                ax,
+                ay,
+                tau,
+                bound,
+                times,
+                c,
+                w,
+                b,
+                sweep,
+                q,
+                keep_r[q],
+                0.0,
+                False,
+                buf,
+                res,
+            )
             if res[0] < (keep_r[q] + 0.0) ** 2:
                 ok = 0
                 break

@@ -72,8 +72,23 @@ def _put(out, row, x, y, rho, dq):
 
 
 @njit(cache=True, error_model="numpy")
-def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_sub, q,
-                     reach, a_max, per_second=16.0, thin=0.0):
+def nao_disk_samples(
+    v,
+    seg_t,
+    seg_c,
+    seg_w,
+    seg_b,
+    radius,
+    walls,
+    wall_r,
+    margin,
+    n_sub,
+    q,
+    reach,
+    a_max,
+    per_second=16.0,
+    thin=0.0,
+):
     """The sampled disks of :func:`nao_disks` before containment is filtered:
     (M, 4) rows (m_x, m_y, rho, distance of m from q), m/s^2 — for
     :func:`nao_disks_within`, which gives nao_disks for any smaller reach.
@@ -109,14 +124,29 @@ def nao_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margi
         total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
     rows = N * total
     if walls.shape[0]:
-        rows += _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max,
-                            per_second, thin, np.empty((0, 4)), np.int64(0))  # not a literal
+        rows += _wall_disks(
+            v,
+            seg_t,
+            walls,
+            wall_r,
+            margin,
+            n_sub,
+            q,
+            reach,
+            a_max,
+            per_second,
+            thin,
+            np.empty((0, 4)),
+            np.int64(0),
+        )  # not a literal
     out = np.empty((rows, 4))
-    cnt = _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach,
-                             a_max, per_second, thin, out)
+    cnt = _fill_disk_samples(
+        v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second, thin, out
+    )
     if walls.shape[0]:
-        cnt = _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second,
-                          thin, out, cnt)
+        cnt = _wall_disks(
+            v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt
+        )
     return out[:cnt]
 
 
@@ -146,8 +176,7 @@ def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
     only counted when not ``write``); returns the new count."""
     length = vector_norm(bx - ax, by - ay)
     spacing = min(math.sqrt(8.0 * thin * rho) if thin > 0.0 else 0.5 * rho, rho)
-    n = 1 + min(_WALL_DISKS_PER_SAMPLE,
-                int(math.ceil(length / spacing)) if spacing > 0.0 else 0)
+    n = 1 + min(_WALL_DISKS_PER_SAMPLE, int(math.ceil(length / spacing)) if spacing > 0.0 else 0)
     if not write:
         return cnt + n
     for m in range(n):
@@ -159,8 +188,9 @@ def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
 
 
 @njit(cache=True, error_model="numpy")
-def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out,
-                cnt):
+def _wall_disks(
+    v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt
+):
     """The walls' disks of :func:`nao_disk_samples` into out[cnt:]; returns the new count.
     With an empty ``out`` it only counts them (from cnt).
 
@@ -207,8 +237,9 @@ def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_sec
                 by = py + hi * dy
                 if thin > 0.0 and kept and rho <= lrho:
                     lim = 8.0 * thin * rho
-                    if ((ax - lax) ** 2 + (ay - lay) ** 2 <= lim
-                            and (bx - lbx) ** 2 + (by - lby) ** 2 <= lim):
+                    if (ax - lax) ** 2 + (ay - lay) ** 2 <= lim and (bx - lbx) ** 2 + (
+                        by - lby
+                    ) ** 2 <= lim:
                         pend = True
                         pax, pay, pbx, pby, prho = ax, ay, bx, by, rho
                         continue
@@ -222,8 +253,9 @@ def _wall_disks(v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_sec
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max,
-                       per_second, thin, out):
+def _fill_disk_samples(
+    v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second, thin, out
+):
     """:func:`nao_disk_samples` into the rows of ``out``; returns how many it wrote.
     Arrays borrowed here."""
     v, seg_t, seg_c, seg_w = borrowed(v), borrowed(seg_t), borrowed(seg_c), borrowed(seg_w)
@@ -249,9 +281,12 @@ def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, 
                 h = t1 - t0
                 dx0 = seg_c[n, j, 0] - v[0] * t0
                 dy0 = seg_c[n, j, 1] - v[1] * t0
-                far = (rr + 0.5 * a_max * t1 * t1
-                       + vector_norm(seg_w[n, j, 0] - v[0], seg_w[n, j, 1] - v[1]) * h
-                       + 0.5 * vector_norm(seg_b[n, j, 0], seg_b[n, j, 1]) * h * h) * (1.0 + 1e-6)
+                far = (
+                    rr
+                    + 0.5 * a_max * t1 * t1
+                    + vector_norm(seg_w[n, j, 0] - v[0], seg_w[n, j, 1] - v[1]) * h
+                    + 0.5 * vector_norm(seg_b[n, j, 0], seg_b[n, j, 1]) * h * h
+                ) * (1.0 + 1e-6)
                 if dx0 * dx0 + dy0 * dy0 > far * far:
                     if pend:
                         cnt = _put(out, cnt, px, py, prho, pdq)
@@ -270,8 +305,7 @@ def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, 
                 mx = (cx - v[0] * t) * inv
                 my = (cy - v[1] * t) * inv
                 rho = rr * inv
-                if (_farther(mx - q[0], my - q[1], rho + reach)
-                        or _farther(mx, my, rho + a_max)):
+                if _farther(mx - q[0], my - q[1], rho + reach) or _farther(mx, my, rho + a_max):
                     if pend:
                         cnt = _put(out, cnt, px, py, prho, pdq)
                         pend = False
@@ -297,8 +331,22 @@ def _fill_disk_samples(v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, 
 
 
 @njit(cache=True, error_model="numpy")
-def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_sub, q, reach,
-              a_max, per_second=16.0):
+def nao_disks(
+    v,
+    seg_t,
+    seg_c,
+    seg_w,
+    seg_b,
+    radius,
+    walls,
+    wall_r,
+    margin,
+    n_sub,
+    q,
+    reach,
+    a_max,
+    per_second=16.0,
+):
     """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
 
     A constant acceleration a collides with an obstacle at time t iff
@@ -309,10 +357,26 @@ def nao_disks(v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_su
     and the limit disc |a| <= a_max; disks inside another are dropped.
     Returns (M, 3) rows (m_x, m_y, rho).
     """
-    return drop_contained(np.ascontiguousarray(nao_disk_samples(
-        v, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, margin, n_sub, q, reach, a_max,
-        per_second,
-    )[:, :3]))
+    return drop_contained(
+        np.ascontiguousarray(
+            nao_disk_samples(
+                v,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                radius,
+                walls,
+                wall_r,
+                margin,
+                n_sub,
+                q,
+                reach,
+                a_max,
+                per_second,
+            )[:, :3]
+        )
+    )
 
 
 @njit(cache=True, error_model="numpy")

@@ -22,8 +22,25 @@ from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wa
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def scan_obstacle(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
-                  thresh, want_first, buf, out):
+def scan_obstacle(
+    vx,
+    vy,
+    ax,
+    ay,
+    tau,
+    speed_bound,
+    seg_t,
+    seg_c,
+    seg_w,
+    seg_b,
+    sweep,
+    n,
+    r,
+    thresh,
+    want_first,
+    buf,
+    out,
+):
     """Scan obstacle n over all pieces for one robot candidate.
 
     With a finite ``thresh`` (m) the scan only decides whether the clearance
@@ -43,14 +60,16 @@ def scan_obstacle(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, 
     for j in range(S):
         t0 = seg_t[j]
         t1 = seg_t[j + 1]
-        if decide and piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c,
-                                         sweep, n, j, reach):
+        if decide and piece_out_of_reach(
+            vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, reach
+        ):
             continue
         ta = t0
         while ta < t1:
             tb = min(t1, tau) if ta < tau else t1
-            Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w,
-                                               seg_b, n, j)
+            Ax, Ay, Bx, By, Cx, Cy = _relative(
+                vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j
+            )
             hp = tb - ta
             skip = False
             if math.isfinite(hp) and not decide:
@@ -117,10 +136,14 @@ def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
     dt0 = ta - t0
     obx = seg_b[n, j, 0]
     oby = seg_b[n, j, 1]
-    return (0.5 * (rax - obx), 0.5 * (ray - oby),
-            rvx - (seg_w[n, j, 0] + obx * dt0), rvy - (seg_w[n, j, 1] + oby * dt0),
-            rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
-            rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0))
+    return (
+        0.5 * (rax - obx),
+        0.5 * (ray - oby),
+        rvx - (seg_w[n, j, 0] + obx * dt0),
+        rvy - (seg_w[n, j, 1] + oby * dt0),
+        rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
+        rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0),
+    )
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -132,8 +155,7 @@ def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, 
     ta = t0
     while ta < t1:
         tb = min(t1, tau) if ta < tau else t1
-        Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b,
-                                           n, j)
+        Ax, Ay, Bx, By, Cx, Cy = _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j)
         if end_dist2(Ax, Ay, Bx, By, Cx, Cy, tb - ta) < reach2:
             return True
         piece_minimum(Ax, Ay, Bx, By, Cx, Cy, tb - ta, 0.0, False, buf)
@@ -164,8 +186,19 @@ def fill_sweep(seg_t, seg_w, seg_b, rows, out):
 
 @njit(cache=True, error_model="numpy")
 def clearance_kernel(
-    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, out_clear,
-    out_tmin, out_tfirst,
+    cand_v,
+    cand_a,
+    v_max,
+    seg_t,
+    seg_c,
+    seg_w,
+    seg_b,
+    radius,
+    walls,
+    wall_r,
+    out_clear,
+    out_tmin,
+    out_tfirst,
 ):
     """Exact clearance for K candidates x (N obstacles, then W walls).
 
@@ -190,23 +223,54 @@ def clearance_kernel(
             cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
         for n in range(N):
-            scan_obstacle(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w,
-                          seg_b, sweep, n, radius[n], math.inf, True, buf, out)
+            scan_obstacle(
+                vx,
+                vy,
+                cand_a[k, 0],
+                cand_a[k, 1],
+                tau,
+                bound,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                sweep,
+                n,
+                radius[n],
+                math.inf,
+                True,
+                buf,
+                out,
+            )
             out_clear[k, n] = math.sqrt(out[0]) - radius[n]
             out_tmin[k, n] = out[1]
             out_tfirst[k, n] = out[2]
         for w in range(W):
-            wall_scan(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, horizon, walls[w, 0, 0],
-                      walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1], wall_r[w],
-                      np.bool_(True), buf, out)
+            wall_scan(
+                vx,
+                vy,
+                cand_a[k, 0],
+                cand_a[k, 1],
+                tau,
+                horizon,
+                walls[w, 0, 0],
+                walls[w, 0, 1],
+                walls[w, 1, 0],
+                walls[w, 1, 1],
+                wall_r[w],
+                np.bool_(True),
+                buf,
+                out,
+            )
             out_clear[k, N + w] = math.sqrt(out[0]) - wall_r[w]
             out_tmin[k, N + w] = out[1]
             out_tfirst[k, N + w] = out[2]
 
 
 @njit(cache=True, error_model="numpy")
-def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r,
-                      sweep, margin, out_ok):
+def admissible_kernel(
+    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, out_ok
+):
     """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle
     and wall (walls (W, 2, 2) m, radii wall_r (W,) m, see :func:`clearance_kernel`).
 
@@ -224,21 +288,56 @@ def admissible_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius,
         )
         ok = True
         for n in range(N):
-            scan_obstacle(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c, seg_w,
-                          seg_b, sweep, n, radius[n], margin, False, buf, out)
+            scan_obstacle(
+                vx,
+                vy,
+                cand_a[k, 0],
+                cand_a[k, 1],
+                tau,
+                bound,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                sweep,
+                n,
+                radius[n],
+                margin,
+                False,
+                buf,
+                out,
+            )
             if out[0] < (radius[n] + margin) ** 2:
                 ok = False
                 break
-        if ok and walls.shape[0] and wall_violation(
-                vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, horizon, walls, wall_r, margin,
-                -1, buf, out) >= 0:
+        if (
+            ok
+            and walls.shape[0]
+            and wall_violation(
+                vx,
+                vy,
+                cand_a[k, 0],
+                cand_a[k, 1],
+                tau,
+                bound,
+                horizon,
+                walls,
+                wall_r,
+                margin,
+                -1,
+                buf,
+                out,
+            )
+            >= 0
+        ):
             ok = False
         out_ok[k] = ok
 
 
 @njit(cache=True, error_model="numpy")
-def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r,
-                   t_stop, buf):
+def _first_contact(
+    vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, t_stop, buf
+):
     """First time (s) the robot comes within r of obstacle n, if before t_stop; else inf."""
     S = seg_c.shape[1]
     r2 = r * r
@@ -257,11 +356,16 @@ def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b,
             obx = seg_b[n, j, 0]
             oby = seg_b[n, j, 1]
             piece_minimum(
-                0.5 * (rax - obx), 0.5 * (ray - oby),
-                rvx - (seg_w[n, j, 0] + obx * dt0), rvy - (seg_w[n, j, 1] + oby * dt0),
+                0.5 * (rax - obx),
+                0.5 * (ray - oby),
+                rvx - (seg_w[n, j, 0] + obx * dt0),
+                rvy - (seg_w[n, j, 1] + oby * dt0),
                 rpx - (seg_c[n, j, 0] + seg_w[n, j, 0] * dt0 + 0.5 * obx * dt0 * dt0),
                 rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0),
-                tb - ta, r2, True, buf,
+                tb - ta,
+                r2,
+                True,
+                buf,
             )
             if buf[2] < math.inf:
                 return ta + buf[2]
@@ -270,8 +374,9 @@ def _first_contact(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b,
 
 
 @njit(cache=True, error_model="numpy")
-def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls,
-                          wall_r, sweep, out_first):
+def latest_contact_kernel(
+    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, out_first
+):
     """Earliest first contact (s) over all obstacles and walls per candidate, for picking
     the latest.
 
@@ -291,15 +396,31 @@ def latest_contact_kernel(cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, rad
         )
         tf = math.inf
         for n in range(N):
-            f = _first_contact(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, seg_t, seg_c,
-                               seg_w, seg_b, sweep, n, radius[n], tf, buf)
+            f = _first_contact(
+                vx,
+                vy,
+                cand_a[k, 0],
+                cand_a[k, 1],
+                tau,
+                bound,
+                seg_t,
+                seg_c,
+                seg_w,
+                seg_b,
+                sweep,
+                n,
+                radius[n],
+                tf,
+                buf,
+            )
             if f < tf:
                 tf = f
             if tf < best:
                 break
         if walls.shape[0] and not tf < best:
-            f = wall_first_contact(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, horizon,
-                                   walls, wall_r, tf, buf, out)
+            f = wall_first_contact(
+                vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, horizon, walls, wall_r, tf, buf, out
+            )
             if f < tf:
                 tf = f
         out_first[k] = tf

@@ -171,8 +171,12 @@ def _mark(cx, cy, rho, circ, j, a_max, cover):
             return _NOTHING  # the circle lies inside the limit disc: nothing to cover
         if d >= (rho + a_max) * (1.0 + 1e-9) or d + a_max <= rho * (1.0 - 1e-9):
             return _ALL_OUTSIDE
-    if not (d > 0.0 and d < (rho + rj) * (1.0 - 1e-9) and d + rj > rho * (1.0 + 1e-9)
-            and d + rho > rj * (1.0 + 1e-9)):
+    if not (
+        d > 0.0
+        and d < (rho + rj) * (1.0 - 1e-9)
+        and d + rj > rho * (1.0 + 1e-9)
+        and d + rho > rj * (1.0 + 1e-9)
+    ):
         return _UNPROVABLE if j == M else _NOTHING
     scale = d * d + rho * rho + rj * rj
     inv_d = 1.0 / d
@@ -199,11 +203,75 @@ def _mark(cx, cy, rho, circ, j, a_max, cover):
 
 #: de Bruijn sequence and table: the index of a word's lowest set bit in a few operations
 _DE_BRUIJN = np.uint64(0x03F79D71B4CB0A89)
-_DE_BRUIJN_INDEX = np.array([
-    0, 1, 48, 2, 57, 49, 28, 3, 61, 58, 50, 42, 38, 29, 17, 4,
-    62, 55, 59, 36, 53, 51, 43, 22, 45, 39, 33, 30, 24, 18, 12, 5,
-    63, 47, 56, 27, 60, 41, 37, 16, 54, 35, 52, 21, 44, 32, 23, 11,
-    46, 26, 40, 15, 34, 20, 31, 10, 25, 14, 19, 9, 13, 8, 7, 6], dtype=np.int64)
+_DE_BRUIJN_INDEX = np.array(
+    [
+        0,
+        1,
+        48,
+        2,
+        57,
+        49,
+        28,
+        3,
+        61,
+        58,
+        50,
+        42,
+        38,
+        29,
+        17,
+        4,
+        62,
+        55,
+        59,
+        36,
+        53,
+        51,
+        43,
+        22,
+        45,
+        39,
+        33,
+        30,
+        24,
+        18,
+        12,
+        5,
+        63,
+        47,
+        56,
+        27,
+        60,
+        41,
+        37,
+        16,
+        54,
+        35,
+        52,
+        21,
+        44,
+        32,
+        23,
+        11,
+        46,
+        26,
+        40,
+        15,
+        34,
+        20,
+        31,
+        10,
+        25,
+        14,
+        19,
+        9,
+        13,
+        8,
+        7,
+        6,
+    ],
+    dtype=np.int64,
+)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -354,8 +422,7 @@ def _all_binned(cover):
 
 
 @njit(cache=True, error_model="numpy")
-def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends,
-                     cover):
+def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends, cover):
     """Append to ``out`` (from row k) the point nearest q of every free arc of the
     circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
     and, when ``in_limit``, inside the limit disc |a| <= a_max.
@@ -430,9 +497,18 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
     """
     M = disks.shape[0]
     res = np.full((max_out, 3), math.inf)
-    found = _nearest_outside(q, disks, a_max, within, covered, res, np.empty((2 * M + 8, 2)),
-                             np.empty(2 * M + 4), np.empty(2 * M + 4),
-                             np.empty(_WORDS, dtype=np.uint64))
+    found = _nearest_outside(
+        q,
+        disks,
+        a_max,
+        within,
+        covered,
+        res,
+        np.empty((2 * M + 8, 2)),
+        np.empty(2 * M + 4),
+        np.empty(2 * M + 4),
+        np.empty(_WORDS, dtype=np.uint64),
+    )
     return res[:found].copy()
 
 
@@ -445,8 +521,22 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
     max_out = res.shape[0]
     lower = np.empty(disks.shape[0] + 1)
     order, scale = outside_setup(q, disks, a_max, within, res, lower)
-    outside_advance(q, disks, a_max, covered, res, lower, order, np.int64(0), max_out, scale, cand,
-                    starts, ends, cover)
+    outside_advance(
+        q,
+        disks,
+        a_max,
+        covered,
+        res,
+        lower,
+        order,
+        np.int64(0),
+        max_out,
+        scale,
+        cand,
+        starts,
+        ends,
+        cover,
+    )
     return outside_found(res, within)
 
 
@@ -482,24 +572,31 @@ def outside_setup(q, disks, a_max, within, res, lower):
     scale = abs(q[0]) + abs(q[1]) + abs(a_max)
     for i in range(M):
         lower[i] = abs(vector_norm(q[0] - disks[i, 0], q[1] - disks[i, 1]) - disks[i, 2])
-        scale = max(scale, abs(q[0]) + abs(q[1]) + abs(disks[i, 0]) + abs(disks[i, 1])
-                    + abs(disks[i, 2]))
+        scale = max(
+            scale, abs(q[0]) + abs(q[1]) + abs(disks[i, 0]) + abs(disks[i, 1]) + abs(disks[i, 2])
+        )
     lower[M] = abs(vector_norm(q[0], q[1]) - a_max)
     order = np.argsort(lower)
     return order, scale
 
 
 @njit(cache=True, error_model="numpy")
-def outside_advance(q, disks, a_max, covered, res, lower, order, oi, row, scale, cand, starts,
-                    ends, cover):
+def outside_advance(
+    q, disks, a_max, covered, res, lower, order, oi, row, scale, cand, starts, ends, cover
+):
     """Visit the circles order[oi:] (:func:`outside_setup`) as :func:`nearest_outside_disks`
     does, inserting their free-arc points into ``res``, but only until row ``row`` of
     ``res`` is final: every circle left is farther from q than that row's candidate by
     far more than rounding (a point of a circle is at least its ``lower`` from q), so no
     later candidate can come before it (row >= max_out: until the end). Returns the
     position in ``order`` to resume from (len(order): nothing is left to visit)."""
-    q, disks, res, lower, order = borrowed(q), borrowed(disks), borrowed(res), borrowed(lower), \
-        borrowed(order)
+    q, disks, res, lower, order = (
+        borrowed(q),
+        borrowed(disks),
+        borrowed(res),
+        borrowed(lower),
+        borrowed(order),
+    )
     cand, starts, ends, cover = borrowed(cand), borrowed(starts), borrowed(ends), borrowed(cover)
     M = disks.shape[0]
     max_out = res.shape[0]
@@ -518,10 +615,12 @@ def outside_advance(q, disks, a_max, covered, res, lower, order, oi, row, scale,
             if far < covered:
                 continue
         # circle i: disk i, or (i = M) the limit circle, which skips no disk
-        cx, cy, rho, skip = (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else \
-            (0.0, 0.0, a_max, -1)
-        k = _free_arc_points(cx, cy, rho, i < M, q, disks, skip, a_max, cand, np.int64(0),
-                             starts, ends, cover)
+        cx, cy, rho, skip = (
+            (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else (0.0, 0.0, a_max, -1)
+        )
+        k = _free_arc_points(
+            cx, cy, rho, i < M, q, disks, skip, a_max, cand, np.int64(0), starts, ends, cover
+        )
         for c in range(max(k, 0)):
             d = vector_norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:

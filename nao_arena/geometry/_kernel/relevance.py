@@ -23,9 +23,21 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     """Whether obstacle n (combined radius r, m) is within reach: see
     :func:`relevant_obstacles` (v already clamped to v_max)."""
     for j in range(seg_c.shape[1]):
-        if _piece_relevant(seg_c[n, j, 0], seg_c[n, j, 1], seg_w[n, j, 0], seg_w[n, j, 1],
-                           seg_b[n, j, 0], seg_b[n, j, 1], seg_t[j], seg_t[j + 1], vx, vy, a_max,
-                           v_max, r):
+        if _piece_relevant(
+            seg_c[n, j, 0],
+            seg_c[n, j, 1],
+            seg_w[n, j, 0],
+            seg_w[n, j, 1],
+            seg_b[n, j, 0],
+            seg_b[n, j, 1],
+            seg_t[j],
+            seg_t[j + 1],
+            vx,
+            vy,
+            a_max,
+            v_max,
+            r,
+        ):
             return True
     return False
 
@@ -40,10 +52,14 @@ def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
     h = t1 - t0
     dx = cx - vx * t0
     dy = cy - vy * t0
-    bb = math.sqrt(bx ** 2 + by ** 2)
-    reach = r + 0.5 * a_max * t1 * t1 + math.sqrt((wx - vx) ** 2 + (wy - vy) ** 2) * h \
+    bb = math.sqrt(bx**2 + by**2)
+    reach = (
+        r
+        + 0.5 * a_max * t1 * t1
+        + math.sqrt((wx - vx) ** 2 + (wy - vy) ** 2) * h
         + 0.5 * bb * h * h
-    own = r + v_max * t1 + math.sqrt(wx ** 2 + wy ** 2) * h + 0.5 * bb * h * h
+    )
+    own = r + v_max * t1 + math.sqrt(wx**2 + wy**2) * h + 0.5 * bb * h * h
     near = not (dx * dx + dy * dy > reach * reach)
     close = cx * cx + cy * cy <= own * own
     return (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
@@ -76,8 +92,7 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     vx, vy = _clamped(v, v_max)
     out = np.zeros(N, dtype=np.bool_)
     for n in range(N):
-        out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n,
-                           radius[n] + margin)
+        out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, radius[n] + margin)
     return out
 
 
@@ -102,14 +117,16 @@ def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max,
     hit = False
     for j in range(times.shape[0] - 1):
         x0, y0, wx, wy = moving_piece(pred, body, px, py, times, c, w, row, j)
-        hit = hit | _piece_relevant(x0, y0, wx, wy, 0.0, 0.0, times[j], times[j + 1], vx, vy,
-                                    a_max, v_max, r)
+        hit = hit | _piece_relevant(
+            x0, y0, wx, wy, 0.0, 0.0, times[j], times[j + 1], vx, vy, a_max, v_max, r
+        )
     return hit
 
 
 @njit(cache=True, error_model="numpy")
-def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max,
-                           excursion, finite_path):
+def relevant_sampled_paths(
+    times, pred, idx, position, nb_radius, grow, v, a_max, v_max, excursion, finite_path
+):
     """The pieces :func:`~nao_arena.geometry.clearance.sampled_path` builds, of the
     obstacles :func:`relevant_obstacles` keeps (margin 0), in one pass.
 
@@ -130,16 +147,46 @@ def relevant_sampled_paths(times, pred, idx, position, nb_radius, grow, v, a_max
     w = np.empty((total, S, 2))
     rad = np.empty(total)
     # the pieces' accelerations are zero: only the kept rows are allocated (and zeroed)
-    n = _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max,
-                             excursion, finite_path, c, w, c[:0], rad)
+    n = _fill_relevant_paths(
+        times,
+        pred,
+        idx,
+        position,
+        nb_radius,
+        grow,
+        v,
+        a_max,
+        v_max,
+        excursion,
+        finite_path,
+        c,
+        w,
+        c[:0],
+        rad,
+    )
     if n < 0:
         return c[:0], w[:0], np.zeros((0, S, 2)), rad[:0], False
     return c[:n], w[:n], np.zeros((n, S, 2)), rad[:n], True
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_relevant_paths(times, pred, idx, position, nb_radius, grow, v, a_max, v_max, excursion,
-                         finite_path, c, w, b, rad):
+def _fill_relevant_paths(
+    times,
+    pred,
+    idx,
+    position,
+    nb_radius,
+    grow,
+    v,
+    a_max,
+    v_max,
+    excursion,
+    finite_path,
+    c,
+    w,
+    b,
+    rad,
+):
     """:func:`relevant_sampled_paths` into c, w, rad (rows for every obstacle given; b, the
     zero accelerations, is not written):
     returns how many rows it kept, -1 when a neighbour's centres are not all finite.

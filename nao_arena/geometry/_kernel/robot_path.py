@@ -22,13 +22,20 @@ def robot_state(vx, vy, ax, ay, tau, ta):
     """Robot (acceleration, velocity, position) at time ta under the saturation model."""
     if ta < tau:
         return (
-            ax, ay, vx + ax * ta, vy + ay * ta,
-            vx * ta + 0.5 * ax * ta * ta, vy * ta + 0.5 * ay * ta * ta,
+            ax,
+            ay,
+            vx + ax * ta,
+            vy + ay * ta,
+            vx * ta + 0.5 * ax * ta * ta,
+            vy * ta + 0.5 * ay * ta * ta,
         )
     wx = vx + ax * tau
     wy = vy + ay * tau
     return (
-        0.0, 0.0, wx, wy,
+        0.0,
+        0.0,
+        wx,
+        wy,
         vx * tau + 0.5 * ax * tau * tau + wx * (ta - tau),
         vy * tau + 0.5 * ay * tau * tau + wy * (ta - tau),
     )

@@ -122,22 +122,39 @@ def segment_segment_dist2(ax, ay, bx, by, px, py, qx, qy):
 
 
 @njit(cache=True, error_model="numpy")
-def segment_min_distance(vx: float, vy: float, ax: float, ay: float, v_max: float,
-                         px: float, py: float, qx: float, qy: float, horizon: float) -> float:
+def segment_min_distance(
+    vx: float,
+    vy: float,
+    ax: float,
+    ay: float,
+    v_max: float,
+    px: float,
+    py: float,
+    qx: float,
+    qy: float,
+    horizon: float,
+) -> float:
     """Exact minimum over t in [0, horizon] (s) of the distance (m) from the robot's centre
     (velocity (vx, vy) m/s, acceleration (ax, ay) m/s^2, speed limit v_max m/s) to the
     static segment [p, q] (m, robot-relative). 0 when the robot starts on the segment."""
     buf = np.empty(3)
     out = np.empty(3)
     vx, vy, tau, bound = candidate_setup(vx, vy, ax, ay, v_max, horizon)
-    return math.sqrt(_path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf,
-                                         out))
+    return math.sqrt(_path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out))
 
 
 @njit(cache=True, error_model="numpy")
-def segment_admissible(v: np.ndarray, a: np.ndarray, v_max: float, p: np.ndarray,
-                       q: np.ndarray, half_thickness: float, radius: float, margin: float,
-                       horizon: float) -> bool:
+def segment_admissible(
+    v: np.ndarray,
+    a: np.ndarray,
+    v_max: float,
+    p: np.ndarray,
+    q: np.ndarray,
+    half_thickness: float,
+    radius: float,
+    margin: float,
+    horizon: float,
+) -> bool:
     """Whether the robot (v (2,) m/s, a (2,) m/s^2, v_max m/s, radius m) stays farther than
     radius + half_thickness + margin (m) from the wall [p, q] ((2,) m each, robot-relative)
     over t in [0, horizon] (s)."""
@@ -166,8 +183,12 @@ def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf,
             lower = math.sqrt(point_segment_dist2(px, py, qx, qy)) - reach - half_thickness[w]
             if lower - 1e-9 * (1.0 + abs(lower)) > best:
                 continue
-        d = math.sqrt(_path_segment_dist2(vx, vy, a[0], a[1], tau, horizon, px, py, qx, qy,
-                                          buf, out)) - half_thickness[w]
+        d = (
+            math.sqrt(
+                _path_segment_dist2(vx, vy, a[0], a[1], tau, horizon, px, py, qx, qy, buf, out)
+            )
+            - half_thickness[w]
+        )
         if d < best or index < 0:
             best = d
             index = w
@@ -177,24 +198,39 @@ def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf,
 
 
 @njit(cache=True, error_model="numpy")
-def segments_min_distance(v: np.ndarray, a: np.ndarray, v_max: float, walls: np.ndarray,
-                          half_thickness: np.ndarray, horizon: float) -> tuple[float, int]:
+def segments_min_distance(
+    v: np.ndarray,
+    a: np.ndarray,
+    v_max: float,
+    walls: np.ndarray,
+    half_thickness: np.ndarray,
+    horizon: float,
+) -> tuple[float, int]:
     """Minimum over the walls (W, 2, 2) (m, robot-relative ends) of the exact minimum distance
     from the robot's centre to the wall minus its half_thickness (W,) (m), over t in
     [0, horizon] (s), and the index of that closest wall (-1 and inf when W = 0)."""
-    return _fill_segments(v, a, v_max, walls, half_thickness, horizon, -math.inf,
-                          np.empty(3), np.empty(3))
+    return _fill_segments(
+        v, a, v_max, walls, half_thickness, horizon, -math.inf, np.empty(3), np.empty(3)
+    )
 
 
 @njit(cache=True, error_model="numpy")
-def segments_admissible(v: np.ndarray, a: np.ndarray, v_max: float, walls: np.ndarray,
-                        half_thickness: np.ndarray, radius: float, margin: float,
-                        horizon: float) -> bool:
+def segments_admissible(
+    v: np.ndarray,
+    a: np.ndarray,
+    v_max: float,
+    walls: np.ndarray,
+    half_thickness: np.ndarray,
+    radius: float,
+    margin: float,
+    horizon: float,
+) -> bool:
     """:func:`segment_admissible` against every wall (W, 2, 2) with half_thickness (W,) (m);
     stops at the first wall that is too close."""
     limit = radius + margin
-    d, index = _fill_segments(v, a, v_max, walls, half_thickness, horizon, limit, np.empty(3),
-                              np.empty(3))
+    d, index = _fill_segments(
+        v, a, v_max, walls, half_thickness, horizon, limit, np.empty(3), np.empty(3)
+    )
     return d > limit
 
 
@@ -277,43 +313,44 @@ def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, o
         ea = ax * uy - ay * ux
         eb = bx * uy - by * ux
         ec = (cx - px) * uy - (cy - py) * ux
-        best, best_s = _line_scan(0.0, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best,
-                                  best_s)
+        best, best_s = _line_scan(0.0, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s)
         if math.isfinite(h):
-            best, best_s = _line_scan(h, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best,
-                                      best_s)
+            best, best_s = _line_scan(
+                h, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
+            )
         if ea == 0.0:
             if eb != 0.0:
-                best, best_s = _line_scan(-ec / eb, h, ax, ay, bx, by, cx, cy, px, py, ux, uy,
-                                          ll, best, best_s)
+                best, best_s = _line_scan(
+                    -ec / eb, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
+                )
         else:
             disc = eb * eb - 4.0 * ea * ec
             if disc >= 0.0:
                 sq = math.sqrt(disc)
                 qq = -0.5 * (eb + sq) if eb >= 0.0 else -0.5 * (eb - sq)
-                best, best_s = _line_scan(qq / ea, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll,
-                                          best, best_s)
+                best, best_s = _line_scan(
+                    qq / ea, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
+                )
                 if qq != 0.0:
-                    best, best_s = _line_scan(ec / qq, h, ax, ay, bx, by, cx, cy, px, py, ux, uy,
-                                              ll, best, best_s)
-            best, best_s = _line_scan(-eb / (2.0 * ea), h, ax, ay, bx, by, cx, cy, px, py, ux,
-                                      uy, ll, best, best_s)
+                    best, best_s = _line_scan(
+                        ec / qq, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
+                    )
+            best, best_s = _line_scan(
+                -eb / (2.0 * ea), h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
+            )
         if best_s > h:
             best_s = h
         if want_first:
             # e(s)^2 = r^2 ll where the foot is within the segment: e = -r sqrt(ll) and
             # e = +r sqrt(ll); at s = 0 already within r
             rl = r * math.sqrt(ll)
-            if ec * ec <= rl * rl and _foot_within(0.0, ax, ay, bx, by, cx, cy, px, py, ux,
-                                                   uy, ll):
+            if ec * ec <= rl * rl and _foot_within(0.0, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
                 first = 0.0
             for sign in (-1.0, 1.0):
                 s1, s2 = _roots_within(ea, eb, ec - sign * rl, min(h, first))
-                if s1 < first and _foot_within(s1, ax, ay, bx, by, cx, cy, px, py, ux, uy,
-                                               ll):
+                if s1 < first and _foot_within(s1, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
                     first = s1
-                elif s2 < first and _foot_within(s2, ax, ay, bx, by, cx, cy, px, py, ux,
-                                                 uy, ll):
+                elif s2 < first and _foot_within(s2, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
                     first = s2
     out[0] = best
     out[1] = best_s
@@ -328,8 +365,7 @@ def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, 
     distance (m^2), its time (s), the first time the distance is <= r (s; inf: never, or
     not computed unless want_first))."""
     h1 = min(tau, horizon)
-    _piece_scan(0.5 * ax, 0.5 * ay, vx, vy, 0.0, 0.0, h1, px, py, qx, qy, r, want_first, buf,
-                out)
+    _piece_scan(0.5 * ax, 0.5 * ay, vx, vy, 0.0, 0.0, h1, px, py, qx, qy, r, want_first, buf, out)
     if tau < horizon:
         best = out[0]
         best_t = out[1]
@@ -339,8 +375,23 @@ def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, 
             wy = vy + ay * tau
             cx = vx * tau + 0.5 * ax * tau * tau
             cy = vy * tau + 0.5 * ay * tau * tau
-            _piece_scan(0.0, 0.0, wx, wy, cx, cy, horizon - tau, px, py, qx, qy, r,
-                        want_first and first == math.inf, buf, out)
+            _piece_scan(
+                0.0,
+                0.0,
+                wx,
+                wy,
+                cx,
+                cy,
+                horizon - tau,
+                px,
+                py,
+                qx,
+                qy,
+                r,
+                want_first and first == math.inf,
+                buf,
+                out,
+            )
             if out[0] < best:
                 best = out[0]
                 best_t = tau + out[1]
@@ -368,13 +419,13 @@ def segment_within(vx, vy, ax, ay, tau, travel, horizon, px, py, qx, qy, reach, 
     robot-relative) within ``horizon`` (s)."""
     if _out_of_reach(px, py, qx, qy, travel, reach):
         return False
-    return _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf,
-                               out) < reach * reach
+    return (
+        _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out) < reach * reach
+    )
 
 
 @njit(cache=True, error_model="numpy")
-def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, first, buf,
-                   out):
+def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, first, buf, out):
     """The index of a wall (walls (W, 2, 2) m, robot-relative; radii wall_r (W,) m) that the
     robot's path (speed clamped, saturation time tau s, speed bound ``bound`` m/s) comes
     closer to than wall_r + margin (m) within ``horizon`` (s), or -1 when none does.
@@ -388,8 +439,22 @@ def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, f
             w = i - 1 if i <= first else i
         else:
             w = i
-        if segment_within(vx, vy, ax, ay, tau, travel, horizon, walls[w, 0, 0], walls[w, 0, 1],
-                          walls[w, 1, 0], walls[w, 1, 1], wall_r[w] + margin, buf, out):
+        if segment_within(
+            vx,
+            vy,
+            ax,
+            ay,
+            tau,
+            travel,
+            horizon,
+            walls[w, 0, 0],
+            walls[w, 0, 1],
+            walls[w, 1, 0],
+            walls[w, 1, 1],
+            wall_r[w] + margin,
+            buf,
+            out,
+        ):
             return w
     return -1
 
@@ -407,8 +472,22 @@ def wall_first_contact(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, t_sto
         qy = walls[w, 1, 1]
         if _out_of_reach(px, py, qx, qy, travel, wall_r[w]):
             continue
-        wall_scan(vx, vy, ax, ay, tau, min(horizon, t_stop, best), px, py, qx, qy, wall_r[w],
-                  np.bool_(True), buf, out)
+        wall_scan(
+            vx,
+            vy,
+            ax,
+            ay,
+            tau,
+            min(horizon, t_stop, best),
+            px,
+            py,
+            qx,
+            qy,
+            wall_r[w],
+            np.bool_(True),
+            buf,
+            out,
+        )
         if out[2] < best:
             best = out[2]
     return best if best < t_stop else math.inf
@@ -429,8 +508,14 @@ def relevant_walls(v, a_max, v_max, horizon, walls, wall_r, margin):
     keep = np.zeros(W, dtype=np.bool_)
     n = 0
     for w in range(W):
-        if not _out_of_reach(walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1],
-                             travel, wall_r[w] + margin):
+        if not _out_of_reach(
+            walls[w, 0, 0],
+            walls[w, 0, 1],
+            walls[w, 1, 0],
+            walls[w, 1, 1],
+            travel,
+            wall_r[w] + margin,
+        ):
             keep[w] = True
             n += 1
     if n == W:
