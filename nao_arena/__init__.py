@@ -29,11 +29,15 @@ _checkout.install(_Path(__file__).resolve().parent)
 del _Path
 
 if TYPE_CHECKING:
-    from nao_arena.agent import Agent
-    from nao_arena.arena import Arena, ArenaOptions
+    from nao_arena.agent import Agent, AgentFault, BatchAgent
+    from nao_arena.arena import Arena, ArenaOptions, StepResult
     from nao_arena.environment import env, parallel_env
     from nao_arena.geometry import (
         AccelLimits,
+        Clearance,
+        ObstacleBoundary,
+        PiecewisePath,
+        Selection,
         ao_boundary,
         ao_boundary_paper,
         ao_clearance,
@@ -50,17 +54,34 @@ if TYPE_CHECKING:
         vo_clearance,
         vo_cone,
     )
-    from nao_arena.maps import available_maps, load_map
-    from nao_arena.sensing import Observation
+    from nao_arena.maps import MapError, MapSpec, RobotSpec, available_maps, load_map
+    from nao_arena.sensing import Neighbours, Observation, SensingBatch
+    from nao_arena.stats import ContactEvent, EpisodeSummary
+    from nao_arena.world import WorldState
 
 del TYPE_CHECKING
 
 __all__ = [
     "AccelLimits",
     "Agent",
+    "AgentFault",
     "Arena",
     "ArenaOptions",
+    "BatchAgent",
+    "Clearance",
+    "ContactEvent",
+    "EpisodeSummary",
+    "MapError",
+    "MapSpec",
+    "Neighbours",
     "Observation",
+    "ObstacleBoundary",
+    "PiecewisePath",
+    "RobotSpec",
+    "Selection",
+    "SensingBatch",
+    "StepResult",
+    "WorldState",
     "__version__",
     "ao_boundary",
     "ao_boundary_paper",
@@ -85,6 +106,10 @@ __all__ = [
 
 _GEOMETRY = (
     "AccelLimits",
+    "Clearance",
+    "ObstacleBoundary",
+    "PiecewisePath",
+    "Selection",
     "ao_boundary",
     "ao_boundary_paper",
     "ao_clearance",
@@ -104,6 +129,17 @@ _GEOMETRY = (
 
 _EXPORTS: dict[str, str] = {
     "Agent": "nao_arena.agent",
+    "AgentFault": "nao_arena.agent",
+    "BatchAgent": "nao_arena.agent",
+    "ContactEvent": "nao_arena.stats",
+    "EpisodeSummary": "nao_arena.stats",
+    "MapError": "nao_arena.maps",
+    "MapSpec": "nao_arena.maps",
+    "Neighbours": "nao_arena.sensing",
+    "RobotSpec": "nao_arena.maps",
+    "SensingBatch": "nao_arena.sensing",
+    "StepResult": "nao_arena.arena",
+    "WorldState": "nao_arena.world",
     "Arena": "nao_arena.arena",
     "ArenaOptions": "nao_arena.arena",
     "Observation": "nao_arena.sensing",

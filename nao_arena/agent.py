@@ -35,17 +35,18 @@ import hashlib
 import importlib
 import importlib.util
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.predictors import Predictor
-from nao_arena.sensing import Observation
+from nao_arena.sensing import Observation, SensingBatch
 from nao_arena.watchdog import EpisodeTimeout
 
 if TYPE_CHECKING:
@@ -57,6 +58,7 @@ __all__ = [
     "Agent",
     "AgentError",
     "AgentFault",
+    "BatchAgent",
     "PanelAgent",
     "ShowsPanel",
     "TooManyFaults",
@@ -90,6 +92,19 @@ class Agent(Protocol):
     def reset(self, spec: RobotSpec, rng: np.random.Generator) -> None: ...
 
     def act(self, obs: Observation) -> NDArray[np.float64]: ...
+
+
+@runtime_checkable
+class BatchAgent(Agent, Protocol):
+    """An agent whose class also acts for all its robots at once: the arena calls
+    ``act_batch`` once per step with that class's agents, the step's
+    :class:`~nao_arena.sensing.SensingBatch` and their robots' rows (robot order), in
+    place of ``act`` robot by robot. It returns one result per row, each an acceleration
+    (2,) m/s^2 or an exception instance (that robot's fault), or an array (rows, 2);
+    they must be what ``act`` would give (see :class:`~nao_arena.arena.Arena`)."""
+
+    @classmethod
+    def act_batch(cls, agents: Sequence[Any], batch: SensingBatch, rows: Sequence[int]) -> Any: ...
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,7 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,6 +56,7 @@ from nao_arena.agent import (
     UNCONTAINED,
     AgentError,
     AgentFault,
+    BatchAgent,
     TooManyFaults,
     check_agent_class,
     describe,
@@ -148,6 +149,7 @@ def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | N
     passed as given and take precedence.
     """
     cls = load_agent(ref) if isinstance(ref, str) else check_agent_class(ref.__name__, ref)
+    params: Mapping[str, inspect.Parameter]
     try:
         params = inspect.signature(cls).parameters
     except (TypeError, ValueError):
@@ -206,7 +208,7 @@ class Arena:
         self.state: WorldState | None = None
         self.commanded = np.zeros((self.world.n, 2))
         self._kinds: NDArray[np.str_] | None = None
-        self._plan: tuple[list[type], dict[type, list[int]], list[int]] | None = None
+        self._plan: tuple[list[type], dict[type[BatchAgent], list[int]], list[int]] | None = None
         self._trajectory = hashlib.sha256()
         self.recorder: StepRecorder | None = None
 
@@ -296,8 +298,8 @@ class Arena:
     def _hash_state(self, state: WorldState) -> None:
         """Add a state's positions (m) and velocities (m/s), body order, float64 bytes
         to the trajectory hash."""
-        self._trajectory.update(np.ascontiguousarray(state.positions, dtype=np.float64))
-        self._trajectory.update(np.ascontiguousarray(state.velocities, dtype=np.float64))
+        self._trajectory.update(np.ascontiguousarray(state.positions, np.float64).data)
+        self._trajectory.update(np.ascontiguousarray(state.velocities, np.float64).data)
 
     @property
     def time(self) -> float:
@@ -317,6 +319,7 @@ class Arena:
         come back."""
         if self.time >= self.spec.episode.time_limit - 1e-9:
             return True
+        assert self.stats is not None, "call reset() first"
         return bool(len(self.robots)) and bool(np.all(self.stats.at_goal[self.robot_ids]))
 
     # ------------------------------------------------------------------ sensing
@@ -449,24 +452,24 @@ class Arena:
             self.recorder.step(self, batch, result, actions)
         return result
 
-    def _dispatch(self) -> tuple[dict[type, list[int]], list[int]]:
+    def _dispatch(self) -> tuple[dict[type[BatchAgent], list[int]], list[int]]:
         """Robots whose agents act together (per class with an ``act_batch``, robot
         order) and the others; worked out again only when the agents change."""
         key = [type(a) for a in self.agents]
         if self._plan is None or self._plan[0] != key:
-            batched: dict[type, list[int]] = {}
+            batched: dict[type[BatchAgent], list[int]] = {}
             single: list[int] = []
             for k, cls in enumerate(key):
                 if callable(getattr(cls, "act_batch", None)):
                     # agents of one class that act on the bulk arrays all at once
-                    batched.setdefault(cls, []).append(k)
+                    batched.setdefault(cast("type[BatchAgent]", cls), []).append(k)
                 else:
                     single.append(k)
             self._plan = (key, batched, single)
         return self._plan[1], self._plan[2]
 
     def _act_batch(
-        self, cls: type, batch: SensingBatch, rows: list[int]
+        self, cls: type[BatchAgent], batch: SensingBatch, rows: list[int]
     ) -> tuple[NDArray[np.float64], dict[int, AgentFault]]:
         """``cls.act_batch(agents, batch, rows)`` checked like :func:`safe_act`: each
         result must be a finite (2,) acceleration (an exception instance is that

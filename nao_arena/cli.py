@@ -375,7 +375,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.trials import make_map, split_agent
     from nao_arena.watchdog import EpisodeTimeout
 
-    record = None
+    record: Any = None
     if problem := _bad_number(args) or _render_problem(args):
         return _err(problem)
     if args.render:
@@ -391,7 +391,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 f"{RENDER_SUFFIX[args.render]}, got {args.out}"
             )
         try:
-            from nao_arena.render import record_episode as record
+            from nao_arena.render import record_episode
+
+            record = record_episode
         except ImportError as exc:
             return _err(
                 f"--render {args.render}: rendering is not available in this "

@@ -619,8 +619,9 @@ class SensingBatch:
 
     def everyone(self) -> Neighbours:
         """All bodies as one :class:`Neighbours` (row i = body i): predict once, index per robot."""
-        if self._everyone is None:
-            self.__dict__["_everyone"] = Neighbours(
+        everyone = self._everyone
+        if everyone is None:
+            everyone = Neighbours(
                 ids=np.arange(len(self.positions), dtype=np.int64),
                 kinds=tuple(self.kinds),
                 positions=self.positions,
@@ -631,7 +632,8 @@ class SensingBatch:
                 known_paths=self.known_paths,
                 plans=self.plans,
             )
-        return self._everyone
+            self.__dict__["_everyone"] = everyone
+        return everyone
 
     def observation(self, k: int) -> Observation:
         """Robot k's :class:`Observation` (robot order)."""

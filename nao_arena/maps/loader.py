@@ -206,7 +206,7 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
     starts = np.array([b.start for b in bodies], float)
     radii = np.array([b.radius for b in bodies])
 
-    first = {}
+    first: dict[Any, int] = {}
     for b in bodies:
         first.setdefault(b.group, b.index)
 
