@@ -25,7 +25,11 @@ import math
 import numpy as np
 from numba import njit
 
-from nao_arena.agents._nao_columns import (
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.navigation import segment_clear
+from nao_arena.stopping import commit_plans_kernel
+
+from ._nao_columns import (
     AROUND,
     CUR_X,
     CUR_Y,
@@ -42,18 +46,15 @@ from nao_arena.agents._nao_columns import (
     liveness_batch,
     young_adjustments,
 )
-from nao_arena.agents._nao_decide import (
+from ._nao_decide import (
     UNDECIDED,
     apply_braking,
     apply_decisions,
     decide_batch,
     keep_candidates,
 )
-from nao_arena.agents._nao_liveness import held_by_standing_kernel
-from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
-from nao_arena.geometry._kernel.batch import sampled_admissible_batch
-from nao_arena.navigation import segment_clear
-from nao_arena.stopping import commit_plans_kernel
+from ._nao_liveness import held_by_standing_kernel
+from .goal import APPROACH_GAIN, goal_seeking_kernel
 
 __all__ = [
     "BRAKING",

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from nao_arena.geometry.selection import Selection
 
 if TYPE_CHECKING:
-    from nao_arena.agents.nao import NAOAgent
+    from .nao import NAOAgent
 
 # real (float64) columns: state
 CUR_X, CUR_Y = 0, 1  # the current acceleration (m/s^2)

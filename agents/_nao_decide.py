@@ -14,22 +14,11 @@ to the caller, which has the fallbacks.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.agents._nao_columns import (
-    AUTO,
-    BRAKE,
-    CUR_X,
-    CUR_Y,
-    FALLBACK,
-    KEEP_BAND,
-    SETTLING,
-    commit_row,
-)
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
 from nao_arena.geometry._kernel.search import onto_disc, repair_relevant, select_relevant
@@ -47,6 +36,17 @@ from nao_arena.geometry.selection import (
     _unit_rings,
 )
 
+from ._nao_columns import (
+    AUTO,
+    BRAKE,
+    CUR_X,
+    CUR_Y,
+    FALLBACK,
+    KEEP_BAND,
+    SETTLING,
+    commit_row,
+)
+
 __all__ = [
     "ADJUSTED",
     "DESIRED",
@@ -62,6 +62,17 @@ __all__ = [
     "ring_radii_rows",
     "selection_settings",
 ]
+
+ObstacleLists = tuple[
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+]
+"""The CSR obstacle lists of a group of robots: (nb_start, nb_index, wall_seg, wall_half,
+wall_start, wall_index)."""
 
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
 UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
@@ -257,7 +268,7 @@ def decide(
     times: NDArray[np.float64],
     pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray, ...],
+    lists: ObstacleLists,
     nb_radius: NDArray[np.float64],
     rows: NDArray[np.int64],
     pos: NDArray[np.float64],
@@ -308,7 +319,18 @@ def decide(
     return kind, accel, tested
 
 
-def selection_settings(a_max: NDArray[np.float64]) -> tuple[Any, ...]:
+def selection_settings(
+    a_max: NDArray[np.float64],
+) -> tuple[
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    int,
+    int,
+    float,
+    float,
+]:
     """The arguments ring_radii .. sliver_depth of :func:`decide_batch` for robots of
     limits a_max (m/s^2): the settings :func:`~nao_arena.geometry.select_acceleration`
     and :func:`~nao_arena.geometry.repair_acceleration` use by default."""

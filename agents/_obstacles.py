@@ -55,7 +55,7 @@ def track_velocity(obs: Observation, v_new: NDArray[np.float64], time_constant: 
 
 def preferred_velocity(obs: Observation, v_pref: float | None) -> NDArray[np.float64]:
     """Velocity toward the goal (m/s), slowing down to stop at it."""
-    from nao_arena.agents.goal import goal_target
+    from .goal import goal_target
 
     target = goal_target(obs)
     if target is None:

@@ -91,15 +91,33 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
-from nao_arena.agents import _nao_columns as col
-from nao_arena.agents._nao_batch import (
+from nao_arena.geometry import (
+    AccelLimits,
+    PiecewisePath,
+    repair_acceleration,
+    select_acceleration,
+)
+from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
+from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
+from nao_arena.geometry._kernel.sampled import path_excursions
+from nao_arena.geometry._kernel.segment import relevant_walls
+from nao_arena.geometry.selection import Selection
+from nao_arena.maps.loader import point_segment_distances
+from nao_arena.navigation import navigation_grid, route_targets
+from nao_arena.obstacles import obstacle_paths, relative_walls
+from nao_arena.predictors import get_predictor
+from nao_arena.sensing import Observation, SensingBatch
+
+from . import _nao_columns as col
+from ._nao_batch import (
     desired_rows,
     own_rows,
     prepare_rows,
     settle_members,
     yield_rows,
 )
-from nao_arena.agents._nao_columns import (
+from ._nao_columns import (
     AGE,
     AROUND,
     CUR_X,
@@ -129,33 +147,17 @@ from nao_arena.agents._nao_columns import (
     detour_row,
     young_adjustments,
 )
-from nao_arena.agents._nao_decide import (
+from ._nao_decide import (
     ADJUSTED,
     DESIRED,
     INFEASIBLE,
     REPAIRED,
+    ObstacleLists,
     decide,
     keep_candidates,
     member_lists,
     selection_settings,
 )
-from nao_arena.geometry import (
-    AccelLimits,
-    PiecewisePath,
-    repair_acceleration,
-    select_acceleration,
-)
-from nao_arena.geometry._kernel.batch import sampled_admissible_batch
-from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
-from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
-from nao_arena.geometry._kernel.sampled import path_excursions
-from nao_arena.geometry._kernel.segment import relevant_walls
-from nao_arena.geometry.selection import Selection
-from nao_arena.maps.loader import point_segment_distances
-from nao_arena.navigation import navigation_grid, route_targets
-from nao_arena.obstacles import obstacle_paths, relative_walls
-from nao_arena.predictors import get_predictor
-from nao_arena.sensing import Observation, SensingBatch
 
 if TYPE_CHECKING:
     from nao_arena.maps import RobotSpec
@@ -494,7 +496,7 @@ class NAOAgent:
         ``act`` called robot by robot (the one hook besides the options).
         """
         rows_a = np.asarray(rows, dtype=np.int64)
-        if all(t.act is NAOAgent.act for t in set(map(type, agents))):
+        if all(t.act is NAOAgent.act for t in {type(ag) for ag in agents}):
             accels, errors = _act_rows(agents, batch, rows_a)
             if not errors:
                 return accels
@@ -777,7 +779,7 @@ SHIELD_STATUSES: tuple[str, ...] = ("kept", "repaired", "adjusted", "infeasible"
 """How :meth:`NAOAgent.nearest_admissible` found its acceleration (see there)."""
 
 _SELECTION_STATUS = {"desired": "kept", "adjusted": "adjusted", "infeasible": "infeasible"}
-_KIND_STATUS = {
+_KIND_STATUS: dict[int, str] = {  # looked up by the compiled kinds (int)
     REPAIRED: "repaired",
     DESIRED: "kept",
     ADJUSTED: "adjusted",
@@ -805,14 +807,7 @@ def _obstacle_lists(
     rows: NDArray[np.int64],
     pos: NDArray[np.float64],
     rad: NDArray[np.float64],
-) -> tuple[
-    NDArray[np.int64],
-    NDArray[np.int64],
-    NDArray[np.float64],
-    NDArray[np.float64],
-    NDArray[np.int64],
-    NDArray[np.int64],
-]:
+) -> ObstacleLists:
     """The obstacles each member (rows m of the agents' table) sees, as CSR lists
     (members' order): neighbours (nb_start, nb_index: body indices), then the walls in
     its range (wall_seg (W, 2, 2) m and wall_half (W,) m: every wall's ends and
@@ -852,7 +847,7 @@ def _keep_current(
     cols: AgentColumns,
     pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray[Any], ...] | None,
+    lists: ObstacleLists | None,
     nb_radius: NDArray[np.float64],
     pos: NDArray[np.float64],
     vel: NDArray[np.float64],
@@ -885,6 +880,7 @@ def _keep_current(
     todo = np.flatnonzero(status == 2)
     res = np.full(len(m), -1, dtype=np.int64)
     f = np.ascontiguousarray
+    pos_m, vel_m, cur_m, v_max_m, rad_m = _members((pos, vel, current, v_max, rad), m)
     sampled_admissible_batch(
         f(ag0.times, dtype=np.float64),
         pred,
@@ -896,7 +892,11 @@ def _keep_current(
         wall_start,
         wall_index,
         todo,
-        *_members((pos, vel, current, v_max, rad), m),
+        pos_m,
+        vel_m,
+        cur_m,
+        v_max_m,
+        rad_m,
         cols.opt[m, MARGIN],
         excursions[0],
         excursions[1],
@@ -921,7 +921,7 @@ def _decide(
     cols: AgentColumns,
     pred: NDArray[np.float64],
     excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
-    lists: tuple[NDArray[Any], ...],
+    lists: ObstacleLists,
     nb_radius: NDArray[np.float64],
     pos: NDArray[np.float64],
     vel: NDArray[np.float64],
@@ -1022,7 +1022,21 @@ def _own_rows(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[Any, ...]
     return own_rows(*_own_inputs(batch, rows_a))
 
 
-def _own_inputs(batch: SensingBatch, rows_a: NDArray[np.int64]) -> tuple[Any, ...]:
+def _own_inputs(
+    batch: SensingBatch, rows_a: NDArray[np.int64]
+) -> tuple[
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.bool_],
+]:
     """The arguments of :func:`~nao_arena.agents._nao_batch.own_rows` (and the first ones
     of ``prepare_rows``) for the batch rows ``rows_a``, as the kernels take them."""
     f = np.ascontiguousarray
@@ -1051,7 +1065,7 @@ def _group_view(
     pos: NDArray[np.float64],
     rad: NDArray[np.float64],
     pred: NDArray[np.float64],
-) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], tuple[NDArray[Any], ...] | None]:
+) -> tuple[tuple[NDArray[np.float64], NDArray[np.bool_]], ObstacleLists | None]:
     """What the agents of rows m (ag0's predictor and time grid) decide from, given the
     predictions ``pred`` of every body: their :func:`path_excursions` and the members'
     :func:`_obstacle_lists` (None: an irregular time grid). Each member keeps what it
@@ -1143,7 +1157,8 @@ def _act_rows(
             left = len(m)
             settled = np.zeros(len(m), dtype=bool)
         else:
-            nb_start, nb_index, *wall_lists = lists  # wall_seg, wall_half, start, index
+            # the members' walls (wall_half above stays every wall's half-thickness)
+            nb_start, nb_index, seg_m, half_m, start_m, index_m = lists
             status, kind, accel, tested, settled, left = settle_members(
                 m,
                 f(ag0.times, dtype=np.float64),
@@ -1153,7 +1168,10 @@ def _act_rows(
                 nb_start,
                 nb_index,
                 f(batch.radii, dtype=np.float64),
-                *wall_lists,
+                seg_m,
+                half_m,
+                start_m,
+                index_m,
                 pos,
                 vel,
                 rad,

@@ -36,9 +36,10 @@ from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
-from nao_arena.agents.goal import goal_target
 from nao_arena.obstacles import NO_WALLS, wall_discs_memo
 from nao_arena.sensing import Observation, SensingBatch
+
+from .goal import goal_target
 
 __all__ = ["ORCAAgent", "orca_accelerations"]
 
@@ -52,13 +53,13 @@ _HORIZON, _MARGIN, _V_PREF, _TIME_CONSTANT, _SENSING_RANGE = range(5)
 
 
 @intrinsic
-def _fma(typingctx, x, y, z):  # type: ignore[no-untyped-def]
+def _fma(typingctx, x, y, z):
     """x * y + z rounded once (IEEE 754 fused multiply-add) of three float64."""
     if not all(isinstance(a, types.Float) for a in (x, y, z)):
         return None
     sig = types.float64(types.float64, types.float64, types.float64)
 
-    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+    def codegen(context, builder, signature, args):
         double = ir.DoubleType()
         fn = cgutils.get_or_insert_function(
             builder.module, ir.FunctionType(double, [double, double, double]), "llvm.fma.f64"
@@ -556,7 +557,7 @@ class ORCAAgent:
         with its own ``act`` act robot by robot: then one acceleration or exception per
         row (a list)."""
         n = len(rows)
-        if all(t.act is _ACT for t in set(map(type, agents))):
+        if all(t.act is _ACT for t in {type(ag) for ag in agents}):
             return _batch_accelerations(agents, batch, np.asarray(rows, dtype=np.int64))
         out: list[NDArray[np.float64] | Exception] = [np.zeros(2)] * n
         todo = []

@@ -17,9 +17,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
-from nao_arena.agents._obstacles import observed_discs, preferred_velocity, track_velocity
 from nao_arena.geometry import vo_clearance
 from nao_arena.sensing import Observation
+
+from ._obstacles import observed_discs, preferred_velocity, track_velocity
 
 
 class VOAgent:

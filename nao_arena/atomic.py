@@ -50,7 +50,7 @@ def remove_stale(path: str | Path) -> list[Path]:
     process has ended (e.g. it was killed during a long write); returns them."""
     path = Path(path)
     pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.")
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(path.parent.iterdir()) if path.parent.is_dir() else []
     except OSError:

@@ -739,6 +739,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         )
         if self.options.after_done == "hold" and not np.all(self._alive):
             dead = np.flatnonzero(~self._alive)
+            assert self.arena.state is not None  # reset() set it, with the stats
             v = self.arena.state.velocities[self._bodies[dead]]
             brake = clip_accelerations(-v / self.arena.world.dt, self._a_max[dead])
             for i, a in zip(dead.tolist(), brake, strict=True):
@@ -836,6 +837,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         finished = ~self._alive[live_rows]
         rew = np.zeros(len(live_rows))
         rew[~finished_before] = reward
+        assert self.arena.stats is not None  # step() checked it
         reached = self.arena.stats.reached[self._bodies[live_rows]].tolist()
         t = float(res.time)
         out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
@@ -995,7 +997,9 @@ class NaoArenaParallelEnv(ParallelEnv):
             return live[0] if live else self._controlled[0]
         if isinstance(sel, str):
             if sel not in names:
-                raise ValueError(f"selected: unknown robot {sel!r} (robots: {', '.join(names)})")
+                raise ValueError(
+                    f"selected: unknown robot {sel!r} (robots: {', '.join(map(str, names))})"
+                )
             return names.index(sel)
         return int(sel)
 

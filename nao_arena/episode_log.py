@@ -282,7 +282,8 @@ class EpisodeLog:
         """The episode's contact events (summary order; NaN where the summary has null)."""
         out = []
         for c in self.summary.get("contacts", []):
-            out.append(ContactEvent(**{k: (math.nan if v is None else v) for k, v in c.items()}))
+            fields: dict[str, Any] = {k: (math.nan if v is None else v) for k, v in c.items()}
+            out.append(ContactEvent(**fields))
         return out
 
     def contacts_by(self, step: int) -> int:
@@ -348,9 +349,10 @@ class EpisodeLog:
         """SHA-256 (hex) of the positions then velocities of every row, as the arena
         hashes an episode (see :mod:`nao_arena.arena`)."""
         digest = hashlib.sha256()
+        # numpy's stubs give ndarray the buffer protocol (__buffer__) on Python >= 3.12 only
         for k in range(self.n_steps):
-            digest.update(np.ascontiguousarray(self.positions[k]))
-            digest.update(np.ascontiguousarray(self.velocities[k]))
+            digest.update(np.ascontiguousarray(self.positions[k]))  # type: ignore[arg-type]
+            digest.update(np.ascontiguousarray(self.velocities[k]))  # type: ignore[arg-type]
         return digest.hexdigest()
 
 

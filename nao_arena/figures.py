@@ -18,7 +18,7 @@ import os
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import matplotlib
 
@@ -42,6 +42,9 @@ from nao_arena.geometry.clearance import (  # noqa: E402
     ao_clearance,
     nao_clearance,
 )
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["FIGURES", "SOLID_SIDE", "grazing_side", "moving", "sampled", "write_figures"]
 
@@ -139,7 +142,7 @@ def _draw_boundary(
 
 def _style_handles(arc: bool = False, corners: bool = False) -> list[Any]:
     """Legend entries for the line styles and the shading (black proxies)."""
-    handles = [
+    handles: list[Line2D | Patch] = [
         Line2D(
             [],
             [],
@@ -267,7 +270,9 @@ def fig_trajectories(ax) -> str:
     """Paths of accelerations on the AO boundary: each grazes the obstacle."""
     v, q, r = np.array([2.0, 0.0]), np.array([6.0, 2.0]), 1.5
     b = ao_boundary(v, q, r, extent=6.0)
-    ax.add_patch(plt.Circle(q, r, color="0.6", alpha=0.5, label="obstacle (grown, 1.5 m)"))
+    # matplotlib's stubs take the centre as a tuple only; any (2,) sequence works
+    centre = cast("tuple[float, float]", q)
+    ax.add_patch(plt.Circle(centre, r, color="0.6", alpha=0.5, label="obstacle (grown, 1.5 m)"))
     colour_of = {"right": _COLOURS[0], "left": _COLOURS[3]}
     for pts, times in ((b.left, b.left_times), (b.right, b.right_times)):
         finite = np.all(np.isfinite(pts), axis=1)
@@ -350,12 +355,16 @@ def fig_four_obstacles(ax) -> str:
     ]
     for i, (q, v_b, a_b) in enumerate(obstacles):
         col = _COLOURS[i]
-        _shade(
-            ax,
-            ext,
-            lambda a, q=q, v_b=v_b, a_b=a_b: ao_clearance(a, v, q, 1.0, v_b, a_b).clearance,
-            col,
-        )
+
+        def clearance_of(
+            a: NDArray,
+            q: tuple[float, float] = q,
+            v_b: tuple[float, float] = v_b,
+            a_b: tuple[float, float] = a_b,
+        ) -> NDArray:
+            return ao_clearance(a, v, q, 1.0, v_b, a_b).clearance
+
+        _shade(ax, ext, clearance_of, col)
         _draw_boundary(
             ax,
             ao_boundary(v, q, 1.0, v_b, a_b, extent=3 * ext),
@@ -387,7 +396,11 @@ def fig_nao(ax) -> str:
     arc = corners = False
     for i, c in enumerate(paths):
         col = _COLOURS[i]
-        _shade(ax, ext, lambda a, c=c: nao_clearance(a, v, t, c, 1.5), col)
+
+        def clearance_of(a: NDArray, c: NDArray[np.float64] = c) -> NDArray:
+            return nao_clearance(a, v, t, c, 1.5)
+
+        _shade(ax, ext, clearance_of, col)
         b = nao_boundary(v, t, c, 1.5, extent=3 * ext)
         shows = _draw_boundary(ax, b, col, f"NAO B{i + 1}", v, sampled(t, c), ext)
         arc |= shows[0]
@@ -438,7 +451,9 @@ def write_figures(out_dir: str | os.PathLike, names: list[str] | None = None) ->
         fig.tight_layout()
         if caption:
             fig.canvas.draw()
-            below = ax.get_tightbbox(fig.canvas.get_renderer())
+            # the Agg canvas (matplotlib.use above); matplotlib types it FigureCanvasBase
+            below = ax.get_tightbbox(fig.canvas.get_renderer())  # type: ignore[attr-defined]
+            assert below is not None  # the axes are visible
             y = fig.transFigure.inverted().transform((0.0, below.y0))[1]
             fig.text(
                 0.5,
@@ -450,13 +465,12 @@ def write_figures(out_dir: str | os.PathLike, names: list[str] | None = None) ->
                 color="0.25",
             )
         path = out / f"{name}.png"
+
+        def write_png(tmp: str, fig: Figure = fig) -> None:
+            fig.savefig(tmp, format="png", bbox_inches="tight", pad_inches=0.15)
+
         try:
-            atomic_write_with(
-                path,
-                lambda tmp, fig=fig: fig.savefig(
-                    tmp, format="png", bbox_inches="tight", pad_inches=0.15
-                ),
-            )
+            atomic_write_with(path, write_png)
         finally:
             plt.close(fig)
         written.append(path)

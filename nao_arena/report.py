@@ -380,9 +380,9 @@ def _overlapping(boxes: Sequence[Any]) -> bool:
 
 def _turn_overlapping_ticks(fig: Figure, axes: Sequence[Axes]) -> None:
     """Turn the x tick labels of axes whose labels overlap (long agent names) by 30 deg."""
-    FigureCanvasAgg(fig)
+    canvas = FigureCanvasAgg(fig)  # now fig.canvas
     fig.draw_without_rendering()
-    renderer = fig.canvas.get_renderer()
+    renderer = canvas.get_renderer()
     for ax in axes:
         ticks = [t for t in ax.get_xticklabels() if t.get_text()]
         if _overlapping([t.get_window_extent(renderer) for t in ticks]):

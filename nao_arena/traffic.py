@@ -155,11 +155,11 @@ class PolylineLane:
         return float(self._cum[-1])
 
     def _segment(self, s: ArrayLike) -> tuple[FloatArray, NDArray[np.intp]]:
-        s = np.asarray(s, dtype=float)
+        arc = np.asarray(s, dtype=float)
         if self.closed:
-            s = np.mod(s, self.length)
-        k = np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self._lens) - 1)
-        return s, k
+            arc = np.mod(arc, self.length)
+        k = np.clip(np.searchsorted(self._cum, arc, side="right") - 1, 0, len(self._lens) - 1)
+        return arc, k
 
     def point_at(self, s: ArrayLike) -> FloatArray:
         """Centreline point(s) (..., 2) m at arc length(s) s (m)."""

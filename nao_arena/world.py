@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import ctypes
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pymunk
@@ -210,7 +210,11 @@ def _address(pointer: Any) -> int:
     return int(pb.ffi.cast("uintptr_t", pointer))
 
 
-def _c_function(name: str, restype: object, *argtypes: object) -> Any:
+def _c_function(
+    name: str,
+    restype: type[ctypes._SimpleCData[Any]] | None,
+    *argtypes: type[ctypes._SimpleCData[Any]],
+) -> Any:
     """The function ``name`` of pymunk's C library as a ctypes function, which compiled
     code can call (pointers passed as integers)."""
     return ctypes.CFUNCTYPE(restype, *argtypes)(_address(pb.ffi.addressof(pb.lib, name)))
@@ -433,7 +437,7 @@ class World:
             body = pymunk.Body(b.mass, float("inf"))
             body.position = b.start
             body.velocity = b.velocity
-            shape = pymunk.Circle(body, b.radius)
+            shape: pymunk.Shape = pymunk.Circle(body, b.radius)
             shape.elasticity = phys.elasticity
             shape.friction = phys.friction
             space.add(body, shape)
@@ -444,12 +448,14 @@ class World:
                 shape = pymunk.Segment(static, w.a, w.b, w.thickness / 2)
             else:
                 assert isinstance(w, PolygonWall)
-                shape = pymunk.Poly(static, [tuple(p) for p in w.points])
+                # typeshed's tuple() drops the length; points are validated (x, y) pairs
+                vertices = cast("list[tuple[float, float]]", [tuple(p) for p in w.points])
+                shape = pymunk.Poly(static, vertices)
             shape.elasticity = phys.elasticity
             shape.friction = phys.friction
             space.add(shape)
-        for a, b in self.spec.bound_wall_segments():
-            shape = pymunk.Segment(static, a, b, self.spec.bounds.wall_thickness / 2)
+        for end_a, end_b in self.spec.bound_wall_segments():
+            shape = pymunk.Segment(static, end_a, end_b, self.spec.bounds.wall_thickness / 2)
             shape.elasticity = phys.elasticity
             shape.friction = phys.friction
             space.add(shape)

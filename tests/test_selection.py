@@ -531,6 +531,7 @@ def test_fallback_when_nothing_is_admissible() -> None:
     st.floats(allow_nan=True, allow_infinity=True, width=64),
     st.floats(0.0, 10.0),
 )
+@example(2.225073858507e-311, 2.225073858507e-311, 2.225073858507e-311)  # subnormal norm
 def test_projecting_one_acceleration_is_projecting_a_row_of_them(x, y, a_max):
     """project((2,)) takes a scalar shortcut on the disc: bit for bit the batch result
     (non-finite components become 0, the result lies in the disc)."""

@@ -22,6 +22,8 @@ by a thin wrapper and passed to the loop as arguments.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -29,20 +31,36 @@ from numba.extending import intrinsic
 __all__ = ["borrowed"]
 
 
-@intrinsic
-def borrowed(typingctx, arr):  # type: ignore[no-untyped-def]
-    """``arr`` (a numba array) as a view without reference counting (see the module)."""
-    if not isinstance(arr, types.Array):
-        return None
-    sig = arr(arr)
+if TYPE_CHECKING:
+    from typing import TypeVar
 
-    def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
-        src = context.make_array(sig.args[0])(context, builder, value=args[0])
-        view = context.make_array(sig.return_type)(context, builder)
-        for field in ("nitems", "itemsize", "data", "shape", "strides"):
-            setattr(view, field, getattr(src, field))
-        view.meminfo = cgutils.get_null_value(view.meminfo.type)
-        view.parent = cgutils.get_null_value(view.parent.type)
-        return view._getvalue()
+    import numpy as np
 
-    return sig, codegen
+    _ArrayT = TypeVar("_ArrayT", bound=np.ndarray)
+
+    # numba's stubs type an intrinsic's call with its typing function's signature
+    # (typingctx first) and as never returning; compiled code calls it like this:
+
+    def borrowed(arr: _ArrayT, /) -> _ArrayT:
+        """``arr`` (a numba array) as a view without reference counting (see the module)."""
+        ...
+
+else:
+
+    @intrinsic
+    def borrowed(typingctx, arr):
+        """``arr`` (a numba array) as a view without reference counting (see the module)."""
+        if not isinstance(arr, types.Array):
+            return None
+        sig = arr(arr)
+
+        def codegen(context, builder, sig, args):
+            src = context.make_array(sig.args[0])(context, builder, value=args[0])
+            view = context.make_array(sig.return_type)(context, builder)
+            for field in ("nitems", "itemsize", "data", "shape", "strides"):
+                setattr(view, field, getattr(src, field))
+            view.meminfo = cgutils.get_null_value(view.meminfo.type)
+            view.parent = cgutils.get_null_value(view.parent.type)
+            return view._getvalue()
+
+        return sig, codegen

@@ -71,7 +71,7 @@ def _split_runs(
     points: NDArray[np.float64], keep: NDArray[np.bool_], extra: NDArray[np.float64] | None = None
 ):
     """Keep the rows in ``keep``; insert NaN rows where runs of kept rows break."""
-    rows = []
+    rows: list[NDArray[np.float64]] = []
     extras = []
     prev = False
     for i in range(len(points)):

@@ -22,6 +22,7 @@ acceleration), not just at the sample times.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -71,7 +72,17 @@ class PiecewisePath:
             )
 
     @property
-    def arrays(self) -> tuple[NDArray[np.float64], ...]:
+    def arrays(
+        self,
+    ) -> tuple[
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+    ]:
         """(t, c, velocity, acceleration, radius, walls, wall_radius): the path as the
         compiled kernels take it (their arguments seg_t, seg_c, seg_w, seg_b, radius,
         walls, wall_r)."""
@@ -86,7 +97,15 @@ class PiecewisePath:
         )
 
     @property
-    def moving_arrays(self) -> tuple[NDArray[np.float64], ...]:
+    def moving_arrays(
+        self,
+    ) -> tuple[
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+        NDArray[np.float64],
+    ]:
         """(t, c, velocity, acceleration, radius): the moving obstacles alone, for the
         kernels that take no walls."""
         return self.t, self.c, self.velocity, self.acceleration, self.radius
@@ -141,7 +160,7 @@ def _broadcast(x: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.fl
 def _radius_array(radius: ArrayLike, n: int) -> NDArray[np.float64]:
     r = _broadcast(radius, (n,), "radius").copy()
     if np.any(r < 0) or not np.all(np.isfinite(r)):
-        raise ValueError(f"radius: expected finite non-negative values, got {radius}")
+        raise ValueError(f"radius: expected finite non-negative values, got {radius!s}")
     return r
 
 
@@ -219,7 +238,7 @@ def ao_path(
 
 def path_clearance(
     accels: ArrayLike,
-    v: ArrayLike,
+    v: ArrayLike | None,
     path: PiecewisePath,
     *,
     v_max: float = np.inf,
@@ -279,6 +298,39 @@ def nao_query(
     return _squeeze_obstacles(path_clearance(accels, v, path, v_max=v_max), single)
 
 
+@overload
+def nao_clearance(
+    accels: ArrayLike,
+    v: ArrayLike,
+    times: ArrayLike,
+    centers: ArrayLike,
+    radius: ArrayLike,
+    *,
+    v_max: float = ...,
+    return_time: Literal[False] = ...,
+) -> NDArray[np.float64]: ...
+@overload
+def nao_clearance(
+    accels: ArrayLike,
+    v: ArrayLike,
+    times: ArrayLike,
+    centers: ArrayLike,
+    radius: ArrayLike,
+    *,
+    v_max: float = ...,
+    return_time: Literal[True],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+@overload
+def nao_clearance(
+    accels: ArrayLike,
+    v: ArrayLike,
+    times: ArrayLike,
+    centers: ArrayLike,
+    radius: ArrayLike,
+    *,
+    v_max: float = ...,
+    return_time: bool = ...,
+) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def nao_clearance(
     accels: ArrayLike,
     v: ArrayLike,

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -111,7 +112,8 @@ class AccelLimits:
             clean = np.where(np.isfinite(flat), flat, 0.0)
             norm = np.hypot(clean[:, 0], clean[:, 1])
             outside = norm > self.a_max
-            scale = np.where(outside, self.a_max / np.maximum(norm, 1e-300), 1.0)
+            # outside the disc the norm exceeds a_max > 0: no division by zero
+            scale = np.divide(self.a_max, norm, out=np.ones_like(norm), where=outside)
             tiny = outside & (scale < _SMALLEST_NORMAL)
             out = clean * scale[:, None]
             if np.any(tiny):
@@ -275,9 +277,13 @@ class _Tester:
         lim = self.limits
         if x * x + y * y > lim.a_max**2 * (1 + 1e-12) + 1e-300:
             return False
-        if lim.box_lo is not None and not (
-            lim.box_lo[0] - 1e-12 <= x <= lim.box_hi[0] + 1e-12
-            and lim.box_lo[1] - 1e-12 <= y <= lim.box_hi[1] + 1e-12
+        if (
+            lim.box_lo is not None
+            and lim.box_hi is not None
+            and not (
+                lim.box_lo[0] - 1e-12 <= x <= lim.box_hi[0] + 1e-12
+                and lim.box_lo[1] - 1e-12 <= y <= lim.box_hi[1] + 1e-12
+            )
         ):
             return False
         self.count += 1
@@ -317,7 +323,8 @@ def _ring_radii(a_max: float, rings: int) -> NDArray[np.float64]:
     radii = _RING_RADII.get((a_max, rings))
     if radii is None:
         span = 2.0 * max(a_max, 1e-12)
-        radii = span * 0.5 ** np.arange(rings - 1, -1, -1)
+        # float64 at run time (numpy's stubs say floating[Any])
+        radii = cast("NDArray[np.float64]", span * 0.5 ** np.arange(rings - 1, -1, -1))
         if len(_RING_RADII) < 256:
             _RING_RADII[(a_max, rings)] = radii
     return radii
@@ -472,9 +479,9 @@ def select_acceleration(
         if status != Outcome.INFEASIBLE:
             return done(found, Outcome(status).label)
     else:
-        found = _search_boxed(tester, a_d, radii, ring_points, limits, tol)
-        if found is not None:
-            return done(found[0], found[1])
+        boxed = _search_boxed(tester, a_d, radii, ring_points, limits, tol)
+        if boxed is not None:
+            return done(boxed[0], boxed[1])
 
     # 4. nothing admissible: the caller's fallback, or postpone contact as long as
     #    possible, then least penetration

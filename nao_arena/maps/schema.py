@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -306,7 +306,8 @@ class TrafficGroup(StrictModel):
     def arc_positions(self) -> NDArray[np.float64]:
         """Arc lengths (count,) m of the vehicles: offset + k spacing."""
         assert self.spacing is not None
-        return self.offset + self.spacing * np.arange(self.count)
+        # float64 at run time (numpy's stubs say floating[Any])
+        return cast("NDArray[np.float64]", self.offset + self.spacing * np.arange(self.count))
 
     def follower_params(self) -> FollowerParams:
         """The lane followers' settings."""

@@ -138,7 +138,7 @@ def record_episode(
     steps. fps: frames per second of simulated time (default 1 / dt). selected:
     robot (index or name) of the acceleration panel. Returns the written path.
     """
-    env = getattr(source, "unwrapped", None)
+    env: Any = getattr(source, "unwrapped", None)  # a nao_arena env, duck-typed
     is_env = env is not None and hasattr(env, "arena") and hasattr(env, "possible_agents")
     arena = env.arena if is_env else source
     if is_env:

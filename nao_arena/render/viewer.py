@@ -54,9 +54,9 @@ import math
 import os
 import time
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -74,7 +74,7 @@ from nao_arena.obstacles import obstacle_paths, relative_walls  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.render._panel_kernel import panel_labels  # noqa: E402
 from nao_arena.sensing import Observation  # noqa: E402
-from nao_arena.traffic import CircleLane  # noqa: E402
+from nao_arena.traffic import CircleLane, PolylineLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
 
 if TYPE_CHECKING:
@@ -228,7 +228,10 @@ def _agent_colour(name: str) -> Colour:
 
 def _mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
     """c blended with base: w = 1 gives c."""
-    return tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
+    # three ints (typeshed's tuple() drops the length)
+    return cast(
+        "Colour", tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
+    )
 
 
 def _own_paths_xy(
@@ -400,6 +403,7 @@ class Viewer:
     def _track(self, arena: ShownArena) -> None:
         """Trails, contact flashes and the step rate, reset on a new episode."""
         state = arena.state
+        assert state is not None and arena.stats is not None  # a reset arena
         key = (id(arena), id(arena.stats))
         if key != self._episode_key or state.time < self._last_time:
             self._episode_key = key
@@ -443,6 +447,7 @@ class Viewer:
             side = float(follow)
             c = np.array([(bx0 + bx1) / 2, (by0 + by1) / 2])
             if len(arena.robots):
+                assert arena.state is not None  # draw() checked it
                 body = arena.robot_ids[selected]
                 to_goal = arena.goals[selected] - arena.state.positions[body]
                 dist = float(np.hypot(*to_goal))
@@ -488,6 +493,7 @@ class Viewer:
         surf = self.surface
         s = tr[0]
         state = arena.state
+        assert state is not None  # draw() checked it
         spec = arena.spec
         # bounds
         (bx0, by0), (bx1, by1) = spec.bounds.min, spec.bounds.max
@@ -514,6 +520,7 @@ class Viewer:
                 )
                 self._dashed(self._px(tr, pts), (190, 190, 186), closed=True)
             else:
+                assert isinstance(lane, PolylineLane)  # a map's lanes: circles or polylines
                 pts = np.asarray(lane.points, float)
                 if lane.closed:
                     pts = np.vstack([pts, pts[:1]])
@@ -528,8 +535,8 @@ class Viewer:
                 self._capsule(tr, np.array([wall.a, wall.b]), wall.thickness / 2, _WALL)
             elif isinstance(wall, PolygonWall):
                 pygame.draw.polygon(surf, _WALL, self._px(tr, np.array(wall.points)).tolist())
-        for a, b in spec.bound_wall_segments():
-            self._capsule(tr, np.array([a, b]), spec.bounds.wall_thickness / 2, _WALL)
+        for end_a, end_b in spec.bound_wall_segments():
+            self._capsule(tr, np.array([end_a, end_b]), spec.bounds.wall_thickness / 2, _WALL)
         colours = self._robot_colours(arena, controlled)
         # goals
         for k, goal in enumerate(arena.goals):
@@ -740,6 +747,7 @@ class Viewer:
         x = panel.left + 14
         state = arena.state
         stats = arena.stats
+        assert state is not None and stats is not None  # draw() checked the state
         limit = arena.spec.episode.time_limit
         robot_contacts = sum(1 for c in stats.contacts if "robot" in (c.kind_a, c.kind_b))
         self._text(f"{arena.spec.name}", (x, 8), self._big)
@@ -972,7 +980,7 @@ class Viewer:
     # ------------------------------------------------------------------ legend
 
     def legend_entries(
-        self, arena: ShownArena, controlled: Sequence[int] = ()
+        self, arena: ShownArena, controlled: Collection[int] = ()
     ) -> list[LegendEntry]:
         """The legend of a frame of ``arena``: every kind of robot, then each symbol of the
         world view (section ``world``) and of the acceleration panel (``panel``)."""
@@ -1020,7 +1028,7 @@ class Viewer:
             LegendEntry(
                 "cut",
                 "region cut by the edge",
-                (tuple(int(v * 0.6) for v in _mix(_PALETTE[0], 0.55)),),
+                (cast("Colour", tuple(int(v * 0.6) for v in _mix(_PALETTE[0], 0.55))),),
                 "panel",
             ),
         ]

@@ -40,7 +40,7 @@ _NO_GOALS = np.zeros((0, 2))  # no goals: only the arrival bookkeeping
 def _c_array(x: ArrayLike, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
     """x as a C-contiguous array of dtype and shape, broadcast if need be (x itself when
     it already is one)."""
-    a = np.ascontiguousarray(x, dtype=dtype)
+    a: np.ndarray = np.ascontiguousarray(x, dtype=dtype)
     return a if a.shape == shape else np.ascontiguousarray(np.broadcast_to(a, shape))
 
 
@@ -195,6 +195,7 @@ class EpisodeStats:
         has_prev = self._a_prev is not None
         if not has_prev:
             self._a_prev = np.empty((n, 2))
+        assert self._a_prev is not None  # set just above when it was not
         codes, vals, self._n_prox = step_kernel(
             t,
             self.dt,
