@@ -104,10 +104,14 @@ episodes the robot started this step (bodies and walls) - ``accel_change``
 x |a_t - a_(t-1)| / a_max of the commanded accelerations - ``step`` +
 ``goal`` on the step the goal is reached. Terminated: goal reached (within
 the map's goal tolerance), or a collision if ``terminate_on_collision``.
-Truncated: the time limit (``time_limit`` s, default the map's). Infos:
-``collisions`` (the step's contact events of this robot, as dicts, see
-:class:`nao_arena.stats.ContactEvent`), ``reached`` (bool), ``time`` (s),
-``faults`` (agent faults of the step, as dicts).
+Truncated: the time limit (``time_limit`` s, default the map's). Infos hold
+numbers only, so that every RL library can stack them (TorchRL, RLlib,
+SB3's VecEnv): ``collisions`` (int: the contact events of this robot that
+started in the step), ``reached`` (bool), ``time`` (s), ``faults`` (int: its
+agent's faults in the step), and with ``keep_finished`` ``finished`` (bool).
+The events themselves, as dicts (see :class:`nao_arena.stats.ContactEvent`),
+are in :attr:`NaoArenaParallelEnv.events` after each reset and step: agent ->
+``{"collisions": [...], "faults": [...]}``.
 
 Seeding
 -------
@@ -445,6 +449,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._rng = np.random.default_rng()
         self._viewer: Any = None
         self.last_result: StepResult | None = None
+        self.events: dict[str, dict[str, list[dict[str, Any]]]] = {}
+        """The last reset's or step's events by agent: ``{"collisions": [contact event
+        dicts], "faults": [fault dicts]}`` (the infos hold their counts)."""
 
     def __getstate__(self) -> dict[str, Any]:
         """Everything but the viewer (pygame objects; a copy opens its own on render)."""
@@ -654,9 +661,10 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.last_result = None
         rows = np.arange(len(self.possible_agents))
         obs = self._observe(rows)
-        infos = {
-            a: {"collisions": [], "reached": False, "time": 0.0, "faults": []} for a in self.agents
+        infos: dict[str, dict[str, Any]] = {
+            a: {"collisions": 0, "reached": False, "time": 0.0, "faults": 0} for a in self.agents
         }
+        self.events = {a: {"collisions": [], "faults": []} for a in self.agents}
         if self.options.keep_finished:
             for info in infos.values():
                 info["finished"] = False
@@ -780,6 +788,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             )
         obs = self._observe(rows)
         out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
+        out_events: dict[str, dict[str, list[dict[str, Any]]]] = {}
         reached_l = reached.tolist()
         term_l = terminated.tolist()
         rew_l = reward.tolist()
@@ -791,11 +800,13 @@ class NaoArenaParallelEnv(ParallelEnv):
             out_term[a] = term_l[i]
             out_trunc[a] = time_up
             out_info[a] = {
-                "collisions": events.get(b, []),
+                "collisions": len(events.get(b, ())),
                 "reached": reached_l[i],
                 "time": t,
-                "faults": faults.get(b, []),
+                "faults": len(faults.get(b, ())),
             }
+            out_events[a] = {"collisions": events.get(b, []), "faults": faults.get(b, [])}
+        self.events = out_events
         done = terminated | time_up
         if np.any(done):
             self._alive[rows[done]] = False
@@ -841,6 +852,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         reached = self.arena.stats.reached[self._bodies[live_rows]].tolist()
         t = float(res.time)
         out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
+        out_events: dict[str, dict[str, list[dict[str, Any]]]] = {}
         for i, a in enumerate(live):
             b = int(self._bodies[live_rows[i]])
             fin = bool(finished[i])
@@ -849,12 +861,14 @@ class NaoArenaParallelEnv(ParallelEnv):
             out_term[a] = end and fin
             out_trunc[a] = end and time_up and not fin
             out_info[a] = {
-                "collisions": events.get(b, []),
+                "collisions": len(events.get(b, ())),
                 "reached": reached[i],
                 "time": t,
-                "faults": faults.get(b, []),
+                "faults": len(faults.get(b, ())),
                 "finished": fin,
             }
+            out_events[a] = {"collisions": events.get(b, []), "faults": faults.get(b, [])}
+        self.events = out_events
         if end:
             self._alive[live_rows] = False
             self.agents = []

@@ -321,9 +321,12 @@ def test_collisions_in_infos_rewards_and_termination(tmp_path):
         obs, rew, term, trunc, info = e.step(push)
         if info["left_0"]["collisions"]:
             break
-    ev = info["left_0"]["collisions"][0]
+    assert info["left_0"]["collisions"] == info["right_0"]["collisions"] == 1
+    (ev,) = e.events["left_0"]["collisions"]
     assert {ev["name_a"], ev["name_b"]} == {"left_0", "right_0"}
-    assert info["right_0"]["collisions"] == info["left_0"]["collisions"]
+    assert e.events["right_0"]["collisions"] == e.events["left_0"]["collisions"]
+    # the infos are numbers only (every RL library stacks them); the events are beside them
+    assert all(isinstance(v, bool | int | float) for i in info.values() for v in i.values())
     assert rew["left_0"] < -RewardWeights().collision + 1.0
     assert term == {"left_0": True, "right_0": True}
     assert e.agents == []
