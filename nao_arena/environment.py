@@ -128,6 +128,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -229,7 +230,11 @@ class EnvOptions:
     positions clipped to the map's bounds grown by this margin (see
     "Observation bounds"); trust_map: the map may name code (``FILE.py:Class``,
     ``module:Class``) as its robots' agents; named_agents: agent names the map may use
-    (name -> agent reference); see :func:`nao_arena.maps.load_map`.
+    (name -> agent reference); see :func:`nao_arena.maps.load_map`; agent_names:
+    ``"map"`` (the robots' names, e.g. ``east0``) or ``"grouped"``
+    (``<group>_<k>``: the name without its trailing digits, then the robot's index in
+    that group, e.g. ``east_0``; what TorchRL and BenchMARL group agents by, so that
+    robots of one group share a policy).
     """
 
     controlled: str | Sequence[str | int] = "all"
@@ -255,6 +260,7 @@ class EnvOptions:
     position_margin: float | None = None
     trust_map: bool = False
     named_agents: Mapping[str, str] = field(default_factory=dict)
+    agent_names: Literal["map", "grouped"] = "map"
 
     def __post_init__(self) -> None:
         if self.position_margin is not None and not (
@@ -266,6 +272,8 @@ class EnvOptions:
             )
         if self.max_neighbours < 0:
             raise ValueError(f"max_neighbours: expected >= 0, got {self.max_neighbours}")
+        if self.agent_names not in ("map", "grouped"):
+            raise ValueError(f"agent_names: expected 'map' or 'grouped', got {self.agent_names!r}")
         if self.after_done not in ("agent", "hold"):
             raise ValueError(f"after_done: expected 'agent' or 'hold', got {self.after_done!r}")
         if self.nao_predictor not in _KINEMATIC_PREDICTORS:
@@ -409,6 +417,22 @@ def _split_kwargs(
     return dataclasses.replace(base, **opt_kw) if opt_kw else base, params
 
 
+def grouped_names(names: Sequence[str]) -> list[str]:
+    """``["east0", "east1", "west0", "car"]`` -> ``["east_0", "east_1", "west_0", "car_0"]``:
+    each name without its trailing digits (and a trailing ``_``; ``robot`` if nothing is
+    left), then ``_`` and the robot's index among the names of that group (in order)."""
+    out: list[str] = []
+    counts: dict[str, int] = {}
+    for name in names:
+        base = re.sub(r"_?\d+$", "", name) or "robot"
+        k = counts.get(base, 0)
+        counts[base] = k + 1
+        out.append(f"{base}_{k}")
+    if len(set(out)) != len(out):  # a name such as "a_0" beside "a0": keep the map's
+        return list(names)
+    return out
+
+
 class NaoArenaParallelEnv(ParallelEnv):
     """A map's arena as a PettingZoo parallel env (see the module docstring)."""
 
@@ -440,7 +464,10 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._install(spec)
         robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots)]
         self._controlled = self._resolve_controlled(self.options.controlled, robot_names)
-        self.possible_agents: list[str] = [robot_names[k] for k in self._controlled]
+        names = [robot_names[k] for k in self._controlled]
+        self.possible_agents: list[str] = (
+            grouped_names(names) if self.options.agent_names == "grouped" else names
+        )
         self._row = {name: i for i, name in enumerate(self.possible_agents)}
         self.agents: list[str] = []
         self.metadata = {**self.metadata, "render_fps": 1.0 / spec.physics.dt}

@@ -442,3 +442,30 @@ def test_neighbour_kernel_matches_sorting(seed):
         ]
     )
     np.testing.assert_array_equal(out[:, :n_own], own)
+
+
+def test_grouped_agent_names_share_a_group_per_prefix():
+    """agent_names="grouped": <group>_<k> names (what TorchRL and BenchMARL group by), the
+    same episode as with the map's names."""
+    from nao_arena.environment import grouped_names
+
+    assert grouped_names(["east0", "east1", "west0", "car", "a_7", "9"]) == [
+        "east_0",
+        "east_1",
+        "west_0",
+        "car_0",
+        "a_0",
+        "robot_0",
+    ]
+    plain = parallel_env("crossing")
+    grouped = parallel_env("crossing", agent_names="grouped")
+    assert len(grouped.possible_agents) == len(plain.possible_agents) == 12
+    groups = {a.rsplit("_", 1)[0] for a in grouped.possible_agents}
+    assert len(groups) < len(grouped.possible_agents)
+    obs_p, _ = plain.reset(seed=1)
+    obs_g, _ = grouped.reset(seed=1)
+    rename = dict(zip(plain.possible_agents, grouped.possible_agents, strict=True))
+    for a, o in obs_p.items():
+        np.testing.assert_array_equal(o, obs_g[rename[a]])
+    with pytest.raises(ValueError, match="agent_names: expected 'map' or 'grouped'"):
+        parallel_env("crossing", agent_names="torchrl")

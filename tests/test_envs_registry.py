@@ -192,6 +192,7 @@ def fingerprint(name: str) -> str:
     for section, key, neutral in (
         (options, "trust_map", False),
         (options, "named_agents", {}),
+        (options, "agent_names", "map"),
         (options["arena"], "max_faults", None),
     ):
         if section[key] == neutral:
@@ -222,7 +223,7 @@ def _next(name: str) -> str:
 
 
 def test_readme_lists_every_versioned_env():
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    section = readme.split("\n## Training with RL\n", 1)[1].split("\n## ", 1)[0]
+    page = Path(__file__).resolve().parents[1] / "docs" / "how-to" / "rl.md"
+    section = page.read_text(encoding="utf-8").split("\n## Training with RL\n", 1)[1]
     listed = re.search(r"^`circle_swap_v0`.*?\n\n", section, re.M | re.S).group(0)
     assert sorted(re.findall(r"`(\w+_v\d+)`", listed)) == available()
