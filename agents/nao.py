@@ -177,7 +177,7 @@ class NAOAgent:
 
     The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
     = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
-    6 s (an overtake). A shorter one runs faster in crowds, see the README benchmarks."""
+    6 s (an overtake). A shorter one runs faster in crowds, see docs/results/benchmarks.md."""
 
     # the agent's state and numeric options live in its row of a table shared with the
     # other agents of its batch (:mod:`nao_arena.agents._nao_columns`)

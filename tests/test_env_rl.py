@@ -498,8 +498,8 @@ def test_frame_stack_and_normalize_through_the_vector_env():
 
 
 def _readme_recipe() -> str:
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    section = readme.split("\n## Training with RL\n", 1)[1].split("\n## ", 1)[0]
+    page = Path(__file__).resolve().parents[1] / "docs" / "how-to" / "rl.md"
+    section = page.read_text(encoding="utf-8").split("\n## Training with RL\n", 1)[1]
     return next(
         b for b in re.findall(r"```python\n(.*?)```", section, re.S) if "concat_vec_envs_v1" in b
     )
@@ -511,7 +511,7 @@ def test_readme_vector_env_recipe_runs_both_ways(way):
     if way == "black_death":
         code = re.sub(r"^par = .*\n# par = ", "par = ", code, flags=re.M)
     scope: dict = {}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "docs/how-to/rl.md", "exec"), scope)
     vec, par = scope["vec"], scope["par"]
     try:
         assert vec.num_envs == 4 * 12

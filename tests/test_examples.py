@@ -1,4 +1,4 @@
-"""What a newcomer reads and runs: the README's reference parts and the examples/ folder.
+"""What a newcomer reads and runs: the docs' reference parts and the examples/ folder.
 
 Every example runs as a script (as a person would run it, headless), with small
 settings passed on its command line so that each takes seconds.
@@ -23,12 +23,18 @@ from nao_arena.sensing import Neighbours, Observation
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
-README = (ROOT / "README.md").read_text(encoding="utf-8")
+DOCS = ROOT / "docs"
+# the pages that hold what the README's sections of these titles held
+PAGES = {
+    "Agents": "how-to/custom-agent.md",
+    "Map files": "how-to/custom-map.md",
+    "Examples": "getting-started.md",
+}
 
 
 def _section(title: str) -> str:
-    """The README section ``## title`` (up to the next ``## ``)."""
-    return README.split(f"\n## {title}\n", 1)[1].split("\n## ", 1)[0]
+    """The docs page that holds the former README section ``## title``."""
+    return (DOCS / PAGES[title]).read_text(encoding="utf-8")
 
 
 def _headless_env() -> dict[str, str]:
@@ -52,7 +58,7 @@ def _script(name: str, *args: str, cwd: Path) -> str:
     return proc.stdout
 
 
-# --------------------------------------------------------------------------- README
+# --------------------------------------------------------------------------- docs
 
 
 def test_readme_names_every_field_of_what_an_agent_sees():
@@ -60,7 +66,7 @@ def test_readme_names_every_field_of_what_an_agent_sees():
     for cls in (Observation, Neighbours):
         assert f"`{cls.__name__}`" in agents
         for f in dataclasses.fields(cls):
-            assert f"`{f.name}`" in agents, f"{cls.__name__}.{f.name} is not in the README"
+            assert f"`{f.name}`" in agents, f"{cls.__name__}.{f.name} is not in the docs"
 
 
 def test_readme_map_example_loads_and_runs(tmp_path, capsys):

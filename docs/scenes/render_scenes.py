@@ -1,5 +1,5 @@
-"""Render the README's pictures of the walled scenes: the frame at a given time of a
-``nao`` episode (seed 0) of each scene, 1000 x 600 px, headless.
+"""Render the pictures of the walled scenes (README.md, docs/results/scenes.md): the frame
+at a given time of a ``nao`` episode (seed 0) of each scene, 1000 x 600 px, headless.
 
     python docs/scenes/render_scenes.py            # writes docs/scenes/<scene>.png
 """
