@@ -9,7 +9,7 @@ An agent drives one robot::
             to_goal = obs.goal - obs.position
             return self.gain * to_goal - 2.0 * obs.velocity   # acceleration (2,) m/s^2
 
-Agents are named by a built-in name (``nao``, ``ao``, ``vo``, ``orca``,
+Agents are named by a built-in name (``nao``, ``ao``, ``vo``, ``orca``, ``cbf``,
 ``goal``, ``lane``), by ``path/to/file.py:ClassName``, by
 ``package.module:ClassName``, or by an entry point in the group
 ``nao_arena.agents``. Agent classes take keyword options in their
@@ -80,6 +80,7 @@ BUILTIN_AGENTS: dict[str, str] = {
     "ao": "nao_arena.agents.nao:AOAgent",
     "vo": "nao_arena.agents.vo:VOAgent",
     "orca": "nao_arena.agents.orca:ORCAAgent",
+    "cbf": "nao_arena.agents.cbf:CBFAgent",
     "goal": "nao_arena.agents.goal:GoalAgent",
     "lane": "nao_arena.agents.lane:LaneAgent",
 }
