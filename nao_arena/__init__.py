@@ -152,13 +152,21 @@ _EXPORTS: dict[str, str] = {
 """Public name -> the module that defines it (imported on first use)."""
 
 
+_SUBPACKAGES = ("envs",)
+"""Sub-packages reachable as attributes after ``import nao_arena`` (``nao_arena.envs``, the
+versioned envs), imported on first use."""
+
+
 def __getattr__(name: str) -> object:
-    """Import an exported name from its module on first use (then it is a global)."""
+    """Import an exported name from its module on first use (then it is a global); the
+    sub-packages of :data:`_SUBPACKAGES` likewise."""
+    from importlib import import_module
+
+    if name in _SUBPACKAGES:
+        return import_module(f"nao_arena.{name}")
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'nao_arena' has no attribute {name!r}")
-    from importlib import import_module
-
     value = getattr(import_module(module), name)
     globals()[name] = value
     return value

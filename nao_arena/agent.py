@@ -54,6 +54,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BUILTIN_AGENTS",
+    "BUILTIN_DESCRIPTIONS",
     "UNCONTAINED",
     "Agent",
     "AgentError",
@@ -84,6 +85,17 @@ BUILTIN_AGENTS: dict[str, str] = {
     "goal": "nao_arena.agents.goal:GoalAgent",
     "lane": "nao_arena.agents.lane:LaneAgent",
 }
+
+BUILTIN_DESCRIPTIONS: dict[str, str] = {
+    "nao": "goal seeking outside every neighbour's NAO and every wall's (the default)",
+    "ao": "nao with constant-acceleration predictions (the AO)",
+    "vo": "velocity obstacles: the nearest admissible velocity, tracked within a_max",
+    "orca": "ORCA half-planes and a 2-D linear program, tracked within a_max",
+    "cbf": "safety barrier certificates: the goal-seeking acceleration through a QP",
+    "goal": "goal seeking with no avoidance (the lower bound)",
+    "lane": "the traffic's lane follower: follows the robot's route at its speed",
+}
+"""One line on what each built-in agent does (``nao-arena agents``)."""
 
 
 @runtime_checkable

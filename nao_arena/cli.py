@@ -625,13 +625,15 @@ def _cmd_maps(args: argparse.Namespace) -> int:
 
 
 def _cmd_agents(args: argparse.Namespace) -> int:
-    from nao_arena.agent import BUILTIN_AGENTS, available_agents
+    from nao_arena.agent import BUILTIN_AGENTS, BUILTIN_DESCRIPTIONS, available_agents
 
     found = available_agents()
     width = max(len(n) for n in found)
     for name, ref in found.items():
-        origin = "built-in" if name in BUILTIN_AGENTS else "plug-in"
-        print(f"{name.ljust(width)}  {origin:8s}  {ref}")
+        if name in BUILTIN_AGENTS:
+            print(f"{name.ljust(width)}  built-in  {BUILTIN_DESCRIPTIONS[name]} ({ref})")
+        else:
+            print(f"{name.ljust(width)}  plug-in   {ref}")
     print(
         "(also: path/to/file.py:ClassName or package.module:ClassName; LABEL=AGENT shows "
         "it as LABEL in tables and files)"

@@ -25,8 +25,12 @@ def test_maps_and_agents(capsys):
     assert "parameters: n=10" in out
     assert main(["agents"]) == 0
     out = capsys.readouterr().out
-    for name in ("nao", "ao", "vo", "orca", "goal"):
-        assert any(line.split()[:2] == [name, "built-in"] for line in out.splitlines())
+    from nao_arena.agent import BUILTIN_AGENTS, BUILTIN_DESCRIPTIONS
+
+    assert BUILTIN_DESCRIPTIONS.keys() == BUILTIN_AGENTS.keys()
+    for name in BUILTIN_AGENTS:  # each with what it does, lane included
+        (line,) = [ln for ln in out.splitlines() if ln.split()[:2] == [name, "built-in"]]
+        assert BUILTIN_DESCRIPTIONS[name] in line and BUILTIN_AGENTS[name] in line
 
 
 def test_run_prints_the_episode(capsys, tmp_path):
@@ -49,7 +53,7 @@ def test_run_errors(capsys, monkeypatch):
     assert main(["run", "no_such_map"]) == 2
     assert "circle_swap" in capsys.readouterr().err
     assert main(["run", "circle_swap", "--agent", "no_such_agent"]) == 2
-    assert "nao, ao, vo, orca, goal" in capsys.readouterr().err
+    assert "nao, ao, vo, orca, cbf, goal" in capsys.readouterr().err
     assert main(["run", "circle_swap", "--set", "nn=3"]) == 2
     assert "declared: n, radius" in capsys.readouterr().err
     assert main(["run", "circle_swap", "--render", "gif"]) == 2

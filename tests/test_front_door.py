@@ -163,3 +163,11 @@ def test_py_typed_marker_is_in_the_package_data():
     assert (ROOT / "nao_arena" / "py.typed").is_file()
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert "py.typed" in config["package-data"]["nao_arena"]
+
+
+def test_the_versioned_envs_are_reachable_after_import_nao_arena():
+    out = run_python(
+        "import json, nao_arena\n"
+        "print(json.dumps(nao_arena.envs.crossing_v0.parallel_env().possible_agents[:2]))"
+    )
+    assert len(out) == 2

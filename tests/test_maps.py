@@ -274,12 +274,12 @@ BAD_CASES = {
     # names checked when the map loads
     "unknown_agent.yaml": (
         "robots[0].agent",
-        "expected one of nao, ao, vo, orca, goal, lane, or a name given "
+        "expected one of nao, ao, vo, orca, cbf, goal, lane, or a name given "
         "with --agent NAME=REFERENCE, got 'superbot'",
     ),
     "unknown_options_agent.yaml": (
         "robots[0].agent_options_for",
-        "expected one of nao, ao, vo, orca, goal, lane, or a "
+        "expected one of nao, ao, vo, orca, cbf, goal, lane, or a "
         "name given with --agent NAME=REFERENCE, got 'naoo'",
     ),
     "unknown_predictor.yaml": (

@@ -76,6 +76,14 @@ def load(name: str) -> ModuleType:
     return importlib.import_module(f"{__name__}.{name}")
 
 
+def __getattr__(name: str) -> ModuleType:
+    """``nao_arena.envs.crossing_v0`` without importing it first: a versioned env's module
+    on first use."""
+    if name in _NAMES:
+        return load(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 def _register() -> None:
     """Every env in PettingZoo's registry as ``nao_arena/<name>`` (PettingZoo >= 1.27)."""
     import pettingzoo
