@@ -528,6 +528,9 @@ def _cmd_trial(args: argparse.Namespace) -> int:
     from nao_arena.maps import MapError
     from nao_arena.trials import TrialConfig, format_table, run_trial, split_agent
 
+    for option, key in (("map", "maps"), ("agent", "agents"), ("out", "out")):
+        if not getattr(args, option):
+            return _err(f"trial: expected --{option} (or {key}: in --config FILE.yaml)")
     if args.address is not None and args.backend != "ray":
         return _err("--address is for the ray backend: add --backend ray")
     if problem := _bad_number(args) or _unwritable(args.out, folder=True):
@@ -955,10 +958,17 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(func=_cmd_run)
 
     trial = sub.add_parser("trial", help="run the grid maps x agents x episodes")
-    trial.add_argument("--map", required=True, help="comma-separated map names or paths")
+    trial.add_argument(
+        "--config",
+        default=None,
+        metavar="FILE.yaml",
+        help="an experiment file holding these options (see nao_arena.trials.experiment); "
+        "options given here override its",
+    )
+    trial.add_argument("--map", default=None, help="comma-separated map names or paths")
     trial.add_argument(
         "--agent",
-        required=True,
+        default=None,
         metavar="[LABEL=]AGENT,...",
         help="comma-separated agents (names, FILE.py:CLASS, module:CLASS); "
         "LABEL=AGENT names one LABEL in tables, plots and files",
@@ -974,7 +984,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     trial.add_argument(
         "--out",
-        required=True,
+        default=None,
         help="results folder (resumed if it exists; locked while the trial "
         "runs; refused if it holds a trial with other settings, except "
         "--workers, --backend, --address, --csv, --retry-failed and "
@@ -1010,6 +1020,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--log contacts: only those with a contact or a stuck robot",
     )
     trial.set_defaults(func=_cmd_trial)
+    parser.set_defaults(trial_parser=trial)
 
     report = sub.add_parser("report", help="table and plots of a trial's results")
     report.add_argument("dir", help="a trial's results folder")
@@ -1048,8 +1059,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _experiment_defaults(path: str) -> dict[str, Any]:
+    """The options of the experiment file ``path`` as ``trial``'s argparse defaults."""
+    import json
+
+    from nao_arena.trials.experiment import read_experiment
+
+    exp = read_experiment(path)
+    values = exp.model_dump()
+    values["map"] = ",".join(values.pop("maps"))
+    values["agent"] = ",".join(values.pop("agents"))
+    values["set"] = [f"{k}={json.dumps(v)}" for k, v in values.pop("set").items()]
+    return values
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "config", None):
+        from nao_arena.maps import MapError
+
+        try:
+            args.trial_parser.set_defaults(**_experiment_defaults(args.config))
+        except MapError as exc:
+            return _err(str(exc))
+        args = parser.parse_args(argv)
     try:
         with _compile_messages():
             return int(args.func(args))
