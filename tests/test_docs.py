@@ -145,7 +145,7 @@ def test_the_readme_stays_short_and_keeps_its_quick_start():
     block = re.search(r"```[a-z]*\n(.*?)```", section, re.S).group(1)
     assert block.splitlines()[:2] == [
         "pip install . && nao-arena run roundabout",
-        'pip install ".[test]" && pytest -q',
+        'pip install ".[test]" && pytest -q -n auto',
     ]
 
 
