@@ -180,6 +180,9 @@ class Arena:
         self.robot_ids = self.world.robot_indices  # body index of robot k (robot order)
         self.robots = list(spec.robots)
         self.agent_names = [self.options.agent or r.agent for r in self.robots]
+        self.agent_labels = list(self.agent_names)
+        """What tables, the viewer and logs show for each robot's agent (robot order):
+        its name or reference unless a caller gave a label (``--agent LABEL=REF``)."""
         # what agents sense is read-only (see SensingBatch): goals, routes, walls, times
         self.goals = read_only(np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
         self.routes = ReadOnlyRoutes.of(

@@ -419,6 +419,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
         _load_agents([agent] if agent else [r.agent for r in spec.robots])
         arena = Arena(spec, ArenaOptions(agent=agent, max_faults=args.max_faults))
+        if label:
+            arena.agent_labels = [label] * len(arena.robots)
         recorder = _run_recorder(args, arena, label, overrides)
     except (MapError, ValueError) as exc:
         return _err(str(exc))
@@ -488,7 +490,7 @@ def _run_episode(
                 summary = arena.run(args.seed, max_steps=args.max_steps)
     except (AgentError, EpisodeTimeout) as exc:
         return _err(describe(exc))
-    agents = [label or name for name in arena.agent_names]
+    agents = arena.agent_labels
     n_traffic = arena.world.n - len(arena.robots)
     print(
         f"map {spec.name} ({_map_origin(args.map, spec.source)}), seed {args.seed}, "
@@ -664,7 +666,7 @@ def _run_recorder(
             "time_limit": args.time_limit,
             "agent": args.agent,
         },
-        labels=[label or name for name in arena.agent_names],
+        labels=list(arena.agent_labels),
     )
     arena.recorder = recorder
     return recorder

@@ -395,7 +395,7 @@ class EpisodeRecorder:
         self._arena = arena
         self.seed = seed
         n_robots = len(arena.robots)
-        labels = self.labels or arena.agent_names
+        labels = self.labels or arena.agent_labels
         self._info: list[RobotInfo] = []
         self._reporting: list[int] = []  # agents with last_decision()
         self._detours: list[int] = []  # other agents with a detour attribute

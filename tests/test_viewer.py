@@ -327,3 +327,20 @@ def test_the_panel_reads_what_an_agent_reports_through_panel():
     assert panel_agent(arena, 1) == PanelAgent()
     assert panel_agent(arena, 2) == PanelAgent(margin=0.25, v_pref=0.5, status="adjusted")
     Viewer().draw(arena, selected=2)
+
+
+def test_the_legend_shows_labels_and_the_walls_region_only_with_walls():
+    """An agent given a label is shown by it (not its file reference); a map without
+    walls has no walls' region in the legend."""
+    arena = Arena(load_map("circle_swap", n=4))
+    arena.agent_labels = ["mine"] * 4
+    arena.reset(0)
+    viewer = Viewer()
+    viewer.draw(arena, selected=0)
+    labels = [e.label for e in viewer.info.legend]
+    assert "mine" in labels and "nao" not in labels
+    assert not arena.spec.walls and not arena.spec.bounds.walls
+    assert not any("walls' region" in label for label in labels)
+    walled = _arena("doorway", 1)
+    viewer.draw(walled, selected=0)
+    assert any("walls' region" in e.label for e in viewer.info.legend)

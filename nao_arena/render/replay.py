@@ -78,6 +78,7 @@ class ReplayArena:
         self.robot_ids = scene.robot_ids
         self.goals = scene.goals
         self.agent_names = log.agent_names
+        self.agent_labels = [r.label for r in log.robots]
         self.agents: list[Any] = []  # none: the panel reads panel_agent()
         self.stats = ReplayStats(log.contacts, log.n_bodies)
         self.state: WorldState | None = None

@@ -660,7 +660,7 @@ class Viewer:
     def _robot_colours(self, arena: ShownArena, controlled: set[int]) -> list[Colour]:
         return [
             AGENT_COLOURS["controlled"] if k in controlled else _agent_colour(name)
-            for k, name in enumerate(arena.agent_names)
+            for k, name in enumerate(arena.agent_labels)
         ]
 
     # ------------------------------------------------------------------ predictions
@@ -775,7 +775,7 @@ class Viewer:
             return
         body = int(arena.robot_ids[selected])
         name = arena.robots[selected].name or f"robot{selected}"
-        who = "controlled" if selected in controlled else arena.agent_names[selected]
+        who = "controlled" if selected in controlled else arena.agent_labels[selected]
         self._text(f"selected: {name} ({who})", (x, y + 46), self._font)
         speed = float(np.hypot(*state.velocities[body]))
         self._text(
@@ -986,7 +986,7 @@ class Viewer:
         world view (section ``world``) and of the acceleration panel (``panel``)."""
         entries = []
         kinds: list[str] = []
-        for k, name in enumerate(arena.agent_names):
+        for k, name in enumerate(arena.agent_labels):
             label = "controlled" if k in set(controlled) else name
             if label not in kinds:
                 kinds.append(label)
@@ -1024,7 +1024,10 @@ class Viewer:
                 tuple(_mix(c, 0.55) for c in per_neighbour),
                 "panel",
             ),
-            LegendEntry("swatch", "walls' region", (_WALL_REGION,), "panel"),
+        ]
+        if arena.spec.walls or arena.spec.bounds.walls:  # drawn only where there are walls
+            entries.append(LegendEntry("swatch", "walls' region", (_WALL_REGION,), "panel"))
+        entries += [
             LegendEntry(
                 "cut",
                 "region cut by the edge",
