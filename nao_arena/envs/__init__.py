@@ -38,7 +38,9 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-__all__ = ["available", "load"]
+from nao_arena.envs._single import SingleRobotEnv
+
+__all__ = ["SingleRobotEnv", "available", "load"]
 
 _NAMES: tuple[str, ...] = (
     "circle_swap_perturbed_v0",
@@ -85,8 +87,14 @@ def __getattr__(name: str) -> ModuleType:
 
 
 def _register() -> None:
-    """Every env in PettingZoo's registry as ``nao_arena/<name>`` (PettingZoo >= 1.27)."""
+    """Every env in PettingZoo's registry as ``nao_arena/<name>`` (PettingZoo >= 1.27), and
+    its single-robot form in Gymnasium's as ``nao_arena/<map>-v<N>``
+    (:class:`SingleRobotEnv`)."""
     import pettingzoo
+
+    from nao_arena.envs._single import register_all
+
+    register_all(list(_NAMES))
 
     register = getattr(pettingzoo, "register", None)
     if register is None:
