@@ -520,6 +520,18 @@ def _run_episode(
 # --------------------------------------------------------------------------- trial
 
 
+def _map_names(config: Any) -> dict[str, str]:
+    """The ``name`` of each map file of a trial (by its path), for its table."""
+    from nao_arena.trials import make_map
+
+    names = {}
+    for ref in config.maps:
+        if ref.endswith((".yaml", ".yml")):
+            spec = make_map(ref, None, {}, trusted=config.trust_map, agents=config.agent_refs)
+            names[ref] = spec.name
+    return names
+
+
 def _terminate_as_interrupt(signum: int, frame: object) -> None:
     """SIGTERM handler: stop a trial like Ctrl-C (workers stopped, finished episodes kept)."""
     raise KeyboardInterrupt
@@ -576,7 +588,7 @@ def _cmd_trial(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 130
-    print(format_table(result.summary))
+    print(format_table(result.summary, map_names=_map_names(config)))
     print(f"{result.ran} episodes run, {result.skipped} already done; results in {args.out}")
     if args.log:
         print(_trial_logs_note(Path(args.out)))

@@ -729,3 +729,29 @@ def test_compile_refuses_unknown_agents(capsys):
     assert err.startswith("nao-arena: error: --agent: expected built-in agents")
     assert "bogus" in err and len(err.splitlines()) == 1
     assert main(["compile", "--jobs", "0"]) == 2
+
+
+def test_the_trial_table_names_a_map_file_by_its_name(tmp_path, capsys):
+    path = tmp_path / "scene_v2_final.yaml"
+    path.write_text(
+        "name: doorway_study\n"
+        "bounds: {min: [-5.0, -5.0], max: [5.0, 5.0]}\n"
+        "robots:\n  - {start: [0.0, 0.0], goal: [2.0, 0.0]}\n"
+    )
+    argv = [
+        "trial",
+        "--map",
+        str(path),
+        "--agent",
+        "goal",
+        "--episodes",
+        "1",
+        "--time-limit",
+        "1",
+        "--out",
+        str(tmp_path / "out"),
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    table = capsys.readouterr().out.splitlines()
+    assert table[0].startswith("map") and table[2].startswith("doorway_study ")

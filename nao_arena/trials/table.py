@@ -95,9 +95,15 @@ def _repeat_notes(summary: Sequence[Mapping[str, Any]]) -> list[str]:
     return notes
 
 
-def format_table(summary: Sequence[Mapping[str, Any]], legend: bool = True) -> str:
+def format_table(
+    summary: Sequence[Mapping[str, Any]],
+    legend: bool = True,
+    map_names: Mapping[str, str] | None = None,
+) -> str:
     """The summary rows as an aligned text table, then a note for each cell with
-    repeated episodes and (if legend) :data:`TABLE_LEGEND`."""
+    repeated episodes and (if legend) :data:`TABLE_LEGEND`. ``map_names``: what to show
+    for a map reference (e.g. a map file's ``name`` for its path; default: the reference)."""
+    map_names = map_names or {}
     head = [
         "map",
         "agent",
@@ -123,7 +129,7 @@ def format_table(summary: Sequence[Mapping[str, Any]], legend: bool = True) -> s
         distinct = row.get("distinct_episodes")
         body.append(
             [
-                str(row["map"]),
+                str(map_names.get(row["map"], row["map"])),
                 str(row["agent"]),
                 episodes,
                 "-" if distinct is None else str(distinct),
