@@ -344,3 +344,15 @@ def test_the_legend_shows_labels_and_the_walls_region_only_with_walls():
     walled = _arena("doorway", 1)
     viewer.draw(walled, selected=0)
     assert any("walls' region" in e.label for e in viewer.info.legend)
+
+
+@pytest.mark.parametrize(
+    "centre", [(50, 50), (1195, 40), (1195, 5), (3, 3), (600, 795), (1199, 799)]
+)
+def test_a_robots_label_is_never_cut_by_the_views_edge(centre):
+    from nao_arena.render.viewer import label_position
+
+    x, y = label_position(centre, 8, (60, 14), (1200, 800))
+    assert 0 <= x and x + 60 <= 1200 and 0 <= y and y + 14 <= 800
+    if centre == (50, 50):  # room on the upper right: it goes there
+        assert (x, y) == (50 + 8 + 5, 50 - 8 - 14)

@@ -266,6 +266,21 @@ def _own_paths(
     return np.stack(_own_paths_xy(v, accels, v_max, times), axis=-1)
 
 
+def label_position(
+    centre: tuple[int, int], radius: int, size: tuple[int, int], bounds: tuple[int, int]
+) -> tuple[int, int]:
+    """Where a robot's label (``size`` px) goes: up and to the right of its disc (centre,
+    radius px), or to its left or below where that would leave the view (``bounds``
+    px), so that the label is never cut."""
+    w, h = size
+    x, y = centre[0] + radius + 5, centre[1] - radius - 14
+    if x + w > bounds[0]:
+        x = centre[0] - radius - 5 - w
+    if y < 0:
+        y = centre[1] + radius + 2
+    return max(0, min(x, bounds[0] - w)), max(0, min(y, bounds[1] - h))
+
+
 def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
     """Runs of region cells (label != -1) along the four edges of a panel's label grid
     (g, g): row 0 is the top, column 0 the left edge."""
@@ -602,7 +617,7 @@ class Viewer:
             label = self._small.render(
                 arena.robots[selected].name or f"robot{selected}", True, _TEXT
             )
-            surf.blit(label, (p[0] + r + 5, p[1] - r - 14))
+            surf.blit(label, label_position(p, r, label.get_size(), surf.get_size()))
         # scale bar on a light box, readable over walls and lanes
         bar_m = self._nice(80 / s)
         bar_px = int(bar_m * s)
