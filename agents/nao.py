@@ -107,7 +107,7 @@ from nao_arena.maps.loader import point_segment_distances
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.predictors import get_predictor
-from nao_arena.sensing import Observation, SensingBatch
+from nao_arena.sensing import Observation, SensingBatch, is_frozen
 
 from . import _nao_columns as col
 from ._nao_batch import (
@@ -1001,15 +1001,16 @@ _traffic_seen: tuple[Any, Any] = (None, None)
 
 
 def _traffic_mask(kinds: NDArray[np.str_]) -> NDArray[np.bool_] | None:
-    """Per body: whether it is traffic (None: no body is); worked out once per read-only
-    kinds array that owns its data (the arena's, which every step's batch shares)."""
+    """Per body: whether it is traffic (None: no body is); worked out once per frozen
+    kinds array (the arena's, which every step's batch shares; see
+    :func:`nao_arena.sensing.read_only`)."""
     global _traffic_seen
     seen_kinds, seen_mask = _traffic_seen
     if kinds is seen_kinds:
         return seen_mask
     mask = kinds == "traffic"
     found = mask if mask.any() else None
-    if not kinds.flags.writeable and kinds.base is None:
+    if is_frozen(kinds):
         _traffic_seen = (kinds, found)
     return found
 

@@ -344,9 +344,9 @@ class Arena:
         # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands
         plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)
         if self._kinds is None:
-            kinds = np.array(self.world.kinds)
-            kinds.setflags(write=False)  # read-only and owning its data: agents may cache by it
-            self._kinds = kinds
+            # frozen once (see read_only): every step's batch shares this one array, so
+            # agents may cache what they derive from it by its identity
+            self._kinds = read_only(np.array(self.world.kinds))
         start, index = neighbour_lists(
             self.robot_ids,
             state.positions,

@@ -26,6 +26,7 @@ __all__ = [
     "SensingBatch",
     "neighbour_lists",
     "neighbours_in_range",
+    "is_frozen",
     "read_only",
 ]
 
@@ -462,14 +463,14 @@ def read_only(array: NDArray) -> NDArray:
     raises ValueError on it and on every view of it, and no ``.base`` leads to writable
     memory). What agents sense is made of these: they share no writable memory with the
     arena."""
-    if _frozen(array):
+    if is_frozen(array):
         return array
     data = np.ascontiguousarray(array)
     frozen = np.frombuffer(data.tobytes(), dtype=data.dtype).reshape(data.shape)
     return frozen
 
 
-def _frozen(array: NDArray) -> bool:
+def is_frozen(array: NDArray) -> bool:
     """Whether ``array`` is read-only and its memory belongs to a ``bytes`` object."""
     if array.flags.writeable:
         return False
