@@ -45,6 +45,7 @@ import hashlib
 import inspect
 import math
 import os
+from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol, cast
@@ -85,8 +86,9 @@ __all__ = ["Arena", "ArenaOptions", "StepRecorder", "StepResult", "make_agent"]
 class ArenaOptions:
     """Settings of the control loop.
 
-    sensing_range (m) and max_neighbours: what each robot senses (None: the
-    map's ``sensing`` section);
+    sensing_range (m), max_neighbours and sensing_latency (s): what each robot senses
+    (None: the map's ``sensing`` section); actuation_noise (m/s^2): the standard deviation
+    of the noise on the robots' commands (None: the map's ``actuation`` section);
     known_path_horizon (s) / known_path_samples: the true future paths of
     traffic handed to agents; agent: if set, replaces every robot's agent
     (built-in name or plug-in reference) and agent_options are passed to
@@ -97,6 +99,8 @@ class ArenaOptions:
 
     sensing_range: float | None = None
     max_neighbours: int | None = None
+    sensing_latency: float | None = None
+    actuation_noise: float | None = None
     known_path_horizon: float = 6.0
     known_path_samples: int = 61
     agent: str | None = None
@@ -162,6 +166,13 @@ def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | N
     return cls(**kwargs)
 
 
+def _non_negative(name: str, value: float) -> float:
+    """``value`` (a finite number >= 0) as a float; ValueError naming ``name`` otherwise."""
+    if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name}: expected a finite number >= 0, got {value!r}")
+    return float(value)
+
+
 def _end_if_forked(pid: int) -> None:
     """End this process at once if it is not ``pid``: a process an agent forked while
     acting returns from ``act`` here, and the episode is not its to run."""
@@ -206,6 +217,22 @@ class Arena:
             if self.options.max_neighbours is None
             else self.options.max_neighbours
         )
+        self.sensing_latency = _non_negative(
+            "sensing_latency",
+            spec.sensing.latency
+            if self.options.sensing_latency is None
+            else self.options.sensing_latency,
+        )
+        self.actuation_noise = _non_negative(
+            "actuation_noise",
+            spec.actuation.noise
+            if self.options.actuation_noise is None
+            else self.options.actuation_noise,
+        )
+        # the batches of the last latency_steps + 1 control periods: agents act on the oldest
+        self._latency_steps = int(round(self.sensing_latency / self.world.dt))
+        self._sensed: deque[SensingBatch] = deque(maxlen=self._latency_steps + 1)
+        self._noise_rng = np.random.default_rng(0)
         self.agents: list[Any] = []
         self.stats: EpisodeStats | None = None
         self.state: WorldState | None = None
@@ -240,6 +267,10 @@ class Arena:
             if getattr(self, name) is not None:
                 setattr(self, name, read_only(getattr(self, name)))
         self.routes = ReadOnlyRoutes(None if r is None else read_only(r) for r in self.routes)
+        # the kept batches, frozen again (a copy's arrays are its own)
+        self._sensed = deque(
+            (dataclasses.replace(b) for b in self._sensed), maxlen=self._latency_steps + 1
+        )
         self._trajectory = hashlib.sha256()
         if self.state is not None:
             replica = World(self.spec)
@@ -256,7 +287,11 @@ class Arena:
         KeyboardInterrupt or EpisodeTimeout) raises :class:`~nao_arena.agent.AgentError`
         naming the agent, its robot and the exception."""
         self.state = self.world.reset()
-        seeds = np.random.SeedSequence(seed).spawn(len(self.robots))
+        # one generator per agent, then the actuation noise's (the agents' are the same
+        # whether or not there is noise)
+        *seeds, noise_seed = np.random.SeedSequence(seed).spawn(len(self.robots) + 1)
+        self._noise_rng = np.random.default_rng(noise_seed)
+        self._sensed.clear()
         self.agents = []
         for k, (robot, name, ss) in enumerate(
             zip(self.robots, self.agent_names, seeds, strict=True)
@@ -392,7 +427,7 @@ class Arena:
         commanded = np.zeros((self.world.n, 2))
         faults: list[AgentFault] = []
         actions = actions or {}
-        batch = self.sensing()
+        batch = self._as_sensed(self.sensing())
         found: dict[int, AgentFault] = {}
         batched, single = self._dispatch()
         for k, acc in actions.items():
@@ -431,6 +466,10 @@ class Arena:
                 f"the {limit} allowed (max_faults); the first: robot "
                 f"{first.name} at t = {first.time:.1f} s: {first.message}"
             )
+        if self.actuation_noise > 0.0:
+            commanded[self.robot_ids] += self._noise_rng.normal(
+                0.0, self.actuation_noise, (len(self.robot_ids), 2)
+            )
         idx = self.traffic.indices
         if len(idx):
             commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)
@@ -454,6 +493,14 @@ class Arena:
         if self.recorder is not None:
             self.recorder.step(self, batch, result, actions)
         return result
+
+    def _as_sensed(self, batch: SensingBatch) -> SensingBatch:
+        """What the agents sense this step: ``batch`` itself, or with a sensing latency the
+        batch of ``round(latency / dt)`` steps ago (the oldest kept, at the start)."""
+        if not self._latency_steps:
+            return batch
+        self._sensed.append(batch)
+        return self._sensed[0]
 
     def _dispatch(self) -> tuple[dict[type[BatchAgent], list[int]], list[int]]:
         """Robots whose agents act together (per class with an ``act_batch``, robot

@@ -139,6 +139,7 @@ from nao_arena.maps.schema import (
     MAX_TIME_LIMIT,
     MAX_TRIES,
     MIN_DT,
+    Actuation,
     BodySpec,
     Bounds,
     CircleLaneSpec,
@@ -158,6 +159,7 @@ from nao_arena.maps.schema import (
 
 __all__ = [
     "LAYOUTS",
+    "Actuation",
     "MAX_BODIES",
     "MAX_DT",
     "MAX_ITERATIONS",

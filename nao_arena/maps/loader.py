@@ -461,6 +461,7 @@ def map_from_dict(
         physics=mf.physics,
         episode=mf.episode,
         sensing=mf.sensing,
+        actuation=mf.actuation,
     )
     _check_geometry(file, spec, origins)
     _check_steps(file, "episode.time_limit", spec)

@@ -28,12 +28,14 @@ __all__ = [
     "MAX_BODIES",
     "MAX_ITERATIONS",
     "MAX_DT",
+    "MAX_LATENCY",
     "MAX_MAGNITUDE",
     "MAX_STEPS",
     "MAX_SUBSTEPS",
     "MAX_TIME_LIMIT",
     "MIN_DT",
     "MAX_TRIES",
+    "Actuation",
     "BodyCount",
     "BodySpec",
     "Bounds",
@@ -76,6 +78,8 @@ MAX_DT = 1.0
 """Longest control period ``physics.dt`` (s)."""
 MAX_TIME_LIMIT = 1e5
 """Longest episode ``episode.time_limit`` (s, about 28 h)."""
+MAX_LATENCY = 10.0
+"""Longest sensing latency ``sensing.latency`` (s)."""
 MAX_STEPS = 1_000_000
 """Most control periods in an episode (``episode.time_limit / physics.dt``)."""
 
@@ -338,10 +342,24 @@ class Episode(StrictModel):
 
 
 class Sensing(StrictModel):
-    """What robots sense: neighbours within ``range`` (m), at most ``max_neighbours``."""
+    """What robots sense: neighbours within ``range`` (m), at most ``max_neighbours``;
+    ``latency`` (s): how old what the robots' agents sense is (their own state, their
+    neighbours', plans and paths: the sensing of that many seconds ago, in whole control
+    periods, ``round(latency / physics.dt)``; at the start of an episode, the first
+    state). The statistics keep using the truth. 0: none."""
 
     range: Pos = 30.0
     max_neighbours: BodyCount | None = None
+    latency: Annotated[NonNeg, Field(le=MAX_LATENCY)] = 0.0
+
+
+class Actuation(StrictModel):
+    """How a robot's command reaches its motors: ``noise`` (m/s^2), the standard deviation
+    of Gaussian noise added to each component of each robot's commanded acceleration every
+    control period, drawn from the episode's generator (same seed, same noise), before
+    the world's limits. 0: none."""
+
+    noise: Annotated[NonNeg, Field(le=MAX_MAGNITUDE)] = 0.0
 
 
 class LayoutSpec(StrictModel):
@@ -367,6 +385,7 @@ class MapFile(StrictModel):
     physics: Physics = Physics()
     episode: Episode = Episode()
     sensing: Sensing = Sensing()
+    actuation: Actuation = Actuation()
 
 
 @dataclass(frozen=True)
@@ -409,6 +428,7 @@ class MapSpec(StrictModel):
     physics: Physics = Physics()
     episode: Episode = Episode()
     sensing: Sensing = Sensing()
+    actuation: Actuation = Actuation()
 
     def bodies(self) -> list[BodySpec]:
         """All bodies in world order: robots, then traffic vehicles group by group."""
