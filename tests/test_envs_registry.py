@@ -199,6 +199,8 @@ def fingerprint(name: str) -> str:
         (options, "named_agents", {}),
         (options, "agent_names", "map"),
         (options["arena"], "max_faults", None),
+        (options["arena"], "sensing_latency", None),
+        (options["arena"], "actuation_noise", None),
     ):
         if section[key] == neutral:
             del section[key]

@@ -104,7 +104,12 @@ Top level
 ``episode``: ``time_limit`` (s, > 0, default 60), ``goal_tolerance`` (m from
     the goal at which a robot has arrived, default 0.3).
 ``sensing``: ``range`` (m, default 30): robots sense the bodies within it;
-    ``max_neighbours`` (default: no limit), the nearest first.
+    ``max_neighbours`` (default: no limit), the nearest first; ``latency`` (s,
+    default 0): the agents act on what they sensed that long ago (whole control
+    periods; the statistics use the truth).
+``actuation``: ``noise`` (m/s^2, default 0): the standard deviation of Gaussian noise
+    added to each component of every robot's command each control period (the
+    episode's generator), before the world's limits.
 
 Body order (the world's, the stats', the agents'): hand-placed robots,
 then layout robots (layout by layout), then traffic (group by group,

@@ -14,6 +14,7 @@ from pydantic import BaseModel
 from nao_arena.maps.errors import show_value
 from nao_arena.maps.layouts import LAYOUTS
 from nao_arena.maps.schema import (
+    Actuation,
     Bounds,
     CircleLaneSpec,
     Episode,
@@ -52,6 +53,7 @@ def sections() -> list[tuple[str, type[BaseModel]]]:
         ("physics", Physics),
         ("episode", Episode),
         ("sensing", Sensing),
+        ("actuation", Actuation),
     ]
 
 
