@@ -133,6 +133,10 @@ from nao_arena.agent import PanelAgent
 from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
 from nao_arena.sensing import Observation, SensingBatch
 
+from ._kernel_inputs import f64 as _f64
+from ._kernel_inputs import i64 as _i64
+from ._kernel_inputs import robot_mask as _reactive
+
 __all__ = ["CBFAgent", "CBFStats", "cbf_accelerations", "constraint_rows", "solve_qp"]
 
 CONTACT_GAP = 1e-9
@@ -858,24 +862,3 @@ def _batch_accelerations(
     for ag, s, v in zip(agents, status.tolist(), violation.tolist(), strict=True):
         ag.stats.record(s, v)
     return out
-
-
-def _f64(a: Any) -> NDArray[np.float64]:
-    """A contiguous float64 array (a copy only where needed: a batch's read-only arrays
-    go to the kernel as they are)."""
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _i64(a: Any) -> NDArray[np.int64]:
-    """A contiguous int64 array (a copy only where needed, as :func:`_f64`)."""
-    return np.ascontiguousarray(a, dtype=np.int64)
-
-
-_REACTIVE: list[Any] = [None, None]
-
-
-def _reactive(kinds: NDArray[np.str_]) -> NDArray[np.bool_]:
-    """Which bodies are robots (they reciprocate), memoised for the last kinds array."""
-    if _REACTIVE[0] is not kinds:
-        _REACTIVE[0], _REACTIVE[1] = kinds, np.asarray(kinds) == "robot"
-    return _REACTIVE[1]

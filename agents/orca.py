@@ -39,6 +39,9 @@ from nao_arena.agent import PanelAgent
 from nao_arena.obstacles import NO_WALLS, wall_discs_memo
 from nao_arena.sensing import Observation, SensingBatch
 
+from ._kernel_inputs import f64 as _f64
+from ._kernel_inputs import i64 as _i64
+from ._kernel_inputs import robot_mask as _reactive
 from .goal import goal_target
 
 __all__ = ["ORCAAgent", "orca_accelerations"]
@@ -455,12 +458,6 @@ def _wall_sets(
     )
 
 
-def _f64(a: Any) -> NDArray[np.float64]:
-    """A contiguous float64 array (a copy only where needed: a batch's read-only arrays
-    go to the kernel as they are)."""
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
 class ORCAAgent:
     """Options: horizon (s), margin (m), v_pref (m/s), time_constant (s), sensing_range (m),
     max_neighbours."""
@@ -670,18 +667,3 @@ def _every_goal(n: int) -> NDArray[np.bool_]:
             _EVERY_GOAL.clear()
         every = _EVERY_GOAL[n] = np.ones(n, dtype=np.bool_)
     return every
-
-
-def _i64(a: Any) -> NDArray[np.int64]:
-    """A contiguous int64 array (a copy only where needed, as :func:`_f64`)."""
-    return np.ascontiguousarray(a, dtype=np.int64)
-
-
-_REACTIVE: list[Any] = [None, None]
-
-
-def _reactive(kinds: NDArray[np.str_]) -> NDArray[np.bool_]:
-    """Which bodies are robots (they reciprocate), memoised for the arena's kinds array."""
-    if _REACTIVE[0] is not kinds:
-        _REACTIVE[0], _REACTIVE[1] = kinds, np.asarray(kinds) == "robot"
-    return _REACTIVE[1]

@@ -358,6 +358,15 @@ class MapYamlLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep)
 
 
+def yaml_error(file: str | Path, exc: yaml.YAMLError) -> str:
+    """The one-line message of a YAML file that cannot be read: the file, the line and
+    column, and the problem."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "(top level)"
+    problem = getattr(exc, "problem", None) or str(exc)
+    return f"{file}: {where}: expected valid YAML ({problem})"
+
+
 def parse_yaml(text: str) -> Any:
     """The data of a map's YAML text (or of a parameter's value), read with
     :class:`MapYamlLoader`. Raises ``yaml.YAMLError``."""
@@ -390,10 +399,7 @@ def load_map(
     try:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "(top level)"
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise MapError(f"{file}: {where}: expected valid YAML ({problem})") from None
+        raise MapError(yaml_error(file, exc)) from None
     default_name = Path(file).name.removesuffix(".yaml").removesuffix(".yml")
     return map_from_dict(
         data, file, rng=rng, default_name=default_name, trusted=trusted, agents=agents, **overrides

@@ -36,7 +36,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from nao_arena.maps.errors import MapError, validation_error
-from nao_arena.maps.loader import parse_yaml
+from nao_arena.maps.loader import parse_yaml, yaml_error
 from nao_arena.maps.schema import MAX_TIME_LIMIT, Num
 
 __all__ = ["Experiment", "ExperimentError", "read_experiment"]
@@ -85,10 +85,7 @@ def read_experiment(path: str | Path) -> Experiment:
     try:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "(top level)"
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise ExperimentError(f"{file}: {where}: expected valid YAML ({problem})") from None
+        raise ExperimentError(yaml_error(file, exc)) from None
     if not isinstance(data, dict):
         raise ExperimentError(f"{file}: (top level): expected a mapping of trial options")
     for key in ("maps", "agents"):
