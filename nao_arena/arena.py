@@ -84,29 +84,33 @@ __all__ = ["Arena", "ArenaOptions", "StepRecorder", "StepResult", "make_agent"]
 
 @dataclass(frozen=True)
 class ArenaOptions:
-    """Settings of the control loop.
-
-    sensing_range (m), max_neighbours and sensing_latency (s): what each robot senses
-    (None: the map's ``sensing`` section); actuation_noise (m/s^2): the standard deviation
-    of the noise on the robots' commands (None: the map's ``actuation`` section);
-    known_path_horizon (s) / known_path_samples: the true future paths of
-    traffic handed to agents; agent: if set, replaces every robot's agent
-    (built-in name or plug-in reference) and agent_options are passed to
-    the agents' constructors; stats: statistics thresholds; max_faults: the
-    episode fails (:class:`~nao_arena.agent.TooManyFaults` from :meth:`Arena.step`)
-    once its agents have faulted more than this many times (None: never).
-    """
+    """Settings of the control loop; a None field takes the map's value."""
 
     sensing_range: float | None = None
+    """Radius (m) within which a robot senses bodies; None: the map's ``sensing.range``."""
     max_neighbours: int | None = None
+    """The most bodies a robot senses, nearest first; None: the map's
+    ``sensing.max_neighbours``."""
     sensing_latency: float | None = None
+    """Age (s) of what the agents sense (whole control periods); None: the map's
+    ``sensing.latency``."""
     actuation_noise: float | None = None
+    """Standard deviation (m/s^2) of the Gaussian noise added to each component of the
+    robots' commands; None: the map's ``actuation.noise``."""
     known_path_horizon: float = 6.0
+    """Horizon (s) of the true future paths of traffic handed to agents."""
     known_path_samples: int = 61
+    """Time samples of those paths over the horizon."""
     agent: str | None = None
+    """If set, replaces every robot's agent (built-in name or plug-in reference)."""
     agent_options: Mapping[str, Any] = field(default_factory=dict)
+    """Keyword options passed to the agents' constructors."""
     stats: StatsConfig = field(default_factory=StatsConfig)
+    """Thresholds of the statistics (:class:`~nao_arena.stats.StatsConfig`)."""
     max_faults: int | None = None
+    """The episode fails (:class:`~nao_arena.agent.TooManyFaults` from
+    :meth:`Arena.step`) once its agents have faulted more than this many times; None:
+    never."""
 
     def __post_init__(self) -> None:
         if self.max_faults is not None and (

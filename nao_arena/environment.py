@@ -202,65 +202,90 @@ _BOUND_SLACK = 1e-6
 
 @dataclass(frozen=True)
 class RewardWeights:
-    """Reward weights: progress (per m towards the goal), collision (per contact
-    episode started), accel_change (per unit of |a_t - a_(t-1)| / a_max), goal
-    (once, on arrival), step (per control step)."""
+    """Weights of the terms of each agent's reward (see "Rewards" in the module docstring)."""
 
     progress: float = 1.0
+    """Per m the robot came closer to its goal in the step (negative when it moved away)."""
     collision: float = 10.0
+    """Subtracted per contact episode of the robot that started in the step."""
     accel_change: float = 0.1
+    """Subtracted per unit of |a_t - a_(t-1)| / a_max, the change of the commanded
+    acceleration as a fraction of the robot's a_max."""
     goal: float = 10.0
+    """Added in the step the robot reaches its goal (its agent then terminates)."""
     step: float = 0.0
+    """Subtracted every control step (a time penalty)."""
 
 
 @dataclass(frozen=True)
 class EnvOptions:
-    """Settings of the environment (see the module docstring).
-
-    controlled: "all" or robot names / indices; max_neighbours: K rows of
-    the neighbour block; nao_*: the optional NAO clearance block (rings as
-    fractions of a_max, horizon s, samples per horizon, margin m, clip m);
-    rewards; terminate_on_collision; time_limit (s, None: the map's);
-    after_done: what drives a robot whose agent is done ("agent" or "hold");
-    reseed_map: reset(seed) also seeds the map; arena: options of the
-    control loop; render_size: frame (width, height) px; selected: robot
-    (name or index) shown in the viewer's acceleration panel (None: the
-    first controlled one); keep_finished: agents stay in ``agents`` until the
-    episode ends (see "Agents that finish"); position_margin (m): None, or
-    positions clipped to the map's bounds grown by this margin (see
-    "Observation bounds"); trust_map: the map may name code (``FILE.py:Class``,
-    ``module:Class``) as its robots' agents; named_agents: agent names the map may use
-    (name -> agent reference); see :func:`nao_arena.maps.load_map`; agent_names:
-    ``"map"`` (the robots' names, e.g. ``east0``) or ``"grouped"``
-    (``<group>_<k>``: the name without its trailing digits, then the robot's index in
-    that group, e.g. ``east_0``; what TorchRL and BenchMARL group agents by, so that
-    robots of one group share a policy).
-    """
+    """Settings of the environment (see the module docstring); every field is also a
+    keyword of :func:`parallel_env` and :func:`env`."""
 
     controlled: str | Sequence[str | int] = "all"
+    """The robots driven by the env's actions: ``"all"`` or robot names / indices (every
+    other robot is driven by its own agent inside ``step``)."""
     max_neighbours: int = 6
+    """K, the number of neighbour rows of the observation (the K nearest bodies within
+    the arena's sensing range)."""
     nao_features: bool = False
+    """Whether the observation holds the NAO clearance block (``nao``)."""
     nao_rings: tuple[float, ...] = (0.0, 0.5, 1.0)
+    """Magnitudes of the NAO block's candidate accelerations, as fractions of a_max."""
     nao_angles: int = 8
+    """Directions per non-zero ring of the NAO block, from +x counter-clockwise (world
+    frame)."""
     nao_horizon: float = 3.0
+    """Horizon of the NAO block's predicted paths (s)."""
     nao_samples: int = 31
+    """Time samples of the NAO block's predicted paths over the horizon."""
     nao_predictor: str = "turn_rate"
+    """Predictor of the neighbours' paths for the NAO block: ``constant_velocity``,
+    ``constant_acceleration`` or ``turn_rate``."""
     nao_margin: float = 0.0
+    """Safety margin added to the sum of the radii in the NAO block (m)."""
     nao_walls: bool = True
+    """Whether the NAO block counts the map's nearby walls as obstacles."""
     nao_clip: float = 10.0
+    """The NAO block's clearances are clipped to [-nao_clip, nao_clip] (m)."""
     rewards: RewardWeights = field(default_factory=RewardWeights)
+    """The reward's weights (:class:`RewardWeights`, or a dict of its fields)."""
     terminate_on_collision: bool = False
+    """Whether an agent terminates at its robot's first contact."""
     time_limit: float | None = None
+    """Episode length (s) after which every live agent is truncated; None: the map's
+    ``time_limit``."""
     after_done: Literal["agent", "hold"] = "agent"
+    """What drives a robot whose agent is done: ``"agent"``, its own built-in agent (the
+    NAO agent holds it at its goal); ``"hold"``, braking to a stop."""
     reseed_map: bool = True
+    """Whether ``reset(seed=s)`` also passes s to the map (a map with random placement
+    then changes with the seed)."""
     arena: ArenaOptions = field(default_factory=ArenaOptions)
+    """Options of the control loop (:class:`~nao_arena.arena.ArenaOptions`, or a dict of
+    its fields)."""
     render_size: tuple[int, int] = (1200, 800)
+    """Size (width, height) of rendered frames (px)."""
     selected: str | int | None = None
+    """The robot (name or index) shown in the viewer's acceleration panel; None: the
+    first controlled one."""
     keep_finished: bool = False
+    """Whether agents stay in ``agents`` until the episode ends (see "Agents that
+    finish"); vector envs need it."""
     position_margin: float | None = None
+    """None, or positions in the observation are clipped to the map's bounds grown by
+    this margin (m) (see "Observation bounds")."""
     trust_map: bool = False
+    """Whether the map may name code (``FILE.py:Class``, ``module:Class``) as its robots'
+    agents (see :func:`nao_arena.maps.load_map`)."""
     named_agents: Mapping[str, str] = field(default_factory=dict)
+    """Agent names the map may use, name -> agent reference (see
+    :func:`nao_arena.maps.load_map`)."""
     agent_names: Literal["map", "grouped"] = "map"
+    """``"map"``: the robots' names (e.g. ``east0``); ``"grouped"``: ``<group>_<k>``, the
+    name without its trailing digits, then the robot's index in that group (e.g.
+    ``east_0``): what TorchRL and BenchMARL group agents by, so that the robots of one
+    group share a policy."""
 
     def __post_init__(self) -> None:
         if self.position_margin is not None and not (

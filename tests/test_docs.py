@@ -20,6 +20,7 @@ parse.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import importlib.util
 import io
 import os
@@ -119,6 +120,51 @@ def test_the_site_builds_strict(tmp_path):
         if not name.startswith("_"):
             assert f'id="nao_arena.{name}"' in api, name
     assert ":class:" not in api  # Sphinx roles are turned into Markdown
+    options = (site / "reference" / "options" / "index.html").read_text(encoding="utf-8")
+    for name in ("agent_names", "max_faults", "ttc_horizon", "accel_change"):
+        assert f"<code>{name}</code>" in options, name
+
+
+def _generator():
+    """The docs build's hook module (docs/_hooks/generate.py), imported from its file."""
+    spec = importlib.util.spec_from_file_location("_docs_generate", DOCS / "_hooks" / "generate.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_option_field_is_documented_under_its_field():
+    generate = _generator()
+    for ref in generate.OPTION_CLASSES:
+        cls = generate._option_class(ref)
+        docs = generate.field_docs(cls)
+        missing = [f.name for f in dataclasses.fields(cls) if not docs.get(f.name)]
+        assert not missing, f"{ref}: fields without a docstring under them: {missing}"
+    table = generate.options_reference()
+    for ref in generate.OPTION_CLASSES:
+        for f in dataclasses.fields(generate._option_class(ref)):
+            assert f"| `{f.name}` |" in table, f.name
+
+
+def test_field_docs_reads_only_docstrings_under_fields():
+    generate = _generator()
+
+    @dataclasses.dataclass
+    class Example:
+        """Not a field's."""
+
+        documented: int = 1
+        """Its meaning, in m."""
+        bare: float = 2.0
+        after_bare: str = "x"
+        """Two
+        lines."""
+
+    assert generate.field_docs(Example) == {
+        "documented": "Its meaning, in m.",
+        "after_bare": "Two lines.",
+    }
 
 
 def _subcommands() -> list[str]:

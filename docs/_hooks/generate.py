@@ -8,7 +8,10 @@ A page asks for a part with a marker line of its own, e.g. ``<!-- generated: cli
 - ``map-schema``: the map file format (``nao_arena.maps.format_reference()``, what
   ``nao-arena maps --schema`` prints);
 - ``trial-legend``: the legend ``nao-arena trial`` prints under its table
-  (``nao_arena.trials.TABLE_LEGEND``).
+  (``nao_arena.trials.TABLE_LEGEND``);
+- ``options``: every field of the settings dataclasses (:data:`OPTION_CLASSES`: the env's,
+  its rewards', the control loop's and the statistics'), its type, default and meaning,
+  from the docstring written under each field (:func:`field_docs`).
 
 The hook imports nao_arena from the checkout that holds mkdocs.yml (put first on
 ``sys.path``), so the site documents the source it is built from.
@@ -17,8 +20,12 @@ The hook imports nao_arena from the checkout that holds mkdocs.yml (put first on
 from __future__ import annotations
 
 import argparse
+import ast
+import dataclasses
+import inspect
 import re
 import sys
+import textwrap
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -151,8 +158,77 @@ def trial_legend() -> str:
     return "```text\n" + TABLE_LEGEND.rstrip("\n") + "\n```"
 
 
+OPTION_CLASSES = (
+    "nao_arena.environment:EnvOptions",
+    "nao_arena.environment:RewardWeights",
+    "nao_arena.arena:ArenaOptions",
+    "nao_arena.stats:StatsConfig",
+)
+"""The settings dataclasses the ``options`` part documents, as ``module:Class``."""
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """The docstring written under each field of the dataclass ``cls`` (field name -> text
+    on one line); a field without one is missing from the result."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    body = tree.body[0].body  # type: ignore[attr-defined]
+    docs = {}
+    for stmt, after in zip(body, body[1:], strict=False):
+        if (
+            isinstance(stmt, ast.AnnAssign)
+            and isinstance(stmt.target, ast.Name)
+            and isinstance(after, ast.Expr)
+            and isinstance(after.value, ast.Constant)
+            and isinstance(after.value.value, str)
+        ):
+            docs[stmt.target.id] = " ".join(after.value.value.split())
+    return docs
+
+
+def _option_class(ref: str) -> type:
+    import importlib
+
+    module, name = ref.split(":")
+    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+
+
+def _field_default(f: dataclasses.Field[Any]) -> str:
+    if f.default is not dataclasses.MISSING:
+        return f"`{f.default!r}`"
+    if f.default_factory is not dataclasses.MISSING:
+        made = f.default_factory()
+        return "`{}`" if made == {} else f"`{type(made).__name__}()`"
+    return "required"
+
+
+def _roles(text: str) -> str:
+    """Sphinx roles (``:class:`~a.b.C` ``) and reST literals (````x````) as Markdown code."""
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", lambda m: f"`{m.group(1).split('.')[-1]}`", text)
+    return text.replace("``", "`")
+
+
+def options_reference() -> str:
+    parts = []
+    for ref in OPTION_CLASSES:
+        cls = _option_class(ref)
+        docs = field_docs(cls)
+        module = ref.split(":")[0]
+        summary = _roles(" ".join((cls.__doc__ or "").split()))
+        lines = [f"## `{cls.__name__}`", "", f"`{module}.{cls.__name__}`: {summary}", ""]
+        lines += ["| field | type | default | meaning |", "| --- | --- | --- | --- |"]
+        for f in dataclasses.fields(cls):
+            kind = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+            lines.append(
+                f"| `{f.name}` | `{_cell(str(kind))}` | {_field_default(f)} | "
+                f"{_cell(_roles(docs.get(f.name, '')))} |"
+            )
+        parts.append("\n".join(lines))
+    return "\n\n".join(parts)
+
+
 PARTS: dict[str, Callable[[], str]] = {
     "cli": cli_reference,
     "map-schema": map_schema,
     "trial-legend": trial_legend,
+    "options": options_reference,
 }

@@ -19,25 +19,26 @@ __all__ = ["ContactEvent", "EpisodeSummary", "FaultEvent", "RobotSummary", "Stat
 
 @dataclass(frozen=True)
 class StatsConfig:
-    """Thresholds of the statistics.
-
-    near_miss_distance (m): separation below which a proximity episode
-    starts; hysteresis (m): an episode ends when the separation exceeds its
-    threshold by this much; adjustment_threshold (m/s^2): a change of the
-    commanded acceleration larger than this is an adjustment;
-    separation_range (m): minimum separations are tracked exactly below it;
-    ttc_horizon (s): longer times to collision count as none; stuck_window (s) and
-    stuck_progress (m): a robot away from its goal is stuck while it came less than
-    stuck_progress closer to its goal over the last stuck_window.
-    """
+    """Thresholds of the statistics."""
 
     near_miss_distance: float = 0.2
+    """Separation (m, between surfaces) below which a proximity episode (near miss)
+    starts."""
     hysteresis: float = 0.01
+    """A proximity episode ends when the separation exceeds its threshold by this much
+    (m)."""
     adjustment_threshold: float = 0.1
+    """A change of the commanded acceleration larger than this (m/s^2) is an
+    adjustment."""
     separation_range: float = 1.0
+    """Minimum separations (m) are tracked exactly below this separation."""
     ttc_horizon: float = 5.0
+    """Times to collision longer than this (s) count as none."""
     stuck_window: float = 5.0
+    """A robot away from its goal is stuck while it came less than ``stuck_progress``
+    closer to its goal over the last this many seconds (s)."""
     stuck_progress: float = 0.1
+    """See ``stuck_window`` (m)."""
 
     def __post_init__(self) -> None:
         if self.separation_range < self.near_miss_distance + self.hysteresis:
