@@ -681,6 +681,12 @@ class NaoArenaParallelEnv(ParallelEnv):
         """The episode's time limit (s)."""
         return float(self.spec.episode.time_limit)
 
+    @property
+    def max_steps(self) -> int:
+        """The control steps of an episode that runs to its time limit (every agent is
+        truncated in that step at the latest)."""
+        return math.ceil(self.time_limit / self.arena.world.dt - 1e-9)
+
     def reset(
         self, seed: int | None = None, options: Mapping[str, Any] | None = None
     ) -> tuple[dict[str, NDArray[np.float32]], dict[str, dict[str, Any]]]:
