@@ -8,14 +8,17 @@ its status, and, for robots whose agent predicts its neighbours (``nao``,
 ``ao``), where it predicted the other would be against where the other
 went. :attr:`Explanation.text` sums it up in one paragraph (what ``nao-arena
 explain`` prints); :func:`explain_figure` draws it: the two paths against
-the predictions (world frame, m) beside each robot's acceleration panel as
-the viewer draws it at that step, with the decision taken there.
+the predictions, among the walls and the other bodies near them (world
+frame, m, in the viewer's colours, :mod:`nao_arena.render.colours`), beside
+each robot's acceleration panel as the viewer draws it at that step, with the
+decision taken there.
 """
 
 from __future__ import annotations
 
 import math
 import textwrap
+from collections.abc import Collection
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -25,12 +28,14 @@ from numpy.typing import NDArray
 
 from nao_arena.agents.goal import goal_seeking_accel
 from nao_arena.episode_log import EpisodeLog
+from nao_arena.maps import MapSpec, SegmentWall
 from nao_arena.stats import ContactEvent
 
 if TYPE_CHECKING:  # matplotlib and the viewer load only when a picture is drawn
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+    from nao_arena.render.colours import Colour
     from nao_arena.render.viewer import ViewerOptions
 
 __all__ = [
@@ -68,7 +73,9 @@ class Party:
     where it predicted the other would be (None: not sensed, or no predictions);
     error_at_contact: distance (m) between that prediction and where the other was at
     the contact's start; status_since: time (s) of the state from which its current
-    status (the same status, or nothing admissible) holds without a break.
+    status (the same status, or nothing admissible) holds without a break; neighbour:
+    the other's index among the neighbours it sensed then, nearest first (the viewer
+    colours that neighbour's prediction and NAO by it; None: not sensed).
     """
 
     body: int
@@ -86,6 +93,7 @@ class Party:
     predicted_other: NDArray[np.float64] | None = None
     error_at_contact: float | None = None
     status_since: float | None = None
+    neighbour: int | None = None
 
 
 @dataclass(frozen=True)
@@ -113,10 +121,10 @@ def _position_at(log: EpisodeLog, body: int, t: float) -> NDArray[np.float64]:
 
 def _prediction_of(
     log: EpisodeLog, step: int, robot: int, other: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-    """(times (T,) s from the state of row step - 1, predicted centres (T, 2) m) of body
-    ``other`` by robot ``robot`` for its decision of row ``step``; None if it predicts
-    nothing or did not sense the other."""
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int] | None:
+    """(times (T,) s from the state of row step - 1, predicted centres (T, 2) m, the
+    other's index among the sensed neighbours) of body ``other`` by robot ``robot`` for
+    its decision of row ``step``; None if it predicts nothing or did not sense the other."""
     inputs = log.decision_inputs(step, robot)
     if inputs.predicted is None or inputs.times is None:
         return None
@@ -124,7 +132,8 @@ def _prediction_of(
     hit = np.flatnonzero(ids == other)
     if not len(hit):
         return None
-    return inputs.times, inputs.predicted[int(hit[0])]
+    j = int(hit[0])
+    return inputs.times, inputs.predicted[j], j
 
 
 def _predicted_at(
@@ -188,11 +197,11 @@ def _with_prediction(
     pred = _prediction_of(log, step, party.robot, other.body)
     if pred is None:
         return party
-    times, path = pred
+    times, path, j = pred
     tau = t_contact - float(log.time[step - 1])
     at = _predicted_at(times, path, tau)
     err = None if at is None else float(np.hypot(*(at - _position_at(log, other.body, t_contact))))
-    return replace(party, times=times, predicted_other=path, error_at_contact=err)
+    return replace(party, times=times, predicted_other=path, error_at_contact=err, neighbour=j)
 
 
 def explain_contact(log: EpisodeLog, number: int) -> Explanation:
@@ -348,9 +357,10 @@ def _summary(
 def explain_figure(
     log: EpisodeLog, expl: Explanation, options: ViewerOptions | None = None
 ) -> Figure:
-    """A matplotlib Figure of the explanation: the paths and predictions (left) and the
-    robots' acceleration panels at the step before, as the viewer draws them (with the
-    decision taken there), and the text."""
+    """A matplotlib Figure of the explanation: the paths and predictions around the pair
+    with the walls and other bodies near them (left, world frame, m, in the viewer's
+    colours) and the robots' acceleration panels at the step before, as the viewer draws
+    them (with the decision taken there), and the text."""
     from matplotlib.figure import Figure
 
     from nao_arena.render.replay import Replayer
@@ -361,10 +371,10 @@ def explain_figure(
     grid = fig.add_gridspec(
         2, 1 + len(robots), height_ratios=[8.2, 1.6], width_ratios=[6.0] + [4.2] * len(robots)
     )
-    ax = fig.add_subplot(grid[0, 0])
-    _draw_paths(ax, log, expl)
     vopts = options or ViewerOptions()
     replayer = Replayer(log, options=vopts)
+    ax = fig.add_subplot(grid[0, 0])
+    _draw_paths(ax, log, expl, replayer.arena.controlled)
     h = vopts.size[1]
     for i, p in enumerate(robots):
         assert p.robot is not None
@@ -392,86 +402,248 @@ def explain_figure(
     return fig
 
 
-_COLOURS = ("tab:blue", "tab:orange")
+@dataclass(frozen=True)
+class _Window:
+    """What the left plot shows: log rows first <= before <= last (the look-back, the
+    state before the contact, the end of the longest horizon), the contact's time (s)
+    and the square box lo .. hi (m) around the pair."""
+
+    first: int
+    before: int
+    last: int
+    t_contact: float
+    lo: NDArray[np.float64]
+    hi: NDArray[np.float64]
+
+    def holds(self, points: NDArray[np.float64], margin: float = 0.0) -> bool:
+        """Whether any of points (n, 2) m lies in the box grown by margin (m)."""
+        inside = (points >= self.lo - margin) & (points <= self.hi + margin)
+        return bool(np.any(np.all(inside, axis=1)))
 
 
-def _draw_paths(ax: Axes, log: EpisodeLog, expl: Explanation) -> None:
-    """World view around the pair: where they went and where each predicted the other."""
+def _body_colour(log: EpisodeLog, body: int, controlled: Collection[int] = ()) -> Colour:
+    """The viewer's fill colour of a body: a robot's by its agent's label (red when
+    driven from outside, robot indices ``controlled``), else the traffic colour."""
+    from nao_arena.render.colours import TRAFFIC_COLOUR, robot_colour
+
+    hit = np.flatnonzero(log.robot_ids == body)
+    if not len(hit):
+        return TRAFFIC_COLOUR
+    k = int(hit[0])
+    return robot_colour(log.robots[k].label, k in set(controlled))
+
+
+def _capsule(a: NDArray[np.float64], b: NDArray[np.float64], half: float) -> NDArray[np.float64]:
+    """The outline (K, 2) m of the capsule of radius ``half`` (m) around segment a-b (m)."""
+    d = b - a
+    theta = math.atan2(float(d[1]), float(d[0])) if float(np.hypot(*d)) > 0.0 else 0.0
+    arc = theta + np.linspace(-0.5 * math.pi, 0.5 * math.pi, 13)
+    around_b = b + half * np.stack([np.cos(arc), np.sin(arc)], axis=1)
+    around_a = a + half * np.stack([np.cos(arc + math.pi), np.sin(arc + math.pi)], axis=1)
+    return np.vstack([around_b, around_a])
+
+
+def _wall_outlines(spec: MapSpec) -> list[NDArray[np.float64]]:
+    """The map's walls as the viewer draws them, as closed outlines (K, 2) m: segment
+    walls and the bound walls as capsules of half their thickness, polygon walls as
+    their polygons."""
+    out = []
+    for wall in spec.walls:
+        if isinstance(wall, SegmentWall):
+            out.append(_capsule(np.array(wall.a), np.array(wall.b), wall.thickness / 2))
+        else:
+            out.append(np.asarray(wall.points, dtype=float))
+    half = spec.bounds.wall_thickness / 2
+    for a, b in spec.bound_wall_segments():
+        out.append(_capsule(np.array(a, dtype=float), np.array(b, dtype=float), half))
+    return out
+
+
+def _draw_walls(ax: Axes, spec: MapSpec, win: _Window) -> None:
+    """The walls that reach into the window's box, filled in the viewer's wall colour."""
+    from matplotlib.patches import Polygon
+
+    from nao_arena.render.colours import WALL_COLOUR, to_unit
+
+    colour = to_unit(WALL_COLOUR)
+    near = [
+        w
+        for w in _wall_outlines(spec)
+        if np.all(w.max(axis=0) >= win.lo) and np.all(w.min(axis=0) <= win.hi)
+    ]
+    for n, outline in enumerate(near):
+        ax.add_patch(
+            Polygon(
+                outline,
+                closed=True,
+                facecolor=colour,
+                edgecolor=colour,
+                label="walls" if n == 0 else None,
+                zorder=1,
+            )
+        )
+
+
+def _draw_others(
+    ax: Axes, log: EpisodeLog, parties: Collection[int], win: _Window, controlled: Collection[int]
+) -> None:
+    """The bodies besides the parties that come into the window's box (m) during its
+    rows: their paths over those rows (thin) and their discs at the contact (dotted,
+    faintly filled), in their viewer colours."""
     from matplotlib.patches import Circle
+
+    from nao_arena.render.colours import to_unit
+
+    radii = log.scene().world.radii
+    robots = {int(b) for b in log.robot_ids}
+    rows = slice(win.first, win.last + 1)
+    near = [
+        i
+        for i in range(log.n_bodies)
+        if i not in parties and win.holds(log.positions[rows, i], float(radii[i]))
+    ]
+    span = f"t = {log.time[win.first]:.1f} .. {log.time[win.last]:.1f} s"
+    for kind, group in (
+        ("other robots", [i for i in near if i in robots]),
+        ("traffic", [i for i in near if i not in robots]),
+    ):
+        for n, i in enumerate(group):
+            colour = to_unit(_body_colour(log, i, controlled))
+            label = f"{kind} nearby ({len(group)}): paths, {span}" if n == 0 else None
+            ax.plot(*log.positions[rows, i].T, "-", color=colour, lw=1.0, alpha=0.6, label=label)
+            at = _position_at(log, i, win.t_contact)
+            ax.add_patch(
+                Circle(
+                    (float(at[0]), float(at[1])),
+                    float(radii[i]),
+                    facecolor=(*colour, 0.15),
+                    edgecolor=colour,
+                    ls=":",
+                    lw=1.2,
+                    zorder=2,
+                )
+            )
+
+
+def _draw_party(
+    ax: Axes, log: EpisodeLog, p: Party, fill: Colour, win: _Window, horizon: float
+) -> None:
+    """One party's path before and after the step before the contact, its discs then
+    (filled, named) and at the contact (dotted) and its chosen acceleration, in its
+    viewer colour ``fill``."""
+    from matplotlib.patches import Circle
+
+    from nao_arena.render.colours import outline_colour, to_unit
+
+    colour, edge = to_unit(fill), to_unit(outline_colour(fill))
+    before = win.before
+    came = log.positions[win.first : before + 1, p.body]
+    path = log.positions[before : win.last + 1, p.body]
+    back = log.time[before] - log.time[win.first]
+    ax.plot(
+        *came.T, "-", color=colour, lw=1.0, alpha=0.5, label=f"{p.name}: the {back:.1f} s before"
+    )
+    ax.plot(*path.T, "-", color=colour, lw=2.0, label=f"{p.name}: where it went ({horizon:.1f} s)")
+    r = float(log.scene().world.radii[p.body])
+    start = log.positions[before, p.body]
+    ax.add_patch(Circle(tuple(start), r, facecolor=(*colour, 0.35), edgecolor=edge, zorder=4))
+    at = _position_at(log, p.body, win.t_contact)
+    ax.add_patch(Circle(tuple(at), r, fill=False, edgecolor=colour, ls=":", lw=1.2, zorder=4))
+    ax.annotate(
+        p.name,
+        xy=tuple(start),
+        xytext=(6, 6),
+        textcoords="offset points",
+        color=edge,
+        fontsize="small",
+        zorder=5,
+    )
+    if p.chosen is not None and p.velocity is not None:
+        ax.annotate(
+            "",
+            xy=tuple(start + 0.5 * p.chosen),
+            xytext=tuple(start),
+            arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5},
+        )
+
+
+def _draw_prediction(ax: Axes, p: Party, other: Party) -> None:
+    """Where p predicted the other (dashed, in the viewer's colour of that neighbour)."""
+    from nao_arena.render.colours import neighbour_colour, to_unit
+
+    if p.predicted_other is None:
+        return
+    colour = to_unit(neighbour_colour(0 if p.neighbour is None else p.neighbour))
+    ax.plot(
+        *p.predicted_other.T,
+        "--",
+        color=colour,
+        lw=1.5,
+        label=f"{other.name} as {p.name} predicted it ({p.predictor})",
+    )
+
+
+def _contact_point(log: EpisodeLog, ev: ContactEvent) -> NDArray[np.float64]:
+    """Where the viewer marks a contact (m): the midpoint of the pair (the robot's
+    centre against a wall) at the contact's time."""
+    hit = _position_at(log, ev.a, ev.time)
+    if ev.kind_b != "wall":
+        hit = 0.5 * (hit + _position_at(log, ev.b, ev.time))
+    return hit
+
+
+def _square(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A square box (lo, hi) m around points (n, 2) m with a margin."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = 0.15 * float(max(hi - lo)) + 0.5
+    mid = 0.5 * (lo + hi)
+    half = 0.5 * float(max(hi - lo)) + pad
+    return mid - half, mid + half
+
+
+def _draw_paths(
+    ax: Axes, log: EpisodeLog, expl: Explanation, controlled: Collection[int] = ()
+) -> None:
+    """World view around the pair (m, axes equal, the viewer's colours): where they
+    went, where each predicted the other, and the walls and other bodies near them;
+    robot indices ``controlled`` were driven from outside."""
+    from nao_arena.render.colours import CONTACT_COLOUR, to_unit
 
     ev = expl.contact
     before = expl.before
-    t0 = float(log.time[before])
     bodies = [p for p in expl.parties if p.kind != "wall"]
     horizon = max([float(p.times[-1]) for p in bodies if p.times is not None] + [1.5])
     last = min(log.n_steps - 1, before + int(round(horizon / log.dt)))
     first = max(0, before - int(round(LOOK_BACK / log.dt)))
-    span = []
-    for i, p in enumerate(bodies):
-        col = _COLOURS[i % 2]
-        path = log.positions[before : last + 1, p.body]
-        came = log.positions[first : before + 1, p.body]
-        ax.plot(
-            *came.T,
-            "-",
-            color=col,
-            lw=1.0,
-            alpha=0.5,
-            label=f"{p.name}: the {log.time[before] - log.time[first]:.1f} s before",
-        )
-        ax.plot(*path.T, "-", color=col, lw=2.0, label=f"{p.name}: where it went ({horizon:.1f} s)")
-        span.append(came)
-        r = float(log.scene().world.radii[p.body])
-        start = log.positions[before, p.body]
-        ax.add_patch(Circle(tuple(start), r, facecolor=col, alpha=0.35, edgecolor=col))
-        ax.add_patch(
-            Circle(
-                tuple(_position_at(log, p.body, ev.time)),
-                r,
-                fill=False,
-                edgecolor=col,
-                ls=":",
-                lw=1.2,
-            )
-        )
-        if p.chosen is not None and p.velocity is not None:
-            ax.annotate(
-                "",
-                xy=tuple(start + 0.5 * p.chosen),
-                xytext=tuple(start),
-                arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5},
-            )
-        span.append(path)
+    hit = _contact_point(log, ev)
+    shown = [log.positions[first : last + 1, p.body] for p in bodies] + [hit[None]]
+    shown += [p.predicted_other for p in bodies if p.predicted_other is not None]
+    lo, hi = _square(np.concatenate(shown))
+    win = _Window(first, before, last, ev.time, lo, hi)
     for p in bodies:
-        if p.predicted_other is None:
-            continue
-        q = next(x for x in bodies if x is not p)
-        col = _COLOURS[(bodies.index(q)) % 2]
-        ax.plot(
-            *p.predicted_other.T,
-            "--",
-            color=col,
-            lw=1.5,
-            label=f"{q.name} as {p.name} predicted it ({p.predictor})",
-        )
-        span.append(p.predicted_other)
-    hit = _position_at(log, ev.a, ev.time)
-    if ev.kind_b != "wall":
-        hit = 0.5 * (hit + _position_at(log, ev.b, ev.time))
-    ax.plot(*hit, "x", color="red", ms=12, mew=2.5, label=f"contact at t = {ev.time:.2f} s")
-    pts = np.concatenate([s.reshape(-1, 2) for s in span] + [hit[None]])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    pad = 0.15 * float(max(hi - lo)) + 0.5
-    mid = 0.5 * (lo + hi)
-    half = 0.5 * float(max(hi - lo)) + pad
-    ax.set_xlim(mid[0] - half, mid[0] + half)
-    ax.set_ylim(mid[1] - half, mid[1] + half)
+        _draw_party(ax, log, p, _body_colour(log, p.body, controlled), win, horizon)
+    for p in bodies:
+        _draw_prediction(ax, p, next((q for q in bodies if q is not p), p))
+    _draw_walls(ax, log.spec, win)
+    _draw_others(ax, log, {p.body for p in bodies}, win, controlled)
+    ax.plot(
+        *hit,
+        "o",
+        mfc="none",
+        mec=to_unit(CONTACT_COLOUR),
+        ms=14,
+        mew=2.5,
+        label=f"contact at t = {ev.time:.2f} s",
+        zorder=6,
+    )
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
     ax.set_title(
-        f"contact {expl.number}: discs at t = {t0:.2f} s (filled) and at the "
+        f"contact {expl.number}: discs at t = {log.time[before]:.2f} s (filled) and at the "
         f"contact (dotted);\nblack arrows: the accelerations chosen then "
         f"(0.5 m per m/s^2)",
         fontsize="medium",

@@ -33,7 +33,8 @@ from nao_arena.maps import load_map  # noqa: E402
 from nao_arena.obstacles import RADIUS_CUT  # noqa: E402
 from nao_arena.render import Viewer  # noqa: E402
 from nao_arena.render._panel_kernel import BAND, panel_labels, wall_clearances  # noqa: E402
-from nao_arena.render.viewer import _WALL_REGION, _own_paths  # noqa: E402
+from nao_arena.render.colours import WALL_REGION_COLOUR as _WALL_REGION  # noqa: E402
+from nao_arena.render.viewer import _own_paths  # noqa: E402
 
 
 class SampledReferenceViewer(Viewer):

@@ -25,14 +25,17 @@ from nao_arena.maps import load_map  # noqa: E402
 from nao_arena.obstacles import RADIUS_CUT  # noqa: E402
 from nao_arena.render import Viewer, record_episode  # noqa: E402
 from nao_arena.render import viewer as viewer_module  # noqa: E402
+from nao_arena.render.colours import (  # noqa: E402
+    GOOD_COLOUR,
+    PALETTE,
+    WALL_COLOUR,
+    WALL_REGION_COLOUR,
+    mix,
+)
 from nao_arena.render.viewer import (  # noqa: E402
-    _GREEN,
-    _PALETTE,
-    _WALL_REGION,
     KEYS,
     EdgeRun,
     PanelAgent,
-    _mix,
     _trail_colour,
     edge_runs,
     panel_agent,
@@ -69,17 +72,17 @@ def test_legend_explains_every_symbol_with_the_drawn_colours(crowd):
     # one colour per neighbour: the legend says so and shows several, the paths' and the
     # regions' colours (regions are the paths' colours lightened)
     assert "colour = neighbour" in path.label and "colour = neighbour" in nao.label
-    assert len(path.colours) > 1 and path.colours == tuple(_PALETTE[: len(path.colours)])
-    assert nao.colours == tuple(_mix(c, 0.55) for c in path.colours)
+    assert len(path.colours) > 1 and path.colours == tuple(PALETTE[: len(path.colours)])
+    assert nao.colours == tuple(mix(c, 0.55) for c in path.colours)
     ring = next(e for e in legend.values() if "hollow ring" in e.label)
     assert ring.symbol == "ring" and ring.colours == path.colours
-    walls = next(e for e in legend.values() if e.colours == (_WALL_REGION,))
+    walls = next(e for e in legend.values() if e.colours == (WALL_REGION_COLOUR,))
     assert walls.symbol == "swatch" and "wall" in walls.label
     assert any(e.symbol == "cut" for e in legend.values())
     assert any(e.symbol == "zero" for e in legend.values())
     # trails: dotted, in a colour that no predicted path uses
     trail = next(e for e in legend.values() if e.label.startswith("trail"))
-    assert trail.symbol == "dotted" and trail.colours[0] not in _PALETTE
+    assert trail.symbol == "dotted" and trail.colours[0] not in PALETTE
     # every label is written in the frame
     assert set(legend) <= set(viewer.info.texts)
 
@@ -93,7 +96,7 @@ def test_trails_are_drawn_in_their_own_colour():
     trail = _trail_colour(viewer_module.AGENT_COLOURS["nao"])
     world = frame[:, :800]
     assert np.all(world == trail, axis=-1).sum() > 30
-    assert trail not in _PALETTE
+    assert trail not in PALETTE
 
 
 def test_panel_axes_are_named_and_every_tick_labelled(crowd):
@@ -141,7 +144,7 @@ def test_regions_cut_by_the_panel_edge_are_marked(crowd):
     region = [tuple(int(v * 0.6) for v in c) for c in viewer._region_colours()]
     band_colours = {tuple(px) for px in frame[:, 800:].reshape(-1, 3)}
     for run in runs:
-        assert region[len(_PALETTE) if run.label < 0 else run.label % len(_PALETTE)] in band_colours
+        assert region[len(PALETTE) if run.label < 0 else run.label % len(PALETTE)] in band_colours
 
 
 def test_short_accelerations_are_rings_that_both_show():
@@ -149,10 +152,10 @@ def test_short_accelerations_are_rings_that_both_show():
     surf = viewer.surface
     surf.fill((255, 255, 255))
     # both accelerations about zero (a robot cruising at v_max): green under black
-    viewer._arrow((100, 100), (101, 100), _GREEN, "desired")
+    viewer._arrow((100, 100), (101, 100), GOOD_COLOUR, "desired")
     viewer._arrow((100, 100), (100, 101), (0, 0, 0), "commanded")
     px = pygame.surfarray.array3d(surf)
-    assert np.all(px == _GREEN, axis=-1).sum() > 20
+    assert np.all(px == GOOD_COLOUR, axis=-1).sum() > 20
     assert np.all(px == (0, 0, 0), axis=-1).sum() > 10
     assert viewer.info.short_arrows == ["desired", "commanded"]
 
@@ -164,7 +167,7 @@ def test_at_v_max_the_panel_shows_both_accelerations():
     obs = arena.observations()[0]
     assert np.hypot(*obs.velocity) == pytest.approx(obs.v_max, abs=0.05)
     assert viewer.info.short_arrows == ["desired", "commanded"]
-    assert np.all(frame[:, 800:] == _GREEN, axis=-1).sum() > 20
+    assert np.all(frame[:, 800:] == GOOD_COLOUR, axis=-1).sum() > 20
 
 
 def _fake_clock(monkeypatch, step: float) -> None:
@@ -262,7 +265,7 @@ def test_scale_label_sits_on_a_light_box(crowd):
     _, viewer, frame = crowd
     x, y, w, h = viewer.info.scale_box
     beside = frame[y : y + h, x + w + 1 : x + w + 40]
-    assert np.all(beside == viewer_module._WALL, axis=-1).any(), (
+    assert np.all(beside == WALL_COLOUR, axis=-1).any(), (
         "the crowd scene's bottom wall runs under the scale bar"
     )
     box = frame[y + 1 : y + h - 1, x + 1 : x + w - 1].astype(float)

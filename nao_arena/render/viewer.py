@@ -73,6 +73,21 @@ from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
 from nao_arena.obstacles import obstacle_paths, relative_walls  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
 from nao_arena.render._panel_kernel import panel_labels  # noqa: E402
+from nao_arena.render.colours import (  # noqa: E402
+    AGENT_COLOURS,
+    BACKGROUND,
+    CONTACT_COLOUR,
+    GOOD_COLOUR,
+    LANE_COLOUR,
+    PALETTE,
+    PANEL_BACKGROUND,
+    TEXT_COLOUR,
+    WALL_COLOUR,
+    WALL_REGION_COLOUR,
+    Colour,
+    agent_colour,
+    mix,
+)
 from nao_arena.sensing import Observation  # noqa: E402
 from nao_arena.traffic import CircleLane, PolylineLane  # noqa: E402
 from nao_arena.world import speed_limit_time  # noqa: E402
@@ -103,40 +118,6 @@ __all__ = [
 FRAME_SIZE: tuple[int, int] = (1200, 800)
 """Default frame size (width, height) px."""
 
-Colour = tuple[int, int, int]
-
-AGENT_COLOURS: dict[str, Colour] = {
-    "nao": (31, 119, 180),
-    "ao": (23, 190, 207),
-    "vo": (255, 127, 14),
-    "orca": (148, 103, 189),
-    "goal": (127, 127, 127),
-    "lane": (44, 160, 44),
-    "controlled": (214, 39, 40),
-    "traffic": (140, 86, 75),
-}
-"""Fill colour per agent type; plug-in agents get a colour derived from their name."""
-
-_PALETTE: list[Colour] = [
-    (230, 159, 0),
-    (86, 180, 233),
-    (0, 158, 115),
-    (204, 121, 167),
-    (213, 94, 0),
-    (0, 114, 178),
-    (240, 228, 66),
-    (120, 94, 240),
-    (100, 143, 255),
-    (254, 97, 0),
-]
-_WALL: Colour = (60, 60, 60)
-_WALL_REGION: Colour = (190, 190, 190)
-_BG: Colour = (250, 250, 247)
-_PANEL_BG: Colour = (238, 238, 235)
-_LANE: Colour = (222, 222, 218)
-_TEXT: Colour = (20, 20, 20)
-_RED: Colour = (220, 20, 30)
-_GREEN: Colour = (20, 150, 40)
 _MIN_ARROW_PX = 10.0
 """Accelerations shorter than this on the panel (px) are drawn as rings, not arrows."""
 
@@ -219,21 +200,6 @@ def panel_agent(arena: Arena | PanelSource, k: int) -> PanelAgent:
     return agent.panel() if isinstance(agent, ShowsPanel) else PanelAgent()
 
 
-def _agent_colour(name: str) -> Colour:
-    if name in AGENT_COLOURS:
-        return AGENT_COLOURS[name]
-    h = sum((i + 1) * ord(c) for i, c in enumerate(name))
-    return _PALETTE[h % len(_PALETTE)]
-
-
-def _mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
-    """c blended with base: w = 1 gives c."""
-    # three ints (typeshed's tuple() drops the length)
-    return cast(
-        "Colour", tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, base, strict=True))
-    )
-
-
 def _own_paths_xy(
     v: NDArray[np.float64], accels: NDArray[np.float64], v_max: float, times: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -305,7 +271,7 @@ def edge_runs(labels: NDArray[np.int_]) -> list[EdgeRun]:
 
 def _trail_colour(c: Colour) -> Colour:
     """A robot's trail: its colour darkened towards grey (dotted, unlike predicted paths)."""
-    return _mix(c, 0.6, (165, 165, 165))
+    return mix(c, 0.6, (165, 165, 165))
 
 
 class Viewer:
@@ -375,7 +341,7 @@ class Viewer:
         self.info = FrameInfo()
         self._track(arena)
         surf = self.surface
-        surf.fill(_BG)
+        surf.fill(BACKGROUND)
         w, h = self.options.size
         view = pygame.Rect(0, 0, h, h)
         panel = pygame.Rect(h, 0, w - h, h)
@@ -384,7 +350,7 @@ class Viewer:
         obs = arena.observations()[selected] if n_robots else None
         self._draw_world(arena, transform, selected, set(controlled), obs)
         surf.set_clip(None)
-        pygame.draw.rect(surf, _PANEL_BG, panel)
+        pygame.draw.rect(surf, PANEL_BACKGROUND, panel)
         pygame.draw.line(surf, (180, 180, 180), panel.topleft, panel.bottomleft, 2)
         self._draw_panel(arena, panel, selected, set(controlled), obs)
         if self._window is not None:
@@ -527,7 +493,7 @@ class Viewer:
             if isinstance(lane, CircleLane):
                 c = self._pt(tr, np.asarray(lane.center))
                 r = int(lane.radius * s)
-                pygame.draw.circle(surf, _LANE, c, r + width // 2, width)
+                pygame.draw.circle(surf, LANE_COLOUR, c, r + width // 2, width)
                 n = max(24, int(2 * math.pi * lane.radius * s / 12))
                 ang = np.linspace(0, 2 * math.pi, n, endpoint=False)
                 pts = np.asarray(lane.center) + lane.radius * np.stack(
@@ -540,26 +506,26 @@ class Viewer:
                 if lane.closed:
                     pts = np.vstack([pts, pts[:1]])
                 q = self._px(tr, pts)
-                pygame.draw.lines(surf, _LANE, False, q.tolist(), width)
+                pygame.draw.lines(surf, LANE_COLOUR, False, q.tolist(), width)
                 for p in q:
-                    pygame.draw.circle(surf, _LANE, p.tolist(), width // 2)
+                    pygame.draw.circle(surf, LANE_COLOUR, p.tolist(), width // 2)
                 self._dashed(q, (190, 190, 186), closed=False)
         # walls
         for wall in spec.walls:
             if isinstance(wall, SegmentWall):
-                self._capsule(tr, np.array([wall.a, wall.b]), wall.thickness / 2, _WALL)
+                self._capsule(tr, np.array([wall.a, wall.b]), wall.thickness / 2, WALL_COLOUR)
             elif isinstance(wall, PolygonWall):
-                pygame.draw.polygon(surf, _WALL, self._px(tr, np.array(wall.points)).tolist())
+                pygame.draw.polygon(surf, WALL_COLOUR, self._px(tr, np.array(wall.points)).tolist())
         for end_a, end_b in spec.bound_wall_segments():
-            self._capsule(tr, np.array([end_a, end_b]), spec.bounds.wall_thickness / 2, _WALL)
+            self._capsule(tr, np.array([end_a, end_b]), spec.bounds.wall_thickness / 2, WALL_COLOUR)
         colours = self._robot_colours(arena, controlled)
         # goals
         for k, goal in enumerate(arena.goals):
             g = self._pt(tr, goal)
             r = max(4, int(arena.world.radii[arena.robot_ids[k]] * s * 0.6))
-            pygame.draw.circle(surf, _mix(colours[k], 0.8), g, r, 2)
-            pygame.draw.line(surf, _mix(colours[k], 0.8), (g[0] - r, g[1]), (g[0] + r, g[1]), 1)
-            pygame.draw.line(surf, _mix(colours[k], 0.8), (g[0], g[1] - r), (g[0], g[1] + r), 1)
+            pygame.draw.circle(surf, mix(colours[k], 0.8), g, r, 2)
+            pygame.draw.line(surf, mix(colours[k], 0.8), (g[0] - r, g[1]), (g[0] + r, g[1]), 1)
+            pygame.draw.line(surf, mix(colours[k], 0.8), (g[0], g[1] - r), (g[0], g[1] + r), 1)
         # trails (dotted, unlike the solid predicted paths)
         for k, body in enumerate(arena.robot_ids):
             trail = self._trails[int(body)]
@@ -592,14 +558,14 @@ class Viewer:
             else:
                 col = AGENT_COLOURS["traffic"]
             pygame.draw.circle(surf, col, p, r)
-            pygame.draw.circle(surf, _mix(col, 0.6, (0, 0, 0)), p, r, 1)
+            pygame.draw.circle(surf, mix(col, 0.6, (0, 0, 0)), p, r, 1)
             v = state.velocities[i]
             sp = float(np.hypot(*v))
             if sp > 1e-6 and r >= 4:
                 tip = state.positions[i] + v / sp * state.radii[i]
                 pygame.draw.line(surf, (255, 255, 255), p, self._pt(tr, tip), 2)
             if i in flashing:
-                pygame.draw.circle(surf, _RED, p, r + 4, 3)
+                pygame.draw.circle(surf, CONTACT_COLOUR, p, r + 4, 3)
         # contact flashes
         for t0, a, b, kind_b in self._flashes:
             age = (state.time - t0) / self.options.flash_seconds
@@ -608,20 +574,22 @@ class Viewer:
             else:
                 where = 0.5 * (state.positions[a] + state.positions[b])
             rr = int(8 + 30 * age)
-            pygame.draw.circle(surf, _mix(_RED, 1.0 - 0.6 * age), self._pt(tr, where), rr, 3)
+            pygame.draw.circle(
+                surf, mix(CONTACT_COLOUR, 1.0 - 0.6 * age), self._pt(tr, where), rr, 3
+            )
         if obs is not None:
             body = int(arena.robot_ids[selected])
             p = self._pt(tr, state.positions[body])
             r = max(3, int(round(state.radii[body] * s)))
             pygame.draw.circle(surf, (0, 0, 0), p, r + 3, 2)
             label = self._small.render(
-                arena.robots[selected].name or f"robot{selected}", True, _TEXT
+                arena.robots[selected].name or f"robot{selected}", True, TEXT_COLOUR
             )
             surf.blit(label, label_position(p, r, label.get_size(), surf.get_size()))
         # scale bar on a light box, readable over walls and lanes
         bar_m = self._nice(80 / s)
         bar_px = int(bar_m * s)
-        label = self._small.render(f"{bar_m:g} m", True, _TEXT)
+        label = self._small.render(f"{bar_m:g} m", True, TEXT_COLOUR)
         x0, y0 = 16, self.options.size[1] - 20
         box = pygame.Rect(
             x0 - 6,
@@ -633,7 +601,7 @@ class Viewer:
         backing.fill((255, 255, 255, 225))
         surf.blit(backing, box.topleft)
         pygame.draw.rect(surf, (150, 150, 150), box, 1)
-        pygame.draw.line(surf, _TEXT, (x0, y0), (x0 + bar_px, y0), 3)
+        pygame.draw.line(surf, TEXT_COLOUR, (x0, y0), (x0 + bar_px, y0), 3)
         surf.blit(label, (x0, y0 - label.get_height() - 2))
         self.info.texts.append(f"{bar_m:g} m")
         self.info.scale_box = (box.x, box.y, box.width, box.height)
@@ -674,7 +642,7 @@ class Viewer:
 
     def _robot_colours(self, arena: ShownArena, controlled: set[int]) -> list[Colour]:
         return [
-            AGENT_COLOURS["controlled"] if k in controlled else _agent_colour(name)
+            AGENT_COLOURS["controlled"] if k in controlled else agent_colour(name)
             for k, name in enumerate(arena.agent_labels)
         ]
 
@@ -722,7 +690,7 @@ class Viewer:
         self._horizon = float(times[-1])
         surf = self.surface
         for j in range(len(centres)):
-            col = _PALETTE[j % len(_PALETTE)]
+            col = PALETTE[j % len(PALETTE)]
             q = self._px(tr, centres[j])
             pygame.draw.lines(surf, col, False, q.tolist(), 2)
             end = q[-1]
@@ -740,7 +708,7 @@ class Viewer:
     # ------------------------------------------------------------------ panel
 
     def _text(
-        self, text: str, pos: tuple[int, int], font: Any = None, colour: Colour = _TEXT
+        self, text: str, pos: tuple[int, int], font: Any = None, colour: Colour = TEXT_COLOUR
     ) -> None:
         self.surface.blit((font or self._font).render(text, True, colour), pos)
         self.info.texts.append(text)
@@ -780,7 +748,7 @@ class Viewer:
         self._text(
             f"collisions: {robot_contacts} involving robots ({len(stats.contacts)} total)",
             (x, y),
-            colour=_RED if robot_contacts else _TEXT,
+            colour=CONTACT_COLOUR if robot_contacts else TEXT_COLOUR,
         )
         self._text(f"robots at goal: {reached} / {len(arena.robots)}", (x, y + 20))
         keys_h = 22 if self.human else 0
@@ -832,7 +800,7 @@ class Viewer:
         grid_lab = lab.reshape(g, g)
         if np.any(hit):
             img[hit] = self._region_colours()[
-                np.where(lab[hit] >= 0, lab[hit] % len(_PALETTE), len(_PALETTE))
+                np.where(lab[hit] >= 0, lab[hit] % len(PALETTE), len(PALETTE))
             ]
             edge = np.zeros((g, g), dtype=bool)
             edge[:-1] |= grid_lab[:-1] != grid_lab[1:]
@@ -862,7 +830,7 @@ class Viewer:
         n = float(np.hypot(*chosen))
         if n > obs.a_max:
             chosen = chosen * obs.a_max / n
-        self._arrow(to_px(np.zeros(2)), to_px(desired), _GREEN, "desired")
+        self._arrow(to_px(np.zeros(2)), to_px(desired), GOOD_COLOUR, "desired")
         self._arrow(to_px(np.zeros(2)), to_px(chosen), (0, 0, 0), "commanded")
         self._text(
             "acceleration space (m/s^2), world axes", (plot.left - 40, plot.top - 24), self._small
@@ -916,14 +884,14 @@ class Viewer:
     @staticmethod
     def _region_colours() -> NDArray[np.uint8]:
         """Fill colours of the panel's regions: one per palette entry, then the walls'."""
-        return np.array([_mix(c, 0.55) for c in _PALETTE] + [_WALL_REGION], dtype=np.uint8)
+        return np.array([mix(c, 0.55) for c in PALETTE] + [WALL_REGION_COLOUR], dtype=np.uint8)
 
     def _draw_cut_edges(self, plot: pygame.Rect, runs: list[EdgeRun], g: int) -> None:
         """A dashed band outside the panel's frame where a region reaches its edge."""
         cols = self._region_colours()
         cell = plot.width / g
         for run in runs:
-            c = cols[len(_PALETTE) if run.label < 0 else run.label % len(_PALETTE)]
+            c = cols[len(PALETTE) if run.label < 0 else run.label % len(PALETTE)]
             colour = tuple(int(v * 0.6) for v in c)
             a = int(round(run.start * cell))
             b = int(round(run.stop * cell))
@@ -965,9 +933,9 @@ class Viewer:
             surf.blit(img, (px - img.get_width() // 2, plot.bottom + 8))
             surf.blit(img, (plot.left - 9 - img.get_width(), py - img.get_height() // 2))
             self.info.texts.append(label)
-        name_x = self._small.render("a_x (m/s^2)", True, _TEXT)
+        name_x = self._small.render("a_x (m/s^2)", True, TEXT_COLOUR)
         surf.blit(name_x, (plot.right - name_x.get_width(), plot.bottom + 24))
-        name_y = pygame.transform.rotate(self._small.render("a_y (m/s^2)", True, _TEXT), 90)
+        name_y = pygame.transform.rotate(self._small.render("a_y (m/s^2)", True, TEXT_COLOUR), 90)
         surf.blit(name_y, (plot.left - 40, plot.top))
         self.info.texts += ["a_x (m/s^2)", "a_y (m/s^2)"]
 
@@ -980,7 +948,7 @@ class Viewer:
         dx, dy = p1[0] - p0[0], p1[1] - p0[1]
         n = math.hypot(dx, dy)
         if n < _MIN_ARROW_PX:
-            radius = 8 if colour == _GREEN else 4
+            radius = 8 if colour == GOOD_COLOUR else 4
             pygame.draw.circle(surf, colour, p1, radius, 2)
             if name:
                 self.info.short_arrows.append(name)
@@ -1007,16 +975,16 @@ class Viewer:
                 kinds.append(label)
         if len(arena.traffic.indices):
             kinds.append("traffic")
-        entries += [LegendEntry("disc", kind, (_agent_colour(kind),), "kinds") for kind in kinds]
-        robot = _agent_colour(kinds[0]) if kinds else _TEXT
-        per_neighbour = tuple(_PALETTE[:4])
+        entries += [LegendEntry("disc", kind, (agent_colour(kind),), "kinds") for kind in kinds]
+        robot = agent_colour(kinds[0]) if kinds else TEXT_COLOUR
+        per_neighbour = tuple(PALETTE[:4])
         entries += [
             LegendEntry("ring", "selected robot", ((0, 0, 0),)),
-            LegendEntry("goal", "goal", (_mix(robot, 0.8),)),
+            LegendEntry("goal", "goal", (mix(robot, 0.8),)),
             LegendEntry(
                 "dotted", f"trail (last {self.options.trail_seconds:g} s)", (_trail_colour(robot),)
             ),
-            LegendEntry("ring", "contact (flashed)", (_RED,)),
+            LegendEntry("ring", "contact (flashed)", (CONTACT_COLOUR,)),
         ]
         if self.options.predicted_paths:
             entries += [
@@ -1029,24 +997,24 @@ class Viewer:
                 LegendEntry("dashed", "own path under the command", ((0, 0, 0),)),
             ]
         entries += [
-            LegendEntry("arrow", "desired", (_GREEN,), "panel"),
+            LegendEntry("arrow", "desired", (GOOD_COLOUR,), "panel"),
             LegendEntry("arrow", "commanded", ((0, 0, 0),), "panel"),
             LegendEntry("circle", "|a| = a_max", ((60, 60, 60),), "panel"),
-            LegendEntry("zero", "ring: |a| ~ 0, no arrow", (_GREEN, (0, 0, 0)), "panel"),
+            LegendEntry("zero", "ring: |a| ~ 0, no arrow", (GOOD_COLOUR, (0, 0, 0)), "panel"),
             LegendEntry(
                 "swatch",
                 "NAO of a neighbour (colour = neighbour, as its path)",
-                tuple(_mix(c, 0.55) for c in per_neighbour),
+                tuple(mix(c, 0.55) for c in per_neighbour),
                 "panel",
             ),
         ]
         if arena.spec.walls or arena.spec.bounds.walls:  # drawn only where there are walls
-            entries.append(LegendEntry("swatch", "walls' region", (_WALL_REGION,), "panel"))
+            entries.append(LegendEntry("swatch", "walls' region", (WALL_REGION_COLOUR,), "panel"))
         entries += [
             LegendEntry(
                 "cut",
                 "region cut by the edge",
-                (cast("Colour", tuple(int(v * 0.6) for v in _mix(_PALETTE[0], 0.55))),),
+                (cast("Colour", tuple(int(v * 0.6) for v in mix(PALETTE[0], 0.55))),),
                 "panel",
             ),
         ]
@@ -1089,7 +1057,9 @@ class Viewer:
             for i, c in enumerate(cols):
                 r = 7 if n == 1 else 4
                 cx = x + 15 if n == 1 else x + 4 + i * 8
-                pygame.draw.circle(surf, c, (cx, mid), r, 3 if c == _RED else 2 if n == 1 else 1)
+                pygame.draw.circle(
+                    surf, c, (cx, mid), r, 3 if c == CONTACT_COLOUR else 2 if n == 1 else 1
+                )
         elif e.symbol == "goal":
             pygame.draw.circle(surf, cols[0], (x + 15, mid), 6, 2)
             pygame.draw.line(surf, cols[0], (x + 9, mid), (x + 21, mid), 1)
