@@ -6,7 +6,7 @@
     from benchmarl.experiment import Experiment, ExperimentConfig
     from benchmarl.models.mlp import MlpConfig
 
-    from nao_arena.envs.benchmarl import NaoArenaTask
+    from nao_arena.benchmarl import NaoArenaTask
 
     task = NaoArenaTask.CROSSING_V0.get_task()          # or get_task(config={"n": 4})
     Experiment(

@@ -145,7 +145,7 @@ def test_rllib_ppo_trains_a_shared_policy_for_one_iteration():
 
 def _benchmarl():
     need("benchmarl")
-    from nao_arena.envs import benchmarl as tasks
+    from nao_arena import benchmarl as tasks
 
     return tasks
 
