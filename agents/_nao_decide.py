@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
-from nao_arena.geometry._kernel.search import onto_disc, repair_relevant, select_relevant
+from nao_arena.geometry._kernel.search import repair_relevant, select_relevant
 from nao_arena.geometry._kernel.segment import nearby_walls, relevant_walls
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import (
@@ -35,6 +35,7 @@ from nao_arena.geometry.selection import (
     _SLIVER_DEPTH,
     _unit_rings,
 )
+from nao_arena.motion import braking, onto_disc, project_onto_disc
 
 from ._nao_columns import (
     AUTO,
@@ -398,7 +399,8 @@ def apply_braking(
     ``AccelLimits(a_max).project`` give, braking towards standing still within dt (s)
     from velocity vel[i] (m/s), committed as a selection of status INFEASIBLE into row
     members[j] = i of the agents' table and of ``out`` (n, 2) m/s^2; settled[j] = True
-    for each of them (same operations)."""
+    for each of them (the same functions: :func:`~nao_arena.motion.braking`,
+    :func:`~nao_arena.motion.project_onto_disc`)."""
     for j in range(members.shape[0]):
         if status[j] != 0 or kind[j] != INFEASIBLE:
             continue
@@ -406,21 +408,10 @@ def apply_braking(
         mode = whole[i, FALLBACK]
         if not (mode == BRAKE or (mode == AUTO and not traffic[i])):
             continue
-        speed = math.hypot(vel[i, 0], vel[i, 1])
-        x = 0.0
-        y = 0.0
-        if speed != 0.0:
-            f = -min(a_max[i], speed / dt) / speed
-            x = vel[i, 0] * f
-            y = vel[i, 1] * f
-        # onto the limit disc, as AccelLimits.project does it (its norm is at most a_max
-        # up to rounding, so the scale is never subnormal)
-        x = x if math.isfinite(x) else 0.0
-        y = y if math.isfinite(y) else 0.0
-        norm = math.hypot(x, y)
-        if not norm <= a_max[i]:
-            scale = a_max[i] / norm
-            x, y = x * scale, y * scale
+        x, y = braking(vel[i, 0], vel[i, 1], a_max[i], dt)
+        # onto the limit disc as AccelLimits.project does it (the braking's norm is at most
+        # a_max up to rounding: the scale is never subnormal)
+        x, y = project_onto_disc(x, y, a_max[i])
         commit_row(real, whole, i, x, y, INFEASIBLE, tested[j])
         out[i, 0] = x
         out[i, 1] = y

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry.walls import wall_discs
+from nao_arena.motion import limit_norm
 from nao_arena.sensing import Observation
 
 
@@ -47,10 +48,8 @@ def observed_discs(obs: Observation, margin: float, sensing_range: float) -> Dis
 def track_velocity(obs: Observation, v_new: NDArray[np.float64], time_constant: float):
     """Acceleration (m/s^2) that reaches v_new in time_constant s, scaled to |a| <= a_max."""
     acc = (v_new - obs.velocity) / time_constant
-    norm = float(np.hypot(*acc))
-    if norm > obs.a_max:
-        acc = acc * (obs.a_max / norm)
-    return acc
+    x, y, _ = limit_norm(float(acc[0]), float(acc[1]), float(obs.a_max))
+    return np.array([x, y])
 
 
 def preferred_velocity(obs: Observation, v_pref: float | None) -> NDArray[np.float64]:

@@ -131,6 +131,7 @@ from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
 from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
+from nao_arena.motion import limit_norm_sqrt
 from nao_arena.sensing import Observation, SensingBatch
 
 from ._kernel_inputs import f64 as _f64
@@ -560,10 +561,8 @@ def cbf_accelerations(
             x, y, relaxed, worst = _qp(
                 rows_a, rows_c, m, radius, turned[i, 0], turned[i, 1], lifted, pa, pc
             )
-        norm = math.sqrt(x * x + y * y)
-        if norm > radius:  # rounding: the world would scale it anyway
-            x = x * (radius / norm)
-            y = y * (radius / norm)
+        # within a_max = radius but for rounding (the world would scale it anyway)
+        x, y, _ = limit_norm_sqrt(x, y, radius)
         out[i, 0] = x
         out[i, 1] = y
         status[i] = (RELAXED if relaxed else 0) | (CONTACT if contact else 0)

@@ -11,6 +11,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
+from nao_arena.motion import limit_norm
 from nao_arena.sensing import Observation, SensingBatch
 
 APPROACH_GAIN = 1.0  # 1/s: the target speed near the goal, per metre to go (see below)
@@ -126,11 +127,7 @@ def goal_seeking_kernel(
                 vx, vy = c * vx - s * vy, s * vx + c * vy
         ax = (vx - velocities[i, 0]) / tau[i]
         ay = (vy - velocities[i, 1]) / tau[i]
-        norm = math.hypot(ax, ay)
-        if norm > a_max[i]:
-            scale = a_max[i] / norm
-            ax *= scale
-            ay *= scale
+        ax, ay, _ = limit_norm(ax, ay, a_max[i])
         out[i, 0] = ax
         out[i, 1] = ay
 

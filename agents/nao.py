@@ -104,6 +104,7 @@ from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry._kernel.segment import relevant_walls
 from nao_arena.geometry.selection import Selection
 from nao_arena.maps.loader import point_segment_distances
+from nao_arena.motion import braking
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.predictors import get_predictor
@@ -425,12 +426,13 @@ class NAOAgent:
         self, velocity: NDArray[np.float64], a_max: float, dt: float, traffic: bool
     ) -> NDArray[np.float64] | None:
         """The acceleration (m/s^2) taken when nothing is admissible: braking towards
-        standing still within one step dt (s), or None: the one that postpones contact
-        longest (see ``infeasible``). (:func:`~nao_arena.agents._nao_decide.apply_braking`
-        does the same for many robots.)"""
+        standing still within one step dt (s) (:func:`nao_arena.motion.braking`), or None:
+        the one that postpones contact longest (see ``infeasible``).
+        (:func:`~nao_arena.agents._nao_decide.apply_braking` does the same for many
+        robots.)"""
         if _brakes_when_infeasible(self, traffic):
-            speed = float(np.hypot(*velocity))
-            return np.zeros(2) if speed == 0.0 else velocity * (-min(a_max, speed / dt) / speed)
+            vx, vy = float(velocity[0]), float(velocity[1])
+            return np.array(braking(vx, vy, float(a_max), float(dt)))
         return None
 
     def _commit(self, sel: Selection) -> NDArray[np.float64]:

@@ -2,10 +2,10 @@
 
 Each control period a robot commits to a *stopping plan*: its acceleration for
 the coming period, then braking to a standstill (each later period the
-acceleration -min(a_max, |v| / dt) v / |v|, which stops it exactly at the end
-of the last one), then standing still. A plan is written out as the robot's
-positions at every physics substep (world frame, m), by the same arithmetic
-as the world (:mod:`nao_arena.world`: the command scaled to |a| <= a_max,
+acceleration -min(a_max, |v| / dt) v / |v|, :func:`nao_arena.motion.braking`, which
+stops it exactly at the end of the last one), then standing still. A plan is written
+out as the robot's positions at every physics substep (world frame, m), by the same
+arithmetic as the world (:mod:`nao_arena.world`: the command scaled to |a| <= a_max,
 the speed limit's saturation time, pymunk's integration: each substep of h =
 dt / substeps moves the body by h times its velocity, then adds the
 acceleration's share of the substep to the velocity), so a plan is the path
@@ -51,7 +51,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_segment_dist2
-from nao_arena.speed_limit import saturation_time
+from nao_arena.motion import brake_factor, clip_norm, limit_norm, saturation_time
+from nao_arena.motion import braking as braking_accel
 
 __all__ = ["commit_plans", "plan_clearance", "stopping_plan", "max_plan_points"]
 
@@ -114,13 +115,8 @@ def _fill_plan(
     |a| <= a_max, the speed limit as the world applies it) into out; returns its number
     of points (out must hold :func:`max_plan_points`)."""
     h = dt / substeps
-    speed = math.hypot(vx, vy)
-    if speed > v_max:
-        f = v_max / speed
-        vx, vy = vx * f, vy * f
-    norm = math.hypot(ax, ay)
-    scale = min(1.0, a_max / max(norm, 1e-300))
-    ax, ay = ax * scale, ay * scale
+    vx, vy, _ = limit_norm(vx, vy, v_max)
+    ax, ay = clip_norm(ax, ay, a_max)
     out[0, 0] = px
     out[0, 1] = py
     tau = saturation_time(vx, vy, ax, ay, v_max)
@@ -130,7 +126,7 @@ def _fill_plan(
         speed = math.hypot(vx, vy)
         if speed == 0.0:
             break
-        b = min(a_max, speed / dt) / speed
+        b = brake_factor(speed, a_max, dt)
         px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h, substeps, out, k)
         if b * dt >= 1.0:  # this period stopped it (up to rounding)
             break
@@ -297,11 +293,8 @@ def commit_plans_kernel(
             substeps,
             want[i],
         )
-        speed = math.hypot(vel[i, 0], vel[i, 1])
-        bx, by = 0.0, 0.0
-        if speed > 0.0:
-            b = min(a_max[i], speed / dt) / speed
-            bx, by = -b * vel[i, 0], -b * vel[i, 1]
+        # zero at rest (the velocities are finite: checked above)
+        bx, by = braking_accel(vel[i, 0], vel[i, 1], a_max[i], dt)
         braking[i, 0], braking[i, 1] = bx, by
         n_stand[i] = _fill_plan(
             pos[i, 0],

@@ -34,6 +34,8 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nao_arena.motion import clip_accelerations
+
 __all__ = [
     "CircleLane",
     "FollowerParams",
@@ -220,13 +222,6 @@ class FollowerParams:
     lateral_time_constant: float = 1.0
 
 
-def _clip_norm(a: FloatArray, limit: FloatArray | float) -> FloatArray:
-    """Scale the rows of a (n, 2) so that |a| <= limit."""
-    norm = np.hypot(a[:, 0], a[:, 1])
-    scale = np.minimum(1.0, np.asarray(limit) / np.maximum(norm, 1e-300))
-    return a * scale[:, None]
-
-
 def follower_accels(
     lane: Lane,
     params: FollowerParams,
@@ -248,7 +243,8 @@ def follower_accels(
     that a free vehicle holds exactly its cruise speed. Lateral: the
     velocity at the end of the period points along the tangent at the
     arc length reached then, plus -offset / T_lat towards the centreline.
-    The result is scaled to |a| <= a_max.
+    The result is scaled to |a| <= a_max as the world scales commands
+    (:func:`nao_arena.motion.clip_accelerations`).
     """
     p = np.asarray(positions, dtype=float).reshape(-1, 2)
     v = np.asarray(velocities, dtype=float).reshape(-1, 2)
@@ -275,7 +271,7 @@ def follower_accels(
         u_next[:, None] * t_next
         - (lateral / max(params.lateral_time_constant, dt))[:, None] * n_next
     )
-    return _clip_norm((v_target - v) / dt, a_max)
+    return clip_accelerations((v_target - v) / dt, a_max)
 
 
 def follower_accel(

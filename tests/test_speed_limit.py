@@ -1,4 +1,4 @@
-"""The speed-limit model (:mod:`nao_arena.speed_limit`): one saturation time for the world
+"""The speed-limit model (:mod:`nao_arena.motion`): one saturation time for the world
 and the planner's kernels."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nao_arena.geometry._kernel.exact import candidate_setup
-from nao_arena.speed_limit import saturation_time, speed_limit_time
+from nao_arena.motion import saturation_time, speed_limit_time
 
 finite = st.floats(-5.0, 5.0, allow_nan=False).filter(lambda x: abs(x) > 1e-6 or x == 0.0)
 

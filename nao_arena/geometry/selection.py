@@ -55,6 +55,7 @@ from nao_arena.geometry._kernel.search import (
 from nao_arena.geometry._kernel.segment import relevant_walls
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
 from nao_arena.geometry.outcome import Outcome
+from nao_arena.motion import SMALLEST_NORMAL, project_onto_disc
 
 __all__ = ["AccelLimits", "Selection", "repair_acceleration", "select_acceleration"]
 
@@ -93,28 +94,22 @@ class AccelLimits:
         return ok
 
     def project(self, a: ArrayLike) -> NDArray[np.float64]:
-        """Nearest point of the limit set to each acceleration ((2,) or (K, 2))."""
+        """Nearest point of the limit set to each acceleration ((2,) or (K, 2)). On the disc:
+        :func:`nao_arena.motion.project_onto_disc` (non-finite components taken as 0)."""
         arr = np.asarray(a, dtype=np.float64)
         if self.box_lo is None and arr.shape == (2,):
-            # one acceleration on the disc (the common call): the operations below, on scalars
-            x = arr[0] if np.isfinite(arr[0]) else np.float64(0.0)
-            y = arr[1] if np.isfinite(arr[1]) else np.float64(0.0)
-            norm = np.hypot(x, y)
-            if norm <= self.a_max:
-                return np.array([x, y])
-            scale = self.a_max / norm
-            if scale < _SMALLEST_NORMAL:
-                # a_max / norm would be subnormal and lose digits: normalise first
-                return np.array([x / norm * self.a_max, y / norm * self.a_max])
-            return np.array([x * scale, y * scale])
+            # one acceleration on the disc (the common call)
+            x, y = project_onto_disc(float(arr[0]), float(arr[1]), float(self.a_max))
+            return np.array([x, y])
         flat = np.atleast_2d(arr)
         if self.box_lo is None:
+            # project_onto_disc row by row, in numpy (the same bits)
             clean = np.where(np.isfinite(flat), flat, 0.0)
             norm = np.hypot(clean[:, 0], clean[:, 1])
             outside = norm > self.a_max
             # outside the disc the norm exceeds a_max > 0: no division by zero
             scale = np.divide(self.a_max, norm, out=np.ones_like(norm), where=outside)
-            tiny = outside & (scale < _SMALLEST_NORMAL)
+            tiny = outside & (scale < SMALLEST_NORMAL)
             out = clean * scale[:, None]
             if np.any(tiny):
                 # subnormal scales lose digits: normalise first
@@ -298,7 +293,6 @@ class _Tester:
         return bool(self._res1[0])
 
 
-_SMALLEST_NORMAL = float(np.finfo(np.float64).tiny)
 _UNIT_RINGS: dict[tuple[int, float], NDArray[np.float64]] = {}
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.speed_limit import speed_limit_time
+from nao_arena.motion import speed_limit_time
 from nao_arena.world import clip_accelerations
 
 FloatArray = NDArray[np.float64]

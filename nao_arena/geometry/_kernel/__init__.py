@@ -29,5 +29,8 @@ Compile time is part of the cost (the first run compiles what it calls), so:
   inlined function inlines no other large one: numba copies the callee's whole
   intermediate representation for every inlined call site, so nested inlining
   compiles in minutes (``outside._mark`` is a compiled call, not inlined, for
-  that reason).
+  that reason);
+- small functions of scalars need no ``inline="always"``: LLVM inlines a compiled
+  call of one (the motion rules of :mod:`nao_arena.motion`, called per candidate,
+  are plain compiled functions, as fast as their former inlined copies).
 """

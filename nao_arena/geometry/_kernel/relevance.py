@@ -16,6 +16,7 @@ from numba import njit
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_piece
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.motion import limit_norm_sqrt
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -65,17 +66,6 @@ def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
     return (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def _clamped(v, v_max):
-    vx = v[0]
-    vy = v[1]
-    spd = math.sqrt(vx * vx + vy * vy)
-    if spd > v_max:
-        vx *= v_max / spd
-        vy *= v_max / spd
-    return vx, vy
-
-
 @njit(cache=True, error_model="numpy")
 def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
     """(N,) mask of obstacles that some acceleration with |a| <= a_max could come within
@@ -89,7 +79,7 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
     radius = borrowed(radius)
     N = seg_c.shape[0]
-    vx, vy = _clamped(v, v_max)
+    vx, vy, _ = limit_norm_sqrt(v[0], v[1], v_max)
     out = np.zeros(N, dtype=np.bool_)
     for n in range(N):
         out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, radius[n] + margin)
@@ -199,7 +189,7 @@ def _fill_relevant_paths(
     for i in range(n_nb):
         if not finite_path[idx[i]]:
             return -1
-    vx, vy = _clamped(v, v_max)
+    vx, vy, _ = limit_norm_sqrt(v[0], v[1], v_max)
     px = position[0]
     py = position[1]
     # |x(t)| <= v_max t: an obstacle that stays farther than v_max times the horizon

@@ -2,8 +2,9 @@
 
 Frame: the robot starts at the origin at t = 0 with velocity v (m/s). Path:
 x(t) = v t + a t^2 / 2 until the speed |v + a t| reaches v_max (time tau, see
-:mod:`nao_arena.speed_limit`), then constant velocity. A robot already above
-v_max starts from its velocity scaled down to v_max.
+:mod:`nao_arena.motion`), then constant velocity. A robot already above
+v_max starts from its velocity scaled down to v_max
+(:func:`~nao_arena.motion.limit_norm_sqrt`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import math
 
 from numba import njit
 
-from nao_arena.speed_limit import saturation_time
+from nao_arena.motion import limit_norm_sqrt, saturation_time
 
 __all__ = ["candidate_setup", "robot_state"]
 
@@ -44,10 +45,8 @@ def robot_state(vx, vy, ax, ay, tau, ta):
 @njit(cache=True, error_model="numpy")
 def candidate_setup(vx, vy, ax, ay, v_max, horizon):
     """Speed-clamped initial velocity, saturation time and a bound on the speed (m/s)."""
-    spd = math.sqrt(vx * vx + vy * vy)
+    vx, vy, spd = limit_norm_sqrt(vx, vy, v_max)
     if spd > v_max:
-        vx *= v_max / spd
-        vy *= v_max / spd
         spd = v_max
     tau = saturation_time(vx, vy, ax, ay, v_max)
     amag = math.sqrt(ax * ax + ay * ay)

@@ -23,6 +23,7 @@ from nao_arena.geometry._kernel.relevance import relevant_subset
 from nao_arena.geometry._kernel.segment import relevant_walls, wall_violation
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.outcome import Outcome
+from nao_arena.motion import onto_disc
 
 
 # inlined into the searches: a call would count references to its eleven arrays, once
@@ -580,14 +581,6 @@ def _try_candidate(
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def onto_disc(x, y, a_max):
-    """(x, y) m/s^2 projected onto |a| <= a_max, as AccelLimits.project does it."""
-    norm = math.hypot(x, y)
-    scale = a_max / max(norm, 1e-300) if norm > a_max else 1.0
-    return x * scale, y * scale
-
-
 @njit(cache=True, error_model="numpy")
 def repair_disc(
     prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r
@@ -979,11 +972,7 @@ def _slide(
                 fx = 0.0
             if not math.isfinite(fy):
                 fy = 0.0
-            norm = math.hypot(fx, fy)
-            if norm > a_max:
-                scale = a_max / max(norm, 1e-300)
-                fx = fx * scale
-                fy = fy * scale
+            fx, fy = onto_disc(fx, fy, a_max)
             ok, c = ok_disc(
                 fx,
                 fy,

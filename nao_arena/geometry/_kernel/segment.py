@@ -2,7 +2,7 @@
 
 Frame: the robot starts at the origin at t = 0; segments [p, q] (m) are given
 relative to it. Robot path (the model the world drives, see
-:mod:`nao_arena.speed_limit`): x(t) = v t + a t^2 / 2 until the speed |v + a t|
+:mod:`nao_arena.motion`): x(t) = v t + a t^2 / 2 until the speed |v + a t|
 reaches v_max (time tau), then constant velocity; a robot already above v_max
 starts from its velocity scaled down to v_max.
 
