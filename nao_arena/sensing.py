@@ -510,6 +510,7 @@ _BATCH_ARRAYS = (
     "wall_radius",
     "nb_start",
     "nb_index",
+    "row_bodies",
 )
 """The array fields of :class:`SensingBatch` (made read-only)."""
 
@@ -527,6 +528,14 @@ class SensingBatch:
     stopping plans of :mod:`nao_arena.stopping` follow them). :meth:`observation`
     builds the :class:`Observation` a per-robot agent sees; batched agents read the
     arrays directly.
+
+    Rows and bodies: row i of the body arrays is body i, unless ``row_bodies`` is set
+    (then row i is what the batch holds of body ``row_bodies[i]``): with sensing noise
+    (:func:`nao_arena.imperfection.with_neighbour_noise`) each (robot, neighbour) pair
+    has a row of its own, appended after the bodies' rows, and the neighbour lists
+    point at those rows. ``bodies``, ``nb_index`` and :meth:`neighbour_ids` are rows;
+    :meth:`body_of` gives the bodies, and so do the ``ids`` of :meth:`observation`'s
+    neighbours and of :meth:`everyone`.
 
     The batch is frozen (assigning an attribute raises), and every array it holds
     is read-only in memory no one can write (see :func:`read_only`: an array given
@@ -558,6 +567,7 @@ class SensingBatch:
     nb_start: NDArray[np.int64]
     nb_index: NDArray[np.int64]
     substeps: int = 10
+    row_bodies: NDArray[np.int64] | None = None
     _everyone: Neighbours | None = None
 
     def __post_init__(self) -> None:
@@ -615,15 +625,23 @@ class SensingBatch:
         )
 
     def neighbour_ids(self, k: int) -> NDArray[np.int64]:
-        """Body indices robot k senses, nearest first."""
+        """The rows (body indices, unless ``row_bodies`` is set) of what robot k senses,
+        nearest first."""
         return self.nb_index[self.nb_start[k] : self.nb_start[k + 1]]
 
+    def body_of(self, rows: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The body index (in the world) of each of ``rows`` (rows of the body arrays)."""
+        if self.row_bodies is None:
+            return np.asarray(rows, dtype=np.int64)
+        return self.row_bodies[rows]
+
     def everyone(self) -> Neighbours:
-        """All bodies as one :class:`Neighbours` (row i = body i): predict once, index per robot."""
+        """All rows as one :class:`Neighbours` (row i of the batch; its ``ids``: the
+        bodies): predict once, index per robot."""
         everyone = self._everyone
         if everyone is None:
             everyone = Neighbours(
-                ids=np.arange(len(self.positions), dtype=np.int64),
+                ids=self.body_of(np.arange(len(self.positions), dtype=np.int64)),
                 kinds=tuple(self.kinds),
                 positions=self.positions,
                 velocities=self.velocities,
@@ -641,7 +659,7 @@ class SensingBatch:
         idx = self.neighbour_ids(k)
         body = int(self.bodies[k])
         nb = Neighbours(
-            ids=idx,
+            ids=self.body_of(idx),
             kinds=tuple(self.kinds[idx]),
             positions=self.positions[idx],
             velocities=self.velocities[idx],
