@@ -23,6 +23,7 @@ it on x86-64 with FMA, so the accelerations are the same to the bit there.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import operator
 from collections.abc import Sequence
@@ -36,8 +37,10 @@ from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
+from nao_arena.imperfection import subset
+from nao_arena.motion import limit_norm
 from nao_arena.obstacles import NO_WALLS, wall_discs_memo
-from nao_arena.sensing import Observation, SensingBatch
+from nao_arena.sensing import Neighbours, Observation, SensingBatch
 
 from ._kernel_inputs import f64 as _f64
 from ._kernel_inputs import i64 as _i64
@@ -405,11 +408,7 @@ def orca_accelerations(
         tc = options[i, _TIME_CONSTANT]
         ax = (rx - vx) / tc
         ay = (ry - vy) / tc
-        norm = math.hypot(ax, ay)
-        if norm > am:
-            f = am / norm
-            ax = ax * f
-            ay = ay * f
+        ax, ay, _ = limit_norm(ax, ay, am)
         out[i, 0] = ax
         out[i, 1] = ay
     return out
@@ -460,7 +459,10 @@ def _wall_sets(
 
 class ORCAAgent:
     """Options: horizon (s), margin (m), v_pref (m/s), time_constant (s), sensing_range (m),
-    max_neighbours."""
+    max_neighbours, sees_robots (False: robots are left out of what it senses, CrowdNav's
+    invisible robot). Driving a person (a robots entry of kind "person", CrowdNav's ORCA
+    humans), it counts on the other people, not only the robots, to take half of the
+    avoidance."""
 
     def __init__(
         self,
@@ -470,7 +472,14 @@ class ORCAAgent:
         time_constant: float = 0.3,
         sensing_range: float = 30.0,
         max_neighbours: int = 16,
+        sees_robots: bool = True,
     ) -> None:
+        if not isinstance(sees_robots, bool | np.bool_):
+            raise ValueError(
+                f"orca option sees_robots: expected true or false, got {sees_robots!r}"
+            )
+        self.sees_robots = bool(sees_robots)
+        self.as_person = False
         self.horizon = _number("horizon", horizon, 0.0, True, "s")
         margin_ = _number("margin", margin, -math.inf, False, "m")
         if not math.isfinite(margin_):
@@ -497,7 +506,8 @@ class ORCAAgent:
         _TABLES.clear()  # an option changed: the memoised option tables are stale
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
-        """Stateless."""
+        """Stateless but for whom it drives: a person (``spec.kind``) or a robot."""
+        self.as_person = getattr(spec, "kind", "robot") == "person"
 
     def panel(self) -> PanelAgent:
         """What the viewer's acceleration panel shows of this agent: margin and v_pref."""
@@ -506,6 +516,8 @@ class ORCAAgent:
     def act(self, obs: Observation) -> NDArray[np.float64]:
         """The ORCA acceleration (m/s^2) of the robot ``obs`` describes."""
         nb = obs.neighbours
+        if not self.sees_robots:
+            nb = _seen(nb, np.asarray(nb.kinds) != "robot")
         m = len(nb)
         positions = _f64(
             np.concatenate([np.reshape(obs.position, (1, 2)), np.reshape(nb.positions, (m, 2))])
@@ -514,7 +526,9 @@ class ORCAAgent:
             np.concatenate([np.reshape(obs.velocity, (1, 2)), np.reshape(nb.velocities, (m, 2))])
         )
         radii = _f64(np.concatenate([[obs.radius], np.reshape(nb.radii, m)]))
-        reactive = np.array([False] + [k == "robot" for k in nb.kinds], dtype=np.bool_)
+        reactive = np.array(
+            [False] + [_reciprocal(k, self.as_person) for k in nb.kinds], dtype=np.bool_
+        )
         target = goal_target(obs)
         goals = _f64(np.zeros((1, 2)) if target is None else np.reshape(target, (1, 2)))
         options, has_v_pref, limit = _options_of([self])
@@ -608,10 +622,61 @@ def _options_of(agents: Sequence[ORCAAgent]) -> _Table:
     return np.ascontiguousarray(table[:, :5]), has_v_pref, limit.astype(np.int64)
 
 
+def _seen(nb: Neighbours, keep: NDArray[np.bool_]) -> Neighbours:
+    """The neighbours ``keep`` marks (what ORCA reads of them: ids, kinds, positions,
+    velocities, radii)."""
+    return Neighbours(
+        ids=nb.ids[keep],
+        kinds=tuple(k for k, kept in zip(nb.kinds, keep, strict=True) if kept),
+        positions=nb.positions[keep],
+        velocities=nb.velocities[keep],
+        accelerations=nb.accelerations[keep],
+        radii=nb.radii[keep],
+    )
+
+
+def _reciprocal(kind: str, as_person: bool) -> bool:
+    """Whether a neighbour of this kind takes half of the avoidance: robots do; for an
+    agent that drives a person (``as_person``), people do too (traffic never does)."""
+    return kind == "robot" or (as_person and kind == "person")
+
+
 def _batch_accelerations(
     agents: Sequence[ORCAAgent], batch: SensingBatch, rows: NDArray[np.int64]
 ) -> NDArray[np.float64]:
-    """The kernel on the bulk arrays for ``agents`` at robot rows ``rows``: (n, 2) m/s^2."""
+    """The kernel on the bulk arrays for ``agents`` at robot rows ``rows``: (n, 2) m/s^2;
+    one call per kind of view (robots; people, seeing the robots or not)."""
+    views = [(ag.as_person, ag.sees_robots) for ag in agents]
+    if all(v == (False, True) for v in views):
+        return _view_accelerations(agents, batch, rows, _reactive(batch.kinds))
+    out = np.zeros((len(rows), 2))
+    for view in dict.fromkeys(views):
+        which = [i for i, v in enumerate(views) if v == view]
+        as_person, sees_robots = view
+        kinds = np.asarray(batch.kinds)
+        reactive = (kinds == "robot") | (as_person & (kinds == "person"))
+        view_batch = batch if sees_robots else _without_robots(batch)
+        out[which] = _view_accelerations(
+            [agents[i] for i in which], view_batch, rows[which], reactive
+        )
+    return out
+
+
+def _without_robots(batch: SensingBatch) -> SensingBatch:
+    """``batch`` with the bodies of kind robot left out of every neighbour list."""
+    keep = np.asarray(batch.kinds)[batch.nb_index] != "robot"
+    start, index = subset(batch.nb_start, batch.nb_index, keep)
+    return dataclasses.replace(batch, nb_start=start, nb_index=index)
+
+
+def _view_accelerations(
+    agents: Sequence[ORCAAgent],
+    batch: SensingBatch,
+    rows: NDArray[np.int64],
+    reactive: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """The kernel on the bulk arrays for ``agents`` at robot rows ``rows`` with the
+    neighbours ``reactive`` marks as taking half of the avoidance: (n, 2) m/s^2."""
     bodies = _i64(batch.bodies)
     options, has_v_pref, limit = _option_table(agents)
     if len(batch.walls):
@@ -625,7 +690,7 @@ def _batch_accelerations(
         _f64(batch.radii),
         _f64(batch.a_max),
         _f64(batch.v_max),
-        _reactive(batch.kinds),
+        reactive,
         bodies,
         _f64(batch.goals),
         _every_goal(len(bodies)),

@@ -10,7 +10,7 @@ An agent drives one robot::
             return self.gain * to_goal - 2.0 * obs.velocity   # acceleration (2,) m/s^2
 
 Agents are named by a built-in name (``nao``, ``ao``, ``vo``, ``orca``, ``cbf``,
-``goal``, ``lane``), by ``path/to/file.py:ClassName``, by
+``goal``, ``lane``, ``social_force``), by ``path/to/file.py:ClassName``, by
 ``package.module:ClassName``, or by an entry point in the group
 ``nao_arena.agents``. Agent classes take keyword options in their
 constructor (e.g. ``horizon=4.0``).
@@ -84,6 +84,7 @@ BUILTIN_AGENTS: dict[str, str] = {
     "cbf": "nao_arena.agents.cbf:CBFAgent",
     "goal": "nao_arena.agents.goal:GoalAgent",
     "lane": "nao_arena.agents.lane:LaneAgent",
+    "social_force": "nao_arena.agents.social_force:SocialForceAgent",
 }
 
 BUILTIN_DESCRIPTIONS: dict[str, str] = {
@@ -94,6 +95,7 @@ BUILTIN_DESCRIPTIONS: dict[str, str] = {
     "cbf": "safety barrier certificates: the goal-seeking acceleration through a QP",
     "goal": "goal seeking with no avoidance (the lower bound)",
     "lane": "the traffic's lane follower: follows the robot's route at its speed",
+    "social_force": "people walking by the social force model (Helbing and Molnar 1995)",
 }
 """One line on what each built-in agent does (``nao-arena agents``)."""
 

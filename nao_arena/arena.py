@@ -24,6 +24,21 @@ the scripted lane followers of the map's traffic and the episode's
 5. updates the statistics (swept contact check over every physics substep,
    metrics) and the episode's trajectory hash.
 
+The imperfect world (map sections ``sensing`` and ``actuation``, or the
+:class:`ArenaOptions` that override them; all off by default, see
+:mod:`nao_arena.imperfection`), in the order they apply: in step 2, the field of
+view narrows the neighbour lists (the nearest ``max_neighbours`` in view;
+:meth:`Arena.sensing` and :meth:`Arena.observations` include it), then, in
+:meth:`Arena.step` only, the dropout removes neighbours and the sensing noise is
+added to what each robot senses of each remaining neighbour (own states stay
+exact), and the latency delays that imperfect batch: the agents receive the batch
+sensed ``latency`` s ago, noise, dropout and all, as frozen read-only arrays
+(the recorder gets it too). After step 3, the actuation noise is added to the
+robots' commands and the actuation lag filters them; the world gets the result
+(``StepResult.commanded``) and enforces its limits on it. The statistics use the
+truth. Each random model draws from a generator of its own, spawned from the
+episode's seed after the agents' generators.
+
 The trajectory hash (``EpisodeSummary.trajectory_hash``) is a SHA-256 over
 the positions (m) then the velocities (m/s) of every body, in body order, as
 float64 bytes, of the state after :meth:`Arena.reset` and after each step:
@@ -64,6 +79,16 @@ from nao_arena.agent import (
     load_agent,
     safe_act,
 )
+from nao_arena.imperfection import (
+    drop,
+    headings,
+    imperfections,
+    in_view,
+    lag_factor,
+    lag_step,
+    subset,
+    with_neighbour_noise,
+)
 from nao_arena.kernels import watch_compiles
 from nao_arena.maps import MapSpec, RobotSpec
 from nao_arena.sensing import (
@@ -97,14 +122,28 @@ class ArenaOptions:
     actuation_noise: float | None = None
     """Standard deviation (m/s^2) of the Gaussian noise added to each component of the
     robots' commands; None: the map's ``actuation.noise``."""
+    sensing_noise: Mapping[str, float] | None = None
+    """Standard deviations of the Gaussian noise on what a robot senses of each neighbour,
+    by key ``position`` (m), ``velocity`` (m/s), ``acceleration`` (m/s^2) (a missing key:
+    0); None: the map's ``sensing.noise``."""
+    sensing_dropout: float | None = None
+    """Probability in [0, 1] that a robot misses a neighbour in a step; None: the map's
+    ``sensing.dropout``."""
+    sensing_field_of_view: float | None = None
+    """Angle (rad, in (0, 2 pi]) around a robot's heading within which it senses bodies;
+    None: the map's ``sensing.field_of_view``."""
+    actuation_lag: float | None = None
+    """Time constant (s, >= 0) of the first-order response of the robots' applied
+    accelerations to their commands; None: the map's ``actuation.lag``."""
     known_path_horizon: float = 6.0
     """Horizon (s) of the true future paths of traffic handed to agents."""
     known_path_samples: int = 61
     """Time samples of those paths over the horizon."""
     agent: str | None = None
-    """If set, replaces every robot's agent (built-in name or plug-in reference)."""
+    """If set, replaces every robot's agent (built-in name or plug-in reference); people
+    (robots entries of kind "person") keep theirs."""
     agent_options: Mapping[str, Any] = field(default_factory=dict)
-    """Keyword options passed to the agents' constructors."""
+    """Keyword options passed to the robots' agents' constructors (not the people's)."""
     stats: StatsConfig = field(default_factory=StatsConfig)
     """Thresholds of the statistics (:class:`~nao_arena.stats.StatsConfig`)."""
     max_faults: int | None = None
@@ -126,7 +165,8 @@ class ArenaOptions:
 @dataclass(frozen=True)
 class StepResult:
     """What one control step produced: time at its end (s), the commanded
-    accelerations (N, 2) m/s^2, the contacts that started and the agents' faults."""
+    accelerations (N, 2) m/s^2 as the world got them (the robots' after the actuation
+    noise and lag), the contacts that started and the agents' faults."""
 
     time: float
     state: WorldState
@@ -194,7 +234,10 @@ class Arena:
         self.traffic = LaneTraffic.from_map(spec)
         self.robot_ids = self.world.robot_indices  # body index of robot k (robot order)
         self.robots = list(spec.robots)
-        self.agent_names = [self.options.agent or r.agent for r in self.robots]
+        # ArenaOptions.agent replaces the robots' agents, never the people's
+        self.agent_names = [
+            (self.options.agent if r.kind == "robot" else None) or r.agent for r in self.robots
+        ]
         self.agent_labels = list(self.agent_names)
         """What tables, the viewer and logs show for each robot's agent (robot order):
         its name or reference unless a caller gave a label (``--agent LABEL=REF``)."""
@@ -237,6 +280,13 @@ class Arena:
         self._latency_steps = int(round(self.sensing_latency / self.world.dt))
         self._sensed: deque[SensingBatch] = deque(maxlen=self._latency_steps + 1)
         self._noise_rng = np.random.default_rng(0)
+        self.imperfections = imperfections(spec, self.options)
+        """Sensing noise, dropout and field of view, actuation lag (the map's, or the
+        options'; see :mod:`nao_arena.imperfection`)."""
+        self._sensing_rng = np.random.default_rng(0)
+        self._dropout_rng = np.random.default_rng(0)
+        # the robots' applied accelerations (R, 2) m/s^2 under the actuation lag
+        self._applied = np.zeros((len(self.robot_ids), 2))
         self.agents: list[Any] = []
         self.stats: EpisodeStats | None = None
         self.state: WorldState | None = None
@@ -245,6 +295,14 @@ class Arena:
         self._plan: tuple[list[type], dict[type[BatchAgent], list[int]], list[int]] | None = None
         self._trajectory = hashlib.sha256()
         self.recorder: StepRecorder | None = None
+
+    def labels_with(self, label: str) -> list[str]:
+        """Agent labels (robot order) in which every robot's is ``label`` and every
+        person keeps its agent's name (what ``--agent LABEL=REF`` shows)."""
+        return [
+            label if r.kind == "robot" else name
+            for r, name in zip(self.robots, self.agent_names, strict=True)
+        ]
 
     def __getstate__(self) -> dict[str, Any]:
         """The attributes without the trajectory hash (a C object; see __setstate__)."""
@@ -291,10 +349,15 @@ class Arena:
         KeyboardInterrupt or EpisodeTimeout) raises :class:`~nao_arena.agent.AgentError`
         naming the agent, its robot and the exception."""
         self.state = self.world.reset()
-        # one generator per agent, then the actuation noise's (the agents' are the same
-        # whether or not there is noise)
-        *seeds, noise_seed = np.random.SeedSequence(seed).spawn(len(self.robots) + 1)
+        # one generator per agent, then the actuation noise's, the sensing noise's and the
+        # dropout's (each stream is the same whether or not the others draw)
+        *seeds, noise_seed, sensing_seed, dropout_seed = np.random.SeedSequence(seed).spawn(
+            len(self.robots) + 3
+        )
         self._noise_rng = np.random.default_rng(noise_seed)
+        self._sensing_rng = np.random.default_rng(sensing_seed)
+        self._dropout_rng = np.random.default_rng(dropout_seed)
+        self._applied = np.zeros((len(self.robot_ids), 2))
         self._sensed.clear()
         self.agents = []
         for k, (robot, name, ss) in enumerate(
@@ -303,7 +366,8 @@ class Arena:
             cls = load_agent(name)
             stage = "constructor"
             try:
-                agent = make_agent(cls, robot, self.options.agent_options)
+                options = self.options.agent_options if robot.kind == "robot" else None
+                agent = make_agent(cls, robot, options)
                 stage = "reset"
                 agent.reset(robot, np.random.default_rng(ss))
             except UNCONTAINED:
@@ -323,6 +387,7 @@ class Arena:
             config=self.options.stats,
             velocities=self.state.velocities,
             goals=self._body_goals(),
+            replayed=self.world.replayed,
         )
         self.commanded = np.zeros((self.world.n, 2))
         self._trajectory = hashlib.sha256()
@@ -376,7 +441,9 @@ class Arena:
 
     def sensing(self) -> SensingBatch:
         """Every robot's view of the current state as bulk arrays (see
-        :class:`~nao_arena.sensing.SensingBatch`); :meth:`observations` unpacks it."""
+        :class:`~nao_arena.sensing.SensingBatch`); :meth:`observations` unpacks it. Its
+        neighbour lists honour the field of view; the dropout and the sensing noise (random)
+        are added by :meth:`step` only."""
         state = self.state
         assert state is not None
         known = self._known_paths(state) if len(self.traffic.indices) else None
@@ -386,12 +453,7 @@ class Arena:
             # frozen once (see read_only): every step's batch shares this one array, so
             # agents may cache what they derive from it by its identity
             self._kinds = read_only(np.array(self.world.kinds))
-        start, index = neighbour_lists(
-            self.robot_ids,
-            state.positions,
-            self.sensing_range,
-            self.max_neighbours,
-        )
+        start, index = self._neighbour_lists(state)
         return SensingBatch(
             time=state.time,
             dt=self.world.dt,
@@ -415,6 +477,26 @@ class Arena:
             substeps=self.world.substeps,
         )
 
+    def _neighbour_lists(self, state: WorldState) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """The robots' neighbour lists (CSR, robot order, nearest first): the bodies within
+        the sensing range and, with a field of view narrower than 2 pi, in view of the
+        robot (:func:`~nao_arena.imperfection.in_view`), the nearest ``max_neighbours``
+        of them."""
+        if self.imperfections.all_around:
+            return neighbour_lists(
+                self.robot_ids,
+                state.positions,
+                self.sensing_range,
+                self.max_neighbours,
+            )
+        start, index = neighbour_lists(self.robot_ids, state.positions, self.sensing_range)
+        rows = self._bodies
+        heading = headings(state.positions[rows], state.velocities[rows], self.goals)
+        keep = in_view(
+            start, index, rows, state.positions, heading, self.imperfections.field_of_view
+        )
+        return subset(start, index, keep, self.max_neighbours)
+
     def observations(self) -> list[Observation]:
         """One observation per robot (robot order), for the current state."""
         batch = self.sensing()
@@ -431,7 +513,7 @@ class Arena:
         commanded = np.zeros((self.world.n, 2))
         faults: list[AgentFault] = []
         actions = actions or {}
-        batch = self._as_sensed(self.sensing())
+        batch = self._as_sensed(self._imperfect(self.sensing()))
         found: dict[int, AgentFault] = {}
         batched, single = self._dispatch()
         for k, acc in actions.items():
@@ -474,6 +556,9 @@ class Arena:
             commanded[self.robot_ids] += self._noise_rng.normal(
                 0.0, self.actuation_noise, (len(self.robot_ids), 2)
             )
+        if self.imperfections.lag > 0.0:
+            factor = lag_factor(self.world.dt, self.imperfections.lag)
+            commanded[self.robot_ids] = lag_step(self._applied, commanded[self.robot_ids], factor)
         idx = self.traffic.indices
         if len(idx):
             commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)
@@ -497,6 +582,20 @@ class Arena:
         if self.recorder is not None:
             self.recorder.step(self, batch, result, actions)
         return result
+
+    def _imperfect(self, batch: SensingBatch) -> SensingBatch:
+        """``batch`` as the robots' sensors deliver it: each neighbour missed with the
+        dropout probability, then the sensing noise on what is left (see
+        :mod:`nao_arena.imperfection`); ``batch`` itself with neither. It draws from the
+        episode's generators: once per step, before the latency (:meth:`_as_sensed`
+        delays the imperfect batch)."""
+        imp = self.imperfections
+        if imp.dropout > 0.0:
+            start, index = drop(batch.nb_start, batch.nb_index, imp.dropout, self._dropout_rng)
+            batch = dataclasses.replace(batch, nb_start=start, nb_index=index)
+        if imp.noisy:
+            batch = with_neighbour_noise(batch, imp.noise, self._sensing_rng)
+        return batch
 
     def _as_sensed(self, batch: SensingBatch) -> SensingBatch:
         """What the agents sense this step: ``batch`` itself, or with a sensing latency the

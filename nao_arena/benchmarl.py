@@ -138,6 +138,8 @@ class NaoArenaTask(Task):
     CROSSING_STREAMS_V1 = None
     CROSSING_V0 = None
     CROWD_V0 = None
+    CROWDNAV_CIRCLE_V0 = None
+    CROWDNAV_SQUARE_V0 = None
     DENSE_SWAP_PERTURBED_V1 = None
     DENSE_SWAP_V1 = None
     DOORWAY_PERTURBED_V0 = None

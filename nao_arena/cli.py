@@ -65,9 +65,12 @@ import time
 from collections.abc import Iterable, Iterator
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nao_arena import __version__
+
+if TYPE_CHECKING:  # the CLI imports its heavy parts when a command needs them
+    from nao_arena.maps import MapSpec
 
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
 
@@ -81,9 +84,9 @@ def _split(text: str) -> tuple[str, ...]:
     return tuple(part.strip() for part in text.split(",") if part.strip())
 
 
-def _plural(n: int, noun: str) -> str:
-    """``1 robot``, ``2 robots``."""
-    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+def _plural(n: int, noun: str, nouns: str | None = None) -> str:
+    """``1 robot``, ``2 robots`` (``nouns``: the plural, if not ``noun`` + s)."""
+    return f"{n} {noun}" if n == 1 else f"{n} {nouns or noun + 's'}"
 
 
 # --------------------------------------------------------------------------- compiling
@@ -285,6 +288,47 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- run
 
 
+def _bodies_line(spec: MapSpec) -> str:
+    """``2 robots, 5 people, 30 traffic vehicles`` (people and recorded people only where
+    the map has them)."""
+    parts = [_plural(spec.n_robots, "robot")]
+    if spec.n_people:
+        parts.append(_plural(spec.n_people, "person", "people"))
+    if spec.n_recorded:
+        parts.append(_plural(spec.n_recorded, "recorded person", "recorded people"))
+    parts.append(_plural(sum(g.count for g in spec.traffic), "traffic vehicle"))
+    return ", ".join(parts)
+
+
+def people_table(summary: Any) -> str:
+    """An episode's per-robot results among people (an EpisodeSummary): contacts with
+    people, those the robot caused (it was moving), discomfort (s, and its share of the
+    episode) and the closest approach (m)."""
+    head = [
+        "robot",
+        "person contacts",
+        "robot-caused",
+        "discomfort s",
+        "discomfort %",
+        "min dist m",
+    ]
+    body = []
+    for r in summary.robots:
+        share = 100.0 * r.discomfort_time / summary.duration if summary.duration > 0 else 0.0
+        closest = r.min_person_distance
+        body.append(
+            [
+                r.name,
+                str(r.person_contacts),
+                str(r.caused_person_contacts),
+                f"{r.discomfort_time:.1f}",
+                f"{share:.1f}",
+                f"{closest:.3f}" if closest == closest and abs(closest) != float("inf") else "-",
+            ]
+        )
+    return "among people:\n" + _aligned(head, body)
+
+
 def episode_table(summary: Any, agents: list[str]) -> str:
     """An episode's per-robot results (an EpisodeSummary) as an aligned text table."""
     head = [
@@ -318,10 +362,16 @@ def episode_table(summary: Any, agents: list[str]) -> str:
         ]
         for k, r in enumerate(summary.robots)
     ]
+    return _aligned(head, body, left=3)
+
+
+def _aligned(head: list[str], body: list[list[str]], left: int = 1) -> str:
+    """A text table: the header, a rule, the rows; the first ``left`` columns aligned
+    left, the others right."""
     widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head))]
     lines = [
         "  ".join(
-            c.ljust(w) if i < 3 else c.rjust(w)
+            c.ljust(w) if i < left else c.rjust(w)
             for i, (c, w) in enumerate(zip(row, widths, strict=True))
         ).rstrip()
         for row in [head, *body]
@@ -417,14 +467,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
             trusted=args.trust_map,
             agents={label: agent} if label and agent and label != agent else None,
         )
-        _load_agents([agent] if agent else [r.agent for r in spec.robots])
+        # --agent replaces the robots' agents; people keep theirs
+        refs = sorted({agent if agent and r.kind == "robot" else r.agent for r in spec.robots})
+        _load_agents(refs)
         arena = Arena(spec, ArenaOptions(agent=agent, max_faults=args.max_faults))
         if label:
-            arena.agent_labels = [label] * len(arena.robots)
+            arena.agent_labels = arena.labels_with(label)
         recorder = _run_recorder(args, arena, label, overrides)
     except (MapError, ValueError) as exc:
         return _err(str(exc))
-    parts = _parts([agent] if agent else [r.agent for r in spec.robots], render=bool(args.render))
+    parts = _parts(refs, render=bool(args.render))
     # compiled and loaded before the episode's budget starts (which leaves compiles out
     # anyway), here, so that the episode's process starts warm
     compile_parts(parts)
@@ -491,13 +543,13 @@ def _run_episode(
     except (AgentError, EpisodeTimeout) as exc:
         return _err(describe(exc))
     agents = arena.agent_labels
-    n_traffic = arena.world.n - len(arena.robots)
     print(
         f"map {spec.name} ({_map_origin(args.map, spec.source)}), seed {args.seed}, "
-        f"{_plural(len(arena.robots), 'robot')}, {_plural(n_traffic, 'traffic vehicle')}; "
-        f"{_plural(summary.steps, 'step')}, {summary.duration:.1f} s"
+        f"{_bodies_line(spec)}; {_plural(summary.steps, 'step')}, {summary.duration:.1f} s"
     )
     print(episode_table(summary, agents))
+    if spec.n_people or spec.n_recorded:
+        print(people_table(summary))
     robot_contacts = [c for c in summary.contacts if "robot" in (c.kind_a, c.kind_b)]
     print(f"contacts involving robots: {len(robot_contacts)}; agent faults: {len(summary.faults)}")
     for f in summary.faults[:5]:
@@ -623,13 +675,9 @@ def _cmd_maps(args: argparse.Namespace) -> int:
         except MapError as exc:
             print(f"{name}\n    (cannot be loaded: {exc})")
             continue
-        n_traffic = sum(g.count for g in spec.traffic)
         desc = " ".join(spec.description.split())
         params = ", ".join(f"{k}={v}" for k, v in spec.parameters.items()) or "none"
-        print(
-            f"{name}: {_plural(spec.n_robots, 'robot')}, {n_traffic} traffic, "
-            f"{spec.episode.time_limit:g} s"
-        )
+        print(f"{name}: {_bodies_line(spec)}, {spec.episode.time_limit:g} s")
         if desc:
             print(f"    {desc}")
         print(f"    parameters: {params}")

@@ -62,8 +62,9 @@ frame, units m, m/s, m/s^2, s:
 - ``neighbours`` (K x 9, K = ``max_neighbours``): the K nearest bodies
   within the arena's sensing range, nearest first (ties by body index), one
   row each: mask (1 = present), relative position (2, m), relative velocity
-  (2, m/s), acceleration (2, m/s^2), radius (m), is_traffic (0/1); absent
-  rows are all zero;
+  (2, m/s), acceleration (2, m/s^2), radius (m), is_traffic (0/1: 1 for
+  traffic and people, the bodies that are not robots); absent rows are all
+  zero;
 - ``nao`` (optional, ``nao_features=True``): the exact clearance (m, see
   :func:`nao_arena.geometry.nao_clearance`) of fixed candidate accelerations
   against the K neighbours' predicted paths (``nao_predictor``, default
@@ -487,7 +488,8 @@ class NaoArenaParallelEnv(ParallelEnv):
         spec = self._load(self.map_params)
         self._declared = frozenset(spec.parameters)
         self._install(spec)
-        robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots)]
+        # the robots under test (people, after them, keep their own agents)
+        robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots[: spec.n_robots])]
         self._controlled = self._resolve_controlled(self.options.controlled, robot_names)
         names = [robot_names[k] for k in self._controlled]
         self.possible_agents: list[str] = (
@@ -529,7 +531,8 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.spec = spec
         self.arena = Arena(spec, self.options.arena)
         world = self.arena.world
-        self._kinds = np.array([k == "traffic" for k in world.kinds], dtype=float)
+        # is_traffic: 1 for the bodies that are not robots (traffic and people)
+        self._kinds = np.array([k != "robot" for k in world.kinds], dtype=float)
         self._world_a_max = np.ascontiguousarray(world.a_max, dtype=np.float64)
         self._world_v_max = np.ascontiguousarray(world.v_max, dtype=np.float64)
         self._sensing_range = float(self.arena.sensing_range)

@@ -86,6 +86,7 @@ from nao_arena import __version__
 from nao_arena.arena import Arena, ArenaOptions, StepResult
 from nao_arena.atomic import atomic_write_with
 from nao_arena.maps import MapSpec
+from nao_arena.motion import limit_norms
 from nao_arena.predictors import PREDICTORS, get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 from nao_arena.stats import ContactEvent, EpisodeSummary
@@ -498,11 +499,7 @@ class EpisodeRecorder:
             v_target = np.where(
                 (dist < 1e-9)[..., None], 0.0, to_goal / dist[..., None] * speed[..., None]
             )
-        acc = (v_target - v) / self._tau[:, None]
-        norm = np.hypot(acc[..., 0], acc[..., 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(norm > a_max, a_max / norm, 1.0)
-        acc = acc * scale[..., None]
+        acc = limit_norms((v_target - v) / self._tau[:, None], a_max)
         cmd = commanded[1:, bodies]
         off = np.hypot(cmd[..., 0] - acc[..., 0], cmd[..., 1] - acc[..., 1])
         return np.where(
@@ -532,7 +529,9 @@ class EpisodeRecorder:
         self._status.append(status)
         self._selection.append(selection)
         self._detour.append(detour)
-        self._nb.append((sensing.nb_start, sensing.nb_index) if self._nb_robots.any() else None)
+        # the neighbours' body indices (the lists point at rows of their own with sensing noise)
+        nb = (sensing.nb_start, sensing.body_of(sensing.nb_index))
+        self._nb.append(nb if self._nb_robots.any() else None)
 
     def finish(
         self, arena: Arena | None = None, summary: EpisodeSummary | None = None

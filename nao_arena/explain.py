@@ -423,12 +423,13 @@ class _Window:
 
 def _body_colour(log: EpisodeLog, body: int, controlled: Collection[int] = ()) -> Colour:
     """The viewer's fill colour of a body: a robot's by its agent's label (red when
-    driven from outside, robot indices ``controlled``), else the traffic colour."""
-    from nao_arena.render.colours import TRAFFIC_COLOUR, robot_colour
+    driven from outside, robot indices ``controlled``), else a recorded person's or the
+    traffic's colour."""
+    from nao_arena.render.colours import body_colour, robot_colour
 
     hit = np.flatnonzero(log.robot_ids == body)
     if not len(hit):
-        return TRAFFIC_COLOUR
+        return body_colour(log.state(0).kinds[body])
     k = int(hit[0])
     return robot_colour(log.robots[k].label, k in set(controlled))
 

@@ -565,7 +565,18 @@ def _record_part(part: str, maps: Sequence[str], steps: int) -> dict[str, Any]:
     return out
 
 
-RECORD_PARTS = (CORE, "nao", "ao", "vo", "orca", "cbf", "goal", "lane", "render")
+RECORD_PARTS = (
+    CORE,
+    "nao",
+    "ao",
+    "vo",
+    "orca",
+    "cbf",
+    "goal",
+    "lane",
+    "social_force",
+    "render",
+)
 """The parts :func:`record_manifest` records."""
 
 

@@ -22,7 +22,9 @@ an integer >= 0, a person annotated twice in one frame, non-finite values) is a
 
 from __future__ import annotations
 
+import functools
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -30,7 +32,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FORMATS", "Recording", "RecordingError", "read_recording"]
+__all__ = ["FORMATS", "Recording", "RecordingError", "cached_recording", "read_recording"]
 
 FORMATS: dict[str, int] = {"obsmat": 8, "xy": 4}
 """Format name -> numbers per line."""
@@ -187,3 +189,26 @@ def _parse(file: Path, text: str, format: str) -> list[tuple[float, float, float
             raise RecordingError(f"{where}: person id: expected an integer, got {fields[1]}")
         rows.append((frame, person, values[xc], values[yc]))
     return rows
+
+
+def cached_recording(
+    path: str | Path, format: str = "obsmat", fps: float = 15.0, time_offset: float = 0.0
+) -> Recording:
+    """:func:`read_recording`, read once per process for each file version (its size and
+    modification time) and arguments."""
+    try:
+        stat = os.stat(path)
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such recording file") from None
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    return _cached(
+        str(path), stat.st_size, stat.st_mtime_ns, format, float(fps), float(time_offset)
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _cached(
+    path: str, size: int, mtime_ns: int, format: str, fps: float, time_offset: float
+) -> Recording:
+    return read_recording(path, format, fps, time_offset)  # type: ignore[arg-type]

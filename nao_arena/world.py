@@ -17,7 +17,7 @@ period: in substep j the force m a clamp((tau - j h) / h, 0, 1) is applied,
 so that without contacts the velocity after the period is exactly
 v + a min(tau, dt) (up to rounding; tests/reference/world_reference.py writes
 this model out in numpy). The saturation time tau is
-:func:`nao_arena.speed_limit.saturation_time`, shared with the planner. A
+:func:`nao_arena.motion.saturation_time`, shared with the planner. A
 body faster than v_max (after a contact) is first slowed to v_max by
 scaling its velocity (never by moving it), and then gains no speed. Speeds
 above v_max left by contacts at the end of a period are scaled back too, so
@@ -62,7 +62,13 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
-from nao_arena.speed_limit import saturation_time, speed_limit_time
+from nao_arena.motion import (
+    clip_accelerations,
+    clip_norm,
+    limit_norm,
+    saturation_time,
+    speed_limit_time,
+)
 
 __all__ = [
     "World",
@@ -82,7 +88,7 @@ class WorldState:
     time (s); positions (N, 2) m; velocities (N, 2) m/s; accelerations
     (N, 2) m/s^2: the mean acceleration over the last control period,
     (v_end - v_start) / dt, contacts included (zeros after a reset); radii
-    (N,) m; names and kinds ("robot" or "traffic") per body.
+    (N,) m; names and kinds ("robot", "person" or "traffic") per body.
     """
 
     time: float
@@ -97,30 +103,19 @@ class WorldState:
         return len(self.radii)
 
 
-def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
-    """Rows of accels (N, 2) m/s^2 scaled to |a| <= a_max (N,) (direction kept)."""
-    a = np.asarray(accels, dtype=float)
-    norm = np.hypot(a[:, 0], a[:, 1])
-    scale = np.minimum(1.0, np.asarray(a_max, float) / np.maximum(norm, 1e-300))
-    return a * scale[:, None]
-
-
 @njit(cache=True)
 def applied_plans(
     commanded: FloatArray, rows: NDArray[np.int64], a_max: FloatArray, n: int
 ) -> FloatArray:  # pragma: no cover
     """(n, 2) m/s^2: the commanded accelerations of the bodies ``rows`` scaled to
     |a| <= a_max[j] (m/s^2) as :func:`clip_accelerations` scales them (the same
-    arithmetic), NaN for the other bodies: the accelerations the world applied to the
-    robots (finite commands, as :meth:`World.step` takes them)."""
+    arithmetic, :func:`~nao_arena.motion.clip_norm`), NaN for the other bodies: the
+    accelerations the world applied to the robots (finite commands, as
+    :meth:`World.step` takes them)."""
     out = np.full((n, 2), np.nan)
     for j in range(rows.shape[0]):
         r = rows[j]
-        ax, ay = commanded[r, 0], commanded[r, 1]
-        norm = np.hypot(ax, ay)
-        scale = min(1.0, a_max[j] / max(norm, 1e-300))
-        out[r, 0] = ax * scale
-        out[r, 1] = ay * scale
+        out[r, 0], out[r, 1] = clip_norm(commanded[r, 0], commanded[r, 1], a_max[j])
     return out
 
 
@@ -141,9 +136,10 @@ def _plan_period(
     Writes the substep forces (substeps, rows, 2) N (row rows[i] for body i)
     and the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s;
     returns (all commands finite, some start velocity was scaled). Same
-    arithmetic as :func:`clip_accelerations` and the numpy model in
+    arithmetic as :func:`clip_accelerations` (:func:`~nao_arena.motion.clip_norm`; the
+    speed limit :func:`~nao_arena.motion.limit_norm`) and the numpy model in
     tests/reference/world_reference.py (bit-identical results; tested); the saturation
-    time is :func:`nao_arena.speed_limit.saturation_time`, the model the planner
+    time is :func:`nao_arena.motion.saturation_time`, the model the planner
     predicts with.
     """
     n = accels.shape[0]
@@ -154,15 +150,9 @@ def _plan_period(
             return False, False
     any_over = False
     for i in range(n):
-        ax, ay = accels[i, 0], accels[i, 1]
-        norm = np.hypot(ax, ay)
-        scale = min(1.0, a_max[i] / max(norm, 1e-300))
-        ax, ay = ax * scale, ay * scale
-        vx, vy = v[i, 0], v[i, 1]
-        speed = np.hypot(vx, vy)
+        ax, ay = clip_norm(accels[i, 0], accels[i, 1], a_max[i])
+        vx, vy, speed = limit_norm(v[i, 0], v[i, 1], v_max[i])
         if speed > v_max[i]:
-            f = v_max[i] / speed
-            vx, vy = vx * f, vy * f
             any_over = True
         v_out[i, 0], v_out[i, 1] = vx, vy
         tau = saturation_time(vx, vy, ax, ay, v_max[i])
@@ -193,11 +183,8 @@ def _finish_period(
     for i in range(pos.shape[0]):
         r = rows[i]
         pos[i, 0], pos[i, 1] = data[r, 0], data[r, 1]
-        vx, vy = data[r, 2], data[r, 3]
-        speed = np.hypot(vx, vy)
+        vx, vy, speed = limit_norm(data[r, 2], data[r, 3], v_max[i])
         if speed > v_max[i]:
-            f = v_max[i] / speed
-            vx, vy = vx * f, vy * f
             any_over = True
         vel[i, 0], vel[i, 1] = vx, vy
         acc[i, 0] = (vx - v_start[i, 0]) / dt
@@ -401,9 +388,11 @@ class World:
         self.v_max = np.array([b.v_max for b in self.bodies], dtype=float)
         self.names = tuple(b.name for b in self.bodies)
         self.kinds = tuple(b.kind for b in self.bodies)
-        self.robot_indices = np.array(
-            [b.index for b in self.bodies if b.kind == "robot"], dtype=np.intp
-        )
+        # the bodies driven by agents: the robots, then the people (MapSpec.robots order)
+        self.robot_indices = np.array([b.index for b in self.bodies if b.robot >= 0], dtype=np.intp)
+        self.replayed = np.array([b.replayed for b in self.bodies], dtype=bool)
+        """Per body: whether it is a recorded person, moved by its recording."""
+        self._replayed_rows = np.flatnonzero(self.replayed)
         self.traffic_indices = np.array(
             [b.index for b in self.bodies if b.kind == "traffic"], dtype=np.intp
         )
@@ -434,7 +423,10 @@ class World:
         space.damping = 1.0
         pm_bodies = []
         for b in self.bodies:
-            body = pymunk.Body(b.mass, float("inf"))
+            if b.replayed:
+                body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            else:
+                body = pymunk.Body(b.mass, float("inf"))
             body.position = b.start
             body.velocity = b.velocity
             shape: pymunk.Shape = pymunk.Circle(body, b.radius)
@@ -467,6 +459,10 @@ class World:
         self._read()
         self._acc = np.zeros((self.n, 2))
         self._prev_positions = self._pos.copy()
+        # which recorded people are in the scene in the first control period
+        self._present = (
+            self.spec.replay_states(0)[2] if len(self._replayed_rows) else np.zeros(0, bool)
+        )
         return self.state()
 
     def _setup_batch(self) -> None:
@@ -620,4 +616,25 @@ class World:
         self._vel = vel
         self._steps += 1
         self.time = self._steps * self.dt
+        if len(self._replayed_rows):
+            self._replay()
         return self.state()
+
+    def _replay(self) -> None:
+        """Recorded people for the control period that starts now: each present one at its
+        recorded centre, moving along the chord to its next one; the absent ones waiting
+        at their parking places (:meth:`nao_arena.maps.MapSpec.replay_states`). Their
+        acceleration is the change of the chord velocity over dt (0 when one appears or
+        leaves)."""
+        rows = self._replayed_rows
+        pos, vel, present = self.spec.replay_states(self._steps)
+        both = present & self._present
+        acc = np.where(both[:, None], (vel - self._vel[rows]) / self.dt, 0.0)
+        self._present = present
+        for k, r in enumerate(rows.tolist()):
+            body = self._pm_bodies[r]
+            body.position = (float(pos[k, 0]), float(pos[k, 1]))
+            body.velocity = (float(vel[k, 0]), float(vel[k, 1]))
+        self._pos[rows] = pos
+        self._vel[rows] = vel
+        self._acc[rows] = acc

@@ -157,6 +157,8 @@ FINGERPRINTS = {
     "crossing_streams_v1": "7524ebd79b0b0f58",
     "crossing_v0": "9f39f5b480cfcc0d",
     "crowd_v0": "b159d9e9b845b71e",
+    "crowdnav_circle_v0": "4937803cf2a9fd9c",
+    "crowdnav_square_v0": "88cd722538e1fa21",
     "dense_swap_perturbed_v1": "ff22e16eaca86e5d",
     "dense_swap_v1": "45e129dddd20b5b5",
     "doorway_perturbed_v0": "59d52da2e272f1d9",
@@ -201,6 +203,10 @@ def fingerprint(name: str) -> str:
         (options["arena"], "max_faults", None),
         (options["arena"], "sensing_latency", None),
         (options["arena"], "actuation_noise", None),
+        (options["arena"], "sensing_noise", None),
+        (options["arena"], "sensing_dropout", None),
+        (options["arena"], "sensing_field_of_view", None),
+        (options["arena"], "actuation_lag", None),
     ):
         if section[key] == neutral:
             del section[key]

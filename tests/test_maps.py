@@ -27,6 +27,8 @@ SHIPPED = [
     "crossing_streams",
     "crossing_streams_perturbed",
     "crowd",
+    "crowdnav_circle",
+    "crowdnav_square",
     "dense_swap",
     "dense_swap_perturbed",
     "doorway",
@@ -55,8 +57,10 @@ def test_shipped_map_loads(name: str) -> None:
     assert spec.robots, "every shipped map has robots"
     bodies = spec.bodies()
     assert [b.index for b in bodies] == list(range(len(bodies)))
-    assert all(b.kind == "robot" for b in bodies[: spec.n_robots])
-    assert all(b.kind == "traffic" for b in bodies[spec.n_robots :])
+    robots, people = spec.n_robots, spec.n_people
+    assert all(b.kind == "robot" for b in bodies[:robots])
+    assert all(b.kind == "person" for b in bodies[robots : robots + people])
+    assert all(b.kind == "traffic" for b in bodies[robots + people :])
     segs, radii = spec.wall_segments()
     assert segs.shape == (len(radii), 2, 2)
 
@@ -224,7 +228,7 @@ BAD_CASES = {
     "zero_substeps.yaml": ("physics.substeps", "expected a positive number, got 0"),
     "unknown_builder.yaml": (
         "layouts[0].builder",
-        "expected one of circle_swap, crowd, queue, stream",
+        "expected one of circle_crossing, circle_swap, crowd, queue, square_crossing, stream",
     ),
     "bad_layout_arg.yaml": ("layouts[0].args.n", "expected a positive number, got -3"),
     "unknown_layout_arg.yaml": ("layouts[0].args.diameter", "unknown key; expected one of: n"),
@@ -274,12 +278,12 @@ BAD_CASES = {
     # names checked when the map loads
     "unknown_agent.yaml": (
         "robots[0].agent",
-        "expected one of nao, ao, vo, orca, cbf, goal, lane, or a name given "
+        "expected one of nao, ao, vo, orca, cbf, goal, lane, social_force, or a name given "
         "with --agent NAME=REFERENCE, got 'superbot'",
     ),
     "unknown_options_agent.yaml": (
         "robots[0].agent_options_for",
-        "expected one of nao, ao, vo, orca, cbf, goal, lane, or a "
+        "expected one of nao, ao, vo, orca, cbf, goal, lane, social_force, or a "
         "name given with --agent NAME=REFERENCE, got 'naoo'",
     ),
     "unknown_predictor.yaml": (

@@ -518,6 +518,9 @@ class ReferenceStats:
                     name_b=s.names[b],
                     impact_speed=max(0.0, -float((approach(q, b) - approach(q, a)) @ nrm)),
                     max_penetration=float(-sep[k]),
+                    speed_a=float(np.hypot(*approach(q, a))),
+                    speed_b=float(np.hypot(*approach(q, b))),
+                    began_overlapping=bool(np.hypot(*rel[0, k]) < reach[k]),
                 )
 
             contacts(i, j, sep, sep_end, False, make_disc)
@@ -563,6 +566,8 @@ class ReferenceStats:
                     name_b=f"wall{wall}",
                     impact_speed=max(0.0, -float(approach(q, body) @ nrm_k)),
                     max_penetration=float(-sep[k]),
+                    speed_a=float(np.hypot(*approach(q, body))),
+                    speed_b=0.0,
                 )
 
             contacts(i, w, sep, sep_end, True, make_wall)

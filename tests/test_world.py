@@ -56,8 +56,9 @@ def spread_map(
 
 
 def goal_seeking(spec: MapSpec, world: World, pos: np.ndarray, vel: np.ndarray) -> np.ndarray:
-    """Proportional goal seeking for the robots (rows 0..R-1), m/s^2."""
-    n = spec.n_robots
+    """Proportional goal seeking for the bodies agents drive (rows 0..R-1: the robots,
+    then the people), m/s^2."""
+    n = len(spec.robots)
     goals = np.array([r.goal for r in spec.robots], float).reshape(-1, 2)
     to_goal = goals - pos[:n]
     dist = np.hypot(*to_goal.T)
@@ -397,7 +398,7 @@ def test_shipped_map_runs_200_steps(name: str) -> None:
         velocities=state.velocities,
     )
     goals = np.array([r.goal for r in spec.robots], float)
-    n = spec.n_robots
+    n = len(spec.robots)  # the bodies driven by agents: robots, then people
     for _ in range(200):
         a = np.zeros((world.n, 2))
         a[:n] = goal_seeking(spec, world, state.positions, state.velocities)
@@ -411,7 +412,7 @@ def test_shipped_map_runs_200_steps(name: str) -> None:
         assert np.all(np.isfinite(state.positions))
         assert np.all(np.hypot(*state.velocities.T) <= world.v_max * (1 + LIMIT_RTOL))
     summary = stats.summary()
-    assert len(summary.robots) == n and summary.steps == 200
+    assert len(summary.robots) == spec.n_robots and summary.steps == 200
     assert state.time == pytest.approx(20.0)
     # scripted lanes never rear-end themselves
     assert not [c for c in summary.contacts if c.kind_a == c.kind_b == "traffic"]

@@ -8,7 +8,7 @@ A page asks for a part with a marker line of its own, e.g. ``<!-- generated: cli
 - ``map-schema``: the map file format (``nao_arena.maps.format_reference()``, what
   ``nao-arena maps --schema`` prints);
 - ``trial-legend``: the legend ``nao-arena trial`` prints under its table
-  (``nao_arena.trials.TABLE_LEGEND``);
+  (``nao_arena.trials.TABLE_LEGEND``, and ``PEOPLE_LEGEND`` on maps with people);
 - ``options``: every field of the settings dataclasses (:data:`OPTION_CLASSES`: the env's,
   its rewards', the control loop's and the statistics'), its type, default and meaning,
   from the docstring written under each field (:func:`field_docs`).
@@ -153,9 +153,9 @@ def map_schema() -> str:
 
 
 def trial_legend() -> str:
-    from nao_arena.trials import TABLE_LEGEND
+    from nao_arena.trials.table import PEOPLE_LEGEND, TABLE_LEGEND
 
-    return "```text\n" + TABLE_LEGEND.rstrip("\n") + "\n```"
+    return "```text\n" + TABLE_LEGEND.rstrip("\n") + "\n" + PEOPLE_LEGEND + "\n```"
 
 
 OPTION_CLASSES = (

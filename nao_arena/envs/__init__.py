@@ -50,6 +50,8 @@ _NAMES: tuple[str, ...] = (
     "crossing_streams_v1",
     "crossing_v0",
     "crowd_v0",
+    "crowdnav_circle_v0",
+    "crowdnav_square_v0",
     "dense_swap_perturbed_v1",
     "dense_swap_v1",
     "doorway_perturbed_v0",

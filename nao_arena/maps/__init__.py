@@ -48,7 +48,11 @@ Top level
     (keyword options of the agent's constructor, e.g. ``{horizon: 5.0}``),
     ``agent_options_for`` (the agent those options are for, e.g. "nao": a robot
     that runs another agent gets none of them; default: any agent that takes them),
-    ``name`` (default "robot<i>").
+    ``kind`` (``robot``, the default: a robot under test; ``person``: a simulated
+    pedestrian driven by its own agent, e.g. ``social_force``, reported apart, left
+    alone by ``--agent`` and the env, and counted by the robots' agents as a body that
+    does not cooperate; people come after the robots in body order), ``name``
+    (default "robot<i>", "person<i>" for people).
 ``layouts`` (list, optional): generated robots, each
     ``{builder: <name>, args: {...}, robot: {...}, name: prefix}``, where
     ``builder`` names a registered layout builder (:data:`LAYOUTS`),
@@ -83,6 +87,18 @@ Top level
       (robot k takes goal k: the first robots head for the farthest goals);
       ``perturb`` moves each start and its goal alike. A queue that spreads
       out on arrival, so that a robot can pass between parked ones.
+    - ``circle_crossing`` (CrowdNav's circle crossing): ``n`` bodies (default 5) at
+      random angles on a circle of ``radius`` (m, default 4) around ``center``, each
+      start moved by a uniform draw in [-``noise``/2, ``noise``/2] (m, default 1) per
+      axis, each goal the start's reflection through the centre; starts (and goals)
+      at least two radii + ``min_gap`` (m, default 0.2) from one another and from the
+      points of ``keep_clear`` (e.g. a robot's start and goal), drawn again until
+      they are (at most ``max_tries`` draws, default 100000).
+    - ``square_crossing`` (CrowdNav's square crossing): ``n`` bodies (default 5) in a
+      square of side ``width`` (m, default 10) around ``center``, each starting in a
+      random half (left or right of the vertical axis) and heading for a random
+      point of the other half; ``min_gap``, ``keep_clear`` and ``max_tries`` as for
+      ``circle_crossing``.
 ``traffic`` (list, optional): scripted vehicles, one group per lane:
     ``lane``: ``{type: circle, center: [x, y], radius: R, direction: ccw|cw,
     start_angle: rad}`` or ``{type: polyline, points: [[x, y], ...], closed:
@@ -97,6 +113,21 @@ Top level
     3), ``v_max`` (m/s, default 1.5 speed, must exceed speed), car
     following: ``time_headway`` (s, default 1), ``min_gap`` (m, default 2),
     ``name``.
+    An entry with ``type: recorded`` replays recorded people instead (ETH/UCY
+    annotations, :mod:`nao_arena.pedestrians`): ``file`` (the recording; a relative
+    path is relative to the map file), ``format`` (``obsmat``, default: ``frame id x z
+    y vx vz vy``; or ``xy``: ``frame id x y``), ``fps`` (frames per second of its frame
+    numbers, default 15), ``time_offset`` (s, default 0: the recording's time at which
+    the episode starts), ``time_jitter`` (s, default 0: the offset moved by a uniform
+    draw in [0, time_jitter) from the map's seeded Generator, after the lanes' phases),
+    ``radius`` (m, default 0.3), ``name`` (prefix of the people's names, default
+    "person", then the recording's id). Each person present for at least one whole
+    control period is a body of kind ``person`` that the recording moves (a pymunk
+    kinematic body): at every control step at its recorded centre (interpolated
+    linearly between annotations), in between along the chord to the next one; it is
+    in the scene for the control periods it is annotated through, and waits far
+    outside the bounds (out of sensing range) before and after. Robots cannot push
+    it; its contacts with other recorded people and with walls are not counted.
 ``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (1..1000,
     default 10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0,
     default 0), ``collision_slop`` (m of tolerated overlap, default 0.005),
@@ -106,14 +137,27 @@ Top level
 ``sensing``: ``range`` (m, default 30): robots sense the bodies within it;
     ``max_neighbours`` (default: no limit), the nearest first; ``latency`` (s,
     default 0): the agents act on what they sensed that long ago (whole control
-    periods; the statistics use the truth).
+    periods; the statistics use the truth); ``noise``: ``{position: m, velocity:
+    m/s, acceleration: m/s^2}`` (each default 0), the standard deviations of
+    Gaussian noise added to each component of what a robot senses of each
+    neighbour, drawn per robot, neighbour and step (its own state stays exact);
+    ``dropout`` (probability 0..1, default 0): each neighbour of each robot is
+    missed in a step with that probability, independently; ``field_of_view`` (rad,
+    > 0 and <= 2 pi, default 2 pi: all around): a robot senses only the bodies whose
+    centre lies within half that angle of its heading (the direction of its
+    velocity; standing still, the direction to its goal), the nearest
+    ``max_neighbours`` of them. Random draws come from the episode's generator.
 ``actuation``: ``noise`` (m/s^2, default 0): the standard deviation of Gaussian noise
     added to each component of every robot's command each control period (the
-    episode's generator), before the world's limits.
+    episode's generator); ``lag`` (s, default 0): the time constant of a first-order
+    response of the applied acceleration a to the (noisy) command c, a += (1 -
+    exp(-dt / lag)) (c - a) each control period (a = 0 at the start); both before
+    the world's limits.
 
 Body order (the world's, the stats', the agents'): hand-placed robots,
-then layout robots (layout by layout), then traffic (group by group,
-vehicle 0 first).
+then layout robots (layout by layout), then the people (``kind: person``, in
+the same order), then traffic (group by group, vehicle 0 first), then the
+recorded people (entry by entry, in the recording's id order).
 
 Errors are :class:`MapError` (a ``ValueError``) naming the file, the field
 path and what was expected, e.g. ``maps/foo.yaml: robots[2].radius:
@@ -159,6 +203,7 @@ from nao_arena.maps.schema import (
     RobotTemplate,
     SegmentWall,
     Sensing,
+    SensingNoise,
     TrafficGroup,
 )
 
@@ -191,6 +236,7 @@ __all__ = [
     "RobotTemplate",
     "SegmentWall",
     "Sensing",
+    "SensingNoise",
     "TrafficGroup",
     "available_maps",
     "format_reference",

@@ -18,7 +18,9 @@ class MapError(ValueError):
     """A map file that cannot be loaded: the message names file, field path and expectation."""
 
 
-_TAGS = frozenset({"segment", "polygon", "circle", "polyline"})
+_TAGS = frozenset({"segment", "polygon", "circle", "polyline", "lane_group", "recorded"})
+_UNTYPED = "lane_group"
+"""The tag of a tagged union member written without a ``type`` key (a traffic lane group)."""
 
 
 def _render_path(loc: Sequence[Any], data: Any) -> str:
@@ -32,7 +34,7 @@ def _render_path(loc: Sequence[Any], data: Any) -> str:
         elif isinstance(node, dict) and el in node:
             out += f".{el}"
             node = node[el]
-        elif isinstance(node, dict) and el in _TAGS and node.get("type") == el:
+        elif isinstance(node, dict) and el in _TAGS and node.get("type", _UNTYPED) == el:
             continue
         else:
             out += f".{el}"

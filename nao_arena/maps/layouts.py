@@ -2,7 +2,8 @@
 
 :func:`register_layout` adds a builder, ``fn(args, ctx) -> [(start, goal), ...]`` (m),
 with a model that validates its ``args``; the shipped ones are ``circle_swap``, ``crowd``,
-``queue`` and ``stream`` (see :mod:`nao_arena.maps`).
+``queue``, ``stream``, and CrowdNav's ``circle_crossing`` and ``square_crossing`` (see
+:mod:`nao_arena.maps`).
 """
 
 from __future__ import annotations
@@ -30,17 +31,21 @@ from nao_arena.maps.schema import (
 
 __all__ = [
     "LAYOUTS",
+    "CircleCrossingArgs",
     "CircleSwapArgs",
     "CrowdArgs",
     "LayoutBuilder",
     "LayoutContext",
     "Placement",
     "QueueArgs",
+    "SquareCrossingArgs",
     "StreamArgs",
+    "circle_crossing",
     "circle_swap",
     "crowd",
     "queue",
     "register_layout",
+    "square_crossing",
     "stream",
 ]
 
@@ -248,3 +253,98 @@ def _block(
     k = np.arange(n)
     row, col = k // width, k % width
     return front - (row * spacing)[:, None] * d + ((col - (width - 1) / 2) * spacing)[:, None] * nrm
+
+
+class CircleCrossingArgs(StrictModel):
+    """Arguments of the ``circle_crossing`` builder."""
+
+    n: BodyCount = 5
+    radius: Pos = 4.0
+    center: Vec2 = (0.0, 0.0)
+    noise: NonNeg = 1.0
+    min_gap: NonNeg = 0.2
+    keep_clear: list[Vec2] = Field(default_factory=list)
+    max_tries: Annotated[PosInt, Field(le=MAX_TRIES)] = 100_000
+
+
+def _clear_of(p: NDArray[np.float64], taken: list[NDArray[np.float64]], distance: float) -> bool:
+    """Whether point p lies at least ``distance`` (m) from every point of ``taken``."""
+    return all(float(np.hypot(*(p - q))) >= distance for q in taken)
+
+
+def _too_many_tries(n: int, max_tries: int) -> ValueError:
+    return ValueError(
+        f"cannot place {n} people within {max_tries} tries; expected more room, fewer "
+        "people or a smaller min_gap"
+    )
+
+
+@register_layout("circle_crossing", CircleCrossingArgs)
+def circle_crossing(args: CircleCrossingArgs, ctx: LayoutContext) -> Placement:
+    """CrowdNav's circle crossing: n bodies at random angles on a circle of ``radius``
+    around ``center``, each start moved by a uniform draw in [-noise/2, noise/2] per
+    axis, each goal the start's reflection through the centre; a start (and its goal)
+    is drawn again until it is at least 2 radius + ``min_gap`` from the other starts
+    (goals) and from every point of ``keep_clear`` (e.g. a robot's start and goal)."""
+    c = np.asarray(args.center, float)
+    d = 2 * ctx.radius + args.min_gap
+    clear = [np.asarray(p, float) for p in args.keep_clear]
+    starts: list[NDArray[np.float64]] = []
+    goals: list[NDArray[np.float64]] = []
+    tries = 0
+    while len(starts) < args.n:
+        if tries >= args.max_tries:
+            raise _too_many_tries(args.n, args.max_tries)
+        tries += 1
+        angle = 2.0 * np.pi * ctx.rng.random()
+        jitter = (ctx.rng.random(2) - 0.5) * args.noise
+        p = c + args.radius * np.array([np.cos(angle), np.sin(angle)]) + jitter
+        g = 2.0 * c - p
+        if _clear_of(p, starts + clear, d) and _clear_of(g, goals + clear, d):
+            starts.append(p)
+            goals.append(g)
+    return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]
+
+
+class SquareCrossingArgs(StrictModel):
+    """Arguments of the ``square_crossing`` builder."""
+
+    n: BodyCount = 5
+    width: Pos = 10.0
+    center: Vec2 = (0.0, 0.0)
+    min_gap: NonNeg = 0.2
+    keep_clear: list[Vec2] = Field(default_factory=list)
+    max_tries: Annotated[PosInt, Field(le=MAX_TRIES)] = 100_000
+
+
+@register_layout("square_crossing", SquareCrossingArgs)
+def square_crossing(args: SquareCrossingArgs, ctx: LayoutContext) -> Placement:
+    """CrowdNav's square crossing: in a square of side ``width`` around ``center``, each
+    body starts on a random side of the vertical axis (x uniform in that half, y uniform
+    across) and heads for a random point of the other half; starts (and goals) at least
+    2 radius + ``min_gap`` from one another and from every point of ``keep_clear``, each
+    drawn again until they are."""
+    c = np.asarray(args.center, float)
+    half = args.width / 2.0
+    d = 2 * ctx.radius + args.min_gap
+    clear = [np.asarray(p, float) for p in args.keep_clear]
+    tries = 0
+
+    def draw(taken: list[NDArray[np.float64]], side: float) -> NDArray[np.float64]:
+        nonlocal tries
+        while True:
+            if tries >= args.max_tries:
+                raise _too_many_tries(args.n, args.max_tries)
+            tries += 1
+            x, y = ctx.rng.random(2)
+            p = c + np.array([side * x * half, (y - 0.5) * args.width])
+            if _clear_of(p, taken + clear, d):
+                return p
+
+    starts: list[NDArray[np.float64]] = []
+    goals: list[NDArray[np.float64]] = []
+    for _ in range(args.n):
+        side = 1.0 if ctx.rng.random() > 0.5 else -1.0
+        starts.append(draw(starts, side))
+        goals.append(draw(goals, -side))
+    return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]

@@ -4,6 +4,7 @@ names, body counts, geometry: inside the bounds, clear of walls, no overlaps).""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -25,8 +26,11 @@ from nao_arena.maps.schema import (
     LayoutSpec,
     MapFile,
     MapSpec,
+    RecordedPeople,
+    ReplayedPeople,
     RobotSpec,
     SegmentWall,
+    TrafficGroup,
 )
 
 __all__ = [
@@ -133,7 +137,10 @@ def segment_distances_xy(
     xs: NDArray[np.float64], ys: NDArray[np.float64], segment: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """Distances m from the points (xs, ys) m (any equal shapes) to one segment (2, 2) m,
-    one coordinate at a time (contiguous arrays: the viewer's panel grids)."""
+    one coordinate at a time (contiguous arrays: the viewer's panel grids). The contact
+    check's distance (:mod:`nao_arena.stats.kernel`, compiled) in numpy: the same bits but
+    for segments shorter than 1e-150 m (here divided by 1e-300 rather than their squared
+    length; tests/test_point_segment.py)."""
     (ax, ay), (bx, by) = segment
     abx, aby = bx - ax, by - ay
     ll = max(abx * abx + aby * aby, 1e-300)
@@ -200,7 +207,8 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
                 raise field_error(
                     file, f"{where}.route[{j}]", f"expected a point {bounds_text}, got {q}"
                 )
-    bodies = spec.bodies()
+    # recorded people go where the recording says: walls and overlaps are theirs
+    bodies = [b for b in spec.bodies() if not b.replayed]
     if not bodies:
         return
     starts = np.array([b.start for b in bodies], float)
@@ -212,7 +220,7 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
 
     def name(k: int) -> str:
         b = bodies[k]
-        if b.kind == "robot":
+        if b.robot >= 0:
             return origins[b.robot]
         return f"traffic[{b.group}] (vehicle {k - first[b.group]})"
 
@@ -220,7 +228,7 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
         bad = np.flatnonzero(clear < radii)
         if len(bad):
             k = int(bad[0])
-            field = ".start" if bodies[k].kind == "robot" else ""
+            field = ".start" if bodies[k].robot >= 0 else ""
             raise field_error(
                 file,
                 name(k) + field,
@@ -250,7 +258,7 @@ def _check_geometry(file: str, spec: MapSpec, origins: Sequence[str]) -> None:
                 where = f"traffic[{g}].spacing"
                 what = f"vehicles {j - first[g]} and {i - first[g]} overlap"
             else:
-                where = name(i) + (".start" if bodies[i].kind == "robot" else "")
+                where = name(i) + (".start" if bodies[i].robot >= 0 else "")
                 what = f"it overlaps {name(j)}"
             raise field_error(
                 file,
@@ -443,18 +451,27 @@ def map_from_dict(
         origins.extend(origins_l)
         _check_total(file, f"layouts[{li}]", len(robots), "this layout's robots")
     total = len(robots)
-    for g, grp in enumerate(mf.traffic):
+    lanes = [(g, grp) for g, grp in enumerate(mf.traffic) if isinstance(grp, TrafficGroup)]
+    for g, grp in lanes:
         total += grp.count
         _check_total(file, f"traffic[{g}].count", total, "this group's vehicles")
-    named = [
-        r if r.name else r.model_copy(update={"name": f"robot{i}"}) for i, r in enumerate(robots)
-    ]
+    robots, origins = _robots_then_people(robots, origins)
+    named = _named(robots)
     traffic = [
         g.model_copy(update={"offset": g.offset + float(rng.uniform(0.0, g.phase_jitter))})
         if g.phase_jitter > 0
         else g
-        for g in mf.traffic
+        for _, g in lanes
     ]
+    # the recorded people's start times are drawn after the lanes' phases
+    recorded = [
+        _replayed(file, g, grp, mf, rng)
+        for g, grp in enumerate(mf.traffic)
+        if isinstance(grp, RecordedPeople)
+    ]
+    for people in recorded:
+        total += len(people.people)
+        _check_total(file, f"traffic[{people.entry}]", total, "the people it replays")
     spec = MapSpec(
         name=mf.name or default_name,
         description=mf.description,
@@ -464,6 +481,7 @@ def map_from_dict(
         walls=mf.walls,
         robots=named,
         traffic=traffic,
+        recorded=recorded,
         physics=mf.physics,
         episode=mf.episode,
         sensing=mf.sensing,
@@ -545,6 +563,66 @@ def _check_names(file: str, mf: MapFile, names: AgentNames) -> MapFile:
     return mf.model_copy(update={"robots": robots, "layouts": layouts})
 
 
+def _replayed(
+    file: str, entry: int, group: RecordedPeople, mf: MapFile, rng: np.random.Generator
+) -> ReplayedPeople:
+    """The recorded people of ``traffic[entry]``: its file read (relative to the map
+    file's folder), its ``time_offset`` moved by a uniform draw in [0, time_jitter) from
+    ``rng`` (when time_jitter > 0), the people present for at least one control period of
+    the episode."""
+    from nao_arena.pedestrians import RecordingError, cached_recording
+
+    if group.time_jitter > 0:
+        shift = float(rng.uniform(0.0, group.time_jitter))
+        group = group.model_copy(update={"time_offset": group.time_offset + shift})
+
+    path = Path(group.file).expanduser()
+    if not path.is_absolute() and not file.startswith("<"):
+        path = Path(file).resolve().parent / path
+    try:
+        rec = cached_recording(path, group.format, group.fps, group.time_offset)
+    except RecordingError as exc:
+        raise field_error(file, f"traffic[{entry}].file", str(exc)) from None
+    people = _people_in(rec, float(mf.physics.dt), float(mf.episode.time_limit))
+    return ReplayedPeople(**group.model_dump(), people=people, entry=entry).model_copy(
+        update={"file": str(path)}
+    )
+
+
+def _people_in(rec: Any, dt: float, end: float) -> list[int]:
+    """The indices of the recording's people annotated through at least one control
+    period [k dt, (k + 1) dt] of an episode of ``end`` s."""
+    steps = math.ceil(end / dt - 1e-9)
+    out = []
+    for k in range(rec.people):
+        # the first period [j dt, (j + 1) dt] that starts at or after its first annotation
+        j = max(0, math.ceil(rec.first_times[k] / dt - 1e-9))
+        if j < steps and rec.last_times[k] >= (j + 1) * dt:
+            out.append(k)
+    return out
+
+
+def _robots_then_people(
+    robots: list[RobotSpec], origins: list[str]
+) -> tuple[list[RobotSpec], list[str]]:
+    """The robots (kind "robot") in map order, then the people (kind "person") in map
+    order, with where each came from."""
+    order = sorted(range(len(robots)), key=lambda i: robots[i].kind == "person")
+    return [robots[i] for i in order], [origins[i] for i in order]
+
+
+def _named(robots: list[RobotSpec]) -> list[RobotSpec]:
+    """Each robot and person with a name: its own, else ``robot<i>`` / ``person<j>`` (i, j:
+    its index among the robots / the people)."""
+    out = []
+    counts = {"robot": 0, "person": 0}
+    for r in robots:
+        k = counts[r.kind]
+        counts[r.kind] += 1
+        out.append(r if r.name else r.model_copy(update={"name": f"{r.kind}{k}"}))
+    return out
+
+
 def _resolved(t: Any, where: str, resolve: Any) -> Any:
     """Robot (template) ``t`` with its agent names resolved (itself if none changed)."""
     update = {}
@@ -578,7 +656,12 @@ def with_time_limit(spec: MapSpec, seconds: float) -> MapSpec:
             f"time_limit: expected a number of s > 0 and <= {MAX_TIME_LIMIT:g}, got {seconds:g}"
         )
     episode = spec.episode.model_copy(update={"time_limit": float(seconds)})
-    spec = spec.model_copy(update={"episode": episode})
+    dt = float(spec.physics.dt)
+    recorded = [
+        g.model_copy(update={"people": _people_in(g.recording(), dt, float(seconds))})
+        for g in spec.recorded
+    ]
+    spec = spec.model_copy(update={"episode": episode, "recorded": recorded})
     _check_steps(spec.source, "time_limit", spec)
     return spec
 

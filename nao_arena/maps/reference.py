@@ -23,10 +23,12 @@ from nao_arena.maps.schema import (
     Physics,
     PolygonWall,
     PolylineLaneSpec,
+    RecordedPeople,
     RobotSpec,
     RobotTemplate,
     SegmentWall,
     Sensing,
+    SensingNoise,
     TrafficGroup,
 )
 
@@ -48,11 +50,13 @@ def sections() -> list[tuple[str, type[BaseModel]]]:
             for name, (model, _) in sorted(LAYOUTS.items())
         ],
         ("traffic[]", TrafficGroup),
+        ("traffic[] with type: recorded", RecordedPeople),
         ("traffic[].lane with type: circle", CircleLaneSpec),
         ("traffic[].lane with type: polyline", PolylineLaneSpec),
         ("physics", Physics),
         ("episode", Episode),
         ("sensing", Sensing),
+        ("sensing.noise", SensingNoise),
         ("actuation", Actuation),
     ]
 
@@ -62,6 +66,8 @@ def _kind(prop: Mapping[str, Any]) -> str:
     if "anyOf" in prop:
         return " or ".join(_kind(p) for p in prop["anyOf"] if p.get("type") != "null")
     if "oneOf" in prop:
+        if "discriminator" not in prop:  # a lane group, or type: recorded
+            return "mapping (a lane group, or type: recorded)"
         return f"mapping (type: {'|'.join(prop['discriminator']['mapping'])})"
     if "$ref" in prop:
         return "mapping"

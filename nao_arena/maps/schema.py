@@ -15,7 +15,9 @@ from pydantic import (
     BaseModel,
     BeforeValidator,
     ConfigDict,
+    Discriminator,
     Field,
+    Tag,
     ValidationInfo,
     field_validator,
     model_validator,
@@ -56,6 +58,7 @@ __all__ = [
     "Scalar",
     "SegmentWall",
     "Sensing",
+    "SensingNoise",
     "StrictModel",
     "TrafficGroup",
     "Vec2",
@@ -189,6 +192,12 @@ class RobotTemplate(StrictModel):
     agent_options_for: str | None = None
     """The agent the ``agent_options`` are meant for (None: any agent that takes them):
     when the robot runs another agent (``--agent``), that agent gets none of them."""
+    kind: Literal["robot", "person"] = "robot"
+    """``"robot"``: a robot under test (its statistics are reported, ``--agent`` replaces
+    its agent, the env may control it); ``"person"``: a simulated pedestrian driven by its
+    own agent (e.g. ``social_force``, ``orca``), reported apart, whose agent ``--agent``
+    and the env leave alone, and which the robots' agents count as a body that does not
+    cooperate (as traffic). People come after the robots in body order."""
 
 
 class RobotSpec(RobotTemplate):
@@ -323,6 +332,54 @@ class TrafficGroup(StrictModel):
         )
 
 
+class RecordedPeople(StrictModel):
+    """People replayed from a recording (``traffic[]`` with ``type: recorded``; see
+    :mod:`nao_arena.pedestrians`): ``file`` (relative to the map file), its ``format``,
+    the ``fps`` of its frame numbers, ``time_offset`` (s, the recording's time at which
+    the episode starts), ``time_jitter`` (s: the offset is moved by a uniform draw in
+    [0, time_jitter) from the map's seeded generator), the people's ``radius`` (m),
+    ``name`` (prefix of their names)."""
+
+    type: Literal["recorded"]
+    file: str
+    format: Literal["obsmat", "xy"] = "obsmat"
+    fps: Pos = 15.0
+    time_offset: NonNeg = 0.0
+    time_jitter: NonNeg = 0.0
+    radius: Pos = 0.3
+    name: str | None = None
+
+
+class ReplayedPeople(RecordedPeople):
+    """A :class:`RecordedPeople` entry as loaded: ``file`` resolved (an absolute path),
+    ``people`` the recording's indices of the people replayed (those present for at least
+    one control period of the episode), ``entry`` the entry's index in ``traffic``."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    people: list[int] = Field(default_factory=list)
+    entry: int = 0
+
+    def recording(self) -> Any:
+        """The recording (:class:`nao_arena.pedestrians.Recording`, read once per process
+        and file version)."""
+        from nao_arena.pedestrians import cached_recording
+
+        return cached_recording(self.file, self.format, self.fps, self.time_offset)
+
+
+def _traffic_kind(value: Any) -> str:
+    """Which model a ``traffic`` entry is: ``recorded`` people, or a lane group."""
+    kind = value.get("type") if isinstance(value, dict) else getattr(value, "type", None)
+    return "recorded" if kind == "recorded" else "lane_group"
+
+
+TrafficEntry = Annotated[
+    Annotated[TrafficGroup, Tag("lane_group")] | Annotated[RecordedPeople, Tag("recorded")],
+    Discriminator(_traffic_kind),
+]
+
+
 class Physics(StrictModel):
     """Control period dt (s), physics substeps per period, contact material, solver."""
 
@@ -341,25 +398,48 @@ class Episode(StrictModel):
     goal_tolerance: Pos = 0.3
 
 
+class SensingNoise(StrictModel):
+    """Standard deviations of the Gaussian noise on what a robot senses of each neighbour
+    (world frame, per component): ``position`` (m), ``velocity`` (m/s), ``acceleration``
+    (m/s^2). 0: none."""
+
+    position: NonNeg = 0.0
+    velocity: NonNeg = 0.0
+    acceleration: NonNeg = 0.0
+
+
 class Sensing(StrictModel):
     """What robots sense: neighbours within ``range`` (m), at most ``max_neighbours``;
     ``latency`` (s): how old what the robots' agents sense is (their own state, their
     neighbours', plans and paths: the sensing of that many seconds ago, in whole control
     periods, ``round(latency / physics.dt)``; at the start of an episode, the first
-    state). The statistics keep using the truth. 0: none."""
+    state); ``noise`` (:class:`SensingNoise`): Gaussian noise on each neighbour's sensed
+    position, velocity and acceleration, drawn per observer, neighbour and step (a
+    robot's own state stays exact); ``dropout`` (probability in [0, 1]): each neighbour
+    of each robot is missed in a step with that probability, independently;
+    ``field_of_view`` (rad, in (0, 2 pi]; 2 pi: all around): a robot senses only the
+    bodies whose centre lies within half that angle of its heading (the direction of
+    its velocity; standing still, the direction to its goal). The statistics keep using
+    the truth. 0 (2 pi for the field of view): none."""
 
     range: Pos = 30.0
     max_neighbours: BodyCount | None = None
     latency: Annotated[NonNeg, Field(le=MAX_LATENCY)] = 0.0
+    noise: SensingNoise = SensingNoise()
+    dropout: Annotated[NonNeg, Field(le=1)] = 0.0
+    field_of_view: Annotated[Num, Field(gt=0, le=math.tau)] = math.tau
 
 
 class Actuation(StrictModel):
     """How a robot's command reaches its motors: ``noise`` (m/s^2), the standard deviation
     of Gaussian noise added to each component of each robot's commanded acceleration every
-    control period, drawn from the episode's generator (same seed, same noise), before
-    the world's limits. 0: none."""
+    control period, drawn from the episode's generator (same seed, same noise); ``lag``
+    (s): the time constant of a first-order response of the applied acceleration to the
+    (noisy) command, a += (1 - exp(-dt / lag)) (command - a) each control period dt
+    (a = 0 at the start); both before the world's limits. 0: none."""
 
     noise: Annotated[NonNeg, Field(le=MAX_MAGNITUDE)] = 0.0
+    lag: NonNeg = 0.0
 
 
 class LayoutSpec(StrictModel):
@@ -381,7 +461,7 @@ class MapFile(StrictModel):
     walls: list[Wall] = Field(default_factory=list)
     robots: list[RobotSpec] = Field(default_factory=list)
     layouts: list[LayoutSpec] = Field(default_factory=list)
-    traffic: list[TrafficGroup] = Field(default_factory=list)
+    traffic: list[TrafficEntry] = Field(default_factory=list)
     physics: Physics = Physics()
     episode: Episode = Episode()
     sensing: Sensing = Sensing()
@@ -392,15 +472,15 @@ class MapFile(StrictModel):
 class BodySpec:
     """One body of the world, in world order.
 
-    kind: "robot" or "traffic"; start (m) and velocity (m/s) at t = 0;
+    kind: "robot", "person" or "traffic"; start (m) and velocity (m/s) at t = 0;
     radius (m), mass (kg), a_max (m/s^2), v_max (m/s); robot: index into
-    ``MapSpec.robots`` (-1 for traffic); group: traffic group index (-1 for
-    robots).
+    ``MapSpec.robots`` of the robot or person (the bodies driven by agents; -1 for
+    traffic); group: traffic group index (-1 for robots and people).
     """
 
     index: int
     name: str
-    kind: Literal["robot", "traffic"]
+    kind: Literal["robot", "person", "traffic"]
     start: tuple[float, float]
     velocity: tuple[float, float]
     radius: float
@@ -409,6 +489,15 @@ class BodySpec:
     v_max: float
     robot: int = -1
     group: int = -1
+    replayed: bool = False
+
+
+REPLAY_LIMIT = 1e6
+"""The a_max (m/s^2) and v_max (m/s) of a recorded person: none (the recording moves it)."""
+
+PARKING_OFFSET = 1000.0
+"""How far (m) below and left of the bounds' minimum corner a recorded person waits while
+absent from the scene (see :meth:`MapSpec.bodies`)."""
 
 
 class MapSpec(StrictModel):
@@ -425,20 +514,57 @@ class MapSpec(StrictModel):
     walls: list[Wall] = Field(default_factory=list)
     robots: list[RobotSpec] = Field(default_factory=list)
     traffic: list[TrafficGroup] = Field(default_factory=list)
+    recorded: list[ReplayedPeople] = Field(default_factory=list)
     physics: Physics = Physics()
     episode: Episode = Episode()
     sensing: Sensing = Sensing()
     actuation: Actuation = Actuation()
 
+    def parking(self, k: int) -> tuple[float, float]:
+        """Where recorded person k (in body order among the recorded) waits while absent:
+        :data:`PARKING_OFFSET` m below and left of the bounds, 1 m apart (out of every
+        robot's sensing range; recorded people touch nothing there)."""
+        x0, y0 = self.bounds.min
+        return (x0 - PARKING_OFFSET - 1.0 * k, y0 - PARKING_OFFSET)
+
+    def replay_states(
+        self, step: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+        """The recorded people (body order) for control period ``step``, [t0, t1] with
+        t0 = step dt and t1 = (step + 1) dt: centres (m) at t0, velocities (m/s: the chord
+        to their centres at t1, so that the replay meets the recording at every control
+        step) and whether each is in the scene (annotated through the whole period);
+        absent people wait at :meth:`parking`, standing still."""
+        dt = float(self.physics.dt)
+        pos, vel, present = [], [], []
+        k = 0
+        for group in self.recorded:
+            rec = group.recording()
+            at_start, _ = rec.states(step * dt)
+            at_end, _ = rec.states((step + 1) * dt)
+            for person in group.people:
+                a, b = at_start[person], at_end[person]
+                here = bool(np.all(np.isfinite(a)) and np.all(np.isfinite(b)))
+                pos.append(a if here else np.array(self.parking(k)))
+                vel.append((b - a) / dt if here else np.zeros(2))
+                present.append(here)
+                k += 1
+        return (
+            np.array(pos, dtype=float).reshape(-1, 2),
+            np.array(vel, dtype=float).reshape(-1, 2),
+            np.array(present, dtype=bool),
+        )
+
     def bodies(self) -> list[BodySpec]:
-        """All bodies in world order: robots, then traffic vehicles group by group."""
+        """All bodies in world order: robots, people, traffic vehicles group by group, then
+        the recorded people (``replayed``) entry by entry."""
         out: list[BodySpec] = []
         for i, r in enumerate(self.robots):
             out.append(
                 BodySpec(
                     index=len(out),
                     name=r.name or f"robot{i}",
-                    kind="robot",
+                    kind=r.kind,
                     start=r.start,
                     velocity=r.velocity,
                     radius=r.radius,
@@ -469,12 +595,44 @@ class MapSpec(StrictModel):
                         group=g,
                     )
                 )
+        if self.recorded:
+            pos, vel, _ = self.replay_states(0)
+            k = 0
+            for group in self.recorded:
+                ids = group.recording().ids
+                for person in group.people:
+                    out.append(
+                        BodySpec(
+                            index=len(out),
+                            name=f"{group.name or 'person'}{int(ids[person])}",
+                            kind="person",
+                            start=(float(pos[k, 0]), float(pos[k, 1])),
+                            velocity=(float(vel[k, 0]), float(vel[k, 1])),
+                            radius=group.radius,
+                            mass=1.0,
+                            a_max=REPLAY_LIMIT,
+                            v_max=REPLAY_LIMIT,
+                            replayed=True,
+                        )
+                    )
+                    k += 1
         return out
 
     @property
     def n_robots(self) -> int:
-        """Number of robots (they come first in body order)."""
-        return len(self.robots)
+        """Number of robots of kind "robot" (they come first in body order)."""
+        return sum(1 for r in self.robots if r.kind == "robot")
+
+    @property
+    def n_recorded(self) -> int:
+        """Number of recorded people replayed (bodies after the traffic vehicles)."""
+        return sum(len(g.people) for g in self.recorded)
+
+    @property
+    def n_people(self) -> int:
+        """Number of simulated people driven by agents (kind "person", after the robots in
+        body order); recorded people are :attr:`n_recorded`."""
+        return len(self.robots) - self.n_robots
 
     def wall_segments(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """All walls as segments (W, 2, 2) m with half-thicknesses (W,) m.

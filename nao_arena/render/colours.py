@@ -17,12 +17,14 @@ __all__ = [
     "LANE_COLOUR",
     "PALETTE",
     "PANEL_BACKGROUND",
+    "PERSON_COLOUR",
     "TEXT_COLOUR",
     "TRAFFIC_COLOUR",
     "WALL_COLOUR",
     "WALL_REGION_COLOUR",
     "Colour",
     "agent_colour",
+    "body_colour",
     "mix",
     "neighbour_colour",
     "outline_colour",
@@ -42,9 +44,12 @@ AGENT_COLOURS: dict[str, Colour] = {
     "lane": (44, 160, 44),
     "controlled": (214, 39, 40),
     "traffic": (140, 86, 75),
+    "social_force": (227, 119, 194),
+    "person": (227, 119, 194),
 }
 """Fill colour per agent type ("controlled": a robot driven from outside, e.g. by an RL
-policy); plug-in agents get a colour of :data:`PALETTE` derived from their name."""
+policy; "person": a recorded person); plug-in agents get a colour of :data:`PALETTE`
+derived from their name."""
 
 PALETTE: list[Colour] = [
     (230, 159, 0),
@@ -79,6 +84,8 @@ GOOD_COLOUR: Colour = (20, 150, 40)
 """What went well (a goal reached, an admissible choice)."""
 TRAFFIC_COLOUR: Colour = AGENT_COLOURS["traffic"]
 """Traffic vehicles' discs."""
+PERSON_COLOUR: Colour = AGENT_COLOURS["person"]
+"""Recorded people's discs (and the social-force people's)."""
 
 
 def agent_colour(label: str) -> Colour:
@@ -113,6 +120,11 @@ def mix(c: Colour, w: float, base: Colour = (255, 255, 255)) -> Colour:
 def outline_colour(c: Colour) -> Colour:
     """The outline of a body's disc of fill colour c (darkened towards black)."""
     return mix(c, 0.6, (0, 0, 0))
+
+
+def body_colour(kind: str) -> Colour:
+    """The fill colour of a body no agent drives: a recorded person's or a vehicle's."""
+    return PERSON_COLOUR if kind == "person" else TRAFFIC_COLOUR
 
 
 def to_unit(c: Colour) -> tuple[float, float, float]:

@@ -86,6 +86,7 @@ from nao_arena.render.colours import (  # noqa: E402
     WALL_REGION_COLOUR,
     Colour,
     agent_colour,
+    body_colour,
     mix,
 )
 from nao_arena.sensing import Observation  # noqa: E402
@@ -556,7 +557,7 @@ class Viewer:
             if i in robot_of:
                 col = colours[robot_of[i]]
             else:
-                col = AGENT_COLOURS["traffic"]
+                col = body_colour(state.kinds[i])
             pygame.draw.circle(surf, col, p, r)
             pygame.draw.circle(surf, mix(col, 0.6, (0, 0, 0)), p, r, 1)
             v = state.velocities[i]
@@ -975,7 +976,17 @@ class Viewer:
                 kinds.append(label)
         if len(arena.traffic.indices):
             kinds.append("traffic")
-        entries += [LegendEntry("disc", kind, (agent_colour(kind),), "kinds") for kind in kinds]
+        if arena.spec.recorded:
+            kinds.append("person")
+        entries += [
+            LegendEntry(
+                "disc",
+                "recorded people" if kind == "person" else kind,
+                (agent_colour(kind),),
+                "kinds",
+            )
+            for kind in kinds
+        ]
         robot = agent_colour(kinds[0]) if kinds else TEXT_COLOUR
         per_neighbour = tuple(PALETTE[:4])
         entries += [

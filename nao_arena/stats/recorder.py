@@ -21,6 +21,7 @@ from nao_arena.stats.kernel import (
     swept_distances,
     swept_wall_distances,
 )
+from nao_arena.stats.people import PeopleMetrics, robot_caused
 from nao_arena.stats.records import (
     ContactEvent,
     EpisodeSummary,
@@ -72,6 +73,7 @@ class EpisodeStats:
         config: StatsConfig | None = None,
         velocities: ArrayLike | None = None,
         goals: ArrayLike | None = None,
+        replayed: ArrayLike | None = None,
     ) -> None:
         self.config = config or StatsConfig()
         self.radii = np.ascontiguousarray(radii, dtype=float).reshape(-1)
@@ -94,6 +96,25 @@ class EpisodeStats:
         unit = along / np.where(length > 0, length, 1.0)[:, None]
         self._wall_normals = np.stack([-unit[:, 1], unit[:, 0]], axis=1)
         self.is_robot = np.array([k == "robot" for k in self.kinds], dtype=bool)
+        # recorded people: their contacts with one another and with walls are the
+        # recording's, not the simulation's, and are not counted
+        self.replayed = (
+            np.zeros(n, dtype=bool) if replayed is None else np.asarray(replayed, dtype=bool)
+        )
+        self._uncounted: set[tuple[int, int, bool]] = set()
+        people = np.array([k == "person" for k in self.kinds], dtype=bool)
+        self._people = (
+            PeopleMetrics(
+                np.flatnonzero(self.is_robot),
+                np.flatnonzero(people),
+                self.radii,
+                self.config.discomfort_distance,
+                self.dt,
+                self.config.separation_range,
+            )
+            if people.any()
+            else None
+        )
         self._v_prev = None if velocities is None else np.asarray(velocities, float).copy()
         self.contacts: list[ContactEvent] = []
         self.faults: list[FaultEvent] = []
@@ -232,6 +253,8 @@ class EpisodeStats:
         if len(codes):
             self._apply_events(t, codes.tolist(), vals.tolist(), path, started)
         self._v_prev = v1.copy()
+        if self._people is not None:
+            self._people.update(path)
         self._liveness(t, path[-1], goal)
         self.steps += 1
         self.time = t + self.dt
@@ -280,6 +303,16 @@ class EpisodeStats:
         for (code, a, b), val in zip(codes, vals, strict=True):
             wall = code >= 3
             kind = code - 3 if wall else code
+            key = (a, b, wall)
+            if key in self._uncounted or (
+                kind == EV_START and self.replayed[a] and (wall or self.replayed[b])
+            ):
+                # a recorded person's contact with another or with a wall
+                if kind == EV_START:
+                    self._uncounted.add(key)
+                elif kind != EV_DEEPER:
+                    self._uncounted.discard(key)
+                continue
             if kind == EV_DEEPER:
                 ev = self._open_events[(a, b, wall)]
                 ev.max_penetration = max(ev.max_penetration, val)
@@ -313,7 +346,8 @@ class EpisodeStats:
         rel = path[:, b] - path[:, a]
         s = first_touching_substep(swept_distances(rel), reach)
         tc, nrm = first_disc_touch(rel[s], rel[s + 1], reach)
-        vrel = self._approach_velocity(path, s, b) - self._approach_velocity(path, s, a)
+        va, vb = self._approach_velocity(path, s, a), self._approach_velocity(path, s, b)
+        vrel = vb - va
         return ContactEvent(
             time=t + (s + tc) / (len(path) - 1) * self.dt,
             a=a,
@@ -324,6 +358,9 @@ class EpisodeStats:
             name_b=self.names[b],
             impact_speed=max(0.0, -float(vrel @ nrm)),
             max_penetration=-sep,
+            speed_a=float(np.hypot(*va)),
+            speed_b=float(np.hypot(*vb)),
+            began_overlapping=bool(np.hypot(*rel[0]) < reach),
         )
 
     def _wall_event(
@@ -345,9 +382,30 @@ class EpisodeStats:
             name_b=f"wall{wall}",
             impact_speed=max(0.0, -float(v @ nrm)),
             max_penetration=-sep,
+            speed_a=float(np.hypot(*v)),
+            speed_b=0.0,
         )
 
     # ------------------------------------------------------------------ results
+
+    def _among_people(self, k: int) -> dict[str, Any]:
+        """The social-navigation fields of robot body k's summary (none without people)."""
+        if self._people is None:
+            return {}
+        with_people = [
+            c
+            for c in self.contacts
+            if k in (c.a, c.b) and "person" in (c.kind_a, c.kind_b) and c.kind_b != "wall"
+        ]
+        moving = self.config.moving_speed
+        closest, discomfort = self._people.of_body(k)
+        return {
+            "among_people": True,
+            "person_contacts": len(with_people),
+            "caused_person_contacts": sum(robot_caused(c, k, moving) for c in with_people),
+            "min_person_distance": closest,
+            "discomfort_time": discomfort,
+        }
 
     def summary(self) -> EpisodeSummary:
         """The episode so far: per-robot rows (robots only, in body order) and all events.
@@ -389,6 +447,7 @@ class EpisodeStats:
                     final_goal_distance=final[k],
                     at_goal_at_end=bool(self.at_goal[k]),
                     timed_out=not bool(self.reached[k]),
+                    **self._among_people(k),
                 )
             )
         return EpisodeSummary(

@@ -39,6 +39,12 @@ class StatsConfig:
     closer to its goal over the last this many seconds (s)."""
     stuck_progress: float = 0.1
     """See ``stuck_window`` (m)."""
+    discomfort_distance: float = 0.2
+    """A robot whose surface-to-surface gap to a person is below this (m) makes that
+    person uncomfortable (CrowdNav's discomfort distance)."""
+    moving_speed: float = 0.05
+    """A robot slower than this (m/s) when it first touched a person was standing: the
+    contact is not counted as caused by the robot."""
 
     def __post_init__(self) -> None:
         if self.separation_range < self.near_miss_distance + self.hysteresis:
@@ -47,6 +53,10 @@ class StatsConfig:
             raise ValueError(f"stuck_window: expected a finite time > 0 s, got {self.stuck_window}")
         if not self.stuck_progress >= 0:
             raise ValueError(f"stuck_progress: expected >= 0 m, got {self.stuck_progress}")
+        for name in ("discomfort_distance", "moving_speed"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}: expected a finite number >= 0, got {value}")
 
 
 def _clean(value: Any) -> Any:
@@ -64,8 +74,14 @@ class ContactEvent:
 
     time: start (s); end_time: step end at which it ended (s, NaN while
     ongoing); a, b: body indices (for a wall, b is the wall index);
-    kinds "robot", "traffic" or "wall"; impact_speed: relative normal speed
-    at first contact (m/s, >= 0); max_penetration: deepest overlap (m).
+    kinds "robot", "person", "traffic" or "wall"; impact_speed: relative normal
+    speed at first contact (m/s, >= 0); max_penetration: deepest overlap (m);
+    speed_a, speed_b: the speeds of a and b while they first touched (m/s, world
+    frame; 0 for a wall): whether each was moving (a person who walks into a
+    robot standing still touches it at speed_a 0); began_overlapping: the two
+    already overlapped at the start of the control step in which the contact
+    started (placed on each other at t = 0, or a recorded person appeared there):
+    no one's motion brought it about (False for walls, which no start may overlap).
     """
 
     time: float
@@ -78,6 +94,9 @@ class ContactEvent:
     impact_speed: float
     max_penetration: float
     end_time: float = math.nan
+    speed_a: float = math.nan
+    speed_b: float = math.nan
+    began_overlapping: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (non-finite numbers as None)."""
@@ -101,7 +120,12 @@ class FaultEvent:
 
 @dataclass
 class RobotSummary:
-    """One robot's metrics over an episode (see :mod:`nao_arena.stats`; units m, s)."""
+    """One robot's metrics over an episode (see :mod:`nao_arena.stats`; units m, s).
+
+    Among people (:mod:`nao_arena.stats.people`; among_people: the map has people):
+    person_contacts, the contact episodes with people; caused_person_contacts, those in
+    which the robot was moving when they first touched; min_person_distance (m, NaN
+    unless a person came within the separation range); discomfort_time (s)."""
 
     index: int
     name: str
@@ -121,6 +145,11 @@ class RobotSummary:
     final_goal_distance: float = math.nan
     at_goal_at_end: bool = False
     timed_out: bool = False
+    among_people: bool = False
+    person_contacts: int = 0
+    caused_person_contacts: int = 0
+    min_person_distance: float = math.nan
+    discomfort_time: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python dict (non-finite numbers as None)."""

@@ -113,6 +113,15 @@ Liveness (see :mod:`nao_arena.stats`): ``robots_timed_out``: robot-episodes
     the goal; ``robots_away_at_end``: of those that arrived, the ones away from
     the goal at the episode's end; ``episodes_deadlocked``: completed episodes
     with a deadlock (a time at which every robot away from its goal was stuck).
+Among people (maps with robots entries of kind ``person``, see
+    :mod:`nao_arena.stats.people`): ``robots_among_people``: robot-episodes with
+    people around (0 on maps without people, where the others are 0 or null);
+    ``person_contacts``: their contacts with people; ``robot_caused_person_contacts``:
+    those at whose first touch the robot was moving; ``robots_caused_person_contact``:
+    robot-episodes with at least one of those; ``discomfort_s``: their time within the
+    discomfort distance (0.2 m) of a person (s), ``discomfort_share``: that over their
+    robot time; ``min_person_distance_m``: the smallest surface-to-surface gap to a
+    person (m; null if no person came within ``separation_range``, 1 m).
 Unavailable values (no robot-episode to compute them from) are null.
 
 The printed table (:func:`format_table`) shows each share as

@@ -158,7 +158,7 @@ def _episode_recorder(task: EpisodeTask, arena: Arena) -> Any:
             "overrides": dict(task.overrides),
             "time_limit": task.time_limit,
         },
-        labels=[task.agent] * len(arena.robots),
+        labels=arena.labels_with(task.agent),
     )
     arena.recorder = recorder
     return recorder

@@ -64,6 +64,13 @@ SUMMARY_KEYS: tuple[str, ...] = (
     "robots_left_goal",
     "robots_away_at_end",
     "episodes_deadlocked",
+    "robots_among_people",
+    "person_contacts",
+    "robot_caused_person_contacts",
+    "robots_caused_person_contact",
+    "discomfort_s",
+    "discomfort_share",
+    "min_person_distance_m",
 )
 
 _KEY_COLUMNS = [
@@ -270,6 +277,34 @@ def _summarize_cell(map_name: str, agent: str, recs: Sequence[Mapping[str, Any]]
             1 for r in robots if r["reached_goal"] and not r.get("at_goal_at_end", True)
         ),
         "episodes_deadlocked": sum(1 for res in ok if res.get("deadlock_time") is not None),
+        **_among_people(ok),
+    }
+
+
+def _among_people(results: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The summary's social-navigation entries of the results of one cell (see
+    :mod:`nao_arena.stats.people`): counts over the robot-episodes with people around,
+    None where no robot met people."""
+    robots = [(res, r) for res in results for r in res["robots"] if r.get("among_people")]
+    seconds = sum(res["duration"] for res, _ in robots)
+    closest = [
+        float(r["min_person_distance"])
+        for _, r in robots
+        if r.get("min_person_distance") is not None
+    ]
+    discomfort = sum(r.get("discomfort_time") or 0.0 for _, r in robots)
+    return {
+        "robots_among_people": len(robots),
+        "person_contacts": sum(r.get("person_contacts") or 0 for _, r in robots),
+        "robot_caused_person_contacts": sum(
+            r.get("caused_person_contacts") or 0 for _, r in robots
+        ),
+        "robots_caused_person_contact": sum(
+            1 for _, r in robots if (r.get("caused_person_contacts") or 0) > 0
+        ),
+        "discomfort_s": discomfort,
+        "discomfort_share": discomfort / seconds if seconds > 0 else None,
+        "min_person_distance_m": min(closest) if closest else None,
     }
 
 

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 __all__ = [
+    "PEOPLE_LEGEND",
     "TABLE_LEGEND",
     "format_table",
 ]
@@ -31,6 +32,16 @@ stuck: robot-episodes that were stuck at some time (away from the goal and less 
 left goal: robot-episodes that arrived and were later away from the goal again
 deadlocks: episodes with a time at which every robot away from its goal was stuck"""
 """The definitions of the columns of :func:`format_table`."""
+
+PEOPLE_LEGEND = """\
+among people (maps with people, nao_arena.stats.people): robot-caused: robot-episodes
+  with a contact with a person at whose first touch the robot was moving (>= 0.05 m/s)
+  and that did not begin overlapping (a recorded person appearing on the robot) /
+  robot-episodes with people around (%); person contacts:
+  every robot-person contact, a person walking into a robot standing still included;
+  discomfort: time within 0.2 m (surface to surface) of a person / robot time (%);
+  min dist m: smallest surface-to-surface gap to a person of any robot-episode"""
+"""The definitions of the columns of the table "among people"."""
 
 
 def _num(value: float | None, decimals: int) -> str:
@@ -157,6 +168,42 @@ def format_table(
 
     rule = "  ".join("-" * w for w in widths)
     lines = [line(head), rule, *(line(r) for r in body), *_repeat_notes(summary)]
+    people = [row for row in summary if row.get("robots_among_people")]
+    if people:
+        lines += ["", "among people:", _people_table(people, map_names)]
     if legend:
         lines += ["", TABLE_LEGEND]
+        if people:
+            lines += [PEOPLE_LEGEND]
+    return "\n".join(lines)
+
+
+def _people_table(summary: Sequence[Mapping[str, Any]], map_names: Mapping[str, str]) -> str:
+    """The social-navigation columns of the rows whose robots met people."""
+    head = ["map", "agent", "robot-caused", "person contacts", "discomfort"]
+    head.append("min dist m")
+    body = []
+    for row in summary:
+        n = row["robots_among_people"]
+        caused = row["robots_caused_person_contact"]
+        share = row.get("discomfort_share")
+        body.append(
+            [
+                str(map_names.get(row["map"], row["map"])),
+                str(row["agent"]),
+                f"{caused}/{n} ({_percent(caused / n)} %)",
+                str(row["person_contacts"]),
+                "-" if share is None else f"{_percent(share)} %",
+                _num(row.get("min_person_distance_m"), 3),
+            ]
+        )
+    widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head))]
+    lines = [
+        "  ".join(
+            c.ljust(w) if i < 2 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        ).rstrip()
+        for cells in [head, *body]
+    ]
+    lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)

@@ -1,0 +1,224 @@
+"""Recorded people as traffic (``traffic: [{type: recorded, ...}]``): replayed at every
+control step as the recording says, absent before they appear and after they leave,
+pushed by nothing, their own contacts not counted; checked against the recording read
+independently (:mod:`nao_arena.pedestrians`) and, where ../shared is present, on the real
+ETH and UCY recordings."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nao_arena.arena import Arena
+from nao_arena.maps import MapError, load_map, map_from_dict, with_time_limit
+from nao_arena.pedestrians import read_recording
+from nao_arena.world import World
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pedestrians"
+
+# frame id x y at 10 fps: person 1 walks +x from t = 0 to 4 s; person 2 appears at 1 s
+# and leaves at 2.5 s; person 3 walks -x along y = 0.2 (towards person 1), 0 .. 4 s
+TRACKS = [
+    *[(f, 1, -3.0 + 0.15 * f, 0.0) for f in range(0, 41)],
+    *[(f, 2, 2.0, 3.0 - 0.1 * (f - 10)) for f in range(10, 26)],
+    *[(f, 3, 3.0 - 0.15 * f, 0.2) for f in range(0, 41)],
+]
+
+
+def _write_tracks(folder: Path) -> Path:
+    path = folder / "walk.txt"
+    path.write_text("\n".join(f"{f} {i} {x!r} {y!r}" for f, i, x, y in TRACKS) + "\n")
+    return path
+
+
+def _map(file: str, robots: list | None = None, **recorded) -> dict:
+    return {
+        "name": "recorded",
+        "bounds": {"min": [-6, -6], "max": [6, 6]},
+        "robots": robots
+        if robots is not None
+        else [{"name": "r", "start": [0.0, -5.0], "goal": [0.0, -5.0], "agent": "goal"}],
+        "traffic": [{"type": "recorded", "file": file, "format": "xy", "fps": 10.0, **recorded}],
+        "episode": {"time_limit": 4.0},
+    }
+
+
+@pytest.fixture
+def tracks(tmp_path) -> Path:
+    return _write_tracks(tmp_path)
+
+
+def test_people_follow_the_recording_at_every_control_step(tracks):
+    spec = map_from_dict(_map(str(tracks), time_offset=0.5, name="p"))
+    rec = read_recording(tracks, "xy", fps=10.0, time_offset=0.5)
+    assert [b.name for b in spec.bodies()] == ["r", "p1", "p2", "p3"]
+    assert [b.kind for b in spec.bodies()] == ["robot", "person", "person", "person"]
+    world = World(spec)
+    state = world.state()
+    for step in range(30):
+        t = world.time
+        truth, _ = rec.states(t)
+        after, _ = rec.states(t + world.dt)
+        for k in range(3):
+            here = np.all(np.isfinite(truth[k])) and np.all(np.isfinite(after[k]))
+            body = 1 + k
+            if here:
+                np.testing.assert_allclose(state.positions[body], truth[k], atol=1e-12)
+                np.testing.assert_allclose(
+                    state.velocities[body], (after[k] - truth[k]) / world.dt, atol=1e-9
+                )
+            else:  # waiting far away, still
+                assert np.all(state.positions[body] < -900.0)
+                assert np.all(state.velocities[body] == 0.0)
+        state = world.step(np.zeros((4, 2)))
+        assert step >= 0
+
+
+def test_people_appear_and_leave_at_whole_control_periods(tracks):
+    world = World(map_from_dict(_map(str(tracks))))
+    seen = []
+    for _ in range(39):
+        seen.append(world.state().positions[2, 0] > -900.0)
+        world.step(np.zeros((4, 2)))
+    # person 2 is annotated from 1.0 s to 2.5 s: in the scene for the periods within it
+    times = 0.1 * np.arange(39)
+    expected = (times >= 1.0 - 1e-9) & (times + 0.1 <= 2.5 + 1e-9)
+    assert seen == expected.tolist()
+
+
+def test_a_robot_cannot_push_a_recorded_person(tracks):
+    # the robot holds its place on the people's way; they walk through it
+    robots = [{"name": "r", "start": [0.0, 0.1], "goal": [0.0, 0.1], "agent": "goal"}]
+    pushed = Arena(map_from_dict(_map(str(tracks), robots=robots)))
+    alone = Arena(map_from_dict(_map(str(tracks))))
+    pushed.reset(0)
+    alone.reset(0)
+    touched = 0
+    for _ in range(39):
+        a, b = pushed.step(), alone.step()
+        touched += len(a.contacts)
+        np.testing.assert_array_equal(a.state.positions[1:], b.state.positions[1:])
+    assert touched >= 1
+    assert np.abs(pushed.state.positions[0] - [0.0, 0.1]).max() > 0.1  # the robot was pushed
+
+
+def test_contacts_among_recorded_people_are_not_counted(tracks):
+    # persons 1 and 3 walk into each other (0.2 m apart sideways, radius 0.3)
+    summary = Arena(map_from_dict(_map(str(tracks)))).run(0)
+    assert not [c for c in summary.contacts if c.kind_a == c.kind_b == "person"]
+    (robot,) = summary.robots
+    assert robot.among_people and robot.person_contacts == 0
+
+
+def test_people_waiting_to_appear_are_never_sensed(tracks):
+    arena = Arena(map_from_dict(_map(str(tracks))))
+    arena.reset(0)
+    for _ in range(39):
+        obs = arena.observations()[0]
+        positions = arena.state.positions
+        for body in obs.neighbours.ids:
+            assert positions[body, 0] > -900.0
+        arena.step()
+
+
+def test_copies_continue_bit_for_bit(tracks):
+    robots = [{"name": "r", "start": [0.0, 1.0], "goal": [0.0, -1.0], "agent": "goal"}]
+    world = World(map_from_dict(_map(str(tracks), robots=robots)))
+    for _ in range(12):
+        world.step(np.array([[0.0, -1.0], [0, 0], [0, 0], [0, 0]]))
+    twins = [copy.deepcopy(world), pickle.loads(pickle.dumps(world))]
+    for _ in range(20):
+        command = np.array([[0.5, -1.0], [0, 0], [0, 0], [0, 0]])
+        a = world.step(command)
+        for twin in twins:
+            b = twin.step(command)
+            np.testing.assert_array_equal(a.positions, b.positions)
+            np.testing.assert_array_equal(a.velocities, b.velocities)
+
+
+def test_a_relative_file_is_relative_to_the_map_file(tmp_path, tracks):
+    (tmp_path / "scene.yaml").write_text(
+        "name: scene\nbounds: {min: [-6, -6], max: [6, 6]}\n"
+        "robots: [{start: [0, -5], goal: [0, -5]}]\n"
+        "traffic: [{type: recorded, file: walk.txt, format: xy, fps: 10}]\n"
+        "episode: {time_limit: 4}\n"
+    )
+    spec = load_map(tmp_path / "scene.yaml")
+    assert spec.n_recorded == 3 and spec.recorded[0].file == str(tracks)
+
+
+def test_bad_recorded_entries_are_one_line_map_errors(tmp_path, tracks):
+    with pytest.raises(MapError, match=r"traffic\[0\]\.file: .*missing.txt: no such"):
+        map_from_dict(_map(str(tmp_path / "missing.txt")))
+    with pytest.raises(MapError, match=r"traffic\[0\]\.fps: expected a positive number"):
+        map_from_dict(_map(str(tracks), fps=0))
+    with pytest.raises(MapError, match=r"traffic\[0\]\.format: "):
+        map_from_dict(_map(str(tracks), format="csv"))
+    bad = tmp_path / "bad.txt"
+    bad.write_text("0 1 x 0\n")
+    with pytest.raises(MapError, match=r"traffic\[0\]\.file: .*bad.txt: line 1"):
+        map_from_dict(_map(str(bad)))
+    with pytest.raises(MapError) as info:
+        map_from_dict(_map(str(tmp_path / "missing.txt")))
+    assert "\n" not in str(info.value)
+
+
+def test_a_longer_time_limit_replays_the_people_it_reaches(tracks):
+    spec = map_from_dict({**_map(str(tracks)), "episode": {"time_limit": 0.5}})
+    assert spec.n_recorded == 2  # person 2 appears at 1 s
+    assert with_time_limit(spec, 4.0).n_recorded == 3
+
+
+@pytest.mark.parametrize(
+    ("folder", "fps"), [("eth_univ", 15.0), ("eth_hotel", 25.0), ("ucy_zara01", 25.0)]
+)
+def test_real_recordings_replay_and_a_robot_crosses_them(folder, fps):
+    source = SHARED / folder / "obsmat.txt"
+    if not source.is_file():
+        pytest.skip(f"{source} is absent (the shared pedestrian data: see its README)")
+    rec = read_recording(source, "obsmat", fps=fps, time_offset=120.0)
+    lo, hi = rec.positions.min(axis=0) - 1.0, rec.positions.max(axis=0) + 1.0
+    data = {
+        "name": folder,
+        "bounds": {"min": lo.tolist(), "max": hi.tolist()},
+        "robots": [
+            {
+                "name": "robot",
+                "start": (lo + 1.0).tolist(),
+                "goal": (hi - 1.0).tolist(),
+                "v_max": 1.0,
+                "predictor": "constant_velocity",
+            }
+        ],
+        "traffic": [{"type": "recorded", "file": str(source), "fps": fps, "time_offset": 120.0}],
+        "episode": {"time_limit": 20.0},
+    }
+    arena = Arena(map_from_dict(data))
+    arena.reset(0)
+    for _ in range(50):
+        state = arena.step().state
+    people = state.positions[1:]
+    here = people[:, 0] > -900.0
+    truth, _ = rec.states(arena.state.time)
+    chosen = arena.spec.recorded[0].people
+    np.testing.assert_allclose(people[here], truth[chosen][here], atol=1e-9)
+    assert here.any()
+
+
+def test_a_person_appearing_on_a_moving_robot_is_not_the_robots_doing(tmp_path):
+    # the robot drives along y = -5; a person appears right on it at t = 1 s
+    path = tmp_path / "appear.txt"
+    rows = [(f, 9, -0.6, -5.0) for f in range(10, 30)]  # the robot is at x = -0.70 at 1 s
+    path.write_text("\n".join(f"{f} {i} {x} {y}" for f, i, x, y in rows) + "\n")
+    robots = [{"name": "r", "start": [-1.0, -5.0], "goal": [5.0, -5.0], "agent": "goal"}]
+    data = _map(str(path), robots=robots)
+    data["robots"][0]["v_max"] = 0.5
+    summary = Arena(map_from_dict(data)).run(0)
+    (robot,) = summary.robots
+    (contact,) = [c for c in summary.contacts if "person" in (c.kind_a, c.kind_b)]
+    assert contact.began_overlapping and contact.speed_a > 0.4
+    assert (robot.person_contacts, robot.caused_person_contacts) == (1, 0)
