@@ -252,6 +252,7 @@ class Arena:
             np.linspace(0.0, self.options.known_path_horizon, self.options.known_path_samples)
         )
         self._bodies = read_only(np.array(self.robot_ids, dtype=np.int64))
+        self._replayed_rows = np.flatnonzero(self.world.replayed)
         self._radii = read_only(self.world.radii)
         self._a_max = read_only(self.world.a_max)
         self._v_max = read_only(self.world.v_max)
@@ -432,11 +433,16 @@ class Arena:
     # ------------------------------------------------------------------ sensing
 
     def _known_paths(self, state: WorldState) -> NDArray[np.float64]:
-        """(N, T, 2) true future centres of traffic (NaN for robots)."""
+        """(N, T, 2) true future centres of traffic and of recorded people (NaN for the
+        bodies agents drive, and for recorded people out of the scene)."""
         out = np.full((self.world.n, len(self.path_times), 2), np.nan)
         idx = self.traffic.indices
         if len(idx):
             out[idx] = self.traffic.future_paths(state.positions, self.path_times)
+        if self._replayed_rows.size:
+            out[self._replayed_rows] = self.spec.recorded_paths(
+                int(round(state.time / self.world.dt)), self.path_times
+            )
         return out
 
     def sensing(self) -> SensingBatch:
@@ -446,7 +452,11 @@ class Arena:
         are added by :meth:`step` only."""
         state = self.state
         assert state is not None
-        known = self._known_paths(state) if len(self.traffic.indices) else None
+        known = (
+            self._known_paths(state)
+            if len(self.traffic.indices) or self._replayed_rows.size
+            else None
+        )
         # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands
         plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)
         if self._kinds is None:

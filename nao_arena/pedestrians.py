@@ -32,7 +32,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FORMATS", "Recording", "RecordingError", "cached_recording", "read_recording"]
+__all__ = [
+    "FORMATS",
+    "Recording",
+    "RecordingError",
+    "cached_recording",
+    "future_paths",
+    "read_recording",
+]
 
 FORMATS: dict[str, int] = {"obsmat": 8, "xy": 4}
 """Format name -> numbers per line."""
@@ -101,6 +108,26 @@ class Recording:
         for i in np.flatnonzero(inside):
             out[i] = _interpolate(own_times, own, float(times[i]))[0]
         return out
+
+
+def future_paths(
+    rec: Recording, people: list[int], t: float, times: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(len(people), T, 2) m: where each of ``people`` (indices) will be at ``t + times``
+    (s), interpolated as :meth:`Recording.path` does; after a person's last annotation,
+    there (the known path of someone who has left ends where they left); NaN rows for
+    the people not in the scene at ``t``."""
+    out = np.full((len(people), len(times), 2), np.nan)
+    at = t + np.asarray(times, dtype=float)
+    for row, k in enumerate(people):
+        lo, hi = int(rec.offsets[k]), int(rec.offsets[k + 1])
+        own_times, own = rec.times[lo:hi], rec.positions[lo:hi]
+        if not own_times[0] <= t <= own_times[-1]:
+            continue
+        clipped = np.minimum(at, own_times[-1])
+        out[row, :, 0] = np.interp(clipped, own_times, own[:, 0])
+        out[row, :, 1] = np.interp(clipped, own_times, own[:, 1])
+    return out
 
 
 def _interpolate(

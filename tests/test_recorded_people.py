@@ -222,3 +222,26 @@ def test_a_person_appearing_on_a_moving_robot_is_not_the_robots_doing(tmp_path):
     (contact,) = [c for c in summary.contacts if "person" in (c.kind_a, c.kind_b)]
     assert contact.began_overlapping and contact.speed_a > 0.4
     assert (robot.person_contacts, robot.caused_person_contacts) == (1, 0)
+
+
+def test_the_known_path_oracle_reads_the_recording(tracks):
+    spec = map_from_dict(_map(str(tracks)))
+    rec = read_recording(tracks, "xy", fps=10.0)
+    arena = Arena(spec)
+    arena.reset(0)
+    for _ in range(12):
+        arena.step()
+    batch = arena.sensing()
+    t = arena.state.time
+    for k in range(3):
+        body = 1 + k
+        path = batch.known_paths[body]
+        if arena.state.positions[body, 0] < -900.0:  # waiting: nothing is known
+            assert np.all(np.isnan(path))
+            continue
+        want = rec.path(k, t + batch.path_times)
+        ended = np.isnan(want[:, 0])
+        np.testing.assert_allclose(path[~ended], want[~ended], atol=1e-12)
+        # after its last annotation a person's known path stays where it left
+        last = rec.positions[rec.offsets[k + 1] - 1]
+        np.testing.assert_allclose(path[ended], np.broadcast_to(last, path[ended].shape))

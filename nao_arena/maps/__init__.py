@@ -127,7 +127,8 @@ Top level
     linearly between annotations), in between along the chord to the next one; it is
     in the scene for the control periods it is annotated through, and waits far
     outside the bounds (out of sensing range) before and after. Robots cannot push
-    it; its contacts with other recorded people and with walls are not counted.
+    it; its contacts with other recorded people and with walls are not counted. The
+    ``known_path`` predictor (the oracle) reads its true future from the recording.
 ``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (1..1000,
     default 10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0,
     default 0), ``collision_slop`` (m of tolerated overlap, default 0.005),

@@ -555,6 +555,16 @@ class MapSpec(StrictModel):
             np.array(present, dtype=bool),
         )
 
+    def recorded_paths(self, step: int, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(R, T, 2) m: the recorded people's true future centres (body order) at
+        ``times`` (s) after the start of control period ``step``, NaN rows for those not in
+        the scene (see :func:`nao_arena.pedestrians.future_paths`)."""
+        from nao_arena.pedestrians import future_paths
+
+        t = step * float(self.physics.dt)
+        parts = [future_paths(g.recording(), g.people, t, times) for g in self.recorded]
+        return np.concatenate(parts) if parts else np.zeros((0, len(times), 2))
+
     def bodies(self) -> list[BodySpec]:
         """All bodies in world order: robots, people, traffic vehicles group by group, then
         the recorded people (``replayed``) entry by entry."""
