@@ -39,10 +39,11 @@ from matplotlib.figure import Figure
 
 from nao_arena.atomic import atomic_write_with
 from nao_arena.stats import StatsConfig
-from nao_arena.trials import format_table, load_summary
+from nao_arena.trials import format_table, load_summary, wilson_interval
 
 __all__ = [
     "ADJUSTMENT_CAPTION",
+    "PEOPLE_FILE",
     "REPORT_FILES",
     "adjustment_rate_ci95",
     "contact_logs",
@@ -53,6 +54,8 @@ __all__ = [
 ]
 
 REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
+PEOPLE_FILE = "among_people.png"
+"""The report's plot of the social-navigation metrics, written when robots met people."""
 MAX_LISTED = 30
 """Episodes with contacts listed by :func:`format_contact_logs` (the others are counted)."""
 
@@ -448,8 +451,70 @@ def write_report(folder: str | Path, out: str | Path | None = None) -> list[Path
         raise ValueError(f"{folder / 'summary.json'}: no results to plot")
     maps = _ordered([r["map"] for r in summary])
     agents = _ordered([r["agent"] for r in summary])
-    return [
+    written = [
         _save(_rates(summary, rows, maps, agents), out / REPORT_FILES[0]),
         _save(_time_to_goal(rows, maps, agents), out / REPORT_FILES[1]),
         _save(_min_separation(rows, maps, agents), out / REPORT_FILES[2]),
     ]
+    people = [r for r in summary if r.get("robots_among_people")]
+    if people:
+        people_maps = _ordered([r["map"] for r in people])
+        written.append(_save(_among_people(people, people_maps, agents), out / PEOPLE_FILE))
+    return written
+
+
+def _among_people(
+    summary: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str]
+) -> Figure:
+    """Per map and agent: the share of robot-episodes with a robot-caused contact with a
+    person (95 % Wilson interval) and the discomfort share (time within the discomfort
+    distance of a person over robot time)."""
+    fig_w = max(7.0, 1.1 * len(agents) * len(maps) + 3)
+    fig = Figure(figsize=(fig_w, 4.4), layout="constrained")
+    ax_c, ax_d = fig.subplots(1, 2)
+    cell = {(r["map"], r["agent"]): r for r in summary}
+    width = 0.8 / len(maps)
+    x = np.arange(len(agents))
+    for k, m in enumerate(maps):
+        pos = x - 0.4 + width * (k + 0.5)
+        cells = [cell.get((m, a)) for a in agents]
+        counts = [(0, 0) if r is None else _caused(r) for r in cells]
+        rate = np.array([c / n if n else np.nan for c, n in counts])
+        ci = np.array([wilson_interval(c, n) if n else (np.nan, np.nan) for c, n in counts])
+        err = np.vstack([np.nan_to_num(rate - ci[:, 0]), np.nan_to_num(ci[:, 1] - rate)])
+        bars = ax_c.bar(
+            pos, np.nan_to_num(rate), width, yerr=err, capsize=3, color=f"C{k % 10}", label=m
+        )
+        ax_c.bar_label(
+            bars, labels=[f"{c}/{n}" if n else "-" for c, n in counts], fontsize="x-small"
+        )
+        share = np.array(
+            [
+                np.nan if r is None or r["discomfort_share"] is None else r["discomfort_share"]
+                for r in cells
+            ]
+        )
+        bars = ax_d.bar(pos, 100.0 * np.nan_to_num(share), width, color=f"C{k % 10}", label=m)
+        ax_d.bar_label(
+            bars, labels=["-" if v != v else f"{100 * v:.1f}" for v in share], fontsize="x-small"
+        )
+    ax_c.set_ylim(0.0, 1.12)
+    ax_c.set_ylabel("share of robot-episodes")
+    ax_c.set_title("Robot-caused contact with a person (95% Wilson interval)")
+    ax_d.set_ylabel("% of robot time")
+    ax_d.set_title("Discomfort: a person within 0.2 m")
+    for ax in (ax_c, ax_d):
+        ax.set_xticks(x, agents)
+        ax.set_xlabel("agent")
+        ax.grid(axis="y", alpha=0.3)
+    if len(maps) > 1:
+        ax_c.legend(title="map", fontsize="small")
+    else:
+        fig.suptitle(maps[0])
+    return fig
+
+
+def _caused(row: Mapping[str, Any]) -> tuple[int, int]:
+    """(robot-episodes with a robot-caused contact with a person, robot-episodes among
+    people) of a summary row."""
+    return int(row["robots_caused_person_contact"]), int(row["robots_among_people"])

@@ -244,3 +244,45 @@ def test_orca_act_and_act_batch_agree_for_people_and_robots():
             alone = np.array([ag.act(batch.observation(k)) for k, ag in enumerate(arena.agents)])
             np.testing.assert_array_equal(together, alone)
             arena.step()
+
+
+# --------------------------------------------------------------------------- trials and report
+
+
+def test_trial_tables_and_the_report_show_the_robots_among_people(tmp_path, capsys):
+    from nao_arena.cli import main
+    from nao_arena.report import PEOPLE_FILE
+
+    out = tmp_path / "people"
+    args = ["--map", "crowdnav_circle", "--agent", "goal", "--episodes", "3", "--out", str(out)]
+    assert main(["trial", *args, "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "among people:" in printed and "robot-caused" in printed
+    assert main(["report", str(out)]) == 0
+    assert "among people:" in capsys.readouterr().out
+    png = out / PEOPLE_FILE
+    assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # without people, no such table and no such plot
+    plain = tmp_path / "plain"
+    assert (
+        main(
+            [
+                "trial",
+                "--map",
+                "crossing",
+                "--agent",
+                "goal",
+                "--episodes",
+                "1",
+                "--out",
+                str(plain),
+                "--quiet",
+                "--set",
+                "n=1",
+            ]
+        )
+        == 0
+    )
+    assert "among people:" not in capsys.readouterr().out
+    assert main(["report", str(plain)]) == 0
+    assert not (plain / PEOPLE_FILE).exists()
