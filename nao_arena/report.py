@@ -295,14 +295,7 @@ def _rates(
     ax_c.set_title("Collision rate (95% Wilson interval)")
     ax_a.set_ylabel("adjustments per second driven (1/s)")
     ax_a.set_title("Acceleration adjustments (95% interval)")
-    for ax in (ax_c, ax_a):
-        ax.set_xticks(x, agents)
-        ax.set_xlabel("agent")
-        ax.grid(axis="y", alpha=0.3)
-    if len(maps) > 1:
-        ax_c.legend(title="map", fontsize="small")
-    else:
-        fig.suptitle(maps[0])
+    _agent_axes(fig, (ax_c, ax_a), agents, maps)
     chars = int(fig_w * 110 / 7)  # about 7 px per character at the caption's size
     fig.supxlabel(
         "\n".join(textwrap.wrap(ADJUSTMENT_CAPTION, chars)), fontsize="small", color="0.25"
@@ -503,15 +496,22 @@ def _among_people(
     ax_c.set_title("Robot-caused contact with a person (95% Wilson interval)")
     ax_d.set_ylabel("% of robot time")
     ax_d.set_title("Discomfort: a person within 0.2 m")
-    for ax in (ax_c, ax_d):
+    _agent_axes(fig, (ax_c, ax_d), agents, maps)
+    return fig
+
+
+def _agent_axes(fig: Figure, axes: Sequence[Axes], agents: list[str], maps: list[str]) -> None:
+    """Bar charts of agents (x) by map (bars): the agents as ticks, a grid, and the maps
+    in the first one's legend (one map: its name as the title)."""
+    x = np.arange(len(agents))
+    for ax in axes:
         ax.set_xticks(x, agents)
         ax.set_xlabel("agent")
         ax.grid(axis="y", alpha=0.3)
     if len(maps) > 1:
-        ax_c.legend(title="map", fontsize="small")
+        axes[0].legend(title="map", fontsize="small")
     else:
         fig.suptitle(maps[0])
-    return fig
 
 
 def _caused(row: Mapping[str, Any]) -> tuple[int, int]:
