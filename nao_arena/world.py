@@ -52,6 +52,7 @@ differently wherever a body has two contacts at once.
 from __future__ import annotations
 
 import ctypes
+import functools
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -61,7 +62,7 @@ import pymunk.batch as pb
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
+from nao_arena.maps import MapSpec, PolygonWall, SegmentWall, map_from_dict
 from nao_arena.motion import (
     clip_accelerations,
     clip_norm,
@@ -301,6 +302,21 @@ class _BatchIO:
         self._each(space, self.substeps + _WRITE_VELOCITIES, _SET_BODY)
 
 
+@functools.cache
+def _step_a_small_world() -> None:
+    """:meth:`World.warm_up`, done once per process."""
+    spec = map_from_dict(
+        {
+            "name": "warm-up",
+            "bounds": {"min": [-1.0, -1.0], "max": [1.0, 1.0]},
+            "robots": [{"start": [0.0, 0.0], "goal": [0.5, 0.0]}],
+        }
+    )
+    world = World(spec)
+    world.step(np.zeros((1, 2)))
+    world.step(np.zeros((1, 2)))  # the compiled path, once pymunk is idle
+
+
 @njit(cache=True)
 def _substeps_kernel(
     space_step: Any,
@@ -399,6 +415,14 @@ class World:
         self._walls = spec.wall_segments()
         self._log = np.empty((0, self.n, 2))
         self.reset()
+
+    @staticmethod
+    def warm_up() -> None:
+        """Load (or, the first time, compile) the kernel that runs the physics substeps in
+        chipmunk, whose argument types (function pointers) no manifest can name, by
+        stepping a world of one body (once per process): the episodes of this process,
+        and those of the processes forked from it, then start warm."""
+        _step_a_small_world()
 
     def __getstate__(self) -> dict[str, object]:
         """The map and the commands since the last reset (the space and the batch
