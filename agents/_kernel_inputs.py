@@ -1,14 +1,21 @@
-"""Arrays as the compiled baselines (``orca``, ``cbf``) take them: contiguous, typed,
-and the robots' mask memoised for the arena's kinds array."""
+"""What the compiled baselines (``orca``, ``cbf``) share around their kernels: arrays as
+the kernels take them (contiguous, typed), the robots' mask memoised for the arena's kinds
+array, the agents' option tables memoised per group of agents, and the dispatch of a
+batch between the kernel and subclasses with an ``act`` of their own."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["f64", "i64", "robot_mask"]
+from nao_arena.sensing import SensingBatch
+
+__all__ = ["OptionTables", "act_rows", "f64", "i64", "robot_mask"]
+
+T = TypeVar("T")
 
 
 def f64(a: Any) -> NDArray[np.float64]:
@@ -31,3 +38,58 @@ def robot_mask(kinds: NDArray[np.str_]) -> NDArray[np.bool_]:
     if _LAST_KINDS[0] is not kinds:
         _LAST_KINDS[0], _LAST_KINDS[1] = kinds, np.asarray(kinds) == "robot"
     return _LAST_KINDS[1]
+
+
+class OptionTables(Generic[T]):
+    """The kernel's option table of a group of agents (``compute(agents)``), memoised per
+    sequence of agents (the arena asks for the same robots every step) until
+    :meth:`clear` (an option of some agent was set). The agents are kept with their
+    table, so that their ids stay theirs while it is here; at most 16 groups are kept."""
+
+    def __init__(self, compute: Callable[[Sequence[Any]], T]) -> None:
+        self._compute = compute
+        self._tables: dict[tuple[int, ...], tuple[list[Any], T]] = {}
+
+    def __call__(self, agents: Sequence[Any]) -> T:
+        key = tuple(map(id, agents))
+        hit = self._tables.get(key)
+        if hit is None:
+            if len(self._tables) > 16:
+                self._tables.clear()
+            hit = self._tables[key] = (list(agents), self._compute(agents))
+        return hit[1]
+
+    def clear(self) -> None:
+        """Forget every table (an option of some agent may have changed)."""
+        self._tables.clear()
+
+
+def act_rows(
+    agents: Sequence[Any],
+    batch: SensingBatch,
+    rows: Sequence[int],
+    base_act: Callable[..., Any],
+    compiled: Callable[[Sequence[Any], SensingBatch, NDArray[np.int64]], NDArray[np.float64]],
+) -> NDArray[np.float64] | list[NDArray[np.float64] | Exception]:
+    """An ``act_batch``: ``compiled(agents, batch, rows)`` (an array (len(rows), 2) m/s^2)
+    when every agent's ``act`` is ``base_act``; else the agents of a subclass with an
+    ``act`` of its own act robot by robot, the others in one compiled call, and the
+    result is a list with one acceleration or exception per row."""
+    rows_a = np.asarray(rows, dtype=np.int64)
+    if all(type(ag).act is base_act for ag in agents):
+        return compiled(agents, batch, rows_a)
+    out: list[NDArray[np.float64] | Exception] = [np.zeros(2)] * len(rows_a)
+    todo = []
+    for i, ag in enumerate(agents):
+        if type(ag).act is base_act:
+            todo.append(i)
+            continue
+        try:
+            out[i] = ag.act(batch.observation(int(rows_a[i])))
+        except Exception as exc:  # noqa: BLE001 - the agent's failure
+            out[i] = exc
+    if todo:
+        acc = compiled([agents[i] for i in todo], batch, rows_a[todo])
+        for j, i in enumerate(todo):
+            out[i] = acc[j]
+    return out

@@ -134,6 +134,7 @@ from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
 from nao_arena.motion import limit_norm_sqrt
 from nao_arena.sensing import Observation, SensingBatch
 
+from ._kernel_inputs import OptionTables, act_rows
 from ._kernel_inputs import f64 as _f64
 from ._kernel_inputs import i64 as _i64
 from ._kernel_inputs import robot_mask as _reactive
@@ -731,7 +732,7 @@ class CBFAgent:
 
     def __setattr__(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)
-        _TABLES.clear()  # an option may have changed: the memoised option tables are stale
+        _option_table.clear()  # an option may have changed: the memoised option tables are stale
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
         """Fresh statistics (the controller itself is stateless)."""
@@ -757,24 +758,7 @@ class CBFAgent:
         (the same accelerations, m/s^2): an array (len(rows), 2). Agents of a subclass
         with its own ``act`` act robot by robot: then one acceleration or exception per
         row (a list)."""
-        rows_a = np.asarray(rows, dtype=np.int64)
-        if all(type(ag).act is _ACT for ag in agents):
-            return _batch_accelerations(agents, batch, rows_a)
-        out: list[NDArray[np.float64] | Exception] = [np.zeros(2)] * len(rows_a)
-        todo = []
-        for i, ag in enumerate(agents):
-            if type(ag).act is _ACT:
-                todo.append(i)
-                continue
-            try:
-                out[i] = ag.act(batch.observation(int(rows_a[i])))
-            except Exception as exc:  # noqa: BLE001 - the agent's failure
-                out[i] = exc
-        if todo:
-            acc = _batch_accelerations([agents[i] for i in todo], batch, rows_a[todo])
-            for j, i in enumerate(todo):
-                out[i] = acc[j]
-        return out
+        return act_rows(agents, batch, rows, _ACT, _batch_accelerations)
 
 
 _ACT = CBFAgent.act
@@ -784,26 +768,21 @@ _OPTIONS = operator.attrgetter(
 )
 
 _Table = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]
-_TABLES: dict[tuple[int, ...], tuple[list[CBFAgent], _Table]] = {}
 
 
-def _option_table(agents: Sequence[CBFAgent]) -> _Table:
+def _options_of(agents: Sequence[CBFAgent]) -> _Table:
     """The kernel's options of ``agents``: (n, 7) gamma, margin, v_pref (NaN: none),
-    time_constant, sensing_range, braking, detour; whether v_pref is set; reciprocal.
-    Memoised per sequence of agents until an attribute of any agent is set."""
-    key = tuple(map(id, agents))
-    hit = _TABLES.get(key)
-    if hit is None:
-        if len(_TABLES) > 16:
-            _TABLES.clear()
-        table = np.array(
-            [[math.nan if v is None else v for v in _OPTIONS(ag)] for ag in agents],
-            dtype=np.float64,
-        ).reshape(-1, 7)
-        recip = np.array([ag.reciprocal for ag in agents], dtype=np.bool_)
-        # the agents are kept with their table: their ids stay theirs while it is here
-        hit = _TABLES[key] = (list(agents), (table, ~np.isnan(table[:, _V_PREF]), recip))
-    return hit[1]
+    time_constant, sensing_range, braking, detour; whether v_pref is set; reciprocal."""
+    table = np.array(
+        [[math.nan if v is None else v for v in _OPTIONS(ag)] for ag in agents],
+        dtype=np.float64,
+    ).reshape(-1, 7)
+    recip = np.array([ag.reciprocal for ag in agents], dtype=np.bool_)
+    return table, ~np.isnan(table[:, _V_PREF]), recip
+
+
+_option_table = OptionTables(_options_of)
+""":func:`_options_of`, memoised per group of agents (see :class:`OptionTables`)."""
 
 
 def _targets(

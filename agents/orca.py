@@ -42,6 +42,7 @@ from nao_arena.motion import limit_norm
 from nao_arena.obstacles import NO_WALLS, wall_discs_memo
 from nao_arena.sensing import Neighbours, Observation, SensingBatch
 
+from ._kernel_inputs import OptionTables, act_rows
 from ._kernel_inputs import f64 as _f64
 from ._kernel_inputs import i64 as _i64
 from ._kernel_inputs import robot_mask as _reactive
@@ -503,7 +504,7 @@ class ORCAAgent:
 
     def __setattr__(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)
-        _TABLES.clear()  # an option changed: the memoised option tables are stale
+        _option_table.clear()  # an option changed: the memoised option tables are stale
 
     def reset(self, spec: Any, rng: np.random.Generator) -> None:
         """Stateless but for whom it drives: a person (``spec.kind``) or a robot."""
@@ -567,26 +568,7 @@ class ORCAAgent:
         (the same accelerations, m/s^2): an array (len(rows), 2). Agents of a subclass
         with its own ``act`` act robot by robot: then one acceleration or exception per
         row (a list)."""
-        n = len(rows)
-        if all(t.act is _ACT for t in {type(ag) for ag in agents}):
-            return _batch_accelerations(agents, batch, np.asarray(rows, dtype=np.int64))
-        out: list[NDArray[np.float64] | Exception] = [np.zeros(2)] * n
-        todo = []
-        for i, ag in enumerate(agents):
-            if type(ag).act is _ACT:
-                todo.append(i)
-                continue
-            try:
-                out[i] = ag.act(batch.observation(int(rows[i])))
-            except Exception as exc:  # noqa: BLE001 - the agent's failure
-                out[i] = exc
-        if todo:
-            acc = _batch_accelerations(
-                [agents[i] for i in todo], batch, np.asarray(rows, dtype=np.int64)[todo]
-            )
-            for j, i in enumerate(todo):
-                out[i] = acc[j]
-        return out
+        return act_rows(agents, batch, rows, _ACT, _batch_accelerations)
 
 
 _ACT = ORCAAgent.act
@@ -596,30 +578,19 @@ _OPTIONS = operator.attrgetter(
 
 
 _Table = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]
-_TABLES: dict[tuple[int, ...], tuple[list[ORCAAgent], _Table]] = {}
-
-
-def _option_table(agents: Sequence[ORCAAgent]) -> _Table:
-    """The kernel's options of ``agents``: (n, 5) horizon, margin, v_pref (NaN: none),
-    time_constant, sensing_range; whether v_pref is set; max_neighbours (-1: all).
-    Memoised per sequence of agents (the arena asks for the same robots every step)
-    until an option of any agent is set."""
-    key = tuple(map(id, agents))
-    hit = _TABLES.get(key)
-    if hit is None:
-        if len(_TABLES) > 16:
-            _TABLES.clear()
-        # the agents are kept with their table: their ids stay theirs while it is here
-        hit = _TABLES[key] = (list(agents), _options_of(agents))
-    return hit[1]
 
 
 def _options_of(agents: Sequence[ORCAAgent]) -> _Table:
-    """:func:`_option_table`, computed."""
+    """The kernel's options of ``agents``: (n, 5) horizon, margin, v_pref (NaN: none),
+    time_constant, sensing_range; whether v_pref is set; max_neighbours (-1: all)."""
     table = np.array(list(map(_OPTIONS, agents)), dtype=np.float64).reshape(-1, 6)
     has_v_pref = ~np.isnan(table[:, _V_PREF])
     limit = np.where(np.isnan(table[:, 5]), -1.0, np.minimum(table[:, 5], 2.0**62))
     return np.ascontiguousarray(table[:, :5]), has_v_pref, limit.astype(np.int64)
+
+
+_option_table = OptionTables(_options_of)
+""":func:`_options_of`, memoised per group of agents (see :class:`OptionTables`)."""
 
 
 def _seen(nb: Neighbours, keep: NDArray[np.bool_]) -> Neighbours:
