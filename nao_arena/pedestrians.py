@@ -103,10 +103,11 @@ class Recording:
         where absent (the known path a predictor with an oracle reads)."""
         lo, hi = int(self.offsets[person]), int(self.offsets[person + 1])
         own_times, own = self.times[lo:hi], self.positions[lo:hi]
+        times = np.asarray(times, dtype=float)
         out = np.full((len(times), 2), np.nan)
         inside = (own_times[0] <= times) & (times <= own_times[-1])
-        for i in np.flatnonzero(inside):
-            out[i] = _interpolate(own_times, own, float(times[i]))[0]
+        out[inside, 0] = np.interp(times[inside], own_times, own[:, 0])
+        out[inside, 1] = np.interp(times[inside], own_times, own[:, 1])
         return out
 
 
@@ -119,14 +120,10 @@ def future_paths(
     the people not in the scene at ``t``."""
     out = np.full((len(people), len(times), 2), np.nan)
     at = t + np.asarray(times, dtype=float)
+    firsts, lasts = rec.first_times, rec.last_times
     for row, k in enumerate(people):
-        lo, hi = int(rec.offsets[k]), int(rec.offsets[k + 1])
-        own_times, own = rec.times[lo:hi], rec.positions[lo:hi]
-        if not own_times[0] <= t <= own_times[-1]:
-            continue
-        clipped = np.minimum(at, own_times[-1])
-        out[row, :, 0] = np.interp(clipped, own_times, own[:, 0])
-        out[row, :, 1] = np.interp(clipped, own_times, own[:, 1])
+        if firsts[k] <= t <= lasts[k]:
+            out[row] = rec.path(k, np.minimum(at, lasts[k]))
     return out
 
 
