@@ -46,9 +46,10 @@ class Forks:
     def act(self, obs):
         if not self.forked and obs.time > 0.25:
             self.forked = True
-            if os.fork() == 0:
+            child = os.fork()
+            if child:  # the parent records the fork: the fork itself may be ended first
                 with open(os.environ["FORK_MARKER"], "a") as fh:
-                    fh.write(f"{os.getpid()}\\n")
+                    fh.write(f"{child}\\n")
         return np.ones(2)
 
 class Spins:
@@ -177,9 +178,8 @@ def test_a_fork_in_act_ends_when_act_returns(tmp_path, hostile, monkeypatch):
     assert record["error"] is None and record["result"]["steps"] == 20
     forked = [int(p) for p in marker.read_text().split()]
     assert len(forked) == 2  # one per robot; neither runs on
-    time.sleep(0.2)
     for pid in forked:
-        assert not Path(f"/proc/{pid}").exists() or "Z" in _state(pid), pid
+        assert _ends(pid), pid
     # the same episode in this process: its forks end too, and change nothing
     monkeypatch.setenv("FORK_MARKER", str(tmp_path / "forked_here"))
     spec = load_map("circle_swap", n=2).model_copy(
@@ -188,8 +188,23 @@ def test_a_fork_in_act_ends_when_act_returns(tmp_path, hostile, monkeypatch):
         }
     )
     here = Arena(spec, ArenaOptions(agent=f"{hostile}:Forks")).run(0)
-    assert len((tmp_path / "forked_here").read_text().split()) == 2
+    forked_here = [int(p) for p in (tmp_path / "forked_here").read_text().split()]
+    assert len(forked_here) == 2
+    for pid in forked_here:  # children of this process: each ended itself, with status 0
+        _, status = os.waitpid(pid, 0)
+        assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, (pid, status)
     assert here.trajectory_hash == record["result"]["trajectory_hash"]
+
+
+def _ends(pid: int, deadline_s: float = 30.0) -> bool:
+    """Whether process ``pid`` is gone (or a zombie) within ``deadline_s`` seconds: it may be
+    killed a moment after the episode that forked it returns."""
+    end = time.monotonic() + deadline_s
+    while Path(f"/proc/{pid}").exists() and "Z" not in _state(pid):
+        if time.monotonic() > end:
+            return False
+        time.sleep(0.05)
+    return True
 
 
 def _state(pid: int) -> str:
@@ -275,7 +290,7 @@ def test_killing_a_trial_leaves_no_worker_behind(tmp_path):
     finally:
         main_process.kill()
         main_process.wait()
-    deadline = time.monotonic() + 10
+    deadline = time.monotonic() + 30
     while time.monotonic() < deadline and any(_alive(p) for p in family):
         time.sleep(0.1)
     assert not [p for p in family if _alive(p)]
