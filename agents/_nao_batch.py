@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry.kernels import sampled_admissible_batch
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import commit_plans_kernel
 

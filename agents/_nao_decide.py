@@ -19,10 +19,14 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.geometry._kernel.exact import piece_sweep
-from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
-from nao_arena.geometry._kernel.search import repair_relevant, select_relevant
-from nao_arena.geometry._kernel.segment import nearby_walls, relevant_walls
+from nao_arena.geometry.kernels import (
+    nearby_walls,
+    piece_sweep,
+    relevant_sampled_paths,
+    relevant_walls,
+    repair_relevant,
+    select_relevant,
+)
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.geometry.selection import (
     _DISKS_PER_PIECE,

@@ -97,11 +97,14 @@ from nao_arena.geometry import (
     repair_acceleration,
     select_acceleration,
 )
-from nao_arena.geometry._kernel.batch import sampled_admissible_batch
-from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
-from nao_arena.geometry._kernel.relevance import relevant_sampled_paths
-from nao_arena.geometry._kernel.sampled import path_excursions
-from nao_arena.geometry._kernel.segment import relevant_walls
+from nao_arena.geometry.kernels import (
+    admissible_kernel,
+    path_excursions,
+    piece_sweep,
+    relevant_sampled_paths,
+    relevant_walls,
+    sampled_admissible_batch,
+)
 from nao_arena.geometry.selection import Selection
 from nao_arena.maps.loader import point_segment_distances
 from nao_arena.motion import braking

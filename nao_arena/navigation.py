@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.geometry._kernel.segment import segment_segment_dist2
+from nao_arena.geometry.kernels import segment_segment_dist2
 from nao_arena.maps.loader import segment_distances_xy
 
 __all__ = ["NavigationGrid", "navigation_grid", "route_targets", "segment_clear"]

@@ -20,9 +20,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.geometry._kernel.sampled import RADIUS_CUT
-from nao_arena.geometry._kernel.segment import nearby_walls
 from nao_arena.geometry.clearance import PiecewisePath, sampled_path
+from nao_arena.geometry.kernels import RADIUS_CUT, nearby_walls
 from nao_arena.geometry.walls import wall_discs
 
 __all__ = [

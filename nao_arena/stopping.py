@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_segment_dist2
+from nao_arena.geometry.kernels import point_segment_dist2, segment_segment_dist2
 from nao_arena.motion import brake_factor, clip_norm, limit_norm, saturation_time
 from nao_arena.motion import braking as braking_accel
 

@@ -30,9 +30,13 @@ import math
 import numpy as np
 from numba import njit
 
-from nao_arena.geometry._kernel.exact import candidate_setup, robot_state, scan_obstacle
-from nao_arena.geometry._kernel.segment import segment_min_distance
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.kernels import (
+    candidate_setup,
+    robot_state,
+    scan_obstacle,
+    segment_min_distance,
+)
 
 __all__ = ["BAND", "panel_labels", "wall_clearances"]
 

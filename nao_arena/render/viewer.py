@@ -66,9 +66,11 @@ import pygame  # noqa: E402
 
 from nao_arena.agent import PanelAgent, ShowsPanel  # noqa: E402
 from nao_arena.agents.goal import goal_seeking_accel  # noqa: E402
-from nao_arena.geometry._kernel.exact import piece_sweep  # noqa: E402
-from nao_arena.geometry._kernel.relevance import relevant_obstacles  # noqa: E402
 from nao_arena.geometry.clearance import PiecewisePath  # noqa: E402
+from nao_arena.geometry.kernels import (
+    piece_sweep,  # noqa: E402
+    relevant_obstacles,  # noqa: E402
+)
 from nao_arena.maps import PolygonWall, SegmentWall  # noqa: E402
 from nao_arena.obstacles import obstacle_paths, relative_walls  # noqa: E402
 from nao_arena.predictors import get_predictor  # noqa: E402
