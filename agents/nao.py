@@ -106,7 +106,7 @@ from nao_arena.geometry.kernels import (
     sampled_admissible_batch,
 )
 from nao_arena.geometry.selection import Selection
-from nao_arena.maps.loader import point_segment_distances
+from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.motion import braking
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.obstacles import obstacle_paths, relative_walls

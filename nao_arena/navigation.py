@@ -27,7 +27,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import segment_segment_dist2
-from nao_arena.maps.loader import segment_distances_xy
+from nao_arena.geometry.walls import segment_distances_xy
 
 __all__ = ["NavigationGrid", "navigation_grid", "route_targets", "segment_clear"]
 

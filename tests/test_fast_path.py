@@ -76,8 +76,8 @@ from nao_arena.geometry.selection import (
     _Tester,
     repair_acceleration,
 )
+from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps import load_map
-from nao_arena.maps.loader import point_segment_distances
 from nao_arena.predictors import turn_rate
 from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighbours_in_range
 

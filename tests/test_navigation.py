@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nao_arena.arena import Arena
+from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps import map_from_dict
-from nao_arena.maps.loader import point_segment_distances
 from nao_arena.navigation import navigation_grid, route_targets, segment_clear
 
 WALL = np.array([[[0.0, -3.0], [0.0, 3.0]]])  # a wall across the x axis

@@ -12,7 +12,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nao_arena.maps.loader import segment_distances_xy
+from nao_arena.geometry.walls import segment_distances_xy
 from nao_arena.stats.kernel import _point_segment_1
 
 

@@ -24,9 +24,9 @@ from hypothesis import strategies as st
 from strategies import floats
 
 from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps import LAYOUTS, MapError, MapSpec, PolygonWall, load_map, map_from_dict
 from nao_arena.maps.layouts import LayoutContext, QueueArgs, StreamArgs, queue, stream
-from nao_arena.maps.loader import point_segment_distances
 from nao_arena.maps.schema import Bounds
 from nao_arena.trials import make_map
 

@@ -16,6 +16,7 @@ import yaml
 from numpy.typing import NDArray
 from pydantic import ValidationError
 
+from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps.errors import MapError, field_error, show_value, validation_error
 from nao_arena.maps.layouts import LAYOUTS, LayoutContext
 from nao_arena.maps.schema import (
@@ -38,8 +39,6 @@ __all__ = [
     "load_map",
     "map_from_dict",
     "parse_overrides",
-    "point_segment_distances",
-    "segment_distances_xy",
     "with_time_limit",
 ]
 
@@ -131,40 +130,6 @@ def _inside_convex(p: NDArray[np.float64], poly: NDArray[np.float64]) -> NDArray
     rel = p[:, None, :] - poly[None]
     cross = e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0]
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
-
-
-def segment_distances_xy(
-    xs: NDArray[np.float64], ys: NDArray[np.float64], segment: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Distances m from the points (xs, ys) m (any equal shapes) to one segment (2, 2) m,
-    one coordinate at a time (contiguous arrays: the viewer's panel grids). The contact
-    check's distance (:mod:`nao_arena.stats.kernel`, compiled) in numpy: the same bits but
-    for segments shorter than 1e-150 m (here divided by 1e-300 rather than their squared
-    length; tests/test_point_segment.py)."""
-    (ax, ay), (bx, by) = segment
-    abx, aby = bx - ax, by - ay
-    ll = max(abx * abx + aby * aby, 1e-300)
-    relx = xs - ax
-    rely = ys - ay
-    t = relx * abx
-    t += rely * aby
-    t /= ll
-    np.clip(t, 0.0, 1.0, out=t)
-    dx = relx - t * abx
-    dy = rely - t * aby
-    return np.hypot(dx, dy)
-
-
-def point_segment_distances(
-    points: NDArray[np.float64], segments: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Distances (n, W) m from points (n, 2) m to segments (W, 2, 2) m."""
-    points = np.asarray(points, dtype=float)
-    xs, ys = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
-    out = np.empty((len(points), len(segments)))
-    for k, segment in enumerate(np.asarray(segments, dtype=float)):
-        out[:, k] = segment_distances_xy(xs, ys, segment)
-    return out
 
 
 def _wall_clearance(spec: MapSpec, points: NDArray[np.float64]) -> list[NDArray[np.float64]]:

@@ -125,7 +125,7 @@ def _clip01(x: float) -> float:
 @njit(cache=True, inline="always")
 def _point_segment_1(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
     """Distance (m) from point p to segment a-b: hypot(ap - t ab), t the foot's clamped
-    parameter. :func:`nao_arena.maps.loader.segment_distances_xy` is this in numpy (the same
+    parameter. :func:`nao_arena.geometry.walls.segment_distances_xy` is this in numpy (the same
     bits, but for segments shorter than 1e-150 m, which it guards otherwise; tested)."""
     abx, aby = bx - ax, by - ay
     ll = abx * abx + aby * aby

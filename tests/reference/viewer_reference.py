@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from nao_arena.geometry._kernel.relevance import relevant_obstacles
 from nao_arena.geometry._kernel.segment import segments_min_distance
 from nao_arena.geometry.clearance import PiecewisePath, path_clearance
-from nao_arena.maps.loader import point_segment_distances
+from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.world import speed_limit_time
 
 Walls = tuple[NDArray[np.float64], NDArray[np.float64]]
