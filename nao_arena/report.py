@@ -16,7 +16,13 @@ writes PNG figures (matplotlib, Agg canvas, no display needed):
 - ``min_separation.png``: histograms of the robot-episodes' minimum
   separation (m, surface to surface; below 0 = contact), one per agent
   (rows) and map (columns); robot-episodes that never came within the
-  stats' ``separation_range`` are counted in each panel's note.
+  stats' ``separation_range`` are counted in each panel's note;
+- where robots met people (:mod:`nao_arena.stats.people`), ``among_people.png``: per map
+  and agent, the share of robot-episodes with a robot-caused contact with a person (95 %
+  Wilson interval) and the discomfort share; and ``people_distance.png``: histograms of
+  the robot-episodes' closest approach to a person (m, surface to surface; below 0 =
+  contact), laid out as ``min_separation.png``, those never within the stats'
+  ``separation_range`` of a person counted in each panel's note.
 
 :func:`report_text` adds the episodes with contacts and their logs (see
 :func:`contact_logs`): ``nao-arena replay LOG`` shows one, ``nao-arena
@@ -27,7 +33,8 @@ from __future__ import annotations
 
 import math
 import textwrap
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +50,7 @@ from nao_arena.trials import format_table, load_summary, wilson_interval
 
 __all__ = [
     "ADJUSTMENT_CAPTION",
+    "PEOPLE_DISTANCE_FILE",
     "PEOPLE_FILE",
     "REPORT_FILES",
     "adjustment_rate_ci95",
@@ -56,6 +64,9 @@ __all__ = [
 REPORT_FILES = ("rates.png", "time_to_goal.png", "min_separation.png")
 PEOPLE_FILE = "among_people.png"
 """The report's plot of the social-navigation metrics, written when robots met people."""
+PEOPLE_DISTANCE_FILE = "people_distance.png"
+"""The report's histograms of the closest approach to a person, written with
+:data:`PEOPLE_FILE`."""
 MAX_LISTED = 30
 """Episodes with contacts listed by :func:`format_contact_logs` (the others are counted)."""
 
@@ -388,22 +399,49 @@ def _turn_overlapping_ticks(fig: Figure, axes: Sequence[Axes]) -> None:
                 t.set_rotation_mode("anchor")
 
 
-def _min_separation(
-    rows: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str]
+@dataclass(frozen=True)
+class _Histograms:
+    """What :func:`_histograms` plots: the per-robot ``column`` of the robot-episodes that
+    ``keep`` selects (all by default), a null value meaning never within range."""
+
+    column: str
+    xlabel: str
+    title: str
+    keep: Callable[[Mapping[str, Any]], bool] = lambda row: True
+
+
+MIN_SEPARATION = _Histograms(
+    "min_separation",
+    "minimum separation (m); < 0: contact",
+    "Minimum separation per robot-episode (count of robot-episodes per bin)",
+)
+PEOPLE_DISTANCE = _Histograms(
+    "min_person_distance",
+    "closest approach to a person (m, surface to surface); < 0: contact",
+    "Closest approach to a person per robot-episode among people (count of robot-episodes per bin)",
+    keep=lambda row: bool(row.get("among_people")),
+)
+
+
+def _histograms(
+    rows: Sequence[Mapping[str, Any]], maps: list[str], agents: list[str], what: _Histograms
 ) -> Figure:
-    """Small multiples: one histogram per agent (rows) and map (columns)."""
+    """Small multiples: one histogram per agent (rows) and map (columns) of the column
+    ``what`` names, with a line at 0 (contact) and, per panel, the robot-episodes, those
+    below 0 and those never within range (a null value, also NaN)."""
+    rows = [r for r in rows if what.keep(r)]
     fig = Figure(figsize=(4.6 * len(maps) + 0.6, 1.5 * len(agents) + 1.0), layout="constrained")
     axes = fig.subplots(len(agents), len(maps), squeeze=False, sharex="col")
     for col, m in enumerate(maps):
-        per_agent = {a: _column(rows, m, a, "min_separation") for a in agents}
-        finite = [v for vals in per_agent.values() for v in vals if v is not None]
+        per_agent = {a: _column(rows, m, a, what.column) for a in agents}
+        finite = [v for vals in per_agent.values() for v in vals if _within(v)]
         lo = min([*finite, 0.0])
         hi = max([*finite, 0.0])
         pad = 0.05 * (hi - lo) or 0.05
         bins = np.linspace(lo - pad, hi + pad, 41)
         for row, a in enumerate(agents):
             ax = axes[row, col]
-            vals = [v for v in per_agent[a] if v is not None]
+            vals = [v for v in per_agent[a] if _within(v)]
             far = len(per_agent[a]) - len(vals)
             top = 1.0
             if vals:
@@ -424,9 +462,14 @@ def _min_separation(
                 ax.set_ylabel(a, rotation=0, ha="right", va="center", fontsize="medium")
             if row == 0:
                 ax.set_title(m)
-        axes[-1, col].set_xlabel("minimum separation (m); < 0: contact")
-    fig.suptitle("Minimum separation per robot-episode (count of robot-episodes per bin)")
+        axes[-1, col].set_xlabel(what.xlabel)
+    fig.suptitle(what.title)
     return fig
+
+
+def _within(value: Any) -> bool:
+    """A measured distance (not null, not NaN: the robot came within range)."""
+    return value is not None and value == value
 
 
 def write_report(folder: str | Path, out: str | Path | None = None) -> list[Path]:
@@ -447,12 +490,18 @@ def write_report(folder: str | Path, out: str | Path | None = None) -> list[Path
     written = [
         _save(_rates(summary, rows, maps, agents), out / REPORT_FILES[0]),
         _save(_time_to_goal(rows, maps, agents), out / REPORT_FILES[1]),
-        _save(_min_separation(rows, maps, agents), out / REPORT_FILES[2]),
+        _save(_histograms(rows, maps, agents, MIN_SEPARATION), out / REPORT_FILES[2]),
     ]
     people = [r for r in summary if r.get("robots_among_people")]
     if people:
         people_maps = _ordered([r["map"] for r in people])
         written.append(_save(_among_people(people, people_maps, agents), out / PEOPLE_FILE))
+        written.append(
+            _save(
+                _histograms(rows, people_maps, agents, PEOPLE_DISTANCE),
+                out / PEOPLE_DISTANCE_FILE,
+            )
+        )
     return written
 
 

@@ -269,3 +269,35 @@ def test_rates_figure_has_adjustment_intervals_and_definition():
     assert "per second driven" in ax_a.get_ylabel()
     caption = fig.get_supxlabel()
     assert caption.startswith("Adjustment:") and "0.1 m/s^2" in caption
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["nao", "orca"]),
+            st.booleans(),  # among people
+            st.one_of(st.none(), st.just(float("nan")), st.floats(-0.3, 0.99)),
+        ),
+        min_size=1,
+        max_size=30,
+    )
+)
+@settings(max_examples=25, deadline=None)
+def test_people_distance_histograms_count_the_robot_episodes_among_people(cells):
+    """Each panel's note and bars count what an independent tally of the rows gives:
+    robot-episodes among people only, contacts below 0, null or NaN as never within."""
+    agents = ["nao", "orca"]
+    rows = [
+        {"map": "eth", "agent": a, "error": None, "among_people": among, "min_person_distance": d}
+        for a, among, d in cells
+    ]
+    fig = report._histograms(rows, ["eth"], agents, report.PEOPLE_DISTANCE)
+    for ax, a in zip(fig.axes, agents, strict=True):
+        mine = [d for b, among, d in cells if b == a and among]
+        measured = [d for d in mine if d is not None and not np.isnan(d)]
+        note = f"{len(mine)} robot-episodes, {sum(d < 0 for d in measured)} with contact"
+        if len(mine) > len(measured):
+            note += f", {len(mine) - len(measured)} never within range"
+        assert [t.get_text() for t in ax.texts] == [note]
+        assert sum(p.get_height() for p in ax.patches) == len(measured)
+    plt.close(fig)

@@ -251,7 +251,7 @@ def test_orca_act_and_act_batch_agree_for_people_and_robots():
 
 def test_trial_tables_and_the_report_show_the_robots_among_people(tmp_path, capsys):
     from nao_arena.cli import main
-    from nao_arena.report import PEOPLE_FILE
+    from nao_arena.report import PEOPLE_DISTANCE_FILE, PEOPLE_FILE
 
     out = tmp_path / "people"
     args = ["--map", "crowdnav_circle", "--agent", "goal", "--episodes", "3", "--out", str(out)]
@@ -260,8 +260,9 @@ def test_trial_tables_and_the_report_show_the_robots_among_people(tmp_path, caps
     assert "among people:" in printed and "robot-caused" in printed
     assert main(["report", str(out)]) == 0
     assert "among people:" in capsys.readouterr().out
-    png = out / PEOPLE_FILE
-    assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for name in (PEOPLE_FILE, PEOPLE_DISTANCE_FILE):
+        png = out / name
+        assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # without people, no such table and no such plot
     plain = tmp_path / "plain"
     assert (
@@ -285,4 +286,4 @@ def test_trial_tables_and_the_report_show_the_robots_among_people(tmp_path, caps
     )
     assert "among people:" not in capsys.readouterr().out
     assert main(["report", str(plain)]) == 0
-    assert not (plain / PEOPLE_FILE).exists()
+    assert not (plain / PEOPLE_FILE).exists() and not (plain / PEOPLE_DISTANCE_FILE).exists()
