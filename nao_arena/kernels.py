@@ -305,8 +305,14 @@ def _signature(kernel: Kernel) -> tuple[Any, ...]:
 
 def _cache_holds(kernel: Kernel) -> bool:
     """Whether numba's cache holds this kernel version, compiled by this numba for this
-    machine and this source (its index is read; nothing is loaded or compiled)."""
-    dispatcher = _dispatcher(kernel)
+    machine and this source (its index is read; nothing is loaded or compiled). A stale
+    manifest entry, whose function is gone (a source edited since the manifest was
+    recorded), counts as held: there is nothing to compile ahead for it."""
+    try:
+        dispatcher = _dispatcher(kernel)
+    except (ImportError, AttributeError):
+        LOG.debug("stale manifest entry %s: not compiled ahead", kernel.key)
+        return True
     cache: Any = getattr(dispatcher, "_cache", None)
     try:
         key = cache._index_key(_signature(kernel), dispatcher.targetctx.codegen())
