@@ -15,16 +15,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.selection import Selection
-
-if TYPE_CHECKING:
-    from .nao import NAOAgent
 
 # real (float64) columns: state
 CUR_X, CUR_Y = 0, 1  # the current acceleration (m/s^2)
@@ -75,6 +73,21 @@ YIELDED = 3
 PROGRESS = 0.5  # m closer to the goal that counts as progress (switch_side_after)
 
 
+@dataclass
+class StepMemo:
+    """What a table works out once and reuses while the batches it steps repeat it:
+    the traffic mask (per body, None: no body is traffic) of the last read-only kinds
+    array (``kinds``, ``traffic``; see :func:`~nao_arena.agents._nao_step.traffic_mask`)
+    and the fallback ring radii (n, rings) m/s^2 of the last limits (``limits``: the
+    bytes of a_max, ``ring_radii``; see
+    :func:`~nao_arena.agents._nao_decide.ring_radii_rows`). Replaced a pair at a time."""
+
+    kinds: Any = None
+    traffic: NDArray[np.bool_] | None = None
+    limits: bytes | None = None
+    ring_radii: NDArray[np.float64] | None = None
+
+
 class AgentColumns:
     """The state and numeric options of n agents, one row each: ``real`` (n, N_REAL)
     float64, ``whole`` (n, N_WHOLE) int64 and ``opt`` (n, N_OPT) float64 (column
@@ -82,7 +95,8 @@ class AgentColumns:
     (:class:`Selection`; where CACHED is 0, built from the columns when asked for);
     ``seen``:
     (batch, predictions, excursions) of the last step, indexed by the SEEN column;
-    ``members``: the agents of the rows (None once an agent has left the table)."""
+    ``members``: the agents of the rows (None once an agent has left the table);
+    ``memo``: what its steps work out once (:class:`StepMemo`)."""
 
     def __init__(self, n: int) -> None:
         self.real = np.zeros((n, N_REAL))
@@ -93,6 +107,7 @@ class AgentColumns:
         self.members: tuple[Any, ...] | None = None
         self.version = 0  # counts changes of the members' time grids and predictors
         self._grid_groups: tuple[int, list[NDArray[np.int64]]] | None = None
+        self.memo = StepMemo()
 
     def copy_row(self, src: AgentColumns, r: int, i: int) -> None:
         """Row i of this table becomes row r of ``src`` (with its last view)."""
@@ -147,6 +162,14 @@ class AgentColumns:
         self.selections[r] = sel
         self.whole[r, CACHED] = 1
 
+    def holds(self, m: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Per row of m: whether its current acceleration is an avoidance adjustment young
+        enough to keep (while admissible) even though it lies outside keep_band of the
+        desired one (:func:`young_adjustments`)."""
+        holds = np.empty(len(m), dtype=np.bool_)
+        young_adjustments(m, self.real, self.whole, self.opt, holds)
+        return holds
+
     def grid_groups(self, members: Sequence[Any]) -> list[NDArray[np.int64]]:
         """The rows grouped by (predictor name, time grid) in order of first appearance:
         the agents of a group share predictions; worked out again when a member's grid
@@ -174,11 +197,18 @@ def commit_row(real, whole, i, x, y, status, tested):  # pragma: no cover
     whole[i, CACHED] = 0
 
 
-def columns_of(agents: Sequence[NAOAgent]) -> AgentColumns:
+class TableMember(Protocol):
+    """An agent whose state is row ``_row`` of the table ``_cols``."""
+
+    _cols: AgentColumns
+    _row: int
+
+
+def columns_of(agents: Sequence[TableMember]) -> AgentColumns:
     """The one table whose rows are ``agents`` in this order: theirs if they already
     share it, else a new one with their rows (the tables they leave are no longer
     any batch's)."""
-    cols: AgentColumns = agents[0]._cols
+    cols = agents[0]._cols
     members = cols.members
     if members is not None and len(members) == len(agents) and members == tuple(agents):
         return cols

@@ -49,6 +49,7 @@ from ._nao_columns import (
     FALLBACK,
     KEEP_BAND,
     SETTLING,
+    StepMemo,
     commit_row,
 )
 
@@ -249,24 +250,22 @@ def decide_batch(
             kind[k] = Outcome.INFEASIBLE
 
 
-def ring_radii_rows(a_max: NDArray[np.float64]) -> NDArray[np.float64]:
+def ring_radii_rows(
+    a_max: NDArray[np.float64], memo: StepMemo | None = None
+) -> NDArray[np.float64]:
     """Per robot, the radii (m/s^2) of the fallback rings of limit a_max (m/s^2), as
     :func:`~nao_arena.geometry.selection._ring_radii` gives them (same values): (n, rings).
-    The last limits' radii are remembered (a batch's limits rarely change; not to be
-    modified)."""
-    global _last_radii
+    With a ``memo`` (the agents' table's), the radii of the last limits are remembered
+    there (a batch's limits rarely change; not to be modified)."""
     a = np.ascontiguousarray(a_max, dtype=np.float64)
     key = a.tobytes()
-    seen_key, seen_radii = _last_radii
-    if key == seen_key:
-        return seen_radii
+    if memo is not None and memo.ring_radii is not None and memo.limits == key:
+        return memo.ring_radii
     span = 2.0 * np.maximum(a, 1e-12)
     radii = np.ascontiguousarray(span[:, None] * 0.5 ** np.arange(_RINGS - 1, -1, -1))
-    _last_radii = (key, radii)
+    if memo is not None:
+        memo.limits, memo.ring_radii = key, radii
     return radii
-
-
-_last_radii: tuple[bytes, NDArray[np.float64]] = (b"", np.zeros((0, _RINGS)))
 
 
 def decide(
@@ -284,12 +283,14 @@ def decide(
     repair: NDArray[np.bool_],
     current: NDArray[np.float64],
     desired: NDArray[np.float64],
+    memo: StepMemo | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
     """:func:`decide_batch` with the settings :func:`~nao_arena.geometry.select_acceleration`
     and :func:`~nao_arena.geometry.repair_acceleration` use by default. lists: the CSR
     obstacle lists (nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index); per-robot
-    arrays as in :func:`decide_batch`. Returns (kind, accel m/s^2, tested) per robot
-    (kind UNDECIDED for the robots not in ``rows``)."""
+    arrays as in :func:`decide_batch`; memo: where the ring radii are remembered
+    (:func:`ring_radii_rows`). Returns (kind, accel m/s^2, tested) per robot (kind
+    UNDECIDED for the robots not in ``rows``)."""
     nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
     n = len(a_max)
     kind = np.full(n, Outcome.UNDECIDED, dtype=np.int64)
@@ -316,7 +317,7 @@ def decide(
         repair,
         np.ascontiguousarray(current),
         np.ascontiguousarray(desired),
-        *selection_settings(a_max),
+        *selection_settings(a_max, memo),
         kind,
         accel,
         tested,
@@ -325,7 +326,7 @@ def decide(
 
 
 def selection_settings(
-    a_max: NDArray[np.float64],
+    a_max: NDArray[np.float64], memo: StepMemo | None = None
 ) -> tuple[
     NDArray[np.float64],
     NDArray[np.float64],
@@ -338,9 +339,10 @@ def selection_settings(
 ]:
     """The arguments ring_radii .. sliver_depth of :func:`decide_batch` for robots of
     limits a_max (m/s^2): the settings :func:`~nao_arena.geometry.select_acceleration`
-    and :func:`~nao_arena.geometry.repair_acceleration` use by default."""
+    and :func:`~nao_arena.geometry.repair_acceleration` use by default (memo: see
+    :func:`ring_radii_rows`)."""
     return (
-        ring_radii_rows(a_max),
+        ring_radii_rows(a_max, memo),
         _unit_rings(_RINGS, _RING_POINTS),
         _REPAIR_STEPS,
         _REPAIR_UNIT,
@@ -399,8 +401,9 @@ def apply_braking(
 ):
     """For the members j with status[j] 0 whose :func:`decide` outcome is INFEASIBLE and
     whose fallback is braking (option ``infeasible`` "brake", or "auto" without traffic
-    among the neighbours, traffic[i]): what :meth:`NAOAgent._fallback` and
-    ``AccelLimits(a_max).project`` give, braking towards standing still within dt (s)
+    among the neighbours, traffic[i]): what
+    :func:`~nao_arena.agents._nao_per_robot.fallback` and ``AccelLimits(a_max).project``
+    give, braking towards standing still within dt (s)
     from velocity vel[i] (m/s), committed as a selection of status INFEASIBLE into row
     members[j] = i of the agents' table and of ``out`` (n, 2) m/s^2; settled[j] = True
     for each of them (the same functions: :func:`~nao_arena.motion.braking`,

@@ -26,7 +26,9 @@ from reference.kernels_reference import (
     slide_ref,
 )
 from reference.predictors_reference import turn_rate_numpy
+from reference.selection_reference import CandidateTester, nearest_by_disks, search
 
+from nao_arena.agents._nao_columns import StepMemo
 from nao_arena.agents._nao_decide import (
     ADJUSTED,
     DESIRED,
@@ -73,13 +75,13 @@ from nao_arena.geometry.selection import (
     _RINGS,
     AccelLimits,
     _ring_radii,
-    _Tester,
     repair_acceleration,
 )
 from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps import load_map
+from nao_arena.neighbours import _stable_order
 from nao_arena.predictors import turn_rate
-from nao_arena.sensing import Neighbours, _stable_order, neighbour_lists, neighbours_in_range
+from nao_arena.sensing import Neighbours, neighbour_lists, neighbours_in_range
 
 # ---------------------------------------------------------------- scenes
 
@@ -289,13 +291,15 @@ def test_ring_radii_rows_are_the_selections_ring_radii():
 
 
 def test_ring_radii_rows_remembered_only_for_the_same_limits():
-    """The remembered radii are those of the limits asked for: other limits (another
-    value, another count of robots), then the first ones again."""
+    """The radii remembered in a table's memo are those of the limits asked for: other
+    limits (another value, another count of robots), then the first ones again; the
+    same limits are served from the memo."""
+    memo = StepMemo()
     first = np.array([2.0, 2.0, 2.0])
     for a_max in (first, np.array([2.0, 2.0, 0.5]), np.array([2.0, 2.0]), first.copy(), first):
-        np.testing.assert_array_equal(
-            ring_radii_rows(a_max), np.stack([_ring_radii(float(a), _RINGS) for a in a_max])
-        )
+        got = ring_radii_rows(a_max, memo)
+        np.testing.assert_array_equal(got, np.stack([_ring_radii(float(a), _RINGS) for a in a_max]))
+        assert memo.ring_radii is got and ring_radii_rows(a_max.copy(), memo) is got
 
 
 def _outside_rows(q, disks, a_max, within, covered, row):
@@ -728,7 +732,9 @@ def _tester(seed: int):
     n = int(rng.integers(1, 6))
     path = _straight_paths(rng, n, times, spread=2.5, radii=(0.6, 1.2))
     limits = AccelLimits(2.0)
-    return _Tester(rng.normal(size=2), path, limits, 0.0, float(rng.choice([1.5, np.inf]))), rng
+    return CandidateTester(
+        rng.normal(size=2), path, limits, 0.0, float(rng.choice([1.5, np.inf]))
+    ), rng
 
 
 @pytest.mark.parametrize("seed", range(30))
@@ -905,22 +911,22 @@ def test_act_batch_defers_to_an_overridden_act():
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", range(40))
 def test_compiled_candidate_loop_matches_the_python_loop(seed):
-    """_nearest_by_disks confirms its candidates in a compiled loop for the limit disc;
-    with a box that never binds it runs the Python loop: the same answers and counts."""
+    """The disk picture's candidates confirmed in a compiled loop (try_candidates_disc)
+    and in the Python loop it replaces: the same answers and counts."""
     t, rng = _tester(seed)
-    boxed = _Tester(t.v, t.path, AccelLimits(2.0, (-10.0, -10.0), (10.0, 10.0)), 0.0, t.v_max)
+    twin = CandidateTester(t.v, t.path, t.limits, 0.0, t.v_max)
     for _ in range(10):
         a_d = rng.uniform(-2.5, 2.5, size=2)
         a_d = t.limits.project(a_d)
         for cap in (selection._MAX_DISKS, None):
-            before_disc, before_box = t.count, boxed.count
-            got = selection._nearest_by_disks(t, a_d, 1e-3, max_disks=cap)
-            ref = selection._nearest_by_disks(boxed, a_d, 1e-3, max_disks=cap)
+            before, before_py = t.count, twin.count
+            got = nearest_by_disks(t, a_d, 1e-3, max_disks=cap)
+            ref = nearest_by_disks(twin, a_d, 1e-3, max_disks=cap, compiled=False)
             if ref is None:
                 assert got is None
             else:
                 np.testing.assert_array_equal(got, ref)
-            assert t.count - before_disc == boxed.count - before_box
+            assert t.count - before == twin.count - before_py
 
 
 def _boundary_scene(seed: int):
@@ -1068,7 +1074,8 @@ def test_relevant_paths_keep_an_obstacle_at_the_full_speed_reach(delta):
 @pytest.mark.parametrize("seed", range(40))
 def test_compiled_selection_matches_the_python_steps(seed):
     """select_disc (steps 1-3 of select_acceleration compiled for the limit disc) against
-    the same steps run from Python (_search_boxed, with the disc): the same answers."""
+    the same steps run from Python (reference.selection_reference.search): the same
+    answers."""
     t, rng, grid, ok = _boundary_scene(seed)
     p = t.path
     radii = 4.0 * 0.5 ** np.arange(7, -1, -1)
@@ -1095,7 +1102,7 @@ def test_compiled_selection_matches_the_python_steps(seed):
             selection._DISKS_PER_SECOND,
             selection._SLIVER_DEPTH * 2.0,
         )
-        ref = selection._search_boxed(t, a_d, radii, 16, t.limits, 1e-3)
+        ref = search(t, a_d, radii, 16, 1e-3)
         statuses.add(status)
         if ref is None:
             assert status == Outcome.INFEASIBLE

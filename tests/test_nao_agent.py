@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference.goal_reference import goal_seeking_accels_reference
+from reference.nao_reference import detour_step
 
 from nao_arena.agents import _nao_columns as columns
 from nao_arena.agents._nao_decide import keep_candidates, member_lists
@@ -148,19 +149,19 @@ def test_a_neighbour_inside_the_margin_may_be_left_not_approached():
 def test_detours_turn_further_the_longer_a_robot_crawls():
     ag = agent()
     for _ in range(11):  # 1.1 s
-        ag._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+        detour_step(ag, far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert ag.detour_turns == 1 and -math.pi / 3 <= ag.detour <= -math.pi / 6
     for _ in range(20):  # 3.1 s
-        ag._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+        detour_step(ag, far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert ag.detour_turns == 3 and -math.pi <= ag.detour <= -math.pi / 2
     for _ in range(100):
-        ag._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+        detour_step(ag, far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert -5 * math.pi / 6 - math.pi / 3 <= ag.detour <= -5 * math.pi / 6  # backing off
     for _ in range(9):  # 0.9 s moving freely
-        ag._detour_step(far=True, crawling=False, dt=0.1, to_goal=10.0)
+        detour_step(ag, far=True, crawling=False, dt=0.1, to_goal=10.0)
     assert ag.detour != 0.0
     for _ in range(2):  # 1.1 s: moved freely for detour_after
-        ag._detour_step(far=True, crawling=False, dt=0.1, to_goal=10.0)
+        detour_step(ag, far=True, crawling=False, dt=0.1, to_goal=10.0)
     assert ag.detour == 0.0 and ag.detour_turns == 0
 
 
@@ -170,16 +171,16 @@ def test_detours_switch_sides_after_a_spell_without_progress():
     moving crowd, keeps turning right."""
     stuck, going, crowd = agent(), agent(), agent()
     for k in range(201):
-        stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
-        going._detour_step(far=True, crawling=True, dt=0.1, to_goal=100.0 - 0.1 * k)
-        crowd._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0, held=False)
+        detour_step(stuck, far=True, crawling=True, dt=0.1, to_goal=10.0)
+        detour_step(going, far=True, crawling=True, dt=0.1, to_goal=100.0 - 0.1 * k)
+        detour_step(crowd, far=True, crawling=True, dt=0.1, to_goal=10.0, held=False)
     assert stuck.side == 1.0 and going.side == -1.0 and going.detour < 0.0
     assert crowd.side == -1.0 and crowd.detour < 0.0
     for _ in range(11):
-        stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+        detour_step(stuck, far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert stuck.detour_turns == 1 and math.pi / 6 <= stuck.detour <= math.pi / 3
     for _ in range(200):  # another spell: back to the right
-        stuck._detour_step(far=True, crawling=True, dt=0.1, to_goal=10.0)
+        detour_step(stuck, far=True, crawling=True, dt=0.1, to_goal=10.0)
     assert stuck.side == -1.0
     with pytest.raises(ValueError, match="switch_side_after"):
         NAOAgent(switch_side_after=0.0)
@@ -574,7 +575,10 @@ def test_traffic_near_follows_each_kinds_array_even_when_remembered():
     one that was changed (a copy with other kinds)."""
     from types import SimpleNamespace
 
-    from nao_arena.agents.nao import _own_rows
+    from nao_arena.agents._nao_columns import StepMemo
+    from nao_arena.agents._nao_step import own_rows_of
+
+    memo = StepMemo()  # the table's: what one batch remembers between steps
 
     def batch(kinds: np.ndarray) -> SimpleNamespace:
         # robot 0 (body 0) sees body 1, robot 1 (body 2) sees body 2
@@ -592,7 +596,7 @@ def test_traffic_near_follows_each_kinds_array_even_when_remembered():
         )
 
     def traffic_near(b: SimpleNamespace) -> list[bool]:
-        return _own_rows(b, np.array([0, 1]))[6].tolist()
+        return own_rows_of(b, np.array([0, 1]), memo)[6].tolist()
 
     owned = np.array(["robot", "traffic", "robot"])
     owned.setflags(write=False)

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from reference.nao_reference import detour_step, take_decision
 
 from nao_arena.agents import _nao_columns as columns
 from nao_arena.agents._nao_decide import (
@@ -23,7 +24,8 @@ from nao_arena.agents._nao_decide import (
     apply_braking,
     apply_decisions,
 )
-from nao_arena.agents.nao import NAOAgent, _brakes_when_infeasible, _holds, _take_decision
+from nao_arena.agents._nao_per_robot import brakes_when_infeasible
+from nao_arena.agents.nao import NAOAgent
 from nao_arena.geometry.selection import Selection
 
 STATE = (
@@ -127,7 +129,7 @@ def test_a_copied_or_pickled_agent_stands_alone_with_the_same_state():
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 12))
 def test_the_batch_liveness_step_is_each_agents_own_step(seed, n):
-    """liveness_batch (the step of act_batch) against _detour_step agent by agent, with
+    """liveness_batch (the step of act_batch) against detour_step agent by agent, with
     far, crawling and the distance to the goal worked out by numpy; then SETTLING and
     AGE; rows that are not live are left alone."""
     rng = np.random.default_rng(seed)
@@ -160,7 +162,8 @@ def test_the_batch_liveness_step_is_each_agents_own_step(seed, n):
         for i, b in enumerate(own_agents):
             if not live[i]:
                 continue
-            b._detour_step(
+            detour_step(
+                b,
                 bool(to_goal[i] > 4 * rad[i]),
                 bool(crawling[i]),
                 0.1,
@@ -193,7 +196,7 @@ def test_young_adjustments_and_applied_decisions_are_their_plain_definitions(see
         )
     table = columns.columns_of(group)
     m = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
-    holds = _holds(table, m)
+    holds = table.holds(m)
     for j, i in enumerate(m.tolist()):
         ag = group[i]
         sel = ag.last_selection
@@ -235,8 +238,8 @@ def test_young_adjustments_and_applied_decisions_are_their_plain_definitions(see
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 8))
 def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
-    """apply_braking does for many robots what _take_decision does robot by robot for an
-    INFEASIBLE outcome (the agent's _fallback, AccelLimits.project, the commit): the
+    """apply_braking does for many robots what take_decision does robot by robot for an
+    INFEASIBLE outcome (the agent's fallback, AccelLimits.project, the commit): the
     same accelerations bit for bit, the same selections, and nothing for the members it
     must leave alone (status not 0, another outcome, a fallback that is not braking: the
     option read from the table, with traffic near or not)."""
@@ -270,11 +273,11 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
         acted = (
             status[j] == 0
             and kind[j] == INFEASIBLE
-            and _brakes_when_infeasible(twins[i], bool(traffic[i]))
+            and brakes_when_infeasible(twins[i], bool(traffic[i]))
         )
         assert settled[j] == acted
         done = (
-            _take_decision(twins[i], decided, j, vel[i], float(a_max[i]), dt, bool(traffic[i]))
+            take_decision(twins[i], decided, j, vel[i], float(a_max[i]), dt, bool(traffic[i]))
             if acted
             else None
         )

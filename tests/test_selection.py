@@ -1,7 +1,7 @@
 """Verification of ``nao_arena.geometry.selection.select_acceleration``.
 
 The chosen acceleration is checked against the definitions: it must lie in the
-limit set (disc |a| <= a_max, optional box), and when the result is reported
+limit set (disc |a| <= a_max), and when the result is reported
 feasible the robot x(t) = v t + a t^2 / 2 (speed-saturated at v_max) must keep
 a forward-simulated clearance >= margin from every obstacle (``forward_sim``,
 independent of the implementation). Optimality is compared with a dense grid
@@ -80,9 +80,6 @@ class Scene:
 def in_limits(a: FloatArray, limits: AccelLimits) -> bool:
     a = np.asarray(a, dtype=np.float64)
     ok = float(np.hypot(*a)) <= limits.a_max * (1 + LIMIT_SLACK) + 1e-12
-    if limits.box_lo is not None:
-        ok &= bool(np.all(a >= np.asarray(limits.box_lo) - 1e-12))
-        ok &= bool(np.all(a <= np.asarray(limits.box_hi) + 1e-12))
     return bool(ok)
 
 
@@ -108,7 +105,7 @@ def obstacle_path(rng_draw, times: FloatArray, kind: str) -> FloatArray:
 
 
 @st.composite
-def scenes(draw: st.DrawFn, box: bool | None = None, n_max: int = 15) -> Scene:
+def scenes(draw: st.DrawFn, n_max: int = 15) -> Scene:
     horizon = draw(floats(1.0, 4.0))
     n_t = draw(st.integers(2, 12))
     # (sub-normal first times raise: see the degenerate-input test)
@@ -120,14 +117,7 @@ def scenes(draw: st.DrawFn, box: bool | None = None, n_max: int = 15) -> Scene:
     )
     radius = np.array([draw(floats(0.2, 1.0)) for _ in range(n)])
     a_max = draw(floats(0.5, 5.0))
-    if box is None:
-        box = draw(st.booleans())
-    if box:
-        lo = (-draw(floats(0.2, 1.0)) * a_max, -draw(floats(0.2, 1.0)) * a_max)
-        hi = (draw(floats(0.2, 1.0)) * a_max, draw(floats(0.2, 1.0)) * a_max)
-        limits = AccelLimits(a_max, lo, hi)
-    else:
-        limits = AccelLimits(a_max)
+    limits = AccelLimits(a_max)
     v_max = draw(st.one_of(st.just(math.inf), floats(0.5, 3.0)))
     return Scene(
         v=draw(vec(2.0)),
@@ -441,7 +431,6 @@ DEGENERATE = {
     "nan velocity": dict(v=(np.nan, 0.0)),
     "zero velocity": dict(v=(0.0, 0.0)),
     "zero a_max": dict(limits=AccelLimits(0.0)),
-    "zero a_max with box": dict(limits=AccelLimits(0.0, (0.0, 0.0), (0.0, 0.0))),
     "tiny horizon": dict(times=np.array([0.0, 1e-12])),
     "single sample at t = 0": dict(times=np.array([0.0])),
     "obstacle at the robot": dict(centers=np.zeros((3, 4, 2))),
@@ -458,14 +447,12 @@ DEGENERATE = {
 }
 
 
-@pytest.mark.parametrize("shape", ["box", "disc"])
 @pytest.mark.parametrize("name", list(DEGENERATE))
-def test_degenerate_input_never_nan_never_raises(name: str, shape: str) -> None:
-    """Box limits go through the Python search, the plain disc through the compiled one."""
+def test_degenerate_input_never_nan_never_raises(name: str) -> None:
     kw = dict(
         desired=(1.0, 0.5),
         v=(0.5, 0.0),
-        limits=AccelLimits(2.0, (-1.0, -1.5), (1.5, 1.0)),
+        limits=AccelLimits(2.0),
         times=np.linspace(0.0, 2.0, 4),
         centers=np.array([[[2.0, 0.0]] * 4]),
         radius=None,
@@ -476,7 +463,7 @@ def test_degenerate_input_never_nan_never_raises(name: str, shape: str) -> None:
     n, t = kw["centers"].shape[0], len(kw["times"])
     centers = np.ascontiguousarray(np.broadcast_to(kw["centers"][:, :1], (n, t, 2)))
     radius = kw["radius"] if kw["radius"] is not None else np.full(n, 0.5)
-    limits = kw["limits"] if shape == "box" else AccelLimits(kw["limits"].a_max)
+    limits = kw["limits"]
     sel = select_acceleration(
         kw["desired"],
         kw["v"],

@@ -2,8 +2,9 @@
 replaced: the references tests/test_fast_path.py compares the production kernels against.
 
 The kernels as they were before the fast paths (O(M^2) containment filter, exact angles
-for every circle) are compiled without caching; the searches run over
-:class:`nao_arena.geometry.selection._Tester` one candidate at a time.
+for every circle) are compiled without caching; the searches run over a tester with
+Python admissibility tests (:class:`reference.selection_reference.CandidateTester`, ``ok1``) one
+candidate at a time.
 """
 
 from __future__ import annotations
@@ -191,7 +192,8 @@ def nearest_outside_disks_ref(q, disks, a_max, max_out):
 
 
 def bisect_ref(t: _Tester, bad, good, tol, give_up=math.inf):
-    """selection._bisect as a Python loop over ``_Tester.ok1``; it stops once bad is
+    """The bisection of select_acceleration (``bisect_disc``) as a Python loop over the
+    tester's ``ok1``; it stops once bad is
     ``give_up`` from where it started."""
     gap = float(np.hypot(*(good - bad)))
     start = bad
@@ -208,7 +210,7 @@ def bisect_ref(t: _Tester, bad, good, tol, give_up=math.inf):
 
 
 def slide_ref(t: _Tester, a_d, best, limits: AccelLimits, tol):
-    """selection._slide_towards as a Python loop."""
+    """The sliding of select_acceleration (``slide_disc``) as a Python loop."""
     dist = float(np.hypot(*(best - a_d)))
     angle = 0.5
     while angle > 1e-3 and dist > tol:

@@ -21,23 +21,24 @@ from nao_arena.agents._nao_columns import (
     STOPPING,
     V_PREF,
     YIELDED,
+    AgentColumns,
     columns_of,
     liveness_batch,
 )
 from nao_arena.agents._nao_decide import apply_braking, apply_decisions
 from nao_arena.agents._nao_liveness import held_by_standing_kernel
-from nao_arena.agents.goal import goal_seeking_accels
-from nao_arena.agents.nao import (
-    PLAN_MARGIN,
-    _decide,
-    _group_view,
-    _heading_targets,
-    _holds,
-    _keep_current,
-    _members,
-    _traffic_mask,
-    _undecided,
+from nao_arena.agents._nao_per_robot import undecided
+from nao_arena.agents._nao_step import (
+    RobotRows,
+    decide_members,
+    group_view,
+    heading_targets,
+    keep_current,
+    members,
+    traffic_mask,
 )
+from nao_arena.agents.goal import goal_seeking_accels
+from nao_arena.agents.nao import PLAN_MARGIN
 from nao_arena.sensing import SensingBatch
 from nao_arena.stopping import commit_plans
 
@@ -90,7 +91,8 @@ def act_rows_reference(
     for i in np.flatnonzero(turn).tolist():
         agents[i]._turn_detour()
     desired = _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
-    traffic_near = _traffic_near_reference(batch, rows_a)
+    traffic_near = _traffic_near_reference(batch, rows_a, cols)
+    own = RobotRows(pos, vel, rad, a_max, v_max, traffic_near)
     current = real[:, CUR_X : CUR_Y + 1].copy()
     cols.seen = []
     for group in cols.grid_groups(agents):
@@ -104,45 +106,12 @@ def act_rows_reference(
             for i in m.tolist():
                 errors[i] = exc
             continue
-        excursions, lists = _group_view(m, ag0, cols, batch, rows_a, pos, rad, pred)
-        holds = _holds(cols, m)
-        status = _keep_current(
-            m,
-            ag0,
-            cols,
-            pred,
-            excursions,
-            lists,
-            batch.radii,
-            pos,
-            vel,
-            rad,
-            v_max,
-            current,
-            desired,
-            a_max,
-            holds,
-        )
+        view = group_view(m, ag0, cols, batch, rows_a, own, pred)
+        holds = cols.holds(m)
+        status = keep_current(view, cols, batch.radii, own, current, desired, holds)
         decided = (
-            _decide(
-                m,
-                status,
-                ag0,
-                cols,
-                pred,
-                excursions,
-                lists,
-                batch.radii,
-                pos,
-                vel,
-                rad,
-                a_max,
-                v_max,
-                current,
-                desired,
-                holds,
-            )
-            if lists is not None
+            decide_members(view, status, cols, batch.radii, own, current, desired, holds)
+            if view.lists is not None
             else None
         )
         settled = status == 1
@@ -163,24 +132,20 @@ def act_rows_reference(
                 settled,
             )
         if not settled.all():
-            _undecided(
+            undecided(
                 agents,
                 m,
                 status,
                 settled,
-                decided,
                 errors,
                 out,
                 batch,
                 rows_a,
                 pred,
-                excursions,
-                vel,
-                a_max,
-                v_max,
+                view.excursions,
+                own,
                 current,
                 desired,
-                traffic_near,
             )
     take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
     if errors:
@@ -188,7 +153,7 @@ def act_rows_reference(
     g = np.flatnonzero(take)
     if len(g):
         brake, braking = commit_plans(
-            *_members((pos, vel, out, rad, a_max, v_max), g),
+            *members((pos, vel, out, rad, a_max, v_max), g),
             batch.dt,
             batch.substeps,
             PLAN_MARGIN,
@@ -202,8 +167,10 @@ def act_rows_reference(
     return out, errors
 
 
-def _traffic_near_reference(batch: SensingBatch, rows: NDArray[np.int64]) -> NDArray[np.bool_]:
-    is_traffic = _traffic_mask(batch.kinds)
+def _traffic_near_reference(
+    batch: SensingBatch, rows: NDArray[np.int64], cols: AgentColumns
+) -> NDArray[np.bool_]:
+    is_traffic = traffic_mask(batch.kinds, cols.memo)
     if is_traffic is None:
         return np.zeros(len(rows), dtype=bool)
     seen = np.concatenate([[0], np.cumsum(is_traffic[batch.nb_index])])
@@ -211,7 +178,7 @@ def _traffic_near_reference(batch: SensingBatch, rows: NDArray[np.int64]) -> NDA
 
 
 def _desired_reference(cols, batch, rows_a, goals, pos, vel, a_max, v_max):
-    targets, has_target = _heading_targets(cols, batch, rows_a, goals, pos)
+    targets, has_target = heading_targets(cols, batch, rows_a, goals, pos)
     v_pref = cols.opt[:, V_PREF]
     cap = np.where(np.isnan(v_pref), v_max, np.minimum(v_pref, v_max))
     return goal_seeking_accels(

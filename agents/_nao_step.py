@@ -1,0 +1,374 @@
+"""The Python between the ``nao`` agents' compiled calls: what a step hands to them.
+
+A step of :meth:`~nao_arena.agents.nao.NAOAgent.act_batch` (and of
+:meth:`~nao_arena.agents.nao.NAOAgent.nearest_admissible_batch`) gathers the
+robots' own state from the batch (:func:`own_inputs`, :func:`own_rows_of`), the
+obstacles each member of a group of shared predictions sees (:func:`group_view`,
+:func:`obstacle_lists`), and, where the compiled goal seeking does not apply, the
+heading targets (:func:`desired_accels`: a route's last waypoint for a missing goal,
+the way around walls); :func:`keep_current` and :func:`decide_members` are the keep
+test and the decisions of a group as separate compiled calls (the selection on its
+own). Positions and targets are world-frame (m), velocities m/s, accelerations
+m/s^2.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.geometry.kernels import path_excursions, sampled_admissible_batch
+from nao_arena.geometry.walls import point_segment_distances
+from nao_arena.navigation import navigation_grid, route_targets
+from nao_arena.sensing import SensingBatch, is_frozen
+
+from ._nao_batch import desired_rows, own_rows
+from ._nao_columns import AROUND, MARGIN, NAVIGATE, RANGE, ROW, SEEN, AgentColumns, StepMemo
+from ._nao_decide import ObstacleLists, decide, keep_candidates, member_lists
+from ._nao_per_robot import Excursions
+
+if TYPE_CHECKING:
+    from .nao import NAOAgent
+
+Decisions = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]
+"""Per member: the outcome kind, acceleration (m/s^2) and candidates tested of
+:func:`~nao_arena.agents._nao_decide.decide`."""
+
+_NO_TRAFFIC = np.zeros(0, dtype=np.bool_)
+
+
+class OwnInputs(NamedTuple):
+    """The arguments of :func:`~nao_arena.agents._nao_batch.own_rows` (and the first ones
+    of ``prepare_rows``), contiguous as the kernels take them: the batch rows of the
+    robots, the body of each batch row, per body position (m), velocity (m/s), radius
+    (m), a_max (m/s^2), v_max (m/s); per batch row the goal (m) and the CSR neighbour
+    lists; per body whether it is traffic (empty: no body is)."""
+
+    rows: NDArray[np.int64]
+    bodies: NDArray[np.int64]
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    a_max: NDArray[np.float64]
+    v_max: NDArray[np.float64]
+    goals: NDArray[np.float64]
+    nb_start: NDArray[np.int64]
+    nb_index: NDArray[np.int64]
+    traffic: NDArray[np.bool_]
+
+
+class RobotRows(NamedTuple):
+    """Each robot's own state, by row of the agents' table: position (n, 2) m,
+    velocity (n, 2) m/s, radius (n,) m, a_max (n,) m/s^2, v_max (n,) m/s, and whether
+    traffic is among its neighbours (n,)."""
+
+    pos: NDArray[np.float64]
+    vel: NDArray[np.float64]
+    rad: NDArray[np.float64]
+    a_max: NDArray[np.float64]
+    v_max: NDArray[np.float64]
+    traffic_near: NDArray[np.bool_]
+
+
+class GroupView(NamedTuple):
+    """What the members m (rows of the agents' table) of a group that shares
+    predictions decide from: the group's first agent (its predictor and time grid),
+    the predictions ``pred`` (bodies, T, 2) m of every body, their excursions and the
+    members' obstacle lists (:func:`obstacle_lists`; None: an irregular time grid)."""
+
+    m: NDArray[np.int64]
+    agent: NAOAgent
+    pred: NDArray[np.float64]
+    excursions: Excursions
+    lists: ObstacleLists | None
+
+
+def traffic_mask(kinds: NDArray[np.str_], memo: StepMemo) -> NDArray[np.bool_] | None:
+    """Per body: whether it is traffic (None: no body is); worked out once per frozen
+    kinds array (the arena's, which every step's batch shares; see
+    :func:`nao_arena.sensing.read_only`) and remembered in ``memo``."""
+    if kinds is memo.kinds:
+        return memo.traffic
+    mask = kinds == "traffic"
+    found = mask if mask.any() else None
+    if is_frozen(kinds):
+        memo.kinds, memo.traffic = kinds, found
+    return found
+
+
+def own_inputs(batch: SensingBatch, rows_a: NDArray[np.int64], memo: StepMemo) -> OwnInputs:
+    """:class:`OwnInputs` of the batch rows ``rows_a`` (the traffic mask remembered in
+    ``memo``, :func:`traffic_mask`)."""
+    f = np.ascontiguousarray
+    traffic = traffic_mask(batch.kinds, memo)
+    return OwnInputs(
+        f(rows_a, dtype=np.int64),
+        f(batch.bodies, dtype=np.int64),
+        f(batch.positions, dtype=np.float64),
+        f(batch.velocities, dtype=np.float64),
+        f(batch.radii, dtype=np.float64),
+        f(batch.a_max, dtype=np.float64),
+        f(batch.v_max, dtype=np.float64),
+        f(batch.goals, dtype=np.float64),
+        f(batch.nb_start, dtype=np.int64),
+        f(batch.nb_index, dtype=np.int64),
+        _NO_TRAFFIC if traffic is None else traffic,
+    )
+
+
+def own_rows_of(batch: SensingBatch, rows_a: NDArray[np.int64], memo: StepMemo) -> tuple[Any, ...]:
+    """:func:`~nao_arena.agents._nao_batch.own_rows` of the batch rows ``rows_a``: per
+    robot its position (m), velocity (m/s), radius (m), a_max (m/s^2), v_max (m/s),
+    goal (m), whether traffic is among its neighbours; and whether every goal is
+    finite."""
+    return own_rows(*own_inputs(batch, rows_a, memo))
+
+
+def group_view(
+    m: NDArray[np.int64],
+    ag0: NAOAgent,
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    own: RobotRows,
+    pred: NDArray[np.float64],
+) -> GroupView:
+    """The :class:`GroupView` of the agents of rows m (ag0's predictor and time grid),
+    given the predictions ``pred`` of every body. Each member keeps what it saw
+    (:meth:`~nao_arena.agents.nao.NAOAgent.last_obstacles`)."""
+    excursions = path_excursions(pred)
+    cols.whole[m, SEEN] = len(cols.seen)
+    cols.whole[m, ROW] = rows_a[m]
+    cols.seen.append((batch, pred, excursions))
+    lists = obstacle_lists(m, cols, batch, rows_a, own) if ag0._regular_grid() else None
+    return GroupView(m, ag0, pred, excursions, lists)
+
+
+def obstacle_lists(
+    m: NDArray[np.int64],
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows: NDArray[np.int64],
+    own: RobotRows,
+) -> ObstacleLists:
+    """The obstacles each member (rows m of the agents' table) sees, as CSR lists
+    (members' order): neighbours (nb_start, nb_index: body indices), then the walls in
+    its range (wall_seg (W, 2, 2) m and wall_half (W,) m: every wall's ends and
+    half-thickness; wall_start, wall_index)."""
+    nb_start, nb_index = member_lists(
+        np.ascontiguousarray(batch.nb_start, dtype=np.int64),
+        np.ascontiguousarray(batch.nb_index, dtype=np.int64),
+        np.ascontiguousarray(rows[m], dtype=np.int64),
+    )
+    wall_start = np.zeros(len(m) + 1, dtype=np.int64)
+    walls = np.ascontiguousarray(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
+    half = np.ascontiguousarray(batch.wall_radius, dtype=np.float64)
+    if not len(walls):
+        return (nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64))
+    # the walls within each member's range: distance <= range + half-thickness + grow
+    grow = own.rad[m] + cols.opt[m, MARGIN]
+    reach = cols.opt[m, RANGE]
+    dist = point_segment_distances(own.pos[m], walls)
+    near = dist <= reach[:, None] + half[None, :] + grow[:, None]
+    member, which = np.nonzero(near)
+    np.cumsum(np.bincount(member, minlength=len(m)), out=wall_start[1:])
+    return nb_start, nb_index, walls, half, wall_start, which.astype(np.int64)
+
+
+def members(arrays: tuple[NDArray[Any], ...], m: NDArray[np.int64]) -> list[NDArray[Any]]:
+    """The rows m of each array (contiguous; the arrays themselves, when contiguous and m
+    takes every row in order)."""
+    every = all(len(m) == len(a) for a in arrays)  # m: distinct rows in order, so all
+    return [np.ascontiguousarray(a) if every else np.ascontiguousarray(a[m]) for a in arrays]
+
+
+def keep_current(
+    view: GroupView,
+    cols: AgentColumns,
+    nb_radius: NDArray[np.float64],
+    own: RobotRows,
+    current: NDArray[np.float64],
+    desired: NDArray[np.float64],
+    holds: NDArray[np.bool_],
+) -> NDArray[np.int64]:
+    """Per member of ``view`` (rows of the agents' table): 1 keep the current
+    acceleration current[i] (m/s^2; within keep_band of desired[i], or 0 while
+    settling, and admissible), 0 select anew, 2 undecided here (decide from the full
+    path; every candidate, when the time grid is irregular). holds: per member, whether
+    it holds a young adjustment; nb_radius: the radius (m) of every body."""
+    m = view.m
+    status = np.zeros(len(m), dtype=np.int64)
+    some = keep_candidates(
+        m,
+        np.ascontiguousarray(current, dtype=np.float64),
+        np.ascontiguousarray(desired, dtype=np.float64),
+        np.ascontiguousarray(own.a_max, dtype=np.float64),
+        cols.whole,
+        cols.opt,
+        np.ascontiguousarray(holds, dtype=np.bool_),
+        status,
+    )
+    if view.lists is None or some == 0:
+        return status
+    nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = view.lists
+    todo = np.flatnonzero(status == 2)
+    res = np.full(len(m), -1, dtype=np.int64)
+    f = np.ascontiguousarray
+    pos_m, vel_m, cur_m, v_max_m, rad_m = members(
+        (own.pos, own.vel, current, own.v_max, own.rad), m
+    )
+    sampled_admissible_batch(
+        f(view.agent.times, dtype=np.float64),
+        view.pred,
+        nb_start,
+        nb_index,
+        f(nb_radius),
+        wall_seg,
+        wall_half,
+        wall_start,
+        wall_index,
+        todo,
+        pos_m,
+        vel_m,
+        cur_m,
+        v_max_m,
+        rad_m,
+        cols.opt[m, MARGIN],
+        view.excursions[0],
+        view.excursions[1],
+        res,
+    )
+    # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
+    status[todo] = np.where(res[todo] == 1, 1, np.where(res[todo] == 0, 0, 2))
+    return status
+
+
+def decide_members(
+    view: GroupView,
+    status: NDArray[np.int64],
+    cols: AgentColumns,
+    nb_radius: NDArray[np.float64],
+    own: RobotRows,
+    current: NDArray[np.float64],
+    desired: NDArray[np.float64],
+    holds: NDArray[np.bool_],
+) -> Decisions | None:
+    """The repairs (of the young adjustments, ``holds``) of current (m/s^2) and the
+    selections toward desired (m/s^2) of the members of ``view`` with status 0, in one
+    compiled call (:func:`~nao_arena.agents._nao_decide.decide`; its obstacle lists must
+    be there): (kind, accel m/s^2, tested) per member, or None when there are none."""
+    assert view.lists is not None
+    m = view.m
+    todo = np.flatnonzero(status == 0)
+    if len(todo) == 0:
+        return None
+    p, v, r, a, s, c, d = members(
+        (own.pos, own.vel, own.rad, own.a_max, own.v_max, current, desired), m
+    )
+    return decide(
+        view.agent.times,
+        view.pred,
+        view.excursions,
+        view.lists,
+        nb_radius,
+        todo,
+        p,
+        v,
+        r + cols.opt[m, MARGIN],
+        a,
+        s,
+        holds,
+        c,
+        d,
+        cols.memo,
+    )
+
+
+def desired_accels(
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    goals: NDArray[np.float64],
+    pos: NDArray[np.float64],
+    vel: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The goal-seeking accelerations (n, 2) m/s^2 (:func:`desired_rows`: goal seeking
+    at min(v_pref, v_max), turned by each agent's detour; agents: the rows of ``cols``)
+    toward the robots' :func:`heading_targets`."""
+    targets, has_target = heading_targets(cols, batch, rows_a, goals, pos)
+    return desired_rows(
+        np.ascontiguousarray(targets, dtype=np.float64),
+        has_target,
+        pos,
+        vel,
+        a_max,
+        v_max,
+        cols.real,
+        cols.opt,
+    )
+
+
+def heading_targets(
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    goals: NDArray[np.float64],
+    pos: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Where each robot heads (n, 2) m, and whether it has a target: its goal; a robot
+    without a finite goal heads for its route's last waypoint, or has none (stands
+    still); where a wall stands in the way, the way around it (:func:`around_walls`)."""
+    targets = goals
+    has_target = np.ones(len(goals), dtype=np.bool_)
+    if not np.isfinite(goals).all():
+        lost = ~np.all(np.isfinite(goals), axis=1)
+        targets = goals.copy()
+        has_target = ~lost
+        for i in np.flatnonzero(lost).tolist():
+            route = batch.routes[int(rows_a[i])]
+            if route is not None and len(route):
+                targets[i] = route[-1]
+                has_target[i] = True
+    if len(batch.walls):
+        targets = around_walls(cols, batch, rows_a, targets, pos)
+    return targets, has_target
+
+
+def around_walls(
+    cols: AgentColumns,
+    batch: SensingBatch,
+    rows_a: NDArray[np.int64],
+    targets: NDArray[np.float64],
+    pos: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The heading targets (n, 2) m of the robots whose agents (rows of ``cols``)
+    ``navigate``: their targets, or where a wall stands between, the way around it
+    (:func:`~nao_arena.navigation.route_targets`; one grid per radius + margin)."""
+    radii = batch.radii[batch.bodies[rows_a]]
+    steer = np.flatnonzero(cols.whole[:, NAVIGATE]).tolist()
+    if not steer:
+        return targets
+    out = np.array(targets, dtype=np.float64, copy=True)
+    walls = batch.walls.reshape(-1, 2, 2)
+    # the grid covers the walls (padded): the same for every robot and batch
+    box = np.array([walls.reshape(-1, 2).min(axis=0), walls.reshape(-1, 2).max(axis=0)])
+    groups: dict[float, list[int]] = {}
+    clearances = (radii + cols.opt[:, MARGIN]).tolist()
+    for i in steer:
+        groups.setdefault(clearances[i], []).append(i)
+    for clearance, group in groups.items():
+        grid = navigation_grid(walls, batch.wall_radius, clearance, box)
+        g = np.asarray(group, dtype=np.int64)
+        out[g], around = route_targets(grid, pos[g], targets[g], radii[g])
+        cols.whole[g, AROUND] = around
+    return out
+
+
+def predictions(ag0: NAOAgent, batch: SensingBatch) -> NDArray[np.float64]:
+    """The predicted centres (bodies, T, 2) m of every body of ``batch`` at ag0's times
+    (s), by ag0's predictor."""
+    return np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()), dtype=np.float64)
