@@ -129,11 +129,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -142,12 +140,21 @@ from numpy.typing import NDArray
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
-from nao_arena.arena import Arena, ArenaOptions, StepResult
-from nao_arena.geometry.clearance import path_clearance
+from nao_arena.arena import Arena, StepResult
+from nao_arena.env_actions import actions_array
+from nao_arena.env_observations import nao_block, observation_bounds
+from nao_arena.env_options import (
+    NEIGHBOUR_FEATURES,
+    OWN_FEATURES,
+    EnvOptions,
+    RewardWeights,
+    _split_kwargs,
+    grouped_names,
+    nao_candidates,
+    observation_layout,
+)
 from nao_arena.maps import MapSpec, load_map, with_time_limit
-from nao_arena.obstacles import obstacle_paths
-from nao_arena.predictors import get_predictor
-from nao_arena.sensing import Neighbours, neighbour_lists
+from nao_arena.sensing import neighbour_lists
 from nao_arena.world import clip_accelerations
 
 __all__ = [
@@ -161,180 +168,6 @@ __all__ = [
     "observation_layout",
     "parallel_env",
 ]
-
-OWN_FEATURES: tuple[str, ...] = (
-    "goal_dx",
-    "goal_dy",
-    "vx",
-    "vy",
-    "ax",
-    "ay",
-    "cmd_ax",
-    "cmd_ay",
-    "a_max",
-    "v_max",
-    "radius",
-    "x",
-    "y",
-    "goal_x",
-    "goal_y",
-    "time_left",
-)
-"""Names of the ``own`` block, in order (m, m/s, m/s^2, s; world frame)."""
-
-NEIGHBOUR_FEATURES: tuple[str, ...] = (
-    "mask",
-    "dx",
-    "dy",
-    "dvx",
-    "dvy",
-    "ax",
-    "ay",
-    "radius",
-    "is_traffic",
-)
-"""Names of one neighbour row, in order (relative = neighbour - own, world frame)."""
-
-_KINEMATIC_PREDICTORS = ("constant_velocity", "constant_acceleration", "turn_rate")
-
-_BOUND_SLACK = 1e-6
-"""Relative widening of the observation bounds that rounding could otherwise cross."""
-
-
-@dataclass(frozen=True)
-class RewardWeights:
-    """Weights of the terms of each agent's reward (see "Rewards" in the module docstring)."""
-
-    progress: float = 1.0
-    """Per m the robot came closer to its goal in the step (negative when it moved away)."""
-    collision: float = 10.0
-    """Subtracted per contact episode of the robot that started in the step."""
-    accel_change: float = 0.1
-    """Subtracted per unit of |a_t - a_(t-1)| / a_max, the change of the commanded
-    acceleration as a fraction of the robot's a_max."""
-    goal: float = 10.0
-    """Added in the step the robot reaches its goal (its agent then terminates)."""
-    step: float = 0.0
-    """Subtracted every control step (a time penalty)."""
-
-
-@dataclass(frozen=True)
-class EnvOptions:
-    """Settings of the environment (see the module docstring); every field is also a
-    keyword of :func:`parallel_env` and :func:`env`."""
-
-    controlled: str | Sequence[str | int] = "all"
-    """The robots driven by the env's actions: ``"all"`` or robot names / indices (every
-    other robot is driven by its own agent inside ``step``)."""
-    max_neighbours: int = 6
-    """K, the number of neighbour rows of the observation (the K nearest bodies within
-    the arena's sensing range)."""
-    nao_features: bool = False
-    """Whether the observation holds the NAO clearance block (``nao``)."""
-    nao_rings: tuple[float, ...] = (0.0, 0.5, 1.0)
-    """Magnitudes of the NAO block's candidate accelerations, as fractions of a_max."""
-    nao_angles: int = 8
-    """Directions per non-zero ring of the NAO block, from +x counter-clockwise (world
-    frame)."""
-    nao_horizon: float = 3.0
-    """Horizon of the NAO block's predicted paths (s)."""
-    nao_samples: int = 31
-    """Time samples of the NAO block's predicted paths over the horizon."""
-    nao_predictor: str = "turn_rate"
-    """Predictor of the neighbours' paths for the NAO block: ``constant_velocity``,
-    ``constant_acceleration`` or ``turn_rate``."""
-    nao_margin: float = 0.0
-    """Safety margin added to the sum of the radii in the NAO block (m)."""
-    nao_walls: bool = True
-    """Whether the NAO block counts the map's nearby walls as obstacles."""
-    nao_clip: float = 10.0
-    """The NAO block's clearances are clipped to [-nao_clip, nao_clip] (m)."""
-    rewards: RewardWeights = field(default_factory=RewardWeights)
-    """The reward's weights (:class:`RewardWeights`, or a dict of its fields)."""
-    terminate_on_collision: bool = False
-    """Whether an agent terminates at its robot's first contact."""
-    time_limit: float | None = None
-    """Episode length (s) after which every live agent is truncated; None: the map's
-    ``time_limit``."""
-    after_done: Literal["agent", "hold"] = "agent"
-    """What drives a robot whose agent is done: ``"agent"``, its own built-in agent (the
-    NAO agent holds it at its goal); ``"hold"``, braking to a stop."""
-    reseed_map: bool = True
-    """Whether ``reset(seed=s)`` also passes s to the map (a map with random placement
-    then changes with the seed)."""
-    arena: ArenaOptions = field(default_factory=ArenaOptions)
-    """Options of the control loop (:class:`~nao_arena.arena.ArenaOptions`, or a dict of
-    its fields)."""
-    render_size: tuple[int, int] = (1200, 800)
-    """Size (width, height) of rendered frames (px)."""
-    selected: str | int | None = None
-    """The robot (name or index) shown in the viewer's acceleration panel; None: the
-    first controlled one."""
-    keep_finished: bool = False
-    """Whether agents stay in ``agents`` until the episode ends (see "Agents that
-    finish"); vector envs need it."""
-    position_margin: float | None = None
-    """None, or positions in the observation are clipped to the map's bounds grown by
-    this margin (m) (see "Observation bounds")."""
-    trust_map: bool = False
-    """Whether the map may name code (``FILE.py:Class``, ``module:Class``) as its robots'
-    agents (see :func:`nao_arena.maps.load_map`)."""
-    named_agents: Mapping[str, str] = field(default_factory=dict)
-    """Agent names the map may use, name -> agent reference (see
-    :func:`nao_arena.maps.load_map`)."""
-    agent_names: Literal["map", "grouped"] = "map"
-    """``"map"``: the robots' names (e.g. ``east0``); ``"grouped"``: ``<group>_<k>``, the
-    name without its trailing digits, then the robot's index in that group (e.g.
-    ``east_0``): what TorchRL and BenchMARL group agents by, so that the robots of one
-    group share a policy."""
-
-    def __post_init__(self) -> None:
-        if self.position_margin is not None and not (
-            math.isfinite(self.position_margin) and self.position_margin >= 0
-        ):
-            raise ValueError(
-                f"position_margin: expected None or a finite number of m >= 0, "
-                f"got {self.position_margin}"
-            )
-        if self.max_neighbours < 0:
-            raise ValueError(f"max_neighbours: expected >= 0, got {self.max_neighbours}")
-        if self.agent_names not in ("map", "grouped"):
-            raise ValueError(f"agent_names: expected 'map' or 'grouped', got {self.agent_names!r}")
-        if self.after_done not in ("agent", "hold"):
-            raise ValueError(f"after_done: expected 'agent' or 'hold', got {self.after_done!r}")
-        if self.nao_predictor not in _KINEMATIC_PREDICTORS:
-            raise ValueError(
-                f"nao_predictor: expected one of {', '.join(_KINEMATIC_PREDICTORS)}"
-                f", got {self.nao_predictor!r}"
-            )
-        if self.nao_angles < 1 or self.nao_samples < 2 or not self.nao_horizon > 0:
-            raise ValueError("expected nao_angles >= 1, nao_samples >= 2, nao_horizon > 0")
-        if self.time_limit is not None and not self.time_limit > 0:
-            raise ValueError(f"time_limit: expected a positive number of s, got {self.time_limit}")
-
-
-def nao_candidates(options: EnvOptions) -> NDArray[np.float64]:
-    """Candidate accelerations (M, 2) of the NAO block as fractions of a_max (world frame)."""
-    ang = 2.0 * np.pi * np.arange(options.nao_angles) / options.nao_angles
-    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    rows = [np.zeros((1, 2)) if f == 0 else f * unit for f in options.nao_rings]
-    return np.concatenate(rows) if rows else np.zeros((0, 2))
-
-
-def observation_layout(options: EnvOptions | None = None) -> dict[str, slice]:
-    """Slices of the observation vector: "own", "neighbours" (reshape to (K, 9)), "nao",
-    "finished" (one entry with ``keep_finished``, else empty)."""
-    options = options or EnvOptions()
-    n_own = len(OWN_FEATURES)
-    n_nb = options.max_neighbours * len(NEIGHBOUR_FEATURES)
-    n_nao = len(nao_candidates(options)) if options.nao_features else 0
-    end = n_own + n_nb + n_nao
-    return {
-        "own": slice(0, n_own),
-        "neighbours": slice(n_own, n_own + n_nb),
-        "nao": slice(n_own + n_nb, end),
-        "finished": slice(end, end + (1 if options.keep_finished else 0)),
-    }
 
 
 @njit(cache=True)
@@ -401,62 +234,6 @@ def _observation_rows(
             o[c + 7] = rad[j]
             o[c + 8] = is_traffic[j]
             r += 1
-
-
-_REAL_KINDS = frozenset("iuf")
-"""numpy dtype kinds accepted in actions: signed and unsigned integers, floats."""
-
-
-def _check_real(name: str, action: Any) -> None:
-    """ValueError unless ``action`` is made of real numbers (not bool, complex, str, object)."""
-    if type(action) is np.ndarray and action.dtype.kind in _REAL_KINDS:
-        return  # the common case
-    if isinstance(action, (list, tuple)) and any(isinstance(x, (bool, np.bool_)) for x in action):
-        kind = "b"
-    else:
-        try:
-            kind = np.asarray(action).dtype.kind
-        except (TypeError, ValueError):
-            return  # not an array at all: the shape check explains it
-    if kind not in _REAL_KINDS:
-        what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
-            kind, "objects"
-        )
-        raise ValueError(
-            f"action of {name!r}: expected real numbers (a float array of shape "
-            f"(2,)), got {what}: {action!r}"
-        )
-
-
-def _split_kwargs(
-    options: EnvOptions | None, map_params: Mapping[str, Any] | None, kwargs: Mapping[str, Any]
-) -> tuple[EnvOptions, dict[str, Any]]:
-    names = {f.name for f in dataclasses.fields(EnvOptions)}
-    opt_kw = {k: v for k, v in kwargs.items() if k in names}
-    params = {k: v for k, v in kwargs.items() if k not in names}
-    params.update(map_params or {})
-    if isinstance(opt_kw.get("rewards"), Mapping):
-        opt_kw["rewards"] = RewardWeights(**opt_kw["rewards"])
-    if isinstance(opt_kw.get("arena"), Mapping):
-        opt_kw["arena"] = ArenaOptions(**opt_kw["arena"])
-    base = options or EnvOptions()
-    return dataclasses.replace(base, **opt_kw) if opt_kw else base, params
-
-
-def grouped_names(names: Sequence[str]) -> list[str]:
-    """``["east0", "east1", "west0", "car"]`` -> ``["east_0", "east_1", "west_0", "car_0"]``:
-    each name without its trailing digits (and a trailing ``_``; ``robot`` if nothing is
-    left), then ``_`` and the robot's index among the names of that group (in order)."""
-    out: list[str] = []
-    counts: dict[str, int] = {}
-    for name in names:
-        base = re.sub(r"_?\d+$", "", name) or "robot"
-        k = counts.get(base, 0)
-        counts[base] = k + 1
-        out.append(f"{base}_{k}")
-    if len(set(out)) != len(out):  # a name such as "a_0" beside "a0": keep the map's
-        return list(names)
-    return out
 
 
 class NaoArenaParallelEnv(ParallelEnv):
@@ -610,64 +387,16 @@ class NaoArenaParallelEnv(ParallelEnv):
         self, lay: dict[str, slice]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Lower and upper bounds (D,) of the observation entries (module docstring,
-        "Observation bounds"); dynamic bounds widened by a relative _BOUND_SLACK."""
-        world = self.arena.world
-        ctl = self.arena.robot_ids[self._controlled]
-        wide = 1.0 + _BOUND_SLACK
-        v_all, v_own = float(np.max(world.v_max)), float(np.max(world.v_max[ctl]))
-        a_own = float(np.max(world.a_max[ctl]))
-        r_all, r_own = float(np.max(world.radii)), float(np.max(world.radii[ctl]))
-        bounds = self.spec.bounds
-        lo, hi = np.array(bounds.min, dtype=float), np.array(bounds.max, dtype=float)
-        if self.options.position_margin is not None:
-            p_lo, p_hi = lo - self.options.position_margin, hi + self.options.position_margin
-        elif bounds.walls:
-            p_lo, p_hi = lo, hi
-        else:
-            p_lo, p_hi = np.full(2, -np.inf), np.full(2, np.inf)
-        v, acc, dv = v_own * wide, 2.0 * v_own / world.dt * wide, (v_all + v_own) * wide
-        own = {
-            "goal_dx": ((lo[0] - p_hi[0]) * wide, (hi[0] - p_lo[0]) * wide),
-            "goal_dy": ((lo[1] - p_hi[1]) * wide, (hi[1] - p_lo[1]) * wide),
-            "vx": (-v, v),
-            "vy": (-v, v),
-            "ax": (-acc, acc),
-            "ay": (-acc, acc),
-            "cmd_ax": (-a_own * wide, a_own * wide),
-            "cmd_ay": (-a_own * wide, a_own * wide),
-            "a_max": (0.0, a_own),
-            "v_max": (0.0, v_own),
-            "radius": (0.0, r_own),
-            "x": (p_lo[0], p_hi[0]),
-            "y": (p_lo[1], p_hi[1]),
-            "goal_x": (lo[0], hi[0]),
-            "goal_y": (lo[1], hi[1]),
-            "time_left": (0.0, self.time_limit),
-        }
-        reach = self._sensing_range * wide
-        reach_xy = [reach if math.isfinite(reach) else p_hi[i] - p_lo[i] for i in (0, 1)]
-        acc_all = 2.0 * v_all / world.dt * wide
-        row = {
-            "mask": (0.0, 1.0),
-            "dx": (-reach_xy[0], reach_xy[0]),
-            "dy": (-reach_xy[1], reach_xy[1]),
-            "dvx": (-dv, dv),
-            "dvy": (-dv, dv),
-            "ax": (-acc_all, acc_all),
-            "ay": (-acc_all, acc_all),
-            "radius": (0.0, r_all),
-            "is_traffic": (0.0, 1.0),
-        }
-        k = self.options.max_neighbours
-        pairs = (
-            [own[f] for f in OWN_FEATURES]
-            + [row[f] for f in NEIGHBOUR_FEATURES] * k
-            + [(-self.options.nao_clip, self.options.nao_clip)]
-            * (lay["nao"].stop - lay["nao"].start)
-            + [(0.0, 1.0)] * (lay["finished"].stop - lay["finished"].start)
+        "Observation bounds"; :func:`~nao_arena.env_observations.observation_bounds`)."""
+        return observation_bounds(
+            self.arena.world,
+            self.arena.robot_ids[self._controlled],
+            self.spec.bounds,
+            self.options,
+            self._sensing_range,
+            self.time_limit,
+            lay,
         )
-        out = np.array(pairs, dtype=np.float64).reshape(-1, 2)
-        return out[:, 0].copy(), out[:, 1].copy()
 
     def observation_space(self, agent: str) -> spaces.Box:
         """The agent's observation space (the same object on every call)."""
@@ -734,49 +463,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         return {a: obs[i] for i, a in enumerate(self.agents)}, infos
 
     def _actions_array(self, actions: Mapping[str, Any], live: list[str]) -> NDArray[np.float64]:
-        """Validated actions (m, 2) of the live agents, in ``live`` order, clipped to [-1, 1].
-
-        Each action must be real numbers (ints or floats; not booleans, complex numbers,
-        strings or objects) of shape (2,), finite; else ValueError naming the agent."""
-        if not isinstance(actions, Mapping):
-            raise ValueError(
-                f"actions: expected a dict of agent name -> action of shape (2,), "
-                f"got {type(actions).__name__}"
-            )
-        if not self._row.keys() >= actions.keys():
-            name = next(a for a in actions if a not in self._row)
-            raise ValueError(
-                f"action for unknown agent {name!r}; expected one of "
-                f"{', '.join(self.possible_agents)}"
-            )
-        if len(actions) < len(live) or not actions.keys() >= set(live):
-            missing = [a for a in live if a not in actions]
-            raise ValueError(f"missing actions for live agents: {', '.join(missing)}")
-        for a in live:
-            _check_real(a, actions[a])
-        try:
-            arr = np.array([actions[a] for a in live], dtype=np.float64)
-        except (TypeError, ValueError):
-            arr = None
-        if arr is None or arr.shape != (len(live), 2):
-            for a in live:
-                try:
-                    one = np.asarray(actions[a], dtype=np.float64)
-                except (TypeError, ValueError):
-                    raise ValueError(
-                        f"action of {a!r}: expected a numeric array of shape "
-                        f"(2,), got {actions[a]!r}"
-                    ) from None
-                if one.shape != (2,):
-                    raise ValueError(f"action of {a!r}: expected shape (2,), got {one.shape}")
-            raise ValueError("expected actions of shape (2,)")
-        if not np.all(np.isfinite(arr)):
-            bad = [a for a, row in zip(live, arr, strict=True) if not np.all(np.isfinite(row))]
-            raise ValueError(
-                f"action of {bad[0]!r}: expected finite values, got "
-                f"{np.asarray(actions[bad[0]]).tolist()}"
-            )
-        return np.clip(arr, -1.0, 1.0)
+        """Validated actions (m, 2) of the live agents, in ``live`` order, clipped to [-1, 1]
+        (:func:`~nao_arena.env_actions.actions_array`)."""
+        return actions_array(actions, live, self._row, self.possible_agents)
 
     def step(
         self, actions: Mapping[str, Any]
@@ -1000,49 +689,20 @@ class NaoArenaParallelEnv(ParallelEnv):
     def _nao_block(
         self, bodies: NDArray[np.intp], idx: NDArray[np.intp], present: NDArray[np.bool_]
     ) -> NDArray[np.float64]:
-        """Clipped clearance (m, M) of the candidate accelerations for each robot."""
+        """Clipped clearance (m, M) of the candidate accelerations for each robot
+        (:func:`~nao_arena.env_observations.nao_block`)."""
         state = self.arena.state
         assert state is not None and self._cand is not None
-        opts = self.options
-        world = self.arena.world
-        times = np.linspace(0.0, opts.nao_horizon, opts.nao_samples)
-        flat = idx[present]
-        predicted = np.zeros((0, len(times), 2))
-        if len(flat):
-            nb = Neighbours(
-                ids=flat.astype(np.int64),
-                kinds=tuple(world.kinds[i] for i in flat.tolist()),
-                positions=state.positions[flat],
-                velocities=state.velocities[flat],
-                accelerations=state.accelerations[flat],
-                radii=state.radii[flat],
-            )
-            predicted = get_predictor(opts.nao_predictor)(times, nb)
-        counts = present.sum(axis=1)
-        starts = np.concatenate([[0], np.cumsum(counts)])
-        out = np.full((len(bodies), len(self._cand)), opts.nao_clip)
-        h = opts.nao_horizon
-        for i, b in enumerate(bodies.tolist()):
-            r_own = float(state.radii[b])
-            a_max, v_max = float(world.a_max[b]), float(world.v_max[b])
-            grow = r_own + opts.nao_margin
-            walls, half = self._walls if self._walls is not None else (None, None)
-            # the agent's obstacles, without its radius cut: the walls within reach
-            path = obstacle_paths(
-                times,
-                predicted[starts[i] : starts[i + 1]],
-                state.radii[flat[starts[i] : starts[i + 1]]] + grow,
-                state.positions[b],
-                walls,
-                None if half is None else half + grow,
-                v_max * h + 0.5 * a_max * h * h,
-                cut=False,
-            )
-            if path.n_obstacles == 0:
-                continue
-            clear = path_clearance(self._cand * a_max, state.velocities[b], path, v_max=v_max)
-            out[i] = np.min(clear.clearance, axis=1)
-        return np.clip(out, -opts.nao_clip, opts.nao_clip)
+        return nao_block(
+            state,
+            self.arena.world,
+            self.options,
+            self._cand,
+            self._walls,
+            bodies,
+            idx,
+            present,
+        )
 
     def state(self) -> NDArray[np.float32]:
         """Global state (float32): time (s); per body in world order x, y (m), vx, vy (m/s),

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nao_arena import episode_log
+from nao_arena import _log_schema, _log_write, episode_log
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.cli import main
 from nao_arena.episode_log import (
@@ -370,7 +370,7 @@ def test_a_failed_write_leaves_the_old_log(goal_log, tmp_path, monkeypatch):
             super().write_table(*args, **kwargs)
             raise OSError("disk full")
 
-    monkeypatch.setattr(episode_log.pq, "ParquetWriter", Failing)
+    monkeypatch.setattr(_log_write.pq, "ParquetWriter", Failing)
     with pytest.raises(OSError):
         write_log(log, target)
     assert target.read_bytes() == b"old"
@@ -463,7 +463,7 @@ def test_the_readme_documents_every_column_and_status():
     # the page the README's "The log format" moved to
     page = Path(__file__).resolve().parents[1] / "docs" / "reference" / "episode-log.md"
     section = page.read_text(encoding="utf-8")
-    for name in episode_log._SCHEMA.names:
+    for name in _log_schema._SCHEMA.names:
         assert f"`{name}`" in section, name
     for status in STATUSES:
         assert f"`{status}`" in section, status

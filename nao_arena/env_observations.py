@@ -1,0 +1,146 @@
+"""The observation's bounds and its NAO block (see "Observation bounds" and
+"Observations" in :mod:`nao_arena.environment`); the own and neighbour blocks are filled
+by the compiled ``_observation_rows`` of :mod:`nao_arena.environment`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nao_arena.env_options import NEIGHBOUR_FEATURES, OWN_FEATURES, EnvOptions
+from nao_arena.geometry.clearance import path_clearance
+from nao_arena.maps import Bounds
+from nao_arena.obstacles import obstacle_paths
+from nao_arena.predictors import get_predictor
+from nao_arena.sensing import Neighbours
+from nao_arena.world import World, WorldState
+
+__all__ = ["nao_block", "observation_bounds"]
+
+_BOUND_SLACK = 1e-6
+"""Relative widening of the observation bounds that rounding could otherwise cross."""
+
+
+def observation_bounds(
+    world: World,
+    ctl: NDArray[np.intp],
+    bounds: Bounds,
+    options: EnvOptions,
+    sensing_range: float,
+    time_limit: float,
+    lay: dict[str, slice],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper bounds (D,) of the observation entries (layout ``lay``) for the
+    controlled robots' bodies ``ctl`` of ``world`` in a map of ``bounds`` (see "Observation
+    bounds" in :mod:`nao_arena.environment`; sensing range m, time limit s); dynamic bounds
+    widened by a relative _BOUND_SLACK."""
+    wide = 1.0 + _BOUND_SLACK
+    v_all, v_own = float(np.max(world.v_max)), float(np.max(world.v_max[ctl]))
+    a_own = float(np.max(world.a_max[ctl]))
+    r_all, r_own = float(np.max(world.radii)), float(np.max(world.radii[ctl]))
+    lo, hi = np.array(bounds.min, dtype=float), np.array(bounds.max, dtype=float)
+    if options.position_margin is not None:
+        p_lo, p_hi = lo - options.position_margin, hi + options.position_margin
+    elif bounds.walls:
+        p_lo, p_hi = lo, hi
+    else:
+        p_lo, p_hi = np.full(2, -np.inf), np.full(2, np.inf)
+    v, acc, dv = v_own * wide, 2.0 * v_own / world.dt * wide, (v_all + v_own) * wide
+    own = {
+        "goal_dx": ((lo[0] - p_hi[0]) * wide, (hi[0] - p_lo[0]) * wide),
+        "goal_dy": ((lo[1] - p_hi[1]) * wide, (hi[1] - p_lo[1]) * wide),
+        "vx": (-v, v),
+        "vy": (-v, v),
+        "ax": (-acc, acc),
+        "ay": (-acc, acc),
+        "cmd_ax": (-a_own * wide, a_own * wide),
+        "cmd_ay": (-a_own * wide, a_own * wide),
+        "a_max": (0.0, a_own),
+        "v_max": (0.0, v_own),
+        "radius": (0.0, r_own),
+        "x": (p_lo[0], p_hi[0]),
+        "y": (p_lo[1], p_hi[1]),
+        "goal_x": (lo[0], hi[0]),
+        "goal_y": (lo[1], hi[1]),
+        "time_left": (0.0, time_limit),
+    }
+    reach = sensing_range * wide
+    reach_xy = [reach if math.isfinite(reach) else p_hi[i] - p_lo[i] for i in (0, 1)]
+    acc_all = 2.0 * v_all / world.dt * wide
+    row = {
+        "mask": (0.0, 1.0),
+        "dx": (-reach_xy[0], reach_xy[0]),
+        "dy": (-reach_xy[1], reach_xy[1]),
+        "dvx": (-dv, dv),
+        "dvy": (-dv, dv),
+        "ax": (-acc_all, acc_all),
+        "ay": (-acc_all, acc_all),
+        "radius": (0.0, r_all),
+        "is_traffic": (0.0, 1.0),
+    }
+    k = options.max_neighbours
+    pairs = (
+        [own[f] for f in OWN_FEATURES]
+        + [row[f] for f in NEIGHBOUR_FEATURES] * k
+        + [(-options.nao_clip, options.nao_clip)] * (lay["nao"].stop - lay["nao"].start)
+        + [(0.0, 1.0)] * (lay["finished"].stop - lay["finished"].start)
+    )
+    out = np.array(pairs, dtype=np.float64).reshape(-1, 2)
+    return out[:, 0].copy(), out[:, 1].copy()
+
+
+def nao_block(
+    state: WorldState,
+    world: World,
+    opts: EnvOptions,
+    candidates: NDArray[np.float64],
+    nearby_walls: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+    bodies: NDArray[np.intp],
+    idx: NDArray[np.intp],
+    present: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """Clipped clearance (m, M) of the candidate accelerations (M, 2, fractions of
+    a_max) for each robot of ``bodies``, against its present neighbours ``idx[present]``
+    (K per robot) and ``nearby_walls`` (segments (W, 2, 2) m, half-thicknesses (W,) m,
+    or None) at ``state`` (see "Observations", ``nao``, in
+    :mod:`nao_arena.environment`)."""
+    times = np.linspace(0.0, opts.nao_horizon, opts.nao_samples)
+    flat = idx[present]
+    predicted = np.zeros((0, len(times), 2))
+    if len(flat):
+        nb = Neighbours(
+            ids=flat.astype(np.int64),
+            kinds=tuple(world.kinds[i] for i in flat.tolist()),
+            positions=state.positions[flat],
+            velocities=state.velocities[flat],
+            accelerations=state.accelerations[flat],
+            radii=state.radii[flat],
+        )
+        predicted = get_predictor(opts.nao_predictor)(times, nb)
+    counts = present.sum(axis=1)
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    out = np.full((len(bodies), len(candidates)), opts.nao_clip)
+    h = opts.nao_horizon
+    for i, b in enumerate(bodies.tolist()):
+        r_own = float(state.radii[b])
+        a_max, v_max = float(world.a_max[b]), float(world.v_max[b])
+        grow = r_own + opts.nao_margin
+        walls, half = nearby_walls if nearby_walls is not None else (None, None)
+        # the agent's obstacles, without its radius cut: the walls within reach
+        path = obstacle_paths(
+            times,
+            predicted[starts[i] : starts[i + 1]],
+            state.radii[flat[starts[i] : starts[i + 1]]] + grow,
+            state.positions[b],
+            walls,
+            None if half is None else half + grow,
+            v_max * h + 0.5 * a_max * h * h,
+            cut=False,
+        )
+        if path.n_obstacles == 0:
+            continue
+        clear = path_clearance(candidates * a_max, state.velocities[b], path, v_max=v_max)
+        out[i] = np.min(clear.clearance, axis=1)
+    return np.clip(out, -opts.nao_clip, opts.nao_clip)
