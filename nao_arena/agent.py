@@ -37,7 +37,6 @@ import importlib.util
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
-from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -45,6 +44,8 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena import agent_names
+from nao_arena.agent_names import BUILTIN_AGENTS, BUILTIN_DESCRIPTIONS, available_agents
 from nao_arena.predictors import Predictor
 from nao_arena.sensing import Observation, SensingBatch
 from nao_arena.watchdog import EpisodeTimeout
@@ -73,31 +74,6 @@ __all__ = [
 UNCONTAINED: tuple[type[BaseException], ...] = (KeyboardInterrupt, EpisodeTimeout)
 """What an agent may raise that the loop does not contain: the user's interrupt and the
 episode's wall-clock budget (every other exception, SystemExit included, is a fault)."""
-
-ENTRY_POINT_GROUP = "nao_arena.agents"
-
-BUILTIN_AGENTS: dict[str, str] = {
-    "nao": "nao_arena.agents.nao:NAOAgent",
-    "ao": "nao_arena.agents.nao:AOAgent",
-    "vo": "nao_arena.agents.vo:VOAgent",
-    "orca": "nao_arena.agents.orca:ORCAAgent",
-    "cbf": "nao_arena.agents.cbf:CBFAgent",
-    "goal": "nao_arena.agents.goal:GoalAgent",
-    "lane": "nao_arena.agents.lane:LaneAgent",
-    "social_force": "nao_arena.agents.social_force:SocialForceAgent",
-}
-
-BUILTIN_DESCRIPTIONS: dict[str, str] = {
-    "nao": "goal seeking outside every neighbour's NAO and every wall's (the default)",
-    "ao": "nao with constant-acceleration predictions (the AO)",
-    "vo": "velocity obstacles: the nearest admissible velocity, tracked within a_max",
-    "orca": "ORCA half-planes and a 2-D linear program, tracked within a_max",
-    "cbf": "safety barrier certificates: the goal-seeking acceleration through a QP",
-    "goal": "goal seeking with no avoidance (the lower bound)",
-    "lane": "the traffic's lane follower: follows the robot's route at its speed",
-    "social_force": "people walking by the social force model (Helbing and Molnar 1995)",
-}
-"""One line on what each built-in agent does (``nao-arena agents``)."""
 
 
 @runtime_checkable
@@ -214,18 +190,6 @@ def _load_from_module(module_name: str, cls: str) -> type:
         raise ValueError(f"agent {module_name}:{cls}: {module_name} defines no {cls!r}") from None
 
 
-def _plugins() -> dict[str, EntryPoint]:
-    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
-
-
-def available_agents() -> dict[str, str]:
-    """Name -> reference of every agent available: built-ins, then entry points."""
-    found = dict(BUILTIN_AGENTS)
-    for name, ep in sorted(_plugins().items()):
-        found.setdefault(name, ep.value)
-    return found
-
-
 def load_agent(ref: str) -> type:
     """The agent class named by ``ref`` (built-in name, FILE.py:Class, module:Class,
     plug-in); ValueError if there is none, or if what it names is not a class with
@@ -238,7 +202,7 @@ def load_agent(ref: str) -> type:
         if target.endswith(".py") or "/" in target or "\\" in target:
             return check_agent_class(ref, _load_from_file(target, cls))
         return check_agent_class(ref, _load_from_module(target, cls))
-    plugins = _plugins()
+    plugins = agent_names.plugins()
     if ref in plugins:
         return check_agent_class(ref, plugins[ref].load())
     raise ValueError(

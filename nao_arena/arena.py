@@ -297,6 +297,19 @@ class Arena:
         self._trajectory = hashlib.sha256()
         self.recorder: StepRecorder | None = None
 
+    @property
+    def commanded(self) -> NDArray[np.float64]:
+        """The commanded accelerations (N, 2) m/s^2 of the last step, as given to the world
+        (zeros after a reset)."""
+        return self._commanded
+
+    @commanded.setter
+    def commanded(self, value: NDArray[np.float64]) -> None:
+        # commands set from outside (an episode log's row) were not stepped: the shared
+        # plans of sensing are then clipped from them, not taken from the world
+        self._commanded = value
+        self._stepped_plans: NDArray[np.float64] | None = None
+
     def labels_with(self, label: str) -> list[str]:
         """Agent labels (robot order) in which every robot's is ``label`` and every
         person keeps its agent's name (what ``--agent LABEL=REF`` shows)."""
@@ -457,8 +470,13 @@ class Arena:
             if len(self.traffic.indices) or self._replayed_rows.size
             else None
         )
-        # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands
-        plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)
+        # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands:
+        # handed over by the world after a step, NaN for the bodies agents do not drive
+        if self._stepped_plans is not None:
+            plans = np.full((self.world.n, 2), np.nan)
+            plans[self._bodies] = self._stepped_plans[self._bodies]
+        else:
+            plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)
         if self._kinds is None:
             # frozen once (see read_only): every step's batch shares this one array, so
             # agents may cache what they derive from it by its identity
@@ -575,6 +593,7 @@ class Arena:
         before = state.positions
         new_state = self.world.step(commanded)
         self.commanded = commanded
+        self._stepped_plans = self.world.applied_accelerations
         self.state = new_state
         self._hash_state(new_state)
         reached = np.zeros(self.world.n, dtype=bool)

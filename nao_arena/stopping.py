@@ -36,10 +36,10 @@ no two robots (and no robot and wall) ever come closer than the sum of their
 radii plus ``margin``. Assumptions: every robot of the group drives its command
 (the world's model; no contact with a body outside the group pushes it off
 its plan), and the standing plans are clear at the first step (true for
-robots at rest apart). Pairs whose plans could meet are found through a grid
-of the rule's own, not through sensing, so sensing range and caps do not
-weaken it. Bodies outside the group (traffic, other agents) are left to the
-avoidance.
+robots at rest apart). Pairs whose plans could meet are found through the
+neighbour index (:mod:`nao_arena.neighbours`) with cells of the rule's own width,
+not through sensing, so sensing range and caps do not weaken it. Bodies outside
+the group (traffic, other agents) are left to the avoidance.
 """
 
 from __future__ import annotations
@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 from nao_arena.geometry.kernels import point_segment_dist2, segment_segment_dist2
 from nao_arena.motion import brake_factor, clip_norm, limit_norm, saturation_time
 from nao_arena.motion import braking as braking_accel
+from nao_arena.neighbours import around, extent, grid, range_grid
 
 __all__ = ["commit_plans", "plan_clearance", "stopping_plan", "max_plan_points"]
 
@@ -194,38 +195,35 @@ def _near_pairs(
     pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """CSR lists (start, index) of the robots whose plans could come within margin (m) of
-    robot i's: centres closer than the radii + margin + both plans' extents ext (m);
-    found through a uniform grid (cells sorted by key)."""
+    robot i's: centres closer than the radii + margin + both plans' extents ext (m), in
+    index order; found through the neighbour index (:mod:`nao_arena.neighbours`: a
+    uniform grid of cells at least as wide as the largest such reach)."""
     n = pos.shape[0]
-    cell = 2.0 * (np.max(ext) + np.max(radius)) + margin + 1e-9
-    cx = np.floor(pos[:, 0] / cell).astype(np.int64)
-    cy = np.floor(pos[:, 1] / cell).astype(np.int64)
-    width = np.int64(1) << np.int64(32)
-    keys = (cx + (width >> 1)) * width + (cy + (width >> 1))
-    order = np.argsort(keys, kind="mergesort")
-    sorted_keys = keys[order]
+    x0, y0, x1, y1 = extent(pos)
+    # bounds |radius_i + radius_j + margin + ext_i + ext_j| (radii and extents >= 0)
+    widest = 2.0 * (np.max(ext) + np.max(radius)) + abs(margin)
+    h, gx, gy = range_grid(widest, n, x0, y0, x1, y1)
+    cell, cell_start, members = grid(pos, x0, y0, h, gx, gy)
+    near = np.empty(n, dtype=np.int64)
     start = np.zeros(n + 1, dtype=np.int64)
     index = np.empty(16 * n, dtype=np.int64)
     m = 0
     for i in range(n):
-        for ox in range(-1, 2):
-            key0 = (cx[i] + ox + (width >> 1)) * width + (cy[i] + (width >> 1))
-            lo = np.searchsorted(sorted_keys, key0 - 1, side="left")
-            hi = np.searchsorted(sorted_keys, key0 + 1, side="right")
-            for q in range(lo, hi):
-                j = order[q]
-                if j == i:
-                    continue
-                dx, dy = pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1]
-                reach = radius[i] + radius[j] + margin + ext[i] + ext[j]
-                if dx * dx + dy * dy <= reach * reach:
-                    if m == index.shape[0]:
-                        grown = np.empty(2 * m, dtype=np.int64)
-                        for c in range(m):  # no broadcasting (its checks compile long)
-                            grown[c] = index[c]
-                        index = grown
-                    index[m] = j
-                    m += 1
+        c_n = around(cell[i], cell_start, members, gx, gy, near)
+        for q in range(c_n):
+            j = near[q]
+            if j == i:
+                continue
+            dx, dy = pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1]
+            reach = radius[i] + radius[j] + margin + ext[i] + ext[j]
+            if dx * dx + dy * dy <= reach * reach:
+                if m == index.shape[0]:
+                    grown = np.empty(2 * m, dtype=np.int64)
+                    for c in range(m):  # no broadcasting (its checks compile long)
+                        grown[c] = index[c]
+                    index = grown
+                index[m] = j
+                m += 1
         start[i + 1] = m
     return start, index[:m]
 

@@ -131,17 +131,20 @@ def _plan_period(
     rows: NDArray[np.intp],
     forces: FloatArray,
     v_out: FloatArray,
+    a_out: FloatArray,
 ) -> tuple[bool, bool]:
     """The speed-limit model of one period for every body, in one pass.
 
-    Writes the substep forces (substeps, rows, 2) N (row rows[i] for body i)
-    and the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s;
-    returns (all commands finite, some start velocity was scaled). Same
-    arithmetic as :func:`clip_accelerations` (:func:`~nao_arena.motion.clip_norm`; the
-    speed limit :func:`~nao_arena.motion.limit_norm`) and the numpy model in
+    Writes the substep forces (substeps, rows, 2) N (row rows[i] for body i),
+    the start velocities scaled to |v| <= v_max into v_out (N, 2) m/s and the
+    commands scaled to |a| <= a_max, the accelerations applied, into a_out (N, 2)
+    m/s^2 (nothing when a command is not finite; :attr:`World.applied_accelerations`);
+    returns (all commands finite, some start velocity was scaled). Same arithmetic
+    as :func:`clip_accelerations` (:func:`~nao_arena.motion.clip_norm`; the speed limit
+    :func:`~nao_arena.motion.limit_norm`) and the numpy model in
     tests/reference/world_reference.py (bit-identical results; tested); the saturation
-    time is :func:`nao_arena.motion.saturation_time`, the model the planner
-    predicts with.
+    time is :func:`nao_arena.motion.saturation_time`, the model the planner predicts
+    with.
     """
     n = accels.shape[0]
     substeps = forces.shape[0]
@@ -152,6 +155,7 @@ def _plan_period(
     any_over = False
     for i in range(n):
         ax, ay = clip_norm(accels[i, 0], accels[i, 1], a_max[i])
+        a_out[i, 0], a_out[i, 1] = ax, ay
         vx, vy, speed = limit_norm(v[i, 0], v[i, 1], v_max[i])
         if speed > v_max[i]:
             any_over = True
@@ -482,6 +486,8 @@ class World:
         self.time = 0.0
         self._read()
         self._acc = np.zeros((self.n, 2))
+        self._applied = np.zeros((self.n, 2))
+        self._applied.setflags(write=False)
         self._prev_positions = self._pos.copy()
         # which recorded people are in the scene in the first control period
         self._present = (
@@ -581,6 +587,13 @@ class World:
         return self._path
 
     @property
+    def applied_accelerations(self) -> FloatArray:
+        """The accelerations (N, 2) m/s^2 the last :meth:`step` applied: its commands scaled
+        to |a| <= a_max (:func:`clip_accelerations`' arithmetic, the same bits), before
+        the speed limit cut them at the saturation time. Read-only; zeros after a reset."""
+        return self._applied
+
+    @property
     def commands(self) -> FloatArray:
         """The commanded accelerations (steps, N, 2) m/s^2 given to :meth:`step` since
         the last reset, as given (before any limit), one row per step (read-only view)."""
@@ -614,8 +627,18 @@ class World:
             raise ValueError(f"expected accelerations of shape ({self.n}, 2), got {a.shape}")
         v_start = self._vel
         v = np.empty_like(v_start)
+        applied = np.empty((self.n, 2))
         finite, over = _plan_period(
-            a, v_start, self.a_max, self.v_max, self.masses, self.dt, self._rows, self._io.forces, v
+            a,
+            v_start,
+            self.a_max,
+            self.v_max,
+            self.masses,
+            self.dt,
+            self._rows,
+            self._io.forces,
+            v,
+            applied,
         )
         if not finite:
             raise ValueError("expected finite accelerations")
@@ -637,6 +660,8 @@ class World:
         path[self.substeps] = self._pos
         path.setflags(write=False)
         self._path = path
+        applied.setflags(write=False)
+        self._applied = applied
         self._vel = vel
         self._steps += 1
         self.time = self._steps * self.dt

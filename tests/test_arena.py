@@ -415,3 +415,28 @@ def test_agents_get_independent_generators_from_the_seed():
     assert not np.array_equal(a, b)
     arena.reset(11)
     np.testing.assert_array_equal(arena.agents[0].rng.random(4), a)
+
+
+def test_shared_plans_are_the_accelerations_the_world_applied() -> None:
+    """The sensed plans are the world's applied accelerations of the robots (handed over
+    by the world after a step), NaN for traffic: the bits of applied_plans on the
+    commands; commands set from outside (an episode log's row) are clipped the same way."""
+    from nao_arena.world import applied_plans
+
+    arena = Arena(load_map("roundabout", seed=1))
+    arena.reset(1)
+    robots = np.asarray(arena.robot_ids, dtype=np.int64)
+    a_max = arena.world.a_max[robots]
+
+    def expected() -> np.ndarray:
+        return applied_plans(arena.commanded, robots, a_max, arena.world.n)
+
+    rng = np.random.default_rng(0)
+    for step in range(12):
+        plans = arena.sensing().plans
+        assert plans is not None and plans.tobytes() == expected().tobytes()
+        far = {k: rng.normal(size=2) * 50.0 for k in range(0, len(robots), 2)} if step % 2 else {}
+        arena.step(far)
+    arena.commanded = arena.commanded * 0.5
+    plans = arena.sensing().plans
+    assert plans is not None and plans.tobytes() == expected().tobytes()

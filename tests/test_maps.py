@@ -472,7 +472,7 @@ def test_bounds_at_their_caps_load() -> None:
 def test_agent_references_and_plugins_pass_the_map_check(monkeypatch) -> None:
     from types import SimpleNamespace
 
-    import nao_arena.agent as agent_module
+    import nao_arena.agent_names as agent_names
 
     robot = {"start": [0, 0], "goal": [1, 1]}
     refs = ["path/to/mine.py:Mine", "some.module:Agent", "lane"]
@@ -485,7 +485,7 @@ def test_agent_references_and_plugins_pass_the_map_check(monkeypatch) -> None:
     with pytest.raises(MapError, match=r"robots\[3\]\.agent: expected one of"):
         map_from_dict(data, trusted=True)
     monkeypatch.setattr(
-        agent_module, "_plugins", lambda: {"myplug": SimpleNamespace(value="pkg.mod:Cls")}
+        agent_names, "plugins", lambda: {"myplug": SimpleNamespace(value="pkg.mod:Cls")}
     )
     assert map_from_dict(data, trusted=True).robots[3].agent == "myplug"
 

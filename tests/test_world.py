@@ -137,6 +137,33 @@ def test_limits_hold_on_random_commands() -> None:
     assert max_v > 1.49  # the run did reach the limit
 
 
+def test_applied_accelerations_are_the_clipped_commands_bit_for_bit() -> None:
+    """World.applied_accelerations: the last step's commands scaled to |a| <= a_max, the
+    bits of clip_accelerations (and of applied_plans); zeros and read-only after a reset,
+    unchanged by a step that rejects its input."""
+    from nao_arena.world import applied_plans, clip_accelerations
+
+    rng = np.random.default_rng(5)
+    n = 12
+    world = World(spread_map(n, v_max=1.5, a_max=2.0))
+    assert np.all(world.applied_accelerations == 0.0)
+    assert not world.applied_accelerations.flags.writeable
+    rows = np.arange(n, dtype=np.int64)
+    for _ in range(20):
+        cmd = rng.normal(size=(n, 2)) * rng.choice([0.0, 1e-310, 0.5, 3.0, 1e6], (n, 1))
+        world.step(cmd)
+        got = world.applied_accelerations
+        assert not got.flags.writeable
+        assert got.tobytes() == clip_accelerations(cmd, world.a_max).tobytes()
+        assert got.tobytes() == applied_plans(cmd, rows, world.a_max, n).tobytes()
+    before = world.applied_accelerations.copy()
+    with pytest.raises(ValueError, match="finite"):
+        world.step(np.full((n, 2), np.nan))
+    assert world.applied_accelerations.tobytes() == before.tobytes()
+    world.reset()
+    assert np.all(world.applied_accelerations == 0.0)
+
+
 def test_speed_limit_holds_through_contacts() -> None:
     spec = load_map("crowd", n=40, lo=-5.0, hi=5.0, seed=3)
     world = World(spec)
@@ -442,15 +469,17 @@ def test_plan_period_kernel_matches_the_numpy_model(seed: int) -> None:
     rows = rng.permutation(n + 2)[:n].astype(np.intp)  # body order != batch order
     forces = np.full((substeps, n + 2, 2), np.nan)
     v_out = np.empty((n, 2))
-    finite, over = _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)
+    a_out = np.full((n, 2), np.nan)
+    finite, over = _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out, a_out)
     v_ref, over_ref = scale_to_vmax(v, v_max)
     a_ref = clip_accelerations(a, a_max)
     w = substep_weights(speed_limit_time(v_ref, a_ref, v_max), dt, substeps)
     assert finite and over == bool(np.any(over_ref))
     np.testing.assert_array_equal(v_out, v_ref)
+    assert a_out.tobytes() == a_ref.tobytes()
     np.testing.assert_array_equal(forces[:, rows], w[:, :, None] * (masses[:, None] * a_ref)[None])
     a[int(rng.integers(n))] = np.nan
-    assert _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out)[0] is False
+    assert _plan_period(a, v, a_max, v_max, masses, dt, rows, forces, v_out, a_out)[0] is False
 
 
 @pytest.mark.parametrize("seed", range(20))

@@ -16,6 +16,7 @@ import yaml
 from numpy.typing import NDArray
 from pydantic import ValidationError
 
+from nao_arena.agent_names import BUILTIN_AGENTS, available_agents
 from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps.errors import MapError, field_error, show_value, validation_error
 from nao_arena.maps.layouts import LAYOUTS, LayoutContext
@@ -477,7 +478,6 @@ def _check_names(file: str, mf: MapFile, names: AgentNames) -> MapFile:
     user's names (``names.named``) replaced by their references. A code reference
     (``FILE.py:Class``, ``module:Class``) the map holds is refused unless trusted (see
     :func:`load_map`); it is loaded, and checked, when the episode starts."""
-    from nao_arena.agent import BUILTIN_AGENTS, available_agents
     from nao_arena.predictors import PREDICTORS
 
     agents: dict[str, str] | None = None
