@@ -18,6 +18,7 @@ from nao_arena import __version__
 from nao_arena._log_data import EpisodeLog, RobotInfo
 from nao_arena._log_schema import (
     _SCHEMA,
+    CONTENT_KEY,
     LOG_FORMAT,
     LOG_VERSION,
     META_KEY,
@@ -25,6 +26,7 @@ from nao_arena._log_schema import (
     SELECTIONS,
     STATUSES,
     LogError,
+    table_digest,
 )
 from nao_arena._log_write import _checksum_options
 from nao_arena.maps import MapSpec
@@ -99,11 +101,19 @@ def read_log(path: str | Path) -> EpisodeLog:
         table = pf.read()
     except Exception as exc:  # noqa: BLE001
         raise LogError(f"{path}: corrupt episode log ({_first_line(exc)})") from None
+    expected = meta.get(CONTENT_KEY)  # absent in logs written before it was kept
+    if expected is not None:
+        try:
+            found = table_digest(table)
+        except Exception as exc:  # noqa: BLE001 - a damaged column of another type
+            raise LogError(f"{path}: corrupt episode log ({_first_line(exc)})") from None
+        if found != expected:
+            raise LogError(f"{path}: corrupt episode log (its rows do not match their checksum)")
     try:
         return _from_table(path, table, meta)
     except LogError:
         raise
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
         raise LogError(
             f"{path}: corrupt episode log ({type(exc).__name__}: {_first_line(exc)})"
         ) from None

@@ -3,12 +3,18 @@ statuses and the Arrow schema of its rows (see :mod:`nao_arena.episode_log`)."""
 
 from __future__ import annotations
 
+import hashlib
+
+import numpy as np
 import pyarrow as pa
 
 LOG_FORMAT = "nao-arena episode log"
 LOG_VERSION = 1
 META_KEY = b"nao_arena.episode_log"
 META_SHA_KEY = b"nao_arena.episode_log.sha256"
+CONTENT_KEY = "content_sha256"
+"""The metadata's entry holding :func:`table_digest` of the rows (the metadata are covered
+by their own checksum, so the rows' digest cannot be changed unnoticed either)."""
 
 STATUSES: tuple[str, ...] = (
     "desired",
@@ -44,3 +50,38 @@ _SCHEMA = pa.schema(
 
 class LogError(ValueError):
     """An episode log cannot be read: missing, truncated, corrupt, or another format version."""
+
+
+def table_digest(table: pa.Table) -> str:
+    """SHA-256 (hex) of the values of ``table``'s columns, in schema order: per column its
+    name, which entries are null and the values (dictionary columns decoded to their
+    strings, lists as their offsets and values), so that a table written and read back
+    has the digest it was written with, whatever Parquet's encoding of it."""
+    digest = hashlib.sha256()
+    for name in table.column_names:
+        digest.update(name.encode("utf-8") + b"\0")
+        _column_digest(digest, table.column(name).combine_chunks())
+    return digest.hexdigest()
+
+
+def _column_digest(digest: hashlib._Hash, column: pa.Array) -> None:
+    if pa.types.is_dictionary(column.type):
+        column = column.cast(column.type.value_type)
+    digest.update(_type_name(column.type).encode("utf-8") + b"\0")
+    digest.update(np.asarray(column.is_valid()).tobytes())
+    if pa.types.is_list(column.type):
+        digest.update(np.asarray(column.offsets, dtype=np.int64).tobytes())
+        _column_digest(digest, column.values)
+    elif pa.types.is_string(column.type):
+        texts = column.fill_null("").to_pylist()
+        digest.update("\0".join(texts).encode("utf-8"))
+    else:
+        filled = column.fill_null(pa.scalar(0, column.type)) if column.null_count else column
+        digest.update(np.ascontiguousarray(filled.to_numpy(zero_copy_only=False)).tobytes())
+
+
+def _type_name(kind: pa.DataType) -> str:
+    """A column type's name without its list field's name (Parquet renames it)."""
+    if pa.types.is_list(kind):
+        return f"list<{_type_name(kind.value_type)}>"
+    return str(kind)

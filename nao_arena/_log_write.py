@@ -18,12 +18,14 @@ from numpy.typing import NDArray
 from nao_arena._log_data import EpisodeLog
 from nao_arena._log_schema import (
     _SCHEMA,
+    CONTENT_KEY,
     LOG_FORMAT,
     LOG_VERSION,
     META_KEY,
     META_SHA_KEY,
     SELECTIONS,
     STATUSES,
+    table_digest,
 )
 from nao_arena.atomic import atomic_write_with
 
@@ -133,12 +135,14 @@ def write_log(log: EpisodeLog, path: str | Path) -> Path:
     """Write the log to ``path`` (Parquet, see :mod:`nao_arena.episode_log`) atomically; returns
     the path."""
     path = Path(path)
-    meta = json.dumps(_metadata(log), separators=(",", ":"), allow_nan=False)
+    table = to_table(log)
+    meta = json.dumps(
+        {**_metadata(log), CONTENT_KEY: table_digest(table)}, separators=(",", ":"), allow_nan=False
+    )
     kv = {
         META_KEY: meta.encode("utf-8"),
         META_SHA_KEY: hashlib.sha256(meta.encode("utf-8")).hexdigest().encode("ascii"),
     }
-    table = to_table(log)
     # the file's own key-value pairs; where pyarrow cannot add them, the schema's (which
     # pyarrow then also keeps in its serialized schema)
     own_kv = hasattr(pq.ParquetWriter, "add_key_value_metadata")

@@ -290,20 +290,28 @@ def test_corrupt_and_foreign_files_are_clear_errors(goal_log, tmp_path):
         read_log(tmp_path / "missing.parquet")
 
 
-def _rewrite(src: Path, dst: Path, meta_edit=None, table_edit=None, fix_sha=True) -> Path:
+def _rewrite(
+    src: Path, dst: Path, meta_edit=None, table_edit=None, fix_sha=True, fix_rows=True
+) -> Path:
+    """A copy of the log ``src`` with its metadata or rows edited, and (a forger's work)
+    the metadata's checksum and the rows' digest made to match unless told not to."""
+    from nao_arena._log_schema import CONTENT_KEY, table_digest
+
     table = pq.read_table(src)
     kv = {k: v for k, v in pq.ParquetFile(src).metadata.metadata.items() if k != b"ARROW:schema"}
     meta = json.loads(kv[episode_log.META_KEY])
     if meta_edit:
         meta_edit(meta)
+    if table_edit:
+        table = table_edit(table)
+        if fix_rows:
+            meta[CONTENT_KEY] = table_digest(table)
     raw = json.dumps(meta).encode()
     kv[episode_log.META_KEY] = raw
     if fix_sha:
         import hashlib
 
         kv[episode_log.META_SHA_KEY] = hashlib.sha256(raw).hexdigest().encode()
-    if table_edit:
-        table = table_edit(table)
     pq.write_table(table.replace_schema_metadata(kv), dst)
     return dst
 
@@ -325,6 +333,9 @@ def test_other_versions_and_tampered_logs_are_refused(goal_log, tmp_path):
         x[7] += 1e-12
         return table.set_column(table.column_names.index("x"), "x", pa.array(x))
 
+    path = _rewrite(goal_log, tmp_path / "moved.parquet", table_edit=moved, fix_rows=False)
+    with pytest.raises(LogError, match="rows do not match their checksum"):
+        read_log(path)
     path = _rewrite(goal_log, tmp_path / "moved.parquet", table_edit=moved)
     with pytest.raises(LogError, match="trajectory hash"):
         read_log(path)
@@ -468,3 +479,39 @@ def test_the_readme_documents_every_column_and_status():
     for status in STATUSES:
         assert f"`{status}`" in section, status
     assert f"(version {LOG_VERSION})" in section
+
+
+@pytest.mark.slow
+def test_every_flip_in_page_headers_and_the_footer_is_found_or_changes_nothing(goal_log, tmp_path):
+    """The page checksums do not cover the page headers or the footer's column metadata:
+    the rows' own digest does. Every bit of every page header (its first 24 bytes) and of
+    every 5th byte of the footer, flipped: a clear error, or nothing read changes."""
+    original = read_log(goal_log)
+    data = goal_log.read_bytes()
+    meta = pq.ParquetFile(goal_log).metadata.row_group(0)
+    offsets: set[int] = set()
+    for i in range(meta.num_columns):
+        column = meta.column(i)
+        for start in (column.dictionary_page_offset, column.data_page_offset):
+            if start is not None:
+                offsets.update(range(start, min(start + 24, len(data))))
+    footer = int.from_bytes(data[-8:-4], "little")
+    offsets.update(range(len(data) - 8 - footer, len(data) - 8, 5))
+    path = tmp_path / "flip.parquet"
+    unnoticed = []
+    for where in sorted(offsets):
+        for bit in range(8):
+            flipped = bytearray(data)
+            flipped[where] ^= 1 << bit
+            path.write_bytes(bytes(flipped))
+            try:
+                back = read_log(path)
+            except LogError as exc:
+                assert "\n" not in str(exc) and str(exc).startswith(str(path))
+                continue
+            changed = [
+                n for n in ARRAYS if getattr(back, n).tobytes() != getattr(original, n).tobytes()
+            ]
+            if changed or back.summary != original.summary or back.spec != original.spec:
+                unnoticed.append((where, bit, changed))
+    assert not unnoticed, unnoticed[:5]
