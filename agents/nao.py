@@ -140,6 +140,7 @@ from ._nao_decide import (
     apply_decisions,
     selection_settings,
 )
+from ._nao_latency import CommandLog, compensated
 from ._nao_step import (
     Decisions,
     RobotRows,
@@ -283,6 +284,13 @@ class NAOAgent:
         self.settling = False
         self.around_wall = False  # the last heading target was a way around a wall
         self._cols.whole[self._row, SEEN] = -1  # nothing seen yet (see _seen)
+        self._command_log: CommandLog | None = None  # kept under a sensing latency only
+
+    def _log_for(self, batch: SensingBatch) -> CommandLog:
+        """The log of the commands this robot issued, kept for ``batch.latency``."""
+        if self._command_log is None:
+            self._command_log = CommandLog(round(batch.latency / batch.dt) + 1)
+        return self._command_log
 
     @property
     def last_selection(self) -> Selection | None:
@@ -568,6 +576,10 @@ def _act_rows(
     raised (their rows of the accelerations are meaningless). The common work runs in
     the compiled calls of :mod:`~nao_arena.agents._nao_batch`; only what they leave
     undecided runs robot by robot here."""
+    logs = None
+    if batch.latency > 0.0:  # bring what was sensed batch.age s ago up to now
+        logs = [ag._log_for(batch) for ag in agents]
+        batch = compensated(batch, rows_a, logs)
     cols = columns_of(agents)
     real, whole = cols.real, cols.whole
     errors: dict[int, Exception] = {}
@@ -599,6 +611,7 @@ def _act_rows(
         cols.opt,
     )
     if not n_live:
+        _log_commands(logs, batch.time, out)
         return out, errors  # holds (replan=False) keep their acceleration
     if turns:
         # liveness: crawling away from the goal turns the detour (angles drawn here)
@@ -694,7 +707,15 @@ def _act_rows(
         real,
         whole,
     )
+    _log_commands(logs, batch.time, out)
     return out, errors
+
+
+def _log_commands(logs: Sequence[CommandLog] | None, now: float, out: NDArray[np.float64]) -> None:
+    """Log each robot's command ``out[i]`` (m/s^2) for the period starting at ``now`` (s)."""
+    if logs is not None:
+        for log, command in zip(logs, out, strict=True):
+            log.add(now, command)
 
 
 class AOAgent(NAOAgent):

@@ -91,6 +91,7 @@ from nao_arena.imperfection import (
 )
 from nao_arena.kernels import watch_compiles
 from nao_arena.maps import MapSpec, RobotSpec
+from nao_arena.occlusion import visible
 from nao_arena.sensing import (
     Observation,
     ReadOnlyRoutes,
@@ -132,6 +133,9 @@ class ArenaOptions:
     sensing_field_of_view: float | None = None
     """Angle (rad, in (0, 2 pi]) around a robot's heading within which it senses bodies;
     None: the map's ``sensing.field_of_view``."""
+    sensing_occlusion: bool | None = None
+    """Whether a robot senses only the bodies it can see past the bodies and walls in front
+    of them (:mod:`nao_arena.occlusion`); None: the map's ``sensing.occlusion``."""
     actuation_lag: float | None = None
     """Time constant (s, >= 0) of the first-order response of the robots' applied
     accelerations to their commands; None: the map's ``actuation.lag``."""
@@ -507,10 +511,12 @@ class Arena:
 
     def _neighbour_lists(self, state: WorldState) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """The robots' neighbour lists (CSR, robot order, nearest first): the bodies within
-        the sensing range and, with a field of view narrower than 2 pi, in view of the
-        robot (:func:`~nao_arena.imperfection.in_view`), the nearest ``max_neighbours``
-        of them."""
-        if self.imperfections.all_around:
+        the sensing range and, with occlusion, visible past the others within it and the
+        walls (:func:`~nao_arena.occlusion.visible`), with a field of view narrower than
+        2 pi in view of the robot (:func:`~nao_arena.imperfection.in_view`), the nearest
+        ``max_neighbours`` of them."""
+        imp = self.imperfections
+        if imp.all_around and not imp.occlusion:
             return neighbour_lists(
                 self.robot_ids,
                 state.positions,
@@ -519,10 +525,22 @@ class Arena:
             )
         start, index = neighbour_lists(self.robot_ids, state.positions, self.sensing_range)
         rows = self._bodies
-        heading = headings(state.positions[rows], state.velocities[rows], self.goals)
-        keep = in_view(
-            start, index, rows, state.positions, heading, self.imperfections.field_of_view
-        )
+        keep = np.ones(len(index), dtype=bool)
+        if imp.occlusion:
+            keep &= visible(
+                start,
+                index,
+                rows,
+                start,
+                index,
+                state.positions,
+                self.world.radii,
+                self.walls,
+                self.wall_radius,
+            )
+        if not imp.all_around:
+            heading = headings(state.positions[rows], state.velocities[rows], self.goals)
+            keep &= in_view(start, index, rows, state.positions, heading, imp.field_of_view)
         return subset(start, index, keep, self.max_neighbours)
 
     def observations(self) -> list[Observation]:
@@ -628,11 +646,17 @@ class Arena:
 
     def _as_sensed(self, batch: SensingBatch) -> SensingBatch:
         """What the agents sense this step: ``batch`` itself, or with a sensing latency the
-        batch of ``round(latency / dt)`` steps ago (the oldest kept, at the start)."""
+        batch of ``round(latency / dt)`` steps ago (the oldest kept, at the start), its
+        ``latency`` and ``age`` (s) set (see :class:`~nao_arena.sensing.SensingBatch`)."""
         if not self._latency_steps:
             return batch
         self._sensed.append(batch)
-        return self._sensed[0]
+        oldest = self._sensed[0]
+        return dataclasses.replace(
+            oldest,
+            latency=self._latency_steps * self.world.dt,
+            age=batch.time - oldest.time,
+        )
 
     def _dispatch(self) -> tuple[dict[type[BatchAgent], list[int]], list[int]]:
         """Robots whose agents act together (per class with an ``act_batch``, robot

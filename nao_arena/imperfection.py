@@ -14,6 +14,9 @@ world frame. Random draws come from generators the arena seeds from the episode'
 - Noise (``sensing.noise``, m, m/s, m/s^2): Gaussian noise on what each robot senses of
   each neighbour's position, velocity and acceleration, drawn per observer, neighbour and
   step (:func:`with_neighbour_noise`). A robot's own state stays exact.
+- Occlusion (``sensing.occlusion``): a robot senses only the bodies it can see past the
+  bodies within its sensing range and the walls (:func:`nao_arena.occlusion.visible`),
+  before the field of view and the ``max_neighbours`` cut.
 - Lag (``actuation.lag``, s): a first-order response of the applied acceleration to the
   command (:func:`lag_factor`, :func:`lag_step`).
 """
@@ -62,12 +65,14 @@ class Imperfections:
 
     noise: standard deviations of the sensing noise on position (m), velocity (m/s) and
     acceleration (m/s^2); dropout: probability in [0, 1]; field_of_view: rad in
-    (0, 2 pi]; lag: time constant (s) of the actuation's response, >= 0.
+    (0, 2 pi]; occlusion: whether bodies and walls hide what is behind them; lag: time
+    constant (s) of the actuation's response, >= 0.
     """
 
     noise: tuple[float, float, float] = (0.0, 0.0, 0.0)
     dropout: float = 0.0
     field_of_view: float = math.tau
+    occlusion: bool = False
     lag: float = 0.0
 
     @property
@@ -136,6 +141,9 @@ def imperfections(spec: MapSpec, options: ArenaOptions) -> Imperfections:
             0.0,
             math.tau,
             low_open=True,
+        ),
+        occlusion=bool(
+            sensing.occlusion if options.sensing_occlusion is None else options.sensing_occlusion
         ),
         lag=_number(
             "actuation_lag",

@@ -217,6 +217,13 @@ class SensingBatch:
     :meth:`body_of` gives the bodies, and so do the ``ids`` of :meth:`observation`'s
     neighbours and of :meth:`everyone`.
 
+    Latency: ``time`` (s) is when the batch was sensed; ``latency`` (s) is the sensing
+    latency of the arena that delivers it (0: none), and ``age`` (s) how long ago the
+    batch was sensed when the agents receive it (the latency, in whole control periods;
+    less at the start of an episode, when the first state is all there is). An agent
+    that knows what it commanded since can bring what it sensed up to now (the ``nao``
+    agents do).
+
     The batch is frozen (assigning an attribute raises), and every array it holds
     is read-only in memory no one can write (see :func:`read_only`: an array given
     to the constructor is copied unless it already is), and so is every view of it
@@ -248,6 +255,8 @@ class SensingBatch:
     nb_index: NDArray[np.int64]
     substeps: int = 10
     row_bodies: NDArray[np.int64] | None = None
+    latency: float = 0.0
+    age: float = 0.0
     _everyone: Neighbours | None = None
 
     def __post_init__(self) -> None:

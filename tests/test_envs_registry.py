@@ -206,6 +206,7 @@ def fingerprint(name: str) -> str:
         (options["arena"], "sensing_noise", None),
         (options["arena"], "sensing_dropout", None),
         (options["arena"], "sensing_field_of_view", None),
+        (options["arena"], "sensing_occlusion", None),
         (options["arena"], "actuation_lag", None),
     ):
         if section[key] == neutral:

@@ -368,6 +368,7 @@ EVERYTHING = dict(
     sensing_noise={"position": 0.1, "velocity": 0.1, "acceleration": 0.2},
     sensing_dropout=0.2,
     sensing_field_of_view=3.0,
+    sensing_occlusion=True,
     actuation_lag=0.3,
     actuation_noise=0.2,
 )
@@ -421,6 +422,7 @@ NEUTRAL = dict(
     sensing_noise={"position": 0.0, "velocity": 0.0, "acceleration": 0.0},
     sensing_dropout=0.0,
     sensing_field_of_view=2 * np.pi,
+    sensing_occlusion=False,
     actuation_lag=0.0,
 )
 
@@ -452,6 +454,7 @@ def test_the_models_at_their_neutral_values_change_nothing(name, agent):
             "noise": {"position": 0, "velocity": 0, "acceleration": 0},
             "dropout": 0,
             "field_of_view": 2 * np.pi,
+            "occlusion": False,
         },
         "actuation": {"lag": 0},
     }
@@ -584,3 +587,73 @@ def test_a_copy_mid_episode_continues_like_the_original():
         for r in results[1:]:
             np.testing.assert_array_equal(r.commanded, results[0].commanded)
     assert len({a.summary().trajectory_hash for a in (arena, *twins)}) == 1
+
+
+def _in_a_row(extra: dict | None = None) -> dict:
+    """Three robots 2 m apart on a line (radius 0.5 m), each heading up."""
+    return {
+        "bounds": {"min": [-10, -10], "max": [10, 10]},
+        "robots": [{"start": [2.0 * i, 0.0], "goal": [2.0 * i, 5.0]} for i in range(3)],
+        **(extra or {}),
+    }
+
+
+def test_occlusion_hides_what_stands_behind_a_robot_or_a_wall():
+    arena = Arena(map_from_dict(_in_a_row({"sensing": {"occlusion": True}})), ArenaOptions())
+    arena.reset(0)
+    assert [o.neighbours.ids.tolist() for o in arena.observations()] == [[1], [0, 2], [1]]
+    # the option overrides the map
+    arena = Arena(arena.spec, ArenaOptions(sensing_occlusion=False))
+    arena.reset(0)
+    assert [o.neighbours.ids.tolist() for o in arena.observations()] == [[1, 2], [0, 2], [1, 0]]
+    # a wall between the first two: each sees only what is on its side
+    walls = {"walls": [{"type": "segment", "a": [1.0, -3.0], "b": [1.0, 3.0], "thickness": 0.1}]}
+    arena = Arena(map_from_dict(_in_a_row({**walls, "sensing": {"occlusion": True}})))
+    arena.reset(0)
+    assert [o.neighbours.ids.tolist() for o in arena.observations()] == [[], [2], [1]]
+
+
+@pytest.mark.parametrize(("fov", "most"), [(2 * np.pi, None), (2.5, 3)])
+def test_occlusion_senses_exactly_the_visible_bodies(fov, most):
+    """In a crowd: each list is the bodies in range that are visible past the others in
+    range (:func:`visible_witness`, checked against cast rays in tests/test_occlusion.py),
+    in view, nearest first, cut to ``most``."""
+    from nao_arena.occlusion import visible_witness
+
+    spec = load_map("crowd", n=12, seed=2)
+    arena = Arena(
+        spec,
+        ArenaOptions(sensing_occlusion=True, sensing_field_of_view=fov, max_neighbours=most),
+    )
+    rows = _run_seers(arena, 0, 30)
+    hidden = sensed = 0
+    for truth, observations in rows:
+        positions, velocities = truth[0], truth[1]
+        everyone = _lists(positions, arena.robot_ids, arena.sensing_range)
+        for k, obs in enumerate(observations):
+            b = int(arena.robot_ids[k])
+            h = _heading(positions[b], velocities[b], arena.goals[k])
+            seen = []
+            for j in everyone[k]:
+                if np.isnan(
+                    visible_witness(
+                        b,
+                        j,
+                        np.array(everyone[k]),
+                        positions,
+                        arena.world.radii,
+                        arena.walls,
+                        arena.wall_radius,
+                    )
+                ):
+                    hidden += 1
+                    continue
+                rel = positions[j] - positions[b]
+                if h is None or abs(np.angle(np.exp(1j * (np.arctan2(rel[1], rel[0]) - h)))) <= (
+                    fov / 2
+                ):
+                    seen.append(j)
+            want = seen if most is None else seen[:most]
+            assert obs.neighbours.ids.tolist() == want
+            sensed += len(want)
+    assert sensed > 0 and hidden > 0  # bodies both seen and hidden

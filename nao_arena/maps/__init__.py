@@ -147,7 +147,10 @@ Top level
     > 0 and <= 2 pi, default 2 pi: all around): a robot senses only the bodies whose
     centre lies within half that angle of its heading (the direction of its
     velocity; standing still, the direction to its goal), the nearest
-    ``max_neighbours`` of them. Random draws come from the episode's generator.
+    ``max_neighbours`` of them; ``occlusion`` (default false): a robot senses only the
+    bodies it can see past the other bodies and the walls in front of them (exact disc
+    and wall shadows, :mod:`nao_arena.occlusion`). Random draws come from the episode's
+    generator.
 ``actuation``: ``noise`` (m/s^2, default 0): the standard deviation of Gaussian noise
     added to each component of every robot's command each control period (the
     episode's generator); ``lag`` (s, default 0): the time constant of a first-order

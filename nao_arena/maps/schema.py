@@ -419,8 +419,10 @@ class Sensing(StrictModel):
     of each robot is missed in a step with that probability, independently;
     ``field_of_view`` (rad, in (0, 2 pi]; 2 pi: all around): a robot senses only the
     bodies whose centre lies within half that angle of its heading (the direction of
-    its velocity; standing still, the direction to its goal). The statistics keep using
-    the truth. 0 (2 pi for the field of view): none."""
+    its velocity; standing still, the direction to its goal); ``occlusion`` (true: a robot
+    senses only the bodies it can see past the bodies and walls in front of them, see
+    :mod:`nao_arena.occlusion`). The statistics keep using the truth. 0 (2 pi for the
+    field of view, false for occlusion): none."""
 
     range: Pos = 30.0
     max_neighbours: BodyCount | None = None
@@ -428,6 +430,7 @@ class Sensing(StrictModel):
     noise: SensingNoise = SensingNoise()
     dropout: Annotated[NonNeg, Field(le=1)] = 0.0
     field_of_view: Annotated[Num, Field(gt=0, le=math.tau)] = math.tau
+    occlusion: bool = False
 
 
 class Actuation(StrictModel):
