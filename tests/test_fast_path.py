@@ -42,6 +42,7 @@ from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.candidates import _try_ball_disc
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
     drop_contained,
@@ -61,7 +62,6 @@ from nao_arena.geometry._kernel.outside import (
 from nao_arena.geometry._kernel.relevance import relevant_obstacles, relevant_sampled_paths
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, path_excursions
 from nao_arena.geometry._kernel.search import (
-    _try_ball_disc,
     bisect_disc,
     ok_disc,
     outward_normal,

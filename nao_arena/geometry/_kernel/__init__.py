@@ -8,8 +8,11 @@
 - :mod:`.disks`: the disk picture of the NAO union near a query point;
 - :mod:`.outside`: nearest points outside a union of disks within the limit disc;
 - :mod:`.batch`: batched admissibility, one acceleration per robot;
-- :mod:`.search`: the disc search (bisection, candidates, rings, sliding, repair,
-  selection).
+- :mod:`.boundary`: the admissibility test of one acceleration within the limit
+  disc, bisection onto the NAO boundary, pushes out of slivers, sliding along it;
+- :mod:`.candidates`: candidates tried nearest the desired acceleration first (the
+  disk picture's, the ball search's, rings);
+- :mod:`.search`: the disc search's entry points (selection, repair).
 
 The public wrappers live in :mod:`nao_arena.geometry.clearance` and
 :mod:`nao_arena.geometry.selection`. The loops that run per candidate borrow
