@@ -33,7 +33,10 @@ from ._nao_columns import (
     AROUND,
     CUR_X,
     CUR_Y,
+    DECIDE,
     DETOUR,
+    KEEP_UNTESTED,
+    KEPT,
     MARGIN,
     NAVIGATE,
     NO_SELECTION,
@@ -338,8 +341,9 @@ def settle_members(
        the neighbours, dt s).
 
     Per-row arrays (n rows): pos (m), vel (m/s), rad (m), a_max (m/s^2), v_max (m/s),
-    current, desired (m/s^2), traffic. Returns, per member, status (1: kept, 0:
-    decided here, 2: non-finite paths), the decide outcomes (kind, accel m/s^2,
+    current, desired (m/s^2), traffic. Returns, per member, status (KEPT, DECIDE: decided
+    here, KEEP_UNTESTED: a keep candidate whose paths are not finite, tested by the
+    caller), the decide outcomes (kind, accel m/s^2,
     tested; kind UNDECIDED where not decided), settled (kept or committed here; the
     others are left to the caller) and how many are not settled.
     """
@@ -361,7 +365,7 @@ def settle_members(
     settled = np.zeros(k, dtype=np.bool_)
     some = keep_candidates(m, current, desired, a_max, whole, opt, holds, status)
     if some:
-        todo = np.flatnonzero(status == 2)
+        todo = np.flatnonzero(status == KEEP_UNTESTED)
         res = np.full(k, -1, dtype=np.int64)
         sampled_admissible_batch(
             times,
@@ -386,12 +390,12 @@ def settle_members(
         )
         # 1: keep; 0: not admissible (select); -1: non-finite paths (the caller reports it)
         for j in todo:
-            status[j] = 1 if res[j] == 1 else (0 if res[j] == 0 else 2)
-            settled[j] = status[j] == 1
+            status[j] = KEPT if res[j] == 1 else (DECIDE if res[j] == 0 else KEEP_UNTESTED)
+            settled[j] = status[j] == KEPT
     kind = np.full(k, UNDECIDED, dtype=np.int64)
     accel = np.zeros((k, 2))
     tested = np.zeros(k, dtype=np.int64)
-    todo = np.flatnonzero(status == 0)
+    todo = np.flatnonzero(status == DECIDE)
     if todo.shape[0]:
         grow = r + margin
         decide_batch(

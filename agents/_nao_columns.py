@@ -70,6 +70,12 @@ NO_SELECTION = -1
 ADJUSTED_SELECTION = 1
 YIELDED = 3
 
+#: what the keep test says of a member's current acceleration (the status arrays of
+#: keep_candidates, settle_members and the per-robot path)
+DECIDE = 0  # not kept: decide (repair or select) this step
+KEPT = 1  # still admissible: kept
+KEEP_UNTESTED = 2  # may be kept, but the admissibility test is still to be done
+
 PROGRESS = 0.5  # m closer to the goal that counts as progress (switch_side_after)
 
 

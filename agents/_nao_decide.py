@@ -46,8 +46,10 @@ from ._nao_columns import (
     BRAKE,
     CUR_X,
     CUR_Y,
+    DECIDE,
     FALLBACK,
     KEEP_BAND,
+    KEEP_UNTESTED,
     SETTLING,
     StepMemo,
     commit_row,
@@ -356,30 +358,30 @@ def selection_settings(
 @njit(cache=True)
 def keep_candidates(members, current, desired, a_max, whole, opt, holds, status):
     """Per member j (row members[j] of the agents' table, columns
-    :mod:`~nao_arena.agents._nao_columns`): status[j] = 2 if its current acceleration
+    :mod:`~nao_arena.agents._nao_columns`): status[j] = KEEP_UNTESTED if its current acceleration
     current[i] (m/s^2) may be kept, subject to the admissibility test: within keep_band
     (m/s^2; 0 while settling) of desired[i] or holds[j] (a young adjustment), and within
-    a_max[i] (m/s^2, up to 1e-9 relative); else 0. Returns how many are 2."""
+    a_max[i] (m/s^2, up to 1e-9 relative); else DECIDE. Returns how many are KEEP_UNTESTED."""
     count = 0
     for j in range(members.shape[0]):
         i = members[j]
         band = 0.0 if whole[i, SETTLING] != 0 else opt[i, KEEP_BAND]
         near = math.hypot(current[i, 0] - desired[i, 0], current[i, 1] - desired[i, 1]) <= band
         inside = not (math.hypot(current[i, 0], current[i, 1]) > a_max[i] * (1 + 1e-9))
-        status[j] = 2 if (near or holds[j]) and inside else 0
-        count += status[j] == 2
+        status[j] = KEEP_UNTESTED if (near or holds[j]) and inside else DECIDE
+        count += status[j] == KEEP_UNTESTED
     return count
 
 
 @njit(cache=True)
 def apply_decisions(members, status, kind, accel, tested, real, whole, out, settled):
     """The repairs and the selections of an admissible acceleration among the outcomes
-    (kind, accel m/s^2, tested) of :func:`decide` for the members j with status[j] 0,
+    (kind, accel m/s^2, tested) of :func:`decide` for the members j with status[j] DECIDE,
     into their rows members[j] of the agents' table (a repair becomes the current
     acceleration; a selection also the last full selection, whose age restarts) and of
     ``out`` (n, 2) m/s^2; settled[j] = True for each of them."""
     for j in range(members.shape[0]):
-        if status[j] != 0:
+        if status[j] != DECIDE:
             continue
         i = members[j]
         kd = kind[j]

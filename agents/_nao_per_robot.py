@@ -40,6 +40,8 @@ from nao_arena.motion import braking
 from nao_arena.obstacles import obstacle_paths, relative_walls
 from nao_arena.sensing import SensingBatch
 
+from ._nao_columns import KEEP_UNTESTED
+
 if TYPE_CHECKING:
     from ._nao_step import RobotRows
     from .nao import NAOAgent
@@ -278,7 +280,7 @@ def undecided(
     desired: NDArray[np.float64],
 ) -> None:
     """The members m (rows of the agents' table; agent i drives batch row rows_a[i])
-    that the compiled calls left unsettled, robot by robot: status 2 (undecided there:
+    that the compiled calls left unsettled, robot by robot: status KEEP_UNTESTED (undecided there:
     an irregular time grid, non-finite paths) keeps its current acceleration current[i]
     (m/s^2) where that is admissible; then a young adjustment is repaired, else the
     full selection toward desired[i] (m/s^2) with the agent's fallback. Writes ``out``
@@ -289,7 +291,7 @@ def undecided(
         ag = agents[i]
         try:
             path = paths_of(ag, batch, int(rows_a[i]), pred, excursions)
-            if status[j] == 2 and admissible(
+            if status[j] == KEEP_UNTESTED and admissible(
                 current[i], vel[i], float(a_max[i]), float(v_max[i]), path
             ):
                 continue  # kept: out holds the current acceleration

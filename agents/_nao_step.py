@@ -25,7 +25,19 @@ from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.sensing import SensingBatch, is_frozen
 
 from ._nao_batch import desired_rows, own_rows
-from ._nao_columns import AROUND, MARGIN, NAVIGATE, RANGE, ROW, SEEN, AgentColumns, StepMemo
+from ._nao_columns import (
+    AROUND,
+    DECIDE,
+    KEEP_UNTESTED,
+    KEPT,
+    MARGIN,
+    NAVIGATE,
+    RANGE,
+    ROW,
+    SEEN,
+    AgentColumns,
+    StepMemo,
+)
 from ._nao_decide import ObstacleLists, decide, keep_candidates, member_lists
 from ._nao_per_robot import Excursions
 
@@ -213,7 +225,7 @@ def keep_current(
     if view.lists is None or some == 0:
         return status
     nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = view.lists
-    todo = np.flatnonzero(status == 2)
+    todo = np.flatnonzero(status == KEEP_UNTESTED)
     res = np.full(len(m), -1, dtype=np.int64)
     f = np.ascontiguousarray
     pos_m, vel_m, cur_m, v_max_m, rad_m = members(
@@ -241,7 +253,7 @@ def keep_current(
         res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)
-    status[todo] = np.where(res[todo] == 1, 1, np.where(res[todo] == 0, 0, 2))
+    status[todo] = np.where(res[todo] == 1, KEPT, np.where(res[todo] == 0, DECIDE, KEEP_UNTESTED))
     return status
 
 
@@ -261,7 +273,7 @@ def decide_members(
     be there): (kind, accel m/s^2, tested) per member, or None when there are none."""
     assert view.lists is not None
     m = view.m
-    todo = np.flatnonzero(status == 0)
+    todo = np.flatnonzero(status == DECIDE)
     if len(todo) == 0:
         return None
     p, v, r, a, s, c, d = members(
