@@ -7,7 +7,7 @@ the 95 % Wilson interval), the contact events, the robot-episodes that succeeded
 their goals, no contact) and the episodes. Run:
 
     python benchmarks/robustness.py [--seeds 5] [--agents nao,orca,cbf,goal]
-        [--scenes crossing,circle_swap_perturbed:n=30]
+        [--scenes crossing circle_swap_perturbed:n=30 ...]
         [--settings perfect latency=0.1 position=0.05,velocity=0.1 ...]
         [--workers 2] [--markdown]
 
@@ -171,16 +171,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--agents", default="nao,orca,cbf,goal")
-    parser.add_argument("--scenes", default="crossing,circle_swap_perturbed:n=30")
+    parser.add_argument("--scenes", nargs="+", default=["crossing", "circle_swap_perturbed:n=30"])
     parser.add_argument("--settings", nargs="+", default=list(DEFAULT_SETTINGS))
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--markdown", action="store_true", help="print a markdown table")
     args = parser.parse_args()
     for setting in args.settings:
         options(setting)  # a bad setting stops here, before any episode
-    rows = table(
-        args.scenes.split(","), args.settings, args.agents.split(","), args.seeds, args.workers
-    )
+    rows = table(args.scenes, args.settings, args.agents.split(","), args.seeds, args.workers)
     if args.markdown:
         print("| " + " | ".join(rows[0]) + " |")
         print("|" + " --- |" * len(rows[0]))
