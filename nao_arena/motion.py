@@ -165,7 +165,7 @@ def limit_norms(a: ArrayLike, limit: ArrayLike) -> FloatArray:
     arr = np.asarray(a, dtype=float)
     lim = np.asarray(limit, dtype=float)
     norm = np.hypot(arr[..., 0], arr[..., 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         scale = np.where(norm > lim, lim / norm, 1.0)
     return arr * scale[..., None]
 
