@@ -97,6 +97,7 @@ from nao_arena.agent import PanelAgent
 from nao_arena.geometry import PiecewisePath
 from nao_arena.geometry.kernels import path_excursions
 from nao_arena.geometry.selection import Selection
+from nao_arena.imperfection import lag_factor
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -285,6 +286,7 @@ class NAOAgent:
         self.around_wall = False  # the last heading target was a way around a wall
         self._cols.whole[self._row, SEEN] = -1  # nothing seen yet (see _seen)
         self._command_log: CommandLog | None = None  # kept under a sensing latency only
+        self._lag_state = np.zeros(2)  # the applied acceleration under an actuation lag
 
     def _log_for(self, batch: SensingBatch) -> CommandLog:
         """The log of the commands this robot issued, kept for ``batch.latency``."""
@@ -612,7 +614,7 @@ def _act_rows(
     )
     if not n_live:
         _log_commands(logs, batch.time, out)
-        return out, errors  # holds (replan=False) keep their acceleration
+        return _through_lag(agents, out, batch), errors  # holds keep their acceleration
     if turns:
         # liveness: crawling away from the goal turns the detour (angles drawn here)
         for i in np.flatnonzero(turn).tolist():
@@ -708,7 +710,24 @@ def _act_rows(
         whole,
     )
     _log_commands(logs, batch.time, out)
-    return out, errors
+    return _through_lag(agents, out, batch), errors
+
+
+def _through_lag(
+    agents: Sequence[NAOAgent], out: NDArray[np.float64], batch: SensingBatch
+) -> NDArray[np.float64]:
+    """The commands (n, 2) m/s^2 that make the actuation lag apply ``out``: with the lag's
+    fraction f (:func:`~nao_arena.imperfection.lag_factor`) and each robot's applied
+    acceleration a, a + (out - a) / f, which the lag turns into a + f (command - a) = out;
+    ``out`` itself without a lag. Each robot's applied acceleration becomes its ``out``."""
+    if batch.actuation_lag <= 0.0:
+        return out
+    f = lag_factor(float(batch.dt), float(batch.actuation_lag))
+    applied = np.array([ag._lag_state for ag in agents], dtype=np.float64).reshape(-1, 2)
+    commands = applied + (out - applied) / f
+    for ag, a in zip(agents, out, strict=True):
+        ag._lag_state = np.array(a, dtype=np.float64)
+    return commands
 
 
 def _log_commands(logs: Sequence[CommandLog] | None, now: float, out: NDArray[np.float64]) -> None:

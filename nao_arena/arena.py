@@ -507,6 +507,7 @@ class Arena:
             nb_start=start,
             nb_index=index,
             substeps=self.world.substeps,
+            actuation_lag=self.imperfections.lag,
         )
 
     def _neighbour_lists(self, state: WorldState) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

@@ -222,7 +222,10 @@ class SensingBatch:
     batch was sensed when the agents receive it (the latency, in whole control periods;
     less at the start of an episode, when the first state is all there is). An agent
     that knows what it commanded since can bring what it sensed up to now (the ``nao``
-    agents do).
+    agents do). ``actuation_lag`` (s): the time constant of the first-order response of
+    the robots' applied accelerations to their commands (0: none; see
+    :mod:`nao_arena.imperfection`), which a robot knows of its own actuators and may
+    invert (the ``nao`` agents do).
 
     The batch is frozen (assigning an attribute raises), and every array it holds
     is read-only in memory no one can write (see :func:`read_only`: an array given
@@ -257,6 +260,7 @@ class SensingBatch:
     row_bodies: NDArray[np.int64] | None = None
     latency: float = 0.0
     age: float = 0.0
+    actuation_lag: float = 0.0
     _everyone: Neighbours | None = None
 
     def __post_init__(self) -> None:

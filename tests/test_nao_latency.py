@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from agents._nao_latency import CommandLog, compensated, drive
+from nao_arena.agents._nao_latency import CommandLog, compensated, drive
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.maps import load_map, map_from_dict
 from nao_arena.world import World
@@ -135,3 +135,32 @@ def test_a_batch_brought_up_to_now():
     plain.reset(0)
     fresh = plain.sensing()
     assert compensated(fresh, rows, logs) is fresh
+
+
+def test_nao_inverts_the_actuation_lag_so_the_world_applies_its_choice(monkeypatch):
+    """With an actuation lag the nao robots command a + (choice - a) / f, which the lag
+    turns into their choice: each step the world applies what they chose (to the
+    rounding of the inversion), though what they command differs from it."""
+    import nao_arena.agents.nao as nao_module
+
+    chosen, commanded = [], []
+    through_lag = nao_module._through_lag
+
+    def recorded(agents, out, batch):
+        chosen.append(np.array(out))
+        commanded.append(through_lag(agents, out, batch))
+        return commanded[-1]
+
+    monkeypatch.setattr(nao_module, "_through_lag", recorded)
+    spec = load_map("circle_swap_perturbed", n=8, seed=1)
+    arena = Arena(spec, ArenaOptions(agent="nao", actuation_lag=0.3))
+    arena.reset(1)
+    ids = arena.robot_ids
+    differed = False
+    for _ in range(60):
+        arena.step()
+        np.testing.assert_allclose(
+            arena.world.applied_accelerations[ids], chosen[-1], rtol=0, atol=1e-12
+        )
+        differed |= not np.allclose(commanded[-1], chosen[-1], atol=1e-6)
+    assert differed  # the robots commanded something else than the world applied
