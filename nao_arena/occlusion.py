@@ -10,12 +10,13 @@ the walls, capsules of half-width ``wall_radius`` around their segments.
 
 Two disjoint convex shapes seen from a point outside both are in the same order along
 every ray that meets both, so "in front of j" is decided on one such ray, and each
-occluder hides either all of its interval's overlap with j's or none of it. Conventions
-for shapes that are not disjoint: a body the observer overlaps, or that overlaps j, hides
-nothing from it (touching bodies are seen), a wall the observer overlaps hides nothing,
-and a body whose disc holds the observer's centre is visible. Tangent rays do not count:
-j is hidden when the union of the closed intervals in front of it covers j's closed
-interval.
+occluder hides either all of its interval's overlap with j's or none of it. Tangent rays
+do not count: j is hidden when the union of the closed intervals in front of it covers
+j's closed interval, up to gaps narrower than :data:`SLIVER` (what rounding leaves where
+two shadows, or a shadow and j's edge, meet on one tangent ray). Conventions for shapes
+that are not disjoint: a body the observer overlaps, or that overlaps j, hides nothing
+from it; a wall that holds the observer's centre or overlaps j hides nothing from it; a
+body whose disc holds the observer's centre is visible.
 
 :func:`visible` is compiled (numba, ``cache=True``); it is called only when a map or
 the options turn occlusion on.
@@ -29,7 +30,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["visible", "visible_witness"]
+__all__ = ["SLIVER", "visible", "visible_witness"]
+
+SLIVER = 1e-12
+"""Widest gap (rad) between shadows that still counts as covered: a sliver that rounding
+leaves where two shadows, or a shadow and the edge of the body, meet on one tangent ray."""
 
 
 @njit(cache=True)
@@ -125,17 +130,17 @@ def _capsule_interval(
 
 @njit(cache=True)
 def _covered(lows: NDArray[np.float64], highs: NDArray[np.float64], m: int, lo: float, hi: float):
-    """(whether the first m closed intervals [lows, highs] cover [lo, hi], the middle of
-    the first gap if not, else NaN)."""
+    """(whether the first m closed intervals [lows, highs] (rad) cover [lo, hi] up to gaps
+    of at most :data:`SLIVER` rad, the middle of the first wider gap if not, else NaN)."""
     order = np.argsort(lows[:m])
     reach = lo
     for q in order:
-        if lows[q] > reach:
+        if lows[q] > reach + SLIVER:
             return False, 0.5 * (reach + min(lows[q], hi))
         reach = max(reach, highs[q])
-        if reach >= hi:
+        if reach >= hi - SLIVER:
             return True, math.nan
-    if reach >= hi:
+    if reach >= hi - SLIVER:
         return True, math.nan
     return False, 0.5 * (reach + hi)
 
@@ -185,8 +190,8 @@ def _witness(
             m += 1
     for w in range(walls.shape[0]):
         h = wall_radius[w]
-        if _segment_distance(ox, oy, walls[w]) <= h:
-            continue  # the observer overlaps the wall: it hides nothing
+        if _segment_distance(ox, oy, walls[w]) <= h or _segment_distance(cx, cy, walls[w]) < h + rj:
+            continue  # it holds the observer's centre or overlaps the target: it hides nothing
         lo, hi = _capsule_interval(ox, oy, walls[w], h, phi)
         lo, hi = max(lo, -half), min(hi, half)
         if lo > hi:

@@ -37,7 +37,7 @@ def _ray_edges(o, u, a, b):
     e = b - a
     w = a[None, :, :] - o[None, None, :]
     den = u[:, None, 0] * e[None, :, 1] - u[:, None, 1] * e[None, :, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t = (w[..., 0] * e[None, :, 1] - w[..., 1] * e[None, :, 0]) / den
         s = (w[..., 0] * u[:, None, 1] - w[..., 1] * u[:, None, 0]) / den
     ok = (den != 0.0) & (t >= 0.0) & (s >= 0.0) & (s <= 1.0)
@@ -96,7 +96,11 @@ def _check(positions, radii, walls, half):
         if math.hypot(*(positions[k] - o)) > radii[k] + radii[0]
         and math.hypot(*(positions[k] - c)) >= radii[k] + r
     ]
-    kept = [w for w in range(len(walls)) if _point_segment(o, walls[w]) > half[w]]
+    kept = [
+        w
+        for w in range(len(walls))
+        if _point_segment(o, walls[w]) > half[w] and _point_segment(c, walls[w]) >= half[w] + r
+    ]
     occ = (positions[mine].reshape(-1, 2), radii[mine])
     phi, width = math.atan2(c[1] - o[1], c[0] - o[0]), math.asin(r / d)
     if math.isnan(direction):
