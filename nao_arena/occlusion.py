@@ -25,6 +25,7 @@ the options turn occlusion on.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -225,6 +226,33 @@ def _visible_kernel(
     return keep
 
 
+class Scene(NamedTuple):
+    """What hides what, as the kernels take it: body centres (N, 2) m and radii (N,) m,
+    wall segments (W, 2, 2) m and their half-widths (W,) m (contiguous float64)."""
+
+    positions: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    walls: NDArray[np.float64]
+    wall_radius: NDArray[np.float64]
+
+    @classmethod
+    def of(
+        cls,
+        positions: NDArray[np.float64],
+        radii: NDArray[np.float64],
+        walls: NDArray[np.float64],
+        wall_radius: NDArray[np.float64],
+    ) -> Scene:
+        """The arrays as contiguous float64 (walls as (W, 2, 2))."""
+        f = np.ascontiguousarray
+        return cls(
+            f(positions, dtype=np.float64),
+            f(radii, dtype=np.float64),
+            f(walls, dtype=np.float64).reshape(-1, 2, 2),
+            f(wall_radius, dtype=np.float64),
+        )
+
+
 def visible(
     start: NDArray[np.int64],
     index: NDArray[np.int64],
@@ -242,20 +270,20 @@ def visible(
     ``occluders`` (``occluders_start`` (R + 1,)) and the ``walls`` (W, 2, 2) m of
     half-width ``wall_radius`` (W,) m; body centres ``positions`` (N, 2) m, ``radii``
     (N,) m. Returns (E,) booleans."""
-    return np.asarray(
-        _visible_kernel(
-            np.ascontiguousarray(start, dtype=np.int64),
-            np.ascontiguousarray(index, dtype=np.int64),
-            np.ascontiguousarray(observers, dtype=np.int64),
-            np.ascontiguousarray(occluders_start, dtype=np.int64),
-            np.ascontiguousarray(occluders, dtype=np.int64),
-            np.ascontiguousarray(positions, dtype=np.float64),
-            np.ascontiguousarray(radii, dtype=np.float64),
-            np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 2, 2),
-            np.ascontiguousarray(wall_radius, dtype=np.float64),
-        ),
-        dtype=bool,
+    f = np.ascontiguousarray
+    scene = Scene.of(positions, radii, walls, wall_radius)
+    keep = _visible_kernel(
+        f(start, dtype=np.int64),
+        f(index, dtype=np.int64),
+        f(observers, dtype=np.int64),
+        f(occluders_start, dtype=np.int64),
+        f(occluders, dtype=np.int64),
+        scene.positions,
+        scene.radii,
+        scene.walls,
+        scene.wall_radius,
     )
+    return np.asarray(keep, dtype=bool)
 
 
 def visible_witness(
@@ -270,18 +298,20 @@ def visible_witness(
     """A direction (rad, world frame) from body ``observer``'s centre along which the ray
     meets body ``target`` before any of the bodies ``occluders`` and the walls (see
     :func:`visible`); NaN if ``target`` is hidden."""
-    walls = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 2, 2)
-    scratch = len(occluders) + len(walls)
+    scene = Scene.of(positions, radii, walls, wall_radius)
+    scratch = len(occluders) + len(scene.walls)
+    near = np.ascontiguousarray(occluders, dtype=np.int64)
+    lows, highs = np.empty(scratch), np.empty(scratch)
     return float(
         _witness(
             int(observer),
             int(target),
-            np.ascontiguousarray(occluders, dtype=np.int64),
-            np.ascontiguousarray(positions, dtype=np.float64),
-            np.ascontiguousarray(radii, dtype=np.float64),
-            walls,
-            np.ascontiguousarray(wall_radius, dtype=np.float64),
-            np.empty(scratch),
-            np.empty(scratch),
+            near,
+            scene.positions,
+            scene.radii,
+            scene.walls,
+            scene.wall_radius,
+            lows,
+            highs,
         )
     )
