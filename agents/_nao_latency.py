@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.motion import clip_accelerations, limit_norms, speed_limit_time
+from nao_arena.predictors import resample_paths
 from nao_arena.sensing import SensingBatch
 
 __all__ = ["CommandLog", "compensated", "drive"]
@@ -90,24 +91,6 @@ def drive(
     return p, limit_norms(v, v_max)
 
 
-def _later_paths(paths: FloatArray, times: FloatArray, age: float) -> FloatArray:
-    """Known paths (N, T, 2) at ``times`` (T,) s read ``age`` s later: interpolated, and
-    beyond the last sample moved on at the last piece's velocity."""
-    later = times + age
-    out = np.empty_like(paths)
-    for k in range(2):
-        for i in range(paths.shape[0]):
-            out[i, :, k] = np.interp(later, times, paths[i, :, k])
-    if len(times) >= 2:
-        beyond = later > times[-1]
-        if beyond.any():
-            last_v = (paths[:, -1] - paths[:, -2]) / (times[-1] - times[-2])
-            out[:, beyond] = (
-                paths[:, -1:, :] + last_v[:, None, :] * (later[beyond] - times[-1])[None, :, None]
-            )
-    return out
-
-
 def compensated(
     batch: SensingBatch, rows: NDArray[np.int64], logs: Sequence[CommandLog]
 ) -> SensingBatch:
@@ -135,7 +118,8 @@ def compensated(
     velocities[own] = v_own
     known = batch.known_paths
     if known is not None:
-        known = _later_paths(np.asarray(known), np.asarray(batch.path_times), age)
+        times = np.asarray(batch.path_times, dtype=np.float64)
+        known = resample_paths(times, np.asarray(known, dtype=np.float64), times + age)
     return dataclasses.replace(
         batch,
         time=float(batch.time) + age,

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from nao_arena.sensing import Neighbours
 
-__all__ = ["PREDICTORS", "get_predictor"]
+__all__ = ["PREDICTORS", "get_predictor", "resample_paths"]
 
 Predictor = Callable[[NDArray[np.float64], Neighbours], NDArray[np.float64]]
 
@@ -142,8 +142,12 @@ def _turn_rate_arcs(positions, velocities, accelerations, heading, mid, fine, n_
     return out
 
 
-def _resample(path_times, paths, times):
-    """Linear interpolation of (n, P, 2) paths at times (T,); beyond the end: extrapolate."""
+def resample_paths(
+    path_times: NDArray[np.float64], paths: NDArray[np.float64], times: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Paths (n, P, 2) m sampled at ``path_times`` (P,) s, read at ``times`` (T,) s:
+    interpolated linearly, and past the last sample moved on at the last piece's velocity
+    (m/s). Returns (n, T, 2) m."""
     out = np.empty((paths.shape[0], len(times), 2))
     for k in range(2):
         for i in range(paths.shape[0]):
@@ -165,7 +169,7 @@ def known_path(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64
         return out
     known = np.all(np.isfinite(nb.known_paths), axis=(1, 2))
     if np.any(known):
-        out[known] = _resample(nb.path_times, nb.known_paths[known], times)
+        out[known] = resample_paths(nb.path_times, nb.known_paths[known], times)
     return out
 
 
