@@ -98,6 +98,13 @@ def _number(name: str, value: object, low: float, high: float, low_open: bool = 
     raise ValueError(f"{name}: expected a finite number in {span}, got {value!r}")
 
 
+def _flag(name: str, value: object) -> bool:
+    """``value`` if it is a bool; ValueError naming ``name`` otherwise."""
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    raise ValueError(f"{name}: expected True or False, got {value!r}")
+
+
 def _noise(value: Mapping[str, float]) -> tuple[float, float, float]:
     """A sensing noise mapping (keys of :data:`NOISE_KEYS`, missing ones 0) as a tuple;
     ValueError naming ``sensing_noise`` for another key or a value that is not >= 0."""
@@ -142,8 +149,9 @@ def imperfections(spec: MapSpec, options: ArenaOptions) -> Imperfections:
             math.tau,
             low_open=True,
         ),
-        occlusion=bool(
-            sensing.occlusion if options.sensing_occlusion is None else options.sensing_occlusion
+        occlusion=_flag(
+            "sensing_occlusion",
+            sensing.occlusion if options.sensing_occlusion is None else options.sensing_occlusion,
         ),
         lag=_number(
             "actuation_lag",

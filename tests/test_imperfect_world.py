@@ -527,6 +527,8 @@ def test_bad_map_values_are_one_line_errors(section, value, message):
         ({"actuation_lag": -1.0}, "actuation_lag: expected a finite number"),
         ({"actuation_lag": float("inf")}, "actuation_lag"),
         ({"actuation_lag": True}, "actuation_lag"),
+        ({"sensing_occlusion": "maybe"}, "sensing_occlusion: expected True or False, got 'maybe'"),
+        ({"sensing_occlusion": 1}, "sensing_occlusion: expected True or False"),
     ],
 )
 def test_bad_options_are_value_errors_naming_them(options, message):
