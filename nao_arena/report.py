@@ -463,7 +463,8 @@ def _histograms(
             if row == 0:
                 ax.set_title(m)
         axes[-1, col].set_xlabel(what.xlabel)
-    fig.suptitle(what.title)
+    # wrapped to the figure's width (about 10 characters per inch at the title's size)
+    fig.suptitle(textwrap.fill(what.title, width=int(10 * fig.get_figwidth())))
     return fig
 
 
@@ -542,9 +543,9 @@ def _among_people(
         )
     ax_c.set_ylim(0.0, 1.12)
     ax_c.set_ylabel("share of robot-episodes")
-    ax_c.set_title("Robot-caused contact with a person (95% Wilson interval)")
+    ax_c.set_title("Robot-caused contact with a person\n(95% Wilson interval)")
     ax_d.set_ylabel("% of robot time")
-    ax_d.set_title("Discomfort: a person within 0.2 m")
+    ax_d.set_title("Discomfort:\na person within 0.2 m")
     _agent_axes(fig, (ax_c, ax_d), agents, maps)
     return fig
 
