@@ -27,7 +27,7 @@ from numba import njit
 
 from nao_arena.geometry.kernels import sampled_admissible_batch
 from nao_arena.navigation import segment_clear
-from nao_arena.stopping import commit_plans_kernel
+from nao_arena.stopping import Knowledge, commit_plans_kernel
 
 from ._nao_columns import (
     AROUND,
@@ -441,7 +441,21 @@ def settle_members(
 
 @njit(cache=True)
 def yield_rows(
-    pos, vel, out, rad, a_max, v_max, failed, dt, substeps, margin, walls, wall_half, real, whole
+    pos,
+    vel,
+    out,
+    rad,
+    a_max,
+    v_max,
+    failed,
+    dt,
+    substeps,
+    margin,
+    walls,
+    wall_half,
+    know,
+    real,
+    whole,
 ):  # pragma: no cover
     """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans_kernel`) over the
     table's rows that re-plan with stopping plans (STOPPING and REPLAN) and decided this
@@ -449,7 +463,8 @@ def yield_rows(
     m of half-thickness wall_half (m), at the sum of the radii plus margin (m), brakes
     instead; it commits that braking acceleration as a selection of status YIELDED, into
     the table and ``out`` (n, 2) m/s^2. Per row: pos (m), vel (m/s), out (m/s^2), rad
-    (m), a_max (m/s^2), v_max (m/s); the world's dt (s) and substeps."""
+    (m), a_max (m/s^2), v_max (m/s); the world's dt (s) and substeps; ``know``: what the
+    rows know of each other (:class:`~nao_arena.stopping.Knowledge`, rows by rows)."""
     n = pos.shape[0]
     take = np.empty(n, dtype=np.bool_)
     count = 0
@@ -462,6 +477,14 @@ def yield_rows(
     every = count == n
     brake = np.zeros(count, dtype=np.bool_)
     braking = np.zeros((count, 2))
+    if not every and know.linked.shape[0] != 0:
+        know = Knowledge(
+            know.linked[g][:, g],
+            know.position[g][:, g],
+            know.velocity[g][:, g],
+            know.free[g][:, g],
+            know.spread[g][:, g],
+        )
     commit_plans_kernel(
         pos if every else pos[g],
         vel if every else vel[g],
@@ -474,6 +497,7 @@ def yield_rows(
         margin,
         walls,
         wall_half,
+        know,
         brake,
         braking,
     )

@@ -141,6 +141,7 @@ from ._nao_decide import (
     apply_decisions,
     selection_settings,
 )
+from ._nao_knowledge import knowledge
 from ._nao_latency import CommandLog, compensated
 from ._nao_step import (
     Decisions,
@@ -579,6 +580,7 @@ def _act_rows(
     the compiled calls of :mod:`~nao_arena.agents._nao_batch`; only what they leave
     undecided runs robot by robot here."""
     logs = None
+    know = knowledge(batch, rows_a)
     if batch.latency > 0.0:  # bring what was sensed batch.age s ago up to now
         logs = [ag._log_for(batch) for ag in agents]
         batch = compensated(batch, rows_a, logs)
@@ -706,6 +708,7 @@ def _act_rows(
         PLAN_MARGIN,
         walls,
         wall_half,
+        know,
         real,
         whole,
     )

@@ -24,16 +24,18 @@ the scripted lane followers of the map's traffic and the episode's
 5. updates the statistics (swept contact check over every physics substep,
    metrics) and the episode's trajectory hash.
 
-The imperfect world (map sections ``sensing`` and ``actuation``, or the
-:class:`ArenaOptions` that override them; all off by default, see
-:mod:`nao_arena.imperfection`), in the order they apply: in step 2, the field of
-view narrows the neighbour lists (the nearest ``max_neighbours`` in view;
+The imperfect world (map sections ``sensing``, ``actuation`` and
+``communication``, or the :class:`ArenaOptions` that override them; all off by
+default, see :mod:`nao_arena.imperfection`), in the order they apply: in step 2, the
+field of view narrows the neighbour lists (the nearest ``max_neighbours`` in view;
 :meth:`Arena.sensing` and :meth:`Arena.observations` include it), then, in
-:meth:`Arena.step` only, the dropout removes neighbours and the sensing noise is
-added to what each robot senses of each remaining neighbour (own states stay
-exact), and the latency delays that imperfect batch: the agents receive the batch
-sensed ``latency`` s ago, noise, dropout and all, as frozen read-only arrays
-(the recorder gets it too). After step 3, the actuation noise is added to the
+:meth:`Arena.sensed` (what :meth:`Arena.step` and the env read), the dropout
+removes neighbours and the sensing noise is added to what each robot senses of each
+remaining neighbour (own states stay exact), the latency delays that imperfect
+batch (the agents receive the batch sensed ``latency`` s ago, noise, dropout and
+all, as frozen read-only arrays; the recorder gets it too), and the communication
+channel (:mod:`nao_arena.communication`) adds what the robots heard this period and
+hides the plans of pairs that are not linked. After step 3, the actuation noise is added to the
 robots' commands and the actuation lag filters them; the world gets the result
 (``StepResult.commanded``) and enforces its limits on it. The statistics use the
 truth. Each random model draws from a generator of its own, spawned from the
@@ -79,6 +81,7 @@ from nao_arena.agent import (
     load_agent,
     safe_act,
 )
+from nao_arena.communication import Channel
 from nao_arena.imperfection import (
     drop,
     headings,
@@ -139,6 +142,16 @@ class ArenaOptions:
     actuation_lag: float | None = None
     """Time constant (s, >= 0) of the first-order response of the robots' applied
     accelerations to their commands; None: the map's ``actuation.lag``."""
+    communication_range: float | None = None
+    """Distance (m, >= 0; inf: everywhere, 0: no communication) within which robots
+    share their states and plans (:mod:`nao_arena.communication`); None: the map's
+    ``communication.range``."""
+    communication_latency: float | None = None
+    """Time (s, >= 0) a message takes (whole control periods); None: the map's
+    ``communication.latency``."""
+    communication_loss: float | None = None
+    """Probability in [0, 1] that a pair's exchange of a control period is lost; None:
+    the map's ``communication.loss``."""
     known_path_horizon: float = 6.0
     """Horizon (s) of the true future paths of traffic handed to agents."""
     known_path_samples: int = 61
@@ -292,6 +305,10 @@ class Arena:
         self._dropout_rng = np.random.default_rng(0)
         # the robots' applied accelerations (R, 2) m/s^2 under the actuation lag
         self._applied = np.zeros((len(self.robot_ids), 2))
+        # the episode's messages (None: perfect communication)
+        self._channel: Channel | None = None
+        # this period's sensed batch, with the state it was drawn for (see sensed())
+        self._sensed_now: tuple[WorldState, SensingBatch] | None = None
         self.agents: list[Any] = []
         self.stats: EpisodeStats | None = None
         self.state: WorldState | None = None
@@ -369,14 +386,20 @@ class Arena:
         self.state = self.world.reset()
         # one generator per agent, then the actuation noise's, the sensing noise's and the
         # dropout's (each stream is the same whether or not the others draw)
-        *seeds, noise_seed, sensing_seed, dropout_seed = np.random.SeedSequence(seed).spawn(
-            len(self.robots) + 3
-        )
+        root = np.random.SeedSequence(seed)
+        *seeds, noise_seed, sensing_seed, dropout_seed = root.spawn(len(self.robots) + 3)
         self._noise_rng = np.random.default_rng(noise_seed)
         self._sensing_rng = np.random.default_rng(sensing_seed)
         self._dropout_rng = np.random.default_rng(dropout_seed)
+        self._channel = None
+        comm = self.imperfections.communication
+        if not comm.perfect:
+            (comm_seed,) = root.spawn(1)
+            key = int(comm_seed.generate_state(1, np.uint64)[0])
+            self._channel = Channel(comm, len(self.robot_ids), self.world.dt, key)
         self._applied = np.zeros((len(self.robot_ids), 2))
         self._sensed.clear()
+        self._sensed_now = None
         self.agents = []
         for k, (robot, name, ss) in enumerate(
             zip(self.robots, self.agent_names, seeds, strict=True)
@@ -508,6 +531,7 @@ class Arena:
             nb_index=index,
             substeps=self.world.substeps,
             actuation_lag=self.imperfections.lag,
+            sensing_noise=self.imperfections.noise,
         )
 
     def _neighbour_lists(self, state: WorldState) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -544,6 +568,31 @@ class Arena:
             keep &= in_view(start, index, rows, state.positions, heading, imp.field_of_view)
         return subset(start, index, keep, self.max_neighbours)
 
+    def sensed(self) -> SensingBatch:
+        """What the agents sense this control period, through every model of the imperfect
+        world (dropout, noise, latency, communication; :meth:`sensing` is the truth). It
+        is drawn once per period: :meth:`step` acts on this same batch, so reading it (the
+        env's observations do) changes nothing."""
+        state = self.state
+        assert state is not None, "call reset() first"
+        if self._sensed_now is None or self._sensed_now[0] is not state:
+            batch = self._communicated(self._as_sensed(self._imperfect(self.sensing())))
+            self._sensed_now = (state, batch)
+        return self._sensed_now[1]
+
+    @property
+    def senses_the_truth(self) -> bool:
+        """Whether the robots sense the exact current state of every body within range:
+        no sensing noise, dropout, latency, occlusion or narrow field of view."""
+        imp = self.imperfections
+        return (
+            not self._latency_steps
+            and not imp.noisy
+            and imp.dropout == 0.0
+            and imp.all_around
+            and not imp.occlusion
+        )
+
     def observations(self) -> list[Observation]:
         """One observation per robot (robot order), for the current state."""
         batch = self.sensing()
@@ -560,7 +609,7 @@ class Arena:
         commanded = np.zeros((self.world.n, 2))
         faults: list[AgentFault] = []
         actions = actions or {}
-        batch = self._as_sensed(self._imperfect(self.sensing()))
+        batch = self.sensed()
         found: dict[int, AgentFault] = {}
         batched, single = self._dispatch()
         for k, acc in actions.items():
@@ -644,6 +693,32 @@ class Arena:
         if imp.noisy:
             batch = with_neighbour_noise(batch, imp.noise, self._sensing_rng)
         return batch
+
+    def _communicated(self, batch: SensingBatch) -> SensingBatch:
+        """``batch`` with what the robots heard this period (see
+        :mod:`nao_arena.communication`): ``batch`` itself under perfect communication;
+        otherwise its ``heard`` set, the neighbour lists on rows of their own, and the
+        shared plans NaN for every pair of robots not linked now."""
+        if self._channel is None:
+            return batch
+        state = self.state
+        assert state is not None
+        rows = self.robot_ids
+        heard = self._channel.exchange(state.time, state.positions[rows], state.velocities[rows])
+        if batch.row_bodies is None:
+            batch = with_neighbour_noise(batch, (0.0, 0.0, 0.0), self._sensing_rng)
+        plans = batch.plans
+        if plans is not None:
+            robot_of = np.full(self.world.n, -1, dtype=np.int64)
+            robot_of[rows] = np.arange(len(rows))
+            observer = np.repeat(np.arange(len(rows)), np.diff(batch.nb_start))
+            other = robot_of[batch.body_of(batch.nb_index)]
+            unlinked = np.ones(len(other), dtype=bool)
+            robot = other >= 0
+            unlinked[robot] = ~heard.linked[observer[robot], other[robot]]
+            plans = np.array(plans)
+            plans[batch.nb_index[unlinked]] = np.nan
+        return dataclasses.replace(batch, plans=plans, heard=heard, _everyone=None)
 
     def _as_sensed(self, batch: SensingBatch) -> SensingBatch:
         """What the agents sense this step: ``batch`` itself, or with a sensing latency the

@@ -105,14 +105,16 @@ def nao_block(
     a_max) for each robot of ``bodies``, against its present neighbours ``idx[present]``
     (K per robot) and ``nearby_walls`` (segments (W, 2, 2) m, half-thicknesses (W,) m,
     or None) at ``state`` (see "Observations", ``nao``, in
-    :mod:`nao_arena.environment`)."""
+    :mod:`nao_arena.environment`). ``state`` may hold rows of what the robots sense
+    (:meth:`~nao_arena.arena.Arena.sensed`), with ``bodies`` and ``idx`` rows of it; the
+    robots' own rows are their bodies' (their limits are read from ``world``)."""
     times = np.linspace(0.0, opts.nao_horizon, opts.nao_samples)
     flat = idx[present]
     predicted = np.zeros((0, len(times), 2))
     if len(flat):
         nb = Neighbours(
             ids=flat.astype(np.int64),
-            kinds=tuple(world.kinds[i] for i in flat.tolist()),
+            kinds=tuple(state.kinds[i] for i in flat.tolist()),
             positions=state.positions[flat],
             velocities=state.velocities[flat],
             accelerations=state.accelerations[flat],

@@ -78,6 +78,14 @@ frame, units m, m/s, m/s^2, s:
 - ``finished`` (1, only with ``keep_finished``): 1 once the agent has
   finished, else 0.
 
+What a robot observes is what it senses: with the imperfect world's sensing
+models on (noise, dropout, latency, field of view, occlusion; see
+:mod:`nao_arena.imperfection`), the own and neighbour blocks and the NAO
+block come from :meth:`~nao_arena.arena.Arena.sensed`, the batch the map's
+own agents act on in the same period (its own state as old as the latency,
+neighbours noisy, missed or hidden as the models say); the statistics and
+rewards keep using the truth.
+
 Observation bounds
 ------------------
 The observation Box is finite wherever the quantity is bounded, with bounds
@@ -155,7 +163,7 @@ from nao_arena.env_options import (
 )
 from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.sensing import neighbour_lists
-from nao_arena.world import clip_accelerations
+from nao_arena.world import WorldState, clip_accelerations
 
 __all__ = [
     "NEIGHBOUR_FEATURES",
@@ -655,20 +663,47 @@ class NaoArenaParallelEnv(ParallelEnv):
         if m == 0:
             return out.astype(np.float32)
         bodies = self._bodies[rows]
-        p, v, acc, rad = state.positions, state.velocities, state.accelerations, state.radii
         k = self._k
         idx = np.zeros((m, k), dtype=np.int64)
         present = np.zeros((m, k), dtype=np.bool_)
-        # the sensing's neighbour search, with the env's distances (math.hypot)
-        nb_start, nb_index = neighbour_lists(bodies, p, self._sensing_range, k, hypot=True)
+        sensed = state
+        if self.arena.senses_the_truth:
+            p, v, acc, rad = state.positions, state.velocities, state.accelerations, state.radii
+            is_traffic, a_max, v_max = self._kinds, self._world_a_max, self._world_v_max
+            # the sensing's neighbour search, with the env's distances (math.hypot)
+            nb_start, nb_index = neighbour_lists(bodies, p, self._sensing_range, k, hypot=True)
+        else:
+            # what the robots sense through the imperfect world's models: rows of the batch
+            batch = self.arena.sensed()
+            robots = np.asarray(self._controlled, dtype=np.int64)[rows]
+            bodies = np.asarray(batch.bodies, dtype=np.int64)[robots]
+            p, v, acc, rad = batch.positions, batch.velocities, batch.accelerations, batch.radii
+            of_row = batch.body_of(np.arange(len(rad)))
+            is_traffic = self._kinds[of_row]
+            a_max, v_max = np.asarray(batch.a_max), np.asarray(batch.v_max)
+            first, last = batch.nb_start[robots], batch.nb_start[robots + 1]
+            nb_start = np.concatenate(([0], np.cumsum(last - first))).astype(np.int64)
+            nb_index = np.concatenate(
+                [batch.nb_index[a:b] for a, b in zip(first.tolist(), last.tolist(), strict=True)]
+                or [np.zeros(0, dtype=np.int64)]
+            ).astype(np.int64)
+            sensed = WorldState(
+                time=float(batch.time),
+                positions=np.asarray(p),
+                velocities=np.asarray(v),
+                accelerations=np.asarray(acc),
+                radii=np.asarray(rad),
+                names=(),
+                kinds=tuple(state.kinds[b] for b in of_row.tolist()),
+            )
         _observation_rows(
             p,
             v,
             acc,
             rad,
-            self._kinds,
-            self._world_a_max,
-            self._world_v_max,
+            is_traffic,
+            a_max,
+            v_max,
             bodies,
             self._goals[rows],
             self._prev_cmd[rows],
@@ -680,19 +715,23 @@ class NaoArenaParallelEnv(ParallelEnv):
             present,
         )
         if self._cand is not None:
-            out[:, self._layout["nao"]] = self._nao_block(bodies, idx, present)
+            out[:, self._layout["nao"]] = self._nao_block(sensed, bodies, idx, present)
         if opts.keep_finished:
             out[:, self._layout["finished"]] = ~self._alive[rows, None]
         np.clip(out, self._obs_low, self._obs_high, out=out)
         return out.astype(np.float32)
 
     def _nao_block(
-        self, bodies: NDArray[np.intp], idx: NDArray[np.intp], present: NDArray[np.bool_]
+        self,
+        state: WorldState,
+        bodies: NDArray[np.intp],
+        idx: NDArray[np.intp],
+        present: NDArray[np.bool_],
     ) -> NDArray[np.float64]:
         """Clipped clearance (m, M) of the candidate accelerations for each robot
-        (:func:`~nao_arena.env_observations.nao_block`)."""
-        state = self.arena.state
-        assert state is not None and self._cand is not None
+        (:func:`~nao_arena.env_observations.nao_block`) at ``state`` (the truth, or the
+        rows of what the robots sense)."""
+        assert self._cand is not None
         return nao_block(
             state,
             self.arena.world,

@@ -19,6 +19,8 @@ world frame. Random draws come from generators the arena seeds from the episode'
   before the field of view and the ``max_neighbours`` cut.
 - Lag (``actuation.lag``, s): a first-order response of the applied acceleration to the
   command (:func:`lag_factor`, :func:`lag_step`).
+- Communication (``communication``: range m, latency s, loss): what cooperative robots
+  share (:mod:`nao_arena.communication`); perfect by default.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.communication import Communication
 from nao_arena.sensing import SensingBatch
 
 if TYPE_CHECKING:
@@ -66,7 +69,8 @@ class Imperfections:
     noise: standard deviations of the sensing noise on position (m), velocity (m/s) and
     acceleration (m/s^2); dropout: probability in [0, 1]; field_of_view: rad in
     (0, 2 pi]; occlusion: whether bodies and walls hide what is behind them; lag: time
-    constant (s) of the actuation's response, >= 0.
+    constant (s) of the actuation's response, >= 0; communication: the channel's
+    range (m), latency (s) and loss.
     """
 
     noise: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -74,6 +78,7 @@ class Imperfections:
     field_of_view: float = math.tau
     occlusion: bool = False
     lag: float = 0.0
+    communication: Communication = Communication()
 
     @property
     def noisy(self) -> bool:
@@ -159,6 +164,25 @@ def imperfections(spec: MapSpec, options: ArenaOptions) -> Imperfections:
             0.0,
             math.inf,
         ),
+        communication=_communication(spec, options),
+    )
+
+
+def _communication(spec: MapSpec, options: ArenaOptions) -> Communication:
+    """The map's communication with the options that are set in their place; ValueError
+    naming the option for an out-of-range value."""
+    comm = spec.communication
+    reach = comm.reach if options.communication_range is None else options.communication_range
+    if not (isinstance(reach, int | float) and not isinstance(reach, bool) and float(reach) >= 0.0):
+        raise ValueError(f"communication_range: expected a number >= 0 or inf, got {reach!r}")
+    latency = (
+        comm.latency if options.communication_latency is None else options.communication_latency
+    )
+    loss = comm.loss if options.communication_loss is None else options.communication_loss
+    return Communication(
+        range=float(reach),
+        latency=_number("communication_latency", latency, 0.0, math.inf),
+        loss=_number("communication_loss", loss, 0.0, 1.0),
     )
 
 

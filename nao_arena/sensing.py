@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.communication import Heard
 from nao_arena.neighbours import in_range_lists
 
 __all__ = [
@@ -225,7 +226,16 @@ class SensingBatch:
     agents do). ``actuation_lag`` (s): the time constant of the first-order response of
     the robots' applied accelerations to their commands (0: none; see
     :mod:`nao_arena.imperfection`), which a robot knows of its own actuators and may
-    invert (the ``nao`` agents do).
+    invert (the ``nao`` agents do). ``sensing_noise``: the standard deviations (position
+    m, velocity m/s, acceleration m/s^2) of the noise on what the robots sense of their
+    neighbours, which a robot knows of its own sensors.
+
+    Communication (:mod:`nao_arena.communication`): ``heard`` is None when it is perfect
+    (every robot shares its state and plan with every other at once); otherwise it holds
+    which robots are linked this period and the last message each robot heard from each
+    other (:class:`~nao_arena.communication.Heard`, robot order, current time). Then the
+    neighbour lists point at rows of their own (as with noise) and a neighbour's ``plans``
+    row is NaN unless the pair is linked.
 
     The batch is frozen (assigning an attribute raises), and every array it holds
     is read-only in memory no one can write (see :func:`read_only`: an array given
@@ -261,6 +271,8 @@ class SensingBatch:
     latency: float = 0.0
     age: float = 0.0
     actuation_lag: float = 0.0
+    sensing_noise: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    heard: Heard | None = None
     _everyone: Neighbours | None = None
 
     def __post_init__(self) -> None:

@@ -151,7 +151,7 @@ class NAOShield(BaseParallelWrapper):
         desired = clip_accelerations(clipped[acting] * a_max[:, None], a_max)
         agents = [self.shield_agents[index[a]] for a in names]
         applied, status = self.agent_class.nearest_admissible_batch(
-            agents, base.arena.sensing(), rows, desired
+            agents, base.arena.sensed(), rows, desired
         )
         out = dict(actions)
         diff = applied - desired

@@ -40,11 +40,37 @@ robots at rest apart). Pairs whose plans could meet are found through the
 neighbour index (:mod:`nao_arena.neighbours`) with cells of the rule's own width,
 not through sensing, so sensing range and caps do not weaken it. Bodies outside
 the group (traffic, other agents) are left to the avoidance.
+
+Imperfect communication (:mod:`nao_arena.communication`; :class:`Knowledge`). The
+rule above needs every pair to agree within the period: it runs on the *linked*
+pairs only. For a pair (i, j) that is not linked, robot i knows of j only a state
+from some time ago: what it sensed (with the sensing's age), or j's last message.
+Since then j has been free to drive any acceleration for ``free`` periods (the
+periods since that state, this one included), and then it brakes.
+Robot i takes its desired plan only if it keeps clear of every plan j could be on:
+of j's *tube* (:func:`tube_clearance`), around the plan that coasts from the
+known state for those periods and then brakes (:func:`tube_reference`). Two plans
+from the same state whose accelerations differ by at most a_j for T = free dt
+seconds are at most a_j T^2 / 2 apart then (the substep integration too), and
+their velocities a_j T; braking, one period after another, never draws two
+velocities apart (it is the identity minus a fraction of the projection onto the
+disc of radius a_j dt: nonexpansive), so the gap grows no faster than that, nor
+than the two speeds together, until both stand. Sensed states carry noise: the
+tube grows by :data:`NOISE_SIGMAS` times (sigma_p + sigma_v tau).
+
+Why it still never touches (exact knowledge, every robot driving its command):
+for a pair that is not linked, each robot's desired plan clears every plan the
+other could commit now, its standing plan among them; two standing plans are the
+tails of plans that were clear. A pair neither linked nor known to each other is
+not protected (a robot cannot avoid what it does not know), nor is knowledge
+older than :data:`FORGET_PERIODS` periods used (the tube of a robot unheard of
+for long covers everything near and would stop its neighbours for good).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -55,7 +81,53 @@ from nao_arena.motion import brake_factor, clip_norm, limit_norm, saturation_tim
 from nao_arena.motion import braking as braking_accel
 from nao_arena.neighbours import around, extent, grid, range_grid
 
-__all__ = ["commit_plans", "plan_clearance", "stopping_plan", "max_plan_points"]
+__all__ = [
+    "FORGET_PERIODS",
+    "NOISE_SIGMAS",
+    "Knowledge",
+    "commit_plans",
+    "max_plan_points",
+    "no_knowledge",
+    "plan_clearance",
+    "stopping_plan",
+    "tube_clearance",
+    "tube_reference",
+]
+
+NOISE_SIGMAS = 3.0
+"""How many standard deviations of the sensing noise a tube grows by (position noise,
+plus velocity noise times the time since the state was sensed)."""
+
+FORGET_PERIODS = 10
+"""Knowledge of a robot older than this many control periods (``free`` larger) is not
+used (see the module)."""
+
+
+class Knowledge(NamedTuple):
+    """What each robot of a group knows of each other (rows i, j of the group; world
+    frame). linked (n, n): the pairs that agree on their plans this period (shape
+    (0, 0): every pair, perfect communication); for the others: position (n, n, 2) m
+    and velocity (n, n, 2) m/s of j as i knows it, free (n, n): the periods j has been
+    free to drive since then, this one included (0: i knows nothing of j); spread
+    (n, n, 2): the standard deviations (m, m/s) of the noise on that state."""
+
+    linked: NDArray[np.bool_]
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    free: NDArray[np.int64]
+    spread: NDArray[np.float64]
+
+
+def no_knowledge() -> Knowledge:
+    """The :class:`Knowledge` of perfect communication: every pair linked."""
+    return Knowledge(
+        np.zeros((0, 0), dtype=np.bool_),
+        np.zeros((0, 0, 2)),
+        np.zeros((0, 0, 2)),
+        np.zeros((0, 0), dtype=np.int64),
+        np.zeros((0, 0, 2)),
+    )
+
 
 FloatArray = NDArray[np.float64]
 
@@ -191,6 +263,150 @@ def _plan_clears_wall(
 
 
 @njit(cache=True, error_model="numpy")
+def tube_reference(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    free: int,
+    a_max: float,
+    v_max: float,
+    dt: float,
+    substeps: int,
+    out: FloatArray,
+) -> int:
+    """The centre of a tube (see the module): from the state p (m), v (m/s) known
+    (free - 1) periods ago, coasting (no acceleration) for ``free`` periods of dt (s),
+    then braking to a standstill as the world does, into out (substep positions, the
+    start first; out must hold (free + 1) * substeps + :func:`max_plan_points`);
+    returns the number of points."""
+    h = dt / substeps
+    vx, vy, _ = limit_norm(vx, vy, v_max)
+    out[0, 0] = px
+    out[0, 1] = py
+    k = 1
+    for _ in range(free):
+        px, py, vx, vy, k = _period(px, py, vx, vy, 0.0, 0.0, math.inf, h, substeps, out, k)
+    limit = out.shape[0] - substeps
+    while k <= limit:
+        speed = math.hypot(vx, vy)
+        if speed == 0.0:
+            break
+        b = brake_factor(speed, a_max, dt)
+        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h, substeps, out, k)
+        if b * dt >= 1.0:
+            break
+    return k
+
+
+@njit(cache=True, error_model="numpy")
+def tube_clearance(
+    plan: FloatArray,
+    n_plan: int,
+    ref: FloatArray,
+    n_ref: int,
+    speed: float,
+    free: int,
+    a_max: float,
+    v_max: float,
+    dt: float,
+    substeps: int,
+    spread_p: float,
+    spread_v: float,
+) -> float:
+    """The smallest distance (m) between a plan (points plan[:n_plan], from now; straight
+    between substeps; it stands at its last point once ended) and another robot's tube
+    (see the module): around ref[:n_ref] (:func:`tube_reference` of a state with
+    ``speed`` m/s known (free - 1) periods ago), of radius
+
+    - a_max tau^2 / 2 while the robot is free (tau <= T = free dt, from the known state);
+    - then growing by min(a_max T, s(tau) + s_ref(tau)) per unit time, where s and s_ref
+      bound the speeds of any braking plan and of the centre (each at most its speed at
+      T less a_max (tau - T - dt));
+
+    plus :data:`NOISE_SIGMAS` (spread_p + spread_v tau) for the noise on the known state
+    (m, m/s). Negative: the plan enters the tube. Each substep's segment counts with the
+    radius at its end (it never shrinks)."""
+    h = dt / substeps
+    offset = (free - 1) * substeps
+    big_t = free * dt
+    noise_v = NOISE_SIGMAS * spread_v
+    v0 = min(speed + noise_v, v_max)
+    v_any = min(v_max, v0 + a_max * big_t)  # fastest any plan can be at T
+    stop = big_t + v_any / a_max + dt  # every plan stands still by then
+    last = max(n_plan - 1, n_ref - 1 - offset, int(math.ceil(stop / h)) - offset, 1)
+    rho = 0.0
+    best = math.inf
+    for k in range(last):
+        i0, i1 = min(k, n_plan - 1), min(k + 1, n_plan - 1)
+        j0, j1 = min(k + offset, n_ref - 1), min(k + 1 + offset, n_ref - 1)
+        d2 = point_segment_dist2(
+            plan[i0, 0] - ref[j0, 0],
+            plan[i0, 1] - ref[j0, 1],
+            plan[i1, 0] - ref[j1, 0],
+            plan[i1, 1] - ref[j1, 1],
+        )
+        tau = (k + 1 + offset) * h
+        if tau <= big_t:
+            rho = 0.5 * a_max * tau * tau
+        else:
+            late = tau - big_t - dt
+            s_any = max(0.0, v_any - a_max * late)
+            s_ref = max(0.0, v0 - a_max * late)
+            rho += h * min(a_max * big_t, s_any + s_ref)
+        widened = rho + NOISE_SIGMAS * spread_p + noise_v * min(tau, stop)
+        best = min(best, math.sqrt(d2) - widened)
+    return best
+
+
+@njit(cache=True, error_model="numpy")
+def _tube_conflicts(
+    i: int,
+    want: FloatArray,
+    n_want: int,
+    ext: float,
+    pos: FloatArray,
+    radius: FloatArray,
+    a_max: FloatArray,
+    v_max: FloatArray,
+    dt: float,
+    substeps: int,
+    margin: float,
+    know: Knowledge,
+    scratch: FloatArray,
+) -> bool:
+    """Whether robot i's wanted plan (want[:n_want], reaching ext m from its centre)
+    meets the tube (:func:`tube_clearance`) of a robot it knows of and is not linked
+    with (:class:`Knowledge`) at the sum of the radii plus margin (m)."""
+    n = pos.shape[0]
+    for j in range(n):
+        f = know.free[i, j]
+        if j == i or f <= 0 or f > FORGET_PERIODS or know.linked[i, j]:
+            continue
+        px, py = know.position[i, j, 0], know.position[i, j, 1]
+        vx, vy = know.velocity[i, j, 0], know.velocity[i, j, 1]
+        sp, sv = know.spread[i, j, 0], know.spread[i, j, 1]
+        reach = radius[i] + radius[j] + margin
+        horizon = f * dt + v_max[j] / a_max[j] + dt
+        # every plan of j stays within v_max horizon (and the noise) of the known state
+        far = reach + ext + v_max[j] * horizon + NOISE_SIGMAS * (sp + sv * horizon)
+        dx, dy = px - pos[i, 0], py - pos[i, 1]
+        if dx * dx + dy * dy > far * far:
+            continue
+        speed = math.hypot(vx, vy)
+        need = (f + 1) * substeps + max_plan_points(min(speed, v_max[j]), a_max[j], dt, substeps)
+        if scratch.shape[0] < need:
+            scratch = np.empty((need, 2))
+        n_ref = tube_reference(px, py, vx, vy, f, a_max[j], v_max[j], dt, substeps, scratch)
+        clear = tube_clearance(
+            want, n_want, scratch, n_ref, speed, f, a_max[j], v_max[j], dt, substeps, sp, sv
+        )
+        if clear < reach:
+            return True
+    return False
+
+
+@njit(cache=True, error_model="numpy")
 def _near_pairs(
     pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -241,13 +457,15 @@ def commit_plans_kernel(
     margin: float,
     walls: FloatArray,
     wall_half: FloatArray,
+    know: Knowledge,
     brake: NDArray[np.bool_],
     braking: FloatArray,
 ) -> int:
     """:func:`commit_plans` on arrays; writes brake (n,) and the standing plans'
     accelerations braking (n, 2), returns the number of pair checks made (nothing is
     written, and 0 returned, when a position, velocity or desired acceleration is not
-    finite)."""
+    finite). ``know``: what the robots know of each other (:class:`Knowledge`; every
+    pair linked when its ``linked`` is empty)."""
     n = pos.shape[0]
     if n == 0:
         return 0
@@ -343,6 +561,27 @@ def commit_plans_kernel(
             ):
                 brake[i] = True
                 break
+    every = know.linked.shape[0] == 0
+    if not every:
+        # a pair not linked: the wanted plan must clear every plan the other could be on
+        scratch = np.empty((points, 2))
+        for i in range(n):
+            if not brake[i] and _tube_conflicts(
+                i,
+                want[i],
+                n_want[i],
+                ext[i],
+                pos,
+                radius,
+                a_max,
+                v_max,
+                dt,
+                substeps,
+                margin,
+                know,
+                scratch,
+            ):
+                brake[i] = True
     nb_start, nb_index = _near_pairs(pos, ext, radius, margin)
     h2 = (dt / substeps) ** 2
     checks = 0
@@ -354,6 +593,8 @@ def commit_plans_kernel(
                 continue
             for q in range(nb_start[i], nb_start[i + 1]):
                 j = nb_index[q]
+                if not every and not know.linked[i, j]:
+                    continue
                 reach = radius[i] + radius[j] + margin
                 # a period's relative path strays from its chord by at most
                 # (a_i + a_j) dt^2 / 8 (second differences of h^2 (a_i + a_j))
@@ -424,6 +665,7 @@ def commit_plans(
     margin: float,
     walls: FloatArray | None = None,
     wall_half: FloatArray | None = None,
+    know: Knowledge | None = None,
 ) -> tuple[NDArray[np.bool_], FloatArray]:
     """Which robots of a group must brake (True) instead of driving their desired
     acceleration (see the module docstring), and each robot's braking acceleration
@@ -433,7 +675,9 @@ def commit_plans(
     (m/s^2), v_max (m/s) (n,); dt (s) and substeps of the world; margin (m) kept beyond
     the sum of the radii (and beyond radius + half-thickness from the walls: segments
     (W, 2, 2) m with half-thicknesses wall_half (W,) m). Every pair of the group is
-    considered (found through a grid, not through sensing).
+    considered (found through a grid, not through sensing). ``know``: what the robots
+    know of each other under imperfect communication (:class:`Knowledge`); None: every
+    pair linked.
     """
     n = len(positions)
     if walls is None or wall_half is None:
@@ -453,6 +697,7 @@ def commit_plans(
         float(margin),
         f(walls, dtype=np.float64).reshape(-1, 2, 2),
         f(wall_half, dtype=np.float64),
+        no_knowledge() if know is None else know,
         brake,
         braking,
     )

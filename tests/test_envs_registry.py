@@ -208,6 +208,9 @@ def fingerprint(name: str) -> str:
         (options["arena"], "sensing_field_of_view", None),
         (options["arena"], "sensing_occlusion", None),
         (options["arena"], "actuation_lag", None),
+        (options["arena"], "communication_range", None),
+        (options["arena"], "communication_latency", None),
+        (options["arena"], "communication_loss", None),
     ):
         if section[key] == neutral:
             del section[key]

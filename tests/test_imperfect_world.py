@@ -659,3 +659,60 @@ def test_occlusion_senses_exactly_the_visible_bodies(fov, most):
             assert obs.neighbours.ids.tolist() == want
             sensed += len(want)
     assert sensed > 0 and hidden > 0  # bodies both seen and hidden
+
+
+# ---------------------------------------------------------------------- env observations
+
+
+def _env(**arena):
+    import nao_arena
+
+    return nao_arena.parallel_env("circle_swap", n=6, radius=4.0, arena=arena)
+
+
+def test_env_observations_hold_what_the_robots_sense():
+    """With sensing noise the env's neighbour rows are the noisy rows of the batch the
+    arena's own step acts on (not the truth), and reading them draws nothing: a run
+    that observes every step follows the trajectory of one that never does."""
+    env = _env(sensing_noise={"position": 0.2, "velocity": 0.1})
+    obs, _ = env.reset(seed=4)
+    arena = env.unwrapped.arena if hasattr(env, "unwrapped") else env.arena
+    batch = arena.sensed()
+    own = batch.bodies[0]
+    rows = batch.neighbour_ids(0)
+    first = obs[env.agents[0]]
+    got = first[17:19].astype(np.float64)  # the nearest neighbour's relative position
+    want = batch.positions[rows[0]] - batch.positions[own]
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6)
+    truth = arena.state.positions[batch.body_of(rows[:1])[0]] - arena.state.positions[own]
+    assert np.max(np.abs(truth - want)) > 1e-3
+    actions = {a: np.zeros(2, dtype=np.float32) for a in env.agents}
+    watched = []
+    for _ in range(5):
+        obs, *_ = env.step(actions)
+        watched.append(arena.state.positions.copy())
+    quiet = Arena(arena.spec, arena.options)
+    quiet.reset(4)
+    for k in range(5):
+        quiet.step({i: np.zeros(2) for i in range(len(quiet.robot_ids))})
+        np.testing.assert_array_equal(quiet.state.positions, watched[k])
+
+
+def test_env_observations_are_as_old_as_the_latency():
+    """With 0.2 s of sensing latency a robot observes its own position of two periods
+    ago; without models it observes the truth."""
+    env = _env(sensing_latency=0.2)
+    env.reset(seed=1)
+    arena = env.unwrapped.arena if hasattr(env, "unwrapped") else env.arena
+    name = env.agents[0]
+    body = arena.robot_ids[0]
+    history = [arena.state.positions[body].copy()]
+    actions = {a: np.array([1.0, 0.5], dtype=np.float32) for a in env.agents}
+    for _ in range(4):
+        obs, *_ = env.step(actions)
+        history.append(arena.state.positions[body].copy())
+        np.testing.assert_allclose(obs[name][11:13], history[max(len(history) - 3, 0)], rtol=1e-6)
+    exact = _env()
+    obs, _ = exact.reset(seed=1)
+    truth = (exact.unwrapped if hasattr(exact, "unwrapped") else exact).arena.state.positions
+    np.testing.assert_allclose(obs[exact.agents[0]][11:13], truth[body], rtol=1e-6)

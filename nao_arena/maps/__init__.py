@@ -157,6 +157,11 @@ Top level
     response of the applied acceleration a to the (noisy) command c, a += (1 -
     exp(-dt / lag)) (c - a) each control period (a = 0 at the start); both before
     the world's limits.
+``communication``: what cooperative robots share (their states and plans; see
+    :mod:`nao_arena.communication`): ``range`` (m, default null: no limit; .inf too),
+    ``latency`` (s, default 0, whole control periods), ``loss`` (probability 0..1,
+    default 0) that a pair's exchange of a control period is lost; ``off`` (or
+    ``false``): nothing is shared; the default is perfect communication.
 
 Body order (the world's, the stats', the agents'): hand-placed robots,
 then layout robots (layout by layout), then the people (``kind: person``, in
@@ -196,6 +201,7 @@ from nao_arena.maps.schema import (
     BodySpec,
     Bounds,
     CircleLaneSpec,
+    CommunicationSpec,
     Episode,
     LayoutSpec,
     MapFile,
@@ -226,6 +232,7 @@ __all__ = [
     "BodySpec",
     "Bounds",
     "CircleLaneSpec",
+    "CommunicationSpec",
     "Episode",
     "LayoutContext",
     "LayoutSpec",

@@ -452,6 +452,7 @@ def map_from_dict(
         episode=mf.episode,
         sensing=mf.sensing,
         actuation=mf.actuation,
+        communication=mf.communication,
     )
     _check_geometry(file, spec, origins)
     _check_steps(file, "episode.time_limit", spec)

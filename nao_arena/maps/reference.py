@@ -17,6 +17,7 @@ from nao_arena.maps.schema import (
     Actuation,
     Bounds,
     CircleLaneSpec,
+    CommunicationSpec,
     Episode,
     LayoutSpec,
     MapFile,
@@ -58,6 +59,7 @@ def sections() -> list[tuple[str, type[BaseModel]]]:
         ("sensing", Sensing),
         ("sensing.noise", SensingNoise),
         ("actuation", Actuation),
+        ("communication", CommunicationSpec),
     ]
 
 
