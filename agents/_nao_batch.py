@@ -484,6 +484,7 @@ def yield_rows(
             know.velocity[g][:, g],
             know.free[g][:, g],
             know.spread[g][:, g],
+            know.sigmas,
         )
     commit_plans_kernel(
         pos if every else pos[g],

@@ -19,10 +19,11 @@ from nao_arena.stopping import Knowledge, no_knowledge
 __all__ = ["knowledge"]
 
 
-def knowledge(sensed: SensingBatch, rows: NDArray[np.int64]) -> Knowledge:
+def knowledge(sensed: SensingBatch, rows: NDArray[np.int64], sigmas: float) -> Knowledge:
     """What the group's robots ``rows`` (robot order) know of each other, from the batch
     as sensed (before any latency compensation): its neighbour lists and what the
-    robots heard. Time is now (``sensed.time + sensed.age``)."""
+    robots heard. Time is now (``sensed.time + sensed.age``). ``sigmas``: how many
+    standard deviations of the sensing noise the tubes grow by."""
     heard = sensed.heard
     if heard is None:
         return no_knowledge()
@@ -63,4 +64,4 @@ def knowledge(sensed: SensingBatch, rows: NDArray[np.int64]) -> Knowledge:
     known = np.isfinite(when)
     free[known] = np.rint((now - when[known]) / dt).astype(np.int64) + 1
     np.fill_diagonal(free, 0)
-    return Knowledge(linked, position, velocity, free, spread)
+    return Knowledge(linked, position, velocity, free, spread, float(sigmas))

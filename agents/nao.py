@@ -100,6 +100,7 @@ from nao_arena.geometry.selection import Selection
 from nao_arena.imperfection import lag_factor
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Observation, SensingBatch
+from nao_arena.stopping import NOISE_SIGMAS
 
 from . import _nao_columns as col
 from . import _nao_per_robot as per_robot
@@ -179,7 +180,10 @@ class NAOAgent:
     "latest_contact"), goal_zone (m), navigate (heads around walls that stand between
     the robot and its goal, see :mod:`nao_arena.navigation`), stopping_plans (commits
     to stopping plans with the other robots of its batch and brakes where its choice
-    would meet theirs, see :mod:`nao_arena.stopping`).
+    would meet theirs, see :mod:`nao_arena.stopping`), switch_side_after (s),
+    noise_sigmas (how many standard deviations of the sensing noise the stopping plans'
+    tubes of robots it is not linked with grow by, see :mod:`nao_arena.stopping`;
+    fewer keeps robots moving, at a higher chance of a contact under noise).
 
     The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
     = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
@@ -231,6 +235,7 @@ class NAOAgent:
         navigate: bool = True,
         stopping_plans: bool = True,
         switch_side_after: float = 20.0,
+        noise_sigmas: float = NOISE_SIGMAS,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError(
@@ -255,6 +260,9 @@ class NAOAgent:
                 "switch_side_after: expected a positive number of seconds "
                 f"(inf: never), got {switch_side_after!r}"
             )
+        self.noise_sigmas = float(noise_sigmas)
+        if not (math.isfinite(self.noise_sigmas) and self.noise_sigmas >= 0.0):
+            raise ValueError(f"noise_sigmas: expected a number >= 0, got {noise_sigmas!r}")
         if not (math.isfinite(self.goal_zone) and self.goal_zone >= 0.0):
             raise ValueError(f"goal_zone: expected a distance >= 0 (m), got {goal_zone!r}")
         if samples is None:
@@ -580,7 +588,7 @@ def _act_rows(
     the compiled calls of :mod:`~nao_arena.agents._nao_batch`; only what they leave
     undecided runs robot by robot here."""
     logs = None
-    know = knowledge(batch, rows_a)
+    know = knowledge(batch, rows_a, agents[0].noise_sigmas if agents else NOISE_SIGMAS)
     if batch.latency > 0.0:  # bring what was sensed batch.age s ago up to now
         logs = [ag._log_for(batch) for ag in agents]
         batch = compensated(batch, rows_a, logs)
@@ -760,6 +768,7 @@ class AOAgent(NAOAgent):
         navigate: bool = True,
         stopping_plans: bool = True,
         switch_side_after: float = 20.0,
+        noise_sigmas: float = NOISE_SIGMAS,
     ) -> None:
         super().__init__(
             horizon,
@@ -777,4 +786,5 @@ class AOAgent(NAOAgent):
             navigate,
             stopping_plans,
             switch_side_after,
+            noise_sigmas,
         )

@@ -56,7 +56,8 @@ their velocities a_j T; braking, one period after another, never draws two
 velocities apart (it is the identity minus a fraction of the projection onto the
 disc of radius a_j dt: nonexpansive), so the gap grows no faster than that, nor
 than the two speeds together, until both stand. Sensed states carry noise: the
-tube grows by :data:`NOISE_SIGMAS` times (sigma_p + sigma_v tau).
+tube may grow by ``sigmas`` times (sigma_p + sigma_v tau) (:class:`Knowledge`;
+none by default, :data:`NOISE_SIGMAS`).
 
 Why it still never touches (exact knowledge, every robot driving its command):
 for a pair that is not linked, each robot's desired plan clears every plan the
@@ -94,9 +95,13 @@ __all__ = [
     "tube_reference",
 ]
 
-NOISE_SIGMAS = 3.0
+NOISE_SIGMAS = 0.0
 """How many standard deviations of the sensing noise a tube grows by (position noise,
-plus velocity noise times the time since the state was sensed)."""
+plus velocity noise times the time since the state was sensed), by default: none, the
+tubes take what was sensed as exact. 3 makes a sensed state's error fall outside the
+tube with probability exp(-9 / 2) = 1.1 % (a 2-D Gaussian error's norm), at a large
+cost in liveness (see docs/results/robustness.md); the ``nao`` agents' option
+``noise_sigmas`` sets it."""
 
 FORGET_PERIODS = 10
 """Knowledge of a robot older than this many control periods (``free`` larger) is not
@@ -109,13 +114,15 @@ class Knowledge(NamedTuple):
     (0, 0): every pair, perfect communication); for the others: position (n, n, 2) m
     and velocity (n, n, 2) m/s of j as i knows it, free (n, n): the periods j has been
     free to drive since then, this one included (0: i knows nothing of j); spread
-    (n, n, 2): the standard deviations (m, m/s) of the noise on that state."""
+    (n, n, 2): the standard deviations (m, m/s) of the noise on that state; sigmas: how
+    many of them the tubes grow by (:data:`NOISE_SIGMAS` by default)."""
 
     linked: NDArray[np.bool_]
     position: NDArray[np.float64]
     velocity: NDArray[np.float64]
     free: NDArray[np.int64]
     spread: NDArray[np.float64]
+    sigmas: float
 
 
 def no_knowledge() -> Knowledge:
@@ -126,6 +133,7 @@ def no_knowledge() -> Knowledge:
         np.zeros((0, 0, 2)),
         np.zeros((0, 0), dtype=np.int64),
         np.zeros((0, 0, 2)),
+        NOISE_SIGMAS,
     )
 
 
@@ -313,6 +321,7 @@ def tube_clearance(
     substeps: int,
     spread_p: float,
     spread_v: float,
+    sigmas: float,
 ) -> float:
     """The smallest distance (m) between a plan (points plan[:n_plan], from now; straight
     between substeps; it stands at its last point once ended) and another robot's tube
@@ -324,13 +333,13 @@ def tube_clearance(
       bound the speeds of any braking plan and of the centre (each at most its speed at
       T less a_max (tau - T - dt));
 
-    plus :data:`NOISE_SIGMAS` (spread_p + spread_v tau) for the noise on the known state
-    (m, m/s). Negative: the plan enters the tube. Each substep's segment counts with the
-    radius at its end (it never shrinks)."""
+    plus ``sigmas`` (spread_p + spread_v tau) for the noise on the known state (m, m/s).
+    Negative: the plan enters the tube. Each substep's segment counts with the radius
+    at its end (it never shrinks)."""
     h = dt / substeps
     offset = (free - 1) * substeps
     big_t = free * dt
-    noise_v = NOISE_SIGMAS * spread_v
+    noise_v = sigmas * spread_v
     v0 = min(speed + noise_v, v_max)
     v_any = min(v_max, v0 + a_max * big_t)  # fastest any plan can be at T
     stop = big_t + v_any / a_max + dt  # every plan stands still by then
@@ -354,7 +363,7 @@ def tube_clearance(
             s_any = max(0.0, v_any - a_max * late)
             s_ref = max(0.0, v0 - a_max * late)
             rho += h * min(a_max * big_t, s_any + s_ref)
-        widened = rho + NOISE_SIGMAS * spread_p + noise_v * min(tau, stop)
+        widened = rho + sigmas * spread_p + noise_v * min(tau, stop)
         best = min(best, math.sqrt(d2) - widened)
     return best
 
@@ -389,7 +398,7 @@ def _tube_conflicts(
         reach = radius[i] + radius[j] + margin
         horizon = f * dt + v_max[j] / a_max[j] + dt
         # every plan of j stays within v_max horizon (and the noise) of the known state
-        far = reach + ext + v_max[j] * horizon + NOISE_SIGMAS * (sp + sv * horizon)
+        far = reach + ext + v_max[j] * horizon + know.sigmas * (sp + sv * horizon)
         dx, dy = px - pos[i, 0], py - pos[i, 1]
         if dx * dx + dy * dy > far * far:
             continue
@@ -399,7 +408,19 @@ def _tube_conflicts(
             scratch = np.empty((need, 2))
         n_ref = tube_reference(px, py, vx, vy, f, a_max[j], v_max[j], dt, substeps, scratch)
         clear = tube_clearance(
-            want, n_want, scratch, n_ref, speed, f, a_max[j], v_max[j], dt, substeps, sp, sv
+            want,
+            n_want,
+            scratch,
+            n_ref,
+            speed,
+            f,
+            a_max[j],
+            v_max[j],
+            dt,
+            substeps,
+            sp,
+            sv,
+            know.sigmas,
         )
         if clear < reach:
             return True

@@ -215,34 +215,72 @@ def _drive(p: np.ndarray, v: np.ndarray, accels: list[np.ndarray], periods: int)
 unit = st.floats(-1.0, 1.0)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=80, deadline=None)
 @given(
     st.integers(1, 4),
     st.lists(unit, min_size=4, max_size=4),
     st.lists(unit, min_size=8, max_size=8),
     st.lists(unit, min_size=4, max_size=4),
+    st.lists(unit, min_size=4, max_size=4),
+    st.sampled_from([0.0, 3.0]),
 )
 def test_a_plan_clear_of_a_tube_is_clear_of_every_path_in_it(
-    free: int, state: list[float], accels: list[float], mine: list[float]
+    free: int,
+    state: list[float],
+    accels: list[float],
+    mine: list[float],
+    error: list[float],
+    sigmas: float,
 ) -> None:
-    """Robot j's state is known (free - 1) periods ago; it then drives any accelerations
-    (|a| <= a_max) for ``free`` periods and brakes, in the world. Robot i's plan (from
-    now) comes no closer to j's path than tube_clearance says (a lower bound)."""
+    """Robot j's state is known (free - 1) periods ago, with an error of at most
+    ``sigmas`` standard deviations (0.05 m, 0.1 m/s; none for 0); it then drives any
+    accelerations (|a| <= a_max) for ``free`` periods and brakes, in the world. Robot
+    i's plan (from now) comes no closer to j's path than tube_clearance says (a lower
+    bound)."""
+    sigma_p, sigma_v = 0.05, 0.1
     p_j = np.array(state[:2]) * 2.0
     v_j = np.array(state[2:]) * V_MAX / math.sqrt(2)
     acc = [np.array(accels[2 * k : 2 * k + 2]) * A_MAX / math.sqrt(2) for k in range(free)]
     path_j = _drive(p_j, v_j, acc, free + 12)[(free - 1) * SUBSTEPS :]
+    # what i knows: the true state off by at most sigmas standard deviations (norms)
+    known_p = p_j + np.array(error[:2]) / math.sqrt(2) * sigmas * sigma_p
+    known_v = v_j + np.array(error[2:]) / math.sqrt(2) * sigmas * sigma_v
     p_i = p_j + np.array([mine[0], mine[1]]) * 3.0
     v_i = np.array([mine[2], mine[3]]) * V_MAX / math.sqrt(2)
     plan_i = stopping_plan(p_i, v_i, -v_i * 2.0, A_MAX, V_MAX, DT, SUBSTEPS)
     ref = np.empty(((free + 1) * SUBSTEPS + 200, 2))
-    n_ref = tube_reference(*p_j, *v_j, free, A_MAX, V_MAX, DT, SUBSTEPS, ref)
+    n_ref = tube_reference(*known_p, *known_v, free, A_MAX, V_MAX, DT, SUBSTEPS, ref)
     bound = tube_clearance(
-        plan_i, len(plan_i), ref, n_ref, float(np.hypot(*v_j)), free, A_MAX, V_MAX, DT,
-        SUBSTEPS, 0.0, 0.0,
+        plan_i, len(plan_i), ref, n_ref, float(np.hypot(*known_v)), free, A_MAX, V_MAX, DT,
+        SUBSTEPS, sigma_p, sigma_v, sigmas,
     )  # fmt: skip
     actual = plan_clearance(plan_i, path_j, SUBSTEPS)
     assert actual >= bound - 1e-9
+
+
+@pytest.mark.parametrize("angle", [0.0, 1.0, 2.5])
+def test_the_noise_widens_the_tube_by_its_sigmas(angle: float) -> None:
+    """A robot at rest, sensed 3 standard deviations of position (and velocity) noise
+    away from where it is, and standing still: the tube grown by 3 sigmas still holds it
+    (the clearance it gives a point 1 m from the true position is at most 1 m), and
+    without the growth it would not."""
+    sigma_p, sigma_v = 0.05, 0.1
+    away = np.array([math.cos(angle), math.sin(angle)])
+    truth = np.zeros(2)
+    known_p = truth - 3 * sigma_p * away  # off, away from the observer
+    known_v = -3 * sigma_v * away
+    point = (truth + 1.0 * away)[None]  # the observer, standing 1 m away
+    ref = np.empty((400, 2))
+    n_ref = tube_reference(*known_p, *known_v, 1, A_MAX, V_MAX, DT, SUBSTEPS, ref)
+    speed = float(np.hypot(*known_v))
+
+    def clearance(sigmas: float) -> float:
+        return tube_clearance(
+            point, 1, ref, n_ref, speed, 1, A_MAX, V_MAX, DT, SUBSTEPS, sigma_p, sigma_v, sigmas
+        )
+
+    assert clearance(3.0) <= 1.0
+    assert clearance(0.0) > 1.0
 
 
 def _knowledge_of(history: list[tuple[np.ndarray, np.ndarray]], age: int, n: int) -> Knowledge:
@@ -257,6 +295,7 @@ def _knowledge_of(history: list[tuple[np.ndarray, np.ndarray]], age: int, n: int
         np.broadcast_to(vel, (n, n, 2)).copy(),
         free,
         np.zeros((n, n, 2)),
+        3.0,
     )
 
 
