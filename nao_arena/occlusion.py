@@ -31,6 +31,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from nao_arena.geometry.kernels import point_segment_distance
+
 __all__ = ["SLIVER", "visible", "visible_witness"]
 
 SLIVER = 1e-12
@@ -92,16 +94,6 @@ def _ray_capsule(
             )
             best = min(best, t)
     return best
-
-
-@njit(cache=True)
-def _segment_distance(px: float, py: float, seg: NDArray[np.float64]) -> float:
-    """Distance (m) from the point p to the segment ``seg`` (2, 2)."""
-    ax, ay, bx, by = seg[0, 0], seg[0, 1], seg[1, 0], seg[1, 1]
-    ex, ey = bx - ax, by - ay
-    ll = ex * ex + ey * ey
-    t = 0.0 if ll == 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / ll, 0.0), 1.0)
-    return math.hypot(px - ax - t * ex, py - ay - t * ey)
 
 
 @njit(cache=True)
@@ -191,7 +183,11 @@ def _witness(
             m += 1
     for w in range(walls.shape[0]):
         h = wall_radius[w]
-        if _segment_distance(ox, oy, walls[w]) <= h or _segment_distance(cx, cy, walls[w]) < h + rj:
+        ax, ay, bx, by = walls[w, 0, 0], walls[w, 0, 1], walls[w, 1, 0], walls[w, 1, 1]
+        if (
+            point_segment_distance(ox, oy, ax, ay, bx, by) <= h
+            or point_segment_distance(cx, cy, ax, ay, bx, by) < h + rj
+        ):
             continue  # it holds the observer's centre or overlaps the target: it hides nothing
         lo, hi = _capsule_interval(ox, oy, walls[w], h, phi)
         lo, hi = max(lo, -half), min(hi, half)

@@ -12,8 +12,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nao_arena.geometry.kernels import point_segment_distance
 from nao_arena.geometry.walls import segment_distances_xy
-from nao_arena.stats.kernel import _point_segment_1
 
 
 def same(a: float, b: float) -> bool:
@@ -41,6 +41,6 @@ def test_the_two_point_segment_distances_agree_on_real_segments(c, kind) -> None
     ux, uy = bx - ax, by - ay
     if (ux != 0.0 or uy != 0.0) and ux * ux + uy * uy < 1e-300:
         return
-    got = _point_segment_1(px, py, ax, ay, bx, by)
+    got = point_segment_distance(px, py, ax, ay, bx, by)
     want = segment_distances_xy(np.array([px]), np.array([py]), np.array([[ax, ay], [bx, by]]))
     assert same(got, want[0])

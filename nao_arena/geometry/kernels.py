@@ -26,9 +26,11 @@ from nao_arena.geometry._kernel.search import repair_relevant, select_relevant
 from nao_arena.geometry._kernel.segment import (
     nearby_walls,
     point_segment_dist2,
+    point_segment_distance,
     relevant_walls,
     segment_min_distance,
     segment_segment_dist2,
+    segment_segment_distance,
 )
 
 __all__ = [
@@ -39,6 +41,7 @@ __all__ = [
     "path_excursions",
     "piece_sweep",
     "point_segment_dist2",
+    "point_segment_distance",
     "relevant_obstacles",
     "relevant_sampled_paths",
     "relevant_walls",
@@ -48,5 +51,6 @@ __all__ = [
     "scan_obstacle",
     "segment_min_distance",
     "segment_segment_dist2",
+    "segment_segment_distance",
     "select_relevant",
 ]

@@ -12,6 +12,8 @@ from numba import njit, types
 from numba.typed import Dict
 from numpy.typing import NDArray
 
+from nao_arena.geometry.kernels import point_segment_distance, segment_segment_distance
+
 __all__ = [
     "EV_DEEPER",
     "EV_END",
@@ -123,40 +125,6 @@ def _clip01(x: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _point_segment_1(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
-    """Distance (m) from point p to segment a-b: hypot(ap - t ab), t the foot's clamped
-    parameter. :func:`nao_arena.geometry.walls.segment_distances_xy` is this in numpy (the same
-    bits, but for segments shorter than 1e-150 m, which it guards otherwise; tested)."""
-    abx, aby = bx - ax, by - ay
-    ll = abx * abx + aby * aby
-    apx, apy = px - ax, py - ay
-    t = _clip01((apx * abx + apy * aby) / (ll if ll > 0 else 1.0))
-    return math.hypot(apx - abx * t, apy - aby * t)
-
-
-@njit(cache=True, inline="always")
-def _segment_distance_1(
-    p0x: float, p0y: float, p1x: float, p1y: float, ax: float, ay: float, bx: float, by: float
-) -> float:
-    """Minimum distance (m) between segments p0-p1 and a-b (0 if they cross)."""
-    ex, ey = p1x - p0x, p1y - p0y
-    fx, fy = bx - ax, by - ay
-    o1 = fx * (p0y - ay) - fy * (p0x - ax)
-    o2 = fx * (p1y - ay) - fy * (p1x - ax)
-    o3 = ex * (ay - p0y) - ey * (ax - p0x)
-    o4 = ex * (by - p0y) - ey * (bx - p0x)
-    if o1 * o2 < 0 and o3 * o4 < 0:
-        return 0.0
-    return min(
-        min(_point_segment_1(p0x, p0y, ax, ay, bx, by), _point_segment_1(p1x, p1y, ax, ay, bx, by)),
-        min(
-            _point_segment_1(ax, ay, p0x, p0y, p1x, p1y),
-            _point_segment_1(bx, by, p0x, p0y, p1x, p1y),
-        ),
-    )
-
-
-@njit(cache=True, inline="always")
 def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
     """Minimum distance (m) between the centres of bodies i and j over the substep path
     (S + 1, N, 2), each moving in a straight line between rows: per substep the closest
@@ -195,7 +163,7 @@ def swept_wall_distances(path: FloatArray, a: FloatArray, b: FloatArray) -> Floa
     (a straight line each), and the segment a-b (m)."""
     out = np.empty(path.shape[0] - 1)
     for s in range(path.shape[0] - 1):
-        out[s] = _segment_distance_1(
+        out[s] = segment_segment_distance(
             path[s, 0], path[s, 1], path[s + 1, 0], path[s + 1, 1], a[0], a[1], b[0], b[1]
         )
     return out
@@ -446,7 +414,7 @@ def step_kernel(
             for s in range(last):
                 dist = min(
                     dist,
-                    _segment_distance_1(
+                    segment_segment_distance(
                         path[s, i, 0],
                         path[s, i, 1],
                         path[s + 1, i, 0],
@@ -458,7 +426,7 @@ def step_kernel(
                     ),
                 )
             wsep[nwc] = dist - reach
-            wend[nwc] = _point_segment_1(p1[i, 0], p1[i, 1], ax, ay, bx, by) - reach
+            wend[nwc] = point_segment_distance(p1[i, 0], p1[i, 1], ax, ay, bx, by) - reach
             nwc += 1
 
     # contact episodes of both families -> event rows

@@ -88,6 +88,45 @@ def point_segment_dist2(px, py, qx, qy):
 
 
 @njit(cache=True, inline="always")
+def point_segment_distance(px, py, ax, ay, bx, by):
+    """Distance (m) from the point p to the segment [a, b]: hypot(ap - t ab), t the
+    foot's parameter clamped to [0, 1] (0 for a segment of zero length): the contact
+    check's and occlusion's distance. :func:`nao_arena.geometry.walls.segment_distances_xy`
+    is this in numpy (the same bits, but for segments shorter than 1e-150 m, which it
+    guards otherwise; tests/test_point_segment.py). :func:`point_segment_dist2` is the
+    squared distance of the planners' hot loops, with other arithmetic."""
+    abx, aby = bx - ax, by - ay
+    ll = abx * abx + aby * aby
+    apx, apy = px - ax, py - ay
+    t = min(max((apx * abx + apy * aby) / (ll if ll > 0 else 1.0), 0.0), 1.0)
+    return math.hypot(apx - abx * t, apy - aby * t)
+
+
+@njit(cache=True, inline="always")
+def segment_segment_distance(p0x, p0y, p1x, p1y, ax, ay, bx, by):
+    """Distance (m) between the segments [p0, p1] and [a, b] (0 if they cross): the
+    smallest :func:`point_segment_distance` of an end point to the other segment."""
+    ex, ey = p1x - p0x, p1y - p0y
+    fx, fy = bx - ax, by - ay
+    o1 = fx * (p0y - ay) - fy * (p0x - ax)
+    o2 = fx * (p1y - ay) - fy * (p1x - ax)
+    o3 = ex * (ay - p0y) - ey * (ax - p0x)
+    o4 = ex * (by - p0y) - ey * (bx - p0x)
+    if o1 * o2 < 0 and o3 * o4 < 0:
+        return 0.0
+    return min(
+        min(
+            point_segment_distance(p0x, p0y, ax, ay, bx, by),
+            point_segment_distance(p1x, p1y, ax, ay, bx, by),
+        ),
+        min(
+            point_segment_distance(ax, ay, p0x, p0y, p1x, p1y),
+            point_segment_distance(bx, by, p0x, p0y, p1x, p1y),
+        ),
+    )
+
+
+@njit(cache=True, inline="always")
 def segment_segment_dist2(ax, ay, bx, by, px, py, qx, qy):
     """Squared distance (m^2) between the segments [a, b] and [p, q]."""
     best = math.inf
