@@ -179,6 +179,35 @@ def _period(
 
 
 @njit(cache=True, error_model="numpy")
+def _brake_to_stop(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    a_max: float,
+    dt: float,
+    substeps: int,
+    out: FloatArray,
+    k: int,
+) -> int:
+    """Brake from (p, v) period by period (:func:`nao_arena.motion.brake_factor`: -b v,
+    to a standstill within a period once |v| <= a_max dt), appending the substep
+    positions to out from row k on while it has room for a period; returns the next
+    row."""
+    h = dt / substeps
+    limit = out.shape[0] - substeps
+    while k <= limit:
+        speed = math.hypot(vx, vy)
+        if speed == 0.0:
+            break
+        b = brake_factor(speed, a_max, dt)
+        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h, substeps, out, k)
+        if b * dt >= 1.0:  # this period stopped it (up to rounding)
+            break
+    return k
+
+
+@njit(cache=True, error_model="numpy")
 def _fill_plan(
     px: float,
     py: float,
@@ -202,16 +231,7 @@ def _fill_plan(
     out[0, 1] = py
     tau = saturation_time(vx, vy, ax, ay, v_max)
     px, py, vx, vy, k = _period(px, py, vx, vy, ax, ay, tau, h, substeps, out, np.int64(1))
-    limit = out.shape[0] - substeps
-    while k <= limit:
-        speed = math.hypot(vx, vy)
-        if speed == 0.0:
-            break
-        b = brake_factor(speed, a_max, dt)
-        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h, substeps, out, k)
-        if b * dt >= 1.0:  # this period stopped it (up to rounding)
-            break
-    return k
+    return _brake_to_stop(px, py, vx, vy, a_max, dt, substeps, out, k)
 
 
 @njit(cache=True, error_model="numpy")
@@ -295,16 +315,7 @@ def tube_reference(
     k = 1
     for _ in range(free):
         px, py, vx, vy, k = _period(px, py, vx, vy, 0.0, 0.0, math.inf, h, substeps, out, k)
-    limit = out.shape[0] - substeps
-    while k <= limit:
-        speed = math.hypot(vx, vy)
-        if speed == 0.0:
-            break
-        b = brake_factor(speed, a_max, dt)
-        px, py, vx, vy, k = _period(px, py, vx, vy, -b * vx, -b * vy, math.inf, h, substeps, out, k)
-        if b * dt >= 1.0:
-            break
-    return k
+    return _brake_to_stop(px, py, vx, vy, a_max, dt, substeps, out, k)
 
 
 @njit(cache=True, error_model="numpy")
