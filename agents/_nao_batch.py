@@ -505,6 +505,6 @@ def yield_rows(
     for j in range(count):
         if brake[j]:
             i = g[j]
-            commit_row(real, whole, i, braking[j, 0], braking[j, 1], YIELDED, 0)
+            commit_row(real, whole, i, braking[j, 0], braking[j, 1], np.int64(YIELDED), np.int64(0))
             out[i, 0] = braking[j, 0]
             out[i, 1] = braking[j, 1]

@@ -191,7 +191,7 @@ class AgentColumns:
         return self._grid_groups[1]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def commit_row(real, whole, i, x, y, status, tested):  # pragma: no cover
     """:meth:`AgentColumns.commit` of the acceleration (x, y) m/s^2 for row i, in the
     compiled passes."""

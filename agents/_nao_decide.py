@@ -421,7 +421,7 @@ def apply_braking(
         # onto the limit disc as AccelLimits.project does it (the braking's norm is at most
         # a_max up to rounding: the scale is never subnormal)
         x, y = project_onto_disc(x, y, a_max[i])
-        commit_row(real, whole, i, x, y, INFEASIBLE, tested[j])
+        commit_row(real, whole, i, x, y, np.int64(INFEASIBLE), tested[j])
         out[i, 0] = x
         out[i, 1] = y
         settled[j] = True

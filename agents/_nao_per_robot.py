@@ -105,6 +105,9 @@ def relevant_paths(
             wall_radius + grow,
             agent.sensing_range,
         )
+    # writable copies, as the compiled step passes them: a read-only array is a version
+    # of its own to compile
+    idx, position, velocity = np.array(idx), np.array(position), np.array(velocity)
     c, w, b, rad, finite = relevant_sampled_paths(
         times,
         predicted,

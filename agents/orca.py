@@ -76,13 +76,13 @@ def _fma(typingctx, x, y, z):
     return sig, codegen
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _dot(ax, ay, bx, by):
     """a . b as fma(a1, b1, fma(a0, b0, 0)) (see the module docstring)."""
     return _fma(ay, by, _fma(ax, bx, 0.0))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _det(ax, ay, bx, by):
     return ax * by - ay * bx
 
@@ -248,7 +248,7 @@ def _lp3(lp, ld, n, begin, radius, rx, ry, pp, pd):
     return rx, ry
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _before(da, ia, db, ib):
     """Whether key (da, ia) sorts before (db, ib): by distance, NaN last, ties by index
     (numpy's stable argsort)."""

@@ -63,6 +63,7 @@ __all__ = [
     "parts_for_agents",
     "preload",
     "record_manifest",
+    "type_name",
     "watch_compiles",
 ]
 
@@ -277,21 +278,66 @@ def parts_for_agents(agents: Iterable[str]) -> list[str]:
     return parts
 
 
+def type_name(numba_type: Any) -> str:
+    """The text the manifest holds for a numba type: its repr, but for the types whose
+    repr names a Python class without its module (a named tuple such as
+    :class:`nao_arena.stopping.Knowledge`, an ``IntEnum``), which are written as
+    ``named_tuple("module:Class", (fields ...))`` and ``int_enum("module:Class",
+    dtype)``. :func:`_numba_type` reads every such text back."""
+    from numba.core import types
+
+    if isinstance(numba_type, types.BaseNamedTuple):
+        named: Any = numba_type  # numba's own stubs lack the attributes
+        fields = ", ".join(type_name(t) for t in named.types)
+        comma = "," if len(named.types) == 1 else ""
+        return f'named_tuple("{_class_path(named.instance_class)}", ({fields}{comma}))'
+    if isinstance(numba_type, types.IntEnumMember):
+        return f'int_enum("{_class_path(numba_type.instance_class)}", {numba_type.dtype!r})'
+    return repr(numba_type)
+
+
+def _class_path(cls: type) -> str:
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+def _import_class(path: str) -> Any:
+    module, _, qualname = path.partition(":")
+    found: Any = import_module(module)
+    for part in qualname.split("."):
+        found = getattr(found, part)
+    return found
+
+
 def _numba_type(text: str) -> Any:
-    """The numba type whose repr is ``text`` (the reprs the manifest holds: arrays,
-    tuples and scalars)."""
+    """The numba type whose :func:`type_name` is ``text`` (the texts the manifest holds:
+    arrays, tuples, named tuples, IntEnums and scalars)."""
     # Literal[int](0), Literal[bool](True): the type of a constant argument
     text = re.sub(r"Literal\[(?:int|bool)\]\((-?\d+|True|False)\)", r"literal(\1)", text)
     return eval(text, {"__builtins__": {}}, _type_names())  # the package's own file
 
 
+def _named_tuple(path: str, fields: tuple[Any, ...]) -> Any:
+    from numba.core import types
+
+    return types.BaseTuple.from_types(fields, _import_class(path))
+
+
+def _int_enum(path: str, dtype: Any) -> Any:
+    from numba.core import types
+
+    return types.IntEnumMember(_import_class(path), dtype)
+
+
 @functools.cache
 def _type_names() -> dict[str, Any]:
-    """The names a numba type's repr uses (numba.core.types, bool, literal)."""
+    """The names a numba type's :func:`type_name` uses (numba.core.types, bool, literal,
+    named_tuple, int_enum)."""
     from numba.core import types
 
     names = {name: getattr(types, name) for name in dir(types) if not name.startswith("_")}
-    names.update(bool=types.boolean, literal=types.literal)
+    names.update(
+        bool=types.boolean, literal=types.literal, named_tuple=_named_tuple, int_enum=_int_enum
+    )
     return names
 
 
@@ -510,7 +556,7 @@ def _loaded_kernels() -> dict[str, tuple[Any, Any, Any]]:
             if not isinstance(value, Dispatcher) or value.__module__ != module_name:
                 continue
             for sig, cres in value.overloads.items():
-                key = kernel_key(module_name, name, [repr(t) for t in sig])
+                key = kernel_key(module_name, name, [type_name(t) for t in sig])
                 out[key] = (value, sig, cres)
     return out
 
@@ -537,7 +583,7 @@ def _record_part(part: str, maps: Sequence[str], steps: int) -> dict[str, Any]:
             data, t0, inner = stack.pop()
             spent = time.perf_counter() - t0
             func = data["dispatcher"].py_func
-            key = kernel_key(func.__module__, func.__name__, [repr(t) for t in data["args"]])
+            key = kernel_key(func.__module__, func.__name__, [type_name(t) for t in data["args"]])
             own[key] = own.get(key, 0.0) + spent - inner
             if stack:
                 stack[-1][2] += spent
@@ -564,7 +610,7 @@ def _record_part(part: str, maps: Sequence[str], steps: int) -> dict[str, Any]:
         out[key] = {
             "module": mod,
             "name": rest.partition("(")[0],
-            "args": [repr(t) for t in sig],
+            "args": [type_name(t) for t in sig],
             "calls": calls,
             "seconds": own.get(key, 0.0),
         }
@@ -641,9 +687,9 @@ def record_manifest(
 
 
 def _nameable(args: Iterable[str]) -> bool:
-    """Whether every type repr of ``args`` reads back as that type."""
+    """Whether every type name of ``args`` (:func:`type_name`) reads back as that type."""
     try:
-        return all(repr(_numba_type(a)) == a for a in args)
+        return all(type_name(_numba_type(a)) == a for a in args)
     except Exception:
         return False
 

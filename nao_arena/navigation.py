@@ -155,7 +155,7 @@ def segment_clear(ax, ay, bx, by, walls, half, sight):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _lowest_near(dist, i, j, span, below):
     """The cell (a, b) within ``span`` cells of (i, j) with the least ``dist`` under
     ``below`` (the first such in row order) and that value; (-1, -1, below) if none."""
@@ -183,7 +183,7 @@ def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_s
     i = min(max(int(math.floor((px - ox) / cell)), 0), nx - 1)
     j = min(max(int(math.floor((py - oy) / cell)), 0), ny - 1)
     # start from the best cell within 2 cells (the robot's own may be blocked)
-    bi, bj, best = _lowest_near(dist, i, j, 2, math.inf)
+    bi, bj, best = _lowest_near(dist, i, j, np.int64(2), math.inf)
     if bi < 0 or not math.isfinite(best):
         return gx, gy
     tx = ox + (bi + 0.5) * cell
@@ -193,7 +193,7 @@ def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_s
     for _ in range(max_steps):
         if dist[i, j] == 0.0:
             break
-        ni, nj, _ = _lowest_near(dist, i, j, 1, dist[i, j])
+        ni, nj, _ = _lowest_near(dist, i, j, np.int64(1), dist[i, j])
         if ni < 0:
             break
         i = ni

@@ -117,7 +117,7 @@ def grid(
     return cell, cell_start, members
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def around(
     c0: int, cell_start: IntArray, members: IntArray, gx: int, gy: int, near: IntArray
 ) -> int:
@@ -146,7 +146,7 @@ def around(
     return c_n
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _distance_from(
     positions: FloatArray, j: int, me: int, mx: float, my: float, use_hypot: bool
 ) -> float:

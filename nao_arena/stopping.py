@@ -312,7 +312,7 @@ def tube_reference(
     vx, vy, _ = limit_norm(vx, vy, v_max)
     out[0, 0] = px
     out[0, 1] = py
-    k = 1
+    k = np.int64(1)
     for _ in range(free):
         px, py, vx, vy, k = _period(px, py, vx, vy, 0.0, 0.0, math.inf, h, substeps, out, k)
     return _brake_to_stop(px, py, vx, vy, a_max, dt, substeps, out, k)

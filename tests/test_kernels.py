@@ -28,6 +28,7 @@ from nao_arena.kernels import (
     manifest_to_json,
     missing_kernels,
     parts_for_agents,
+    type_name,
     watch_compiles,
 )
 from nao_arena.watchdog import EpisodeTimeout, budget_available, wall_clock_budget
@@ -80,13 +81,33 @@ def test_the_shipped_manifest_names_real_kernels_and_types():
         assert key == kernel.key
         assert isinstance(_dispatcher(kernel), numba.core.dispatcher.Dispatcher), key
         for text in kernel.args:
-            assert repr(_numba_type(text)) == text
+            assert type_name(_numba_type(text)) == text
         assert set(kernel.calls) <= set(manifest.kernels), key
         assert kernel.parts and set(kernel.parts) <= set(RECORD_PARTS), key
     nao = manifest.for_parts(["nao"])
     core = manifest.for_parts([CORE])
     assert set(core) <= set(manifest.for_parts(parts_for_agents(["nao"])))
     assert not set(nao) <= set(core) and not set(core) <= set(nao)
+
+
+def test_named_tuples_and_int_enums_have_names_that_read_back():
+    """A kernel taking a named tuple (the stopping plans' Knowledge) or an IntEnum (the
+    NAO outcome) can be in the manifest, and so compiled ahead like any other: its
+    argument types are named with their classes' modules and read back exactly."""
+    from numba import typeof
+
+    from nao_arena.geometry.outcome import Outcome
+    from nao_arena.kernels import _nameable, _numba_type
+    from nao_arena.stopping import no_knowledge
+
+    for value in (no_knowledge(), Outcome.DESIRED):
+        numba_type = typeof(value)
+        text = type_name(numba_type)
+        assert _numba_type(text) == numba_type and _nameable([text])
+        assert ":" in text  # the class's module is named
+    keys = load_manifest().kernels
+    assert any(k.startswith("nao_arena.stopping:commit_plans_kernel(") for k in keys)
+    assert any("named_tuple(" in k for k in keys)
 
 
 def test_manifest_json_round_trip():
@@ -179,7 +200,7 @@ def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
         import json, os, sys, tempfile
         from nao_arena.agent import BUILTIN_AGENTS
         from nao_arena.arena import Arena, ArenaOptions
-        from nao_arena.kernels import _loaded_kernels, _nameable
+        from nao_arena.kernels import _loaded_kernels, _nameable, type_name
         from nao_arena.maps import available_maps
         from nao_arena.render import record_episode
         for name in available_maps():
@@ -189,7 +210,7 @@ def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
         arena.reset(0)
         record_episode(arena, os.path.join(sys.argv[1], "x.gif"), max_steps=2)
         print(json.dumps(sorted(key for key, (_, sig, _) in _loaded_kernels().items()
-                                if _nameable(repr(t) for t in sig))))
+                                if _nameable(type_name(t) for t in sig))))
     """).replace(
         "from nao_arena.maps import available_maps",
         "from nao_arena.maps import available_maps, load_map",

@@ -1,7 +1,7 @@
 """Borrowed array views for the compiled kernels' hot loops.
 
 numba counts references to every array it passes around: each array argument
-of a compiled function, and of every call inlined into a loop, costs an
+of a compiled function, and of every compiled call in a loop, costs an
 atomic increment and decrement per call. In the candidate tests (thousands
 per selection, each touching about ten arrays) those atomics took a quarter
 of the selection time.

@@ -54,7 +54,7 @@ NO, YES, UNSURE = 0, 1, 2
 """Answers of :func:`_below`."""
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _extent(v, a, tau, horizon):
     """Least and greatest value of one coordinate of the path (m) over t in [0, horizon]
     (finite): v t + a t^2 / 2 up to tau, then straight on."""
@@ -75,7 +75,7 @@ def _extent(v, a, tau, horizon):
     return lo, hi
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _walls_least(vx, vy, ax, ay, v_max, horizon, walls, grown, boxes, stop_below):
     """Least over the walls (W, 2, 2) m of (exact distance from the path to the wall minus
     grown (W,) m), measuring only the walls whose grown boxes (W, 4) (x lo, x hi, y lo,
@@ -135,7 +135,7 @@ def _windows(seg_t, seg_c, sweep):
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _out_of_reach(vx, vy, ax, ay, tau, bound, seg_t, seg_c, windows, n, reach):
     """Whether robot (speed at most bound m/s) and neighbour n stay farther apart than reach
     (m) in every window: their distance at the window's start less what both move within
@@ -259,7 +259,7 @@ def _below(
     return UNSURE
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, buf, out):
     """Neighbour n's exact clearance (m), as :func:`clearance_kernel` computes it."""
     scan_obstacle(

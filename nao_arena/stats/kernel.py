@@ -97,7 +97,7 @@ def _sweep_pairs_kernel(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntAr
     return out_a[:k], out_b[:k]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _end_separation(
     p1: FloatArray, radii: FloatArray, i: int, j: int, out: FloatArray, q: int
 ) -> None:
@@ -106,7 +106,7 @@ def _end_separation(
         out[q] = math.hypot(p1[j, 0] - p1[i, 0], p1[j, 1] - p1[i, 1]) - (radii[i] + radii[j])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sorts_after(xa: float, a: int, xb: float, b: int) -> bool:
     """Whether key (xa, a) comes after (xb, b) in a stable sort on x (NaN last, as numpy)."""
     if xa > xb:
@@ -119,12 +119,12 @@ def _sorts_after(xa: float, a: int, xb: float, b: int) -> bool:
     return (na and not nb) or (na and nb and a > b)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _clip01(x: float) -> float:
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
     """Minimum distance (m) between the centres of bodies i and j over the substep path
     (S + 1, N, 2), each moving in a straight line between rows: per substep the closest

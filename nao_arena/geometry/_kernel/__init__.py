@@ -28,12 +28,13 @@ Compile time is part of the cost (the first run compiles what it calls), so:
   sees it as that literal). The exception is a literal meant to specialise a
   hot path: the candidate test scans with ``want_first=False``, so that its
   version of ``quartic.piece_minimum`` has no first-contact search;
-- ``inline="always"`` is kept for small functions called per candidate, and an
-  inlined function inlines no other large one: numba copies the callee's whole
-  intermediate representation for every inlined call site, so nested inlining
-  compiles in minutes (``outside._mark`` is a compiled call, not inlined, for
-  that reason);
-- small functions of scalars need no ``inline="always"``: LLVM inlines a compiled
-  call of one (the motion rules of :mod:`nao_arena.motion`, called per candidate,
-  are plain compiled functions, as fast as their former inlined copies).
+- no function is inlined by numba (``inline="always"``): numba deep-copies the
+  callee's whole intermediate representation for every inlined call site (7.5 of
+  the 11 s that ``segment.wall_scan`` took to compile). LLVM inlines compiled
+  calls anyway, once the callees' code is linked into the caller's module:
+  without numba's inlining the decisions of ``benchmarks/bench_decisions.py``
+  run as fast and the kernels of a NAO run compile in 65 s of CPU instead of 89;
+- an array is filled by element loops, not by slice or broadcast assignment
+  (``a[:, 2] = x``, ``a[k] = b[i]``): numba compiles a shape-mismatch error
+  message, with its string formatting, for each such assignment.
 """

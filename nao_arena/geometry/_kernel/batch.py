@@ -146,7 +146,7 @@ def _admissible_rows(
         travel = bound * horizon
         _, _, _, _, mx, my = robot_state(vx, vy, ax, ay, tau, 0.5 * horizon)
         half = 0.5 * travel
-        n = 0
+        n = np.int64(0)
         finite = True
         for i in range(n_nb):
             body = nb_index[nb_start[k] + i]

@@ -17,9 +17,9 @@ from nao_arena.geometry.borrow import borrowed
 from nao_arena.motion import onto_disc
 
 
-# inlined into the searches: a call would count references to its eleven arrays, once
-# per candidate (see nao_arena.geometry.borrow)
-@njit(cache=True, error_model="numpy", inline="always")
+# called by the searches once per candidate: its callers pass borrowed arrays, so the
+# call counts no references (see nao_arena.geometry.borrow)
+@njit(cache=True, error_model="numpy")
 def ok_disc(
     x,
     y,

@@ -13,14 +13,14 @@ from numba import njit
 from nao_arena.geometry.borrow import borrowed
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def vector_norm(x, y):
     """sqrt(x^2 + y^2), without math.hypot's care for overflow (several times faster;
     the values here are accelerations and distances of ordinary size)."""
     return math.sqrt(x * x + y * y)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _farther(x, y, lim):
     """math.hypot(x, y) > lim, without the hypot unless the answer is close."""
     d2 = x * x + y * y
@@ -39,7 +39,7 @@ def _samples_in_piece(t0, t1, n_sub, per_second):
     return max(n_sub, min(256, int(math.ceil(per_second * (t1 - t0)))))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _piece_schedule(j, S, t0, t1, n_sub, per_second):
     """(samples within piece j of S, geometric samples towards t = 0 before them, 1 if
     the piece's end is sampled too): when the disk picture samples piece [t0, t1] (s)."""
@@ -49,7 +49,7 @@ def _piece_schedule(j, S, t0, t1, n_sub, per_second):
     return k, head, tail
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _sample_time(t0, t1, i, k, head):
     """The i-th sample time (s) of piece [t0, t1] (:func:`_piece_schedule`)."""
     if not math.isfinite(t1):
@@ -61,7 +61,7 @@ def _sample_time(t0, t1, i, k, head):
     return t0 + (t1 - t0) * (i - head) / k
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _put(out, row, x, y, rho, dq):
     """Write the disk (x, y, rho, dq) into out[row]; returns the next row."""
     out[row, 0] = x
@@ -153,7 +153,7 @@ def nao_disk_samples(
 _WALL_DISKS_PER_SAMPLE = 64
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _clip(px, py, dx, dy, cx, cy, big, lo, hi):
     """[lo, hi] cut to the u where |P + u D - c| <= big (an empty interval: lo > hi)."""
     dd = dx * dx + dy * dy
@@ -170,7 +170,7 @@ def _clip(px, py, dx, dy, cx, cy, big, lo, hi):
     return max(lo, (-half_b - sq) / dd), min(hi, (-half_b + sq) / dd)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
     """Disks of radius rho along [a, b] (see :func:`nao_disk_samples`) into out[cnt:] (or
     only counted when not ``write``); returns the new count."""
@@ -262,7 +262,7 @@ def _fill_disk_samples(
     seg_b, radius, q, out = borrowed(seg_b), borrowed(radius), borrowed(q), borrowed(out)
     N = seg_c.shape[0]
     S = seg_c.shape[1]
-    cnt = 0
+    cnt = np.int64(0)
     for n in range(N):
         rr = radius[n] + margin
         last = -1  # row of the obstacle's last kept disk; -1: none (or a gap since)

@@ -21,7 +21,7 @@ from nao_arena.geometry._kernel.robot_path import candidate_setup, robot_state
 from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wall_violation
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def scan_obstacle(
     vx,
     vy,
@@ -146,7 +146,7 @@ def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
     )
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
     """Whether the candidate (as in :func:`scan_obstacle`) comes closer than sqrt(reach2) (m) to
     obstacle n during piece j: the test :func:`scan_obstacle` makes there, without its prune."""
@@ -173,7 +173,7 @@ def piece_sweep(seg_t, seg_w, seg_b):
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def fill_sweep(seg_t, seg_w, seg_b, rows, out):
     """:func:`piece_sweep` of the first ``rows`` obstacles, into out[:rows]."""
     for n in range(rows):
@@ -238,7 +238,7 @@ def clearance_kernel(
                 n,
                 radius[n],
                 math.inf,
-                True,
+                np.bool_(True),
                 buf,
                 out,
             )
@@ -364,7 +364,7 @@ def _first_contact(
                 rpy - (seg_c[n, j, 1] + seg_w[n, j, 1] * dt0 + 0.5 * oby * dt0 * dt0),
                 tb - ta,
                 r2,
-                True,
+                np.bool_(True),
                 buf,
             )
             if buf[2] < math.inf:

@@ -18,7 +18,7 @@ from nao_arena.geometry.borrow import borrowed
 _TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _offset(cx, cy, rho, circ, j):
     """Disk j of ``circ`` seen from the circle (cx, cy, rho): (dx, dy) from the circle's
     centre to the disk's (m/s^2), its radius, and whether the two are clearly apart
@@ -31,7 +31,7 @@ def _offset(cx, cy, rho, circ, j):
     return dx, dy, rj, dx * dx + dy * dy > far * far * (1.0 + 1e-9)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     """Add the angular interval of the circle (cx, cy, rho) that disk j of ``circ``
     covers (j == len(circ): the outside of the limit disc, when ``in_limit``) to
@@ -85,7 +85,7 @@ def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
 _BINS = 256
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _pseudo_angle(x, y):
     """A monotone stand-in for atan2(y, x) mod 2 pi, in [0, 4): no trigonometry.
     Its derivative with respect to the angle is at most 1."""
@@ -103,7 +103,7 @@ _WORDS = _BINS // 64
 _FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _set_bins(lo, hi, cover):
     """Set the bits of bins lo .. hi - 1 (0 <= lo < hi <= _BINS) in ``cover``."""
     for word in range(lo // 64, (hi - 1) // 64 + 1):
@@ -115,7 +115,7 @@ def _set_bins(lo, hi, cover):
             cover[word] |= ((np.uint64(1) << np.uint64(b - a)) - np.uint64(1)) << np.uint64(a)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _cover_bins(p0, p1, shrink, cover):
     """Mark in the bit set ``cover`` the bins inside the ccw arc [p0, p1]
     (pseudo-angles) shrunk by ``shrink`` at both ends."""
@@ -132,7 +132,7 @@ def _cover_bins(p0, p1, shrink, cover):
     elif first >= _BINS:
         first, last = first - _BINS, last - _BINS
     # the bins first .. last - 1, wrapping round past _BINS: at most two runs, marked by
-    # one call site (each site of an inlined function is compiled again)
+    # one call site
     while last > first:
         end = min(last, _BINS)
         _set_bins(first, end, cover)
@@ -143,8 +143,6 @@ def _cover_bins(p0, p1, shrink, cover):
 _NOTHING, _MARKED, _ALL_OUTSIDE, _UNPROVABLE = 0, 1, 2, 3
 
 
-# a compiled call, not inlined: _surely_covered calls it from four places, and every
-# inlined copy would carry its own _cover_bins and _set_bins (a minute of compiling)
 @njit(cache=True, error_model="numpy")
 def _mark(cx, cy, rho, circ, j, a_max, cover):
     """Mark in the bit set ``cover`` the bins of the circle (cx, cy, rho) that disk j of
@@ -274,7 +272,7 @@ _DE_BRUIJN_INDEX = np.array(
 )
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _next_bin(cover, b, marked):
     """The first bin >= b (b < _BINS) that is marked in ``cover`` (``marked``) or not;
     _BINS when there is none."""
@@ -290,7 +288,7 @@ def _next_bin(cover, b, marked):
     return 64 * w + _DE_BRUIJN_INDEX[(low * _DE_BRUIJN) >> np.uint64(58)]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _on_circle(cx, cy, rho, p):
     """The point of the circle (cx, cy, rho) at pseudo-angle p (see :func:`_pseudo_angle`)."""
     p %= 4.0
@@ -304,7 +302,7 @@ def _on_circle(cx, cy, rho, p):
     return cx + rho * x / n, cy + rho * y / n
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _inside(circ, j, x, y):
     """Whether (x, y) lies strictly inside disk j of ``circ``."""
     dx = circ[j, 0] - x
@@ -312,22 +310,22 @@ def _inside(circ, j, x, y):
     return dx * dx + dy * dy < circ[j, 2] * circ[j, 2]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _first_stretch(cover):
     """The first unmarked bin of ``cover`` after a marked one (bin 0 when none is marked)
     and the end of the stretch of unmarked bins from it, at most a quarter turn on (may
     pass _BINS: bins wrap round); (-1, -1) when every bin is marked."""
     first = 0
-    some = _next_bin(cover, 0, True)
+    some = _next_bin(cover, np.int64(0), np.bool_(True))
     if some < _BINS:
-        first = _next_bin(cover, some, False)
+        first = _next_bin(cover, some, np.bool_(False))
         if first == _BINS:
-            first = _next_bin(cover, 0, False)
+            first = _next_bin(cover, np.int64(0), np.bool_(False))
             if first == _BINS:
                 return -1, -1
-    end = _next_bin(cover, first + 1, True) if first + 1 < _BINS else _BINS
+    end = _next_bin(cover, first + 1, np.bool_(True)) if first + 1 < _BINS else _BINS
     if end == _BINS:
-        end = _BINS + _next_bin(cover, 0, True)
+        end = _BINS + _next_bin(cover, np.int64(0), np.bool_(True))
     return first, min(end, first + _BINS // 4)
 
 
@@ -336,8 +334,8 @@ _GAP_TRIES = 8
 _PROBES = 5
 
 
-# inlined into its one caller, _free_arc_points (once per circle visited)
-@njit(cache=True, error_model="numpy", inline="always")
+# called by its one caller, _free_arc_points, once per circle visited
+@njit(cache=True, error_model="numpy")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
@@ -399,7 +397,7 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
             return False  # no disk spans the first bin: part of it is free, most likely
         if _mark(cx, cy, rho, circ, chosen, a_max, cover) != _MARKED:
             break
-        if _next_bin(cover, first, True) != first:
+        if _next_bin(cover, first, np.bool_(True)) != first:
             break
     if _all_binned(cover):
         return True
@@ -412,7 +410,7 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     return False
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _all_binned(cover):
     """Whether the bit set ``cover`` marks every bin."""
     for i in range(_WORDS):
@@ -437,7 +435,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
     M = circ.shape[0]
     if _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, starts, ends):
         return k
-    n = 0
+    n = np.int64(0)
     for j in range(M + 1):
         n = _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n)
         if n < 0:
@@ -558,7 +556,9 @@ def outside_setup(q, disks, a_max, within, res, lower):
     coordinates: a bound for rounding in :func:`outside_advance`)."""
     M = disks.shape[0]
     # candidates farther than ``within`` are never kept: start the bound just above it
-    res[:, 2] = np.nextafter(within, math.inf)
+    above = np.nextafter(within, math.inf)
+    for k in range(res.shape[0]):
+        res[k, 2] = above
     # q itself, when no disk contains it
     q_free = q[0] * q[0] + q[1] * q[1] <= a_max * a_max
     for i in range(M):

@@ -17,12 +17,12 @@ from numba import njit
 _NEWTON_ITERS = 200
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _cubic(s, c3, c2, c1, c0):
     return ((c3 * s + c2) * s + c1) * s + c0
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _dist2(s, ax, ay, bx, by, cx, cy):
     dx = (ax * s + bx) * s + cx
     dy = (ay * s + by) * s + cy

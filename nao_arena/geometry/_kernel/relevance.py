@@ -19,7 +19,7 @@ from nao_arena.geometry.borrow import borrowed
 from nao_arena.motion import limit_norm_sqrt
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     """Whether obstacle n (combined radius r, m) is within reach: see
     :func:`relevant_obstacles` (v already clamped to v_max)."""
@@ -43,7 +43,7 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     return False
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
     """Whether the robot (velocity v m/s, limits a_max, v_max) could come within r (m) of
     an obstacle during the piece [t0, t1] s that starts at (cx, cy) m with velocity
@@ -86,7 +86,7 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max, r):
     """:func:`moving_pieces` into row ``row``, and whether one of those pieces is relevant
     (:func:`_piece_relevant`, radius r m: what :func:`_relevant` answers), in one pass with
@@ -195,7 +195,7 @@ def _fill_relevant_paths(
     # |x(t)| <= v_max t: an obstacle that stays farther than v_max times the horizon
     # (plus its radius) is dropped before its pieces are built
     travel = v_max * times[-1]
-    n = 0
+    n = np.int64(0)
     for i in range(n_nb):
         body = idx[i]
         x0 = pred[body, 0, 0] - px
@@ -220,7 +220,7 @@ def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
     themselves when all are kept), and their :func:`piece_sweep`:
     (c, w, b, radius, sweep)."""
     keep = relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
-    n = 0
+    n = np.int64(0)
     for i in range(keep.shape[0]):
         if keep[i]:
             n += 1
@@ -238,9 +238,11 @@ def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin)
         k = 0
         for i in range(keep.shape[0]):
             if keep[i]:
-                c[k] = seg_c[i]
-                w[k] = seg_w[i]
-                b[k] = seg_b[i]
+                for s in range(S):
+                    for d in range(2):
+                        c[k, s, d] = seg_c[i, s, d]
+                        w[k, s, d] = seg_w[i, s, d]
+                        b[k, s, d] = seg_b[i, s, d]
                 r[k] = radius[i]
                 k += 1
     return c, w, b, r, piece_sweep(seg_t, w, b)

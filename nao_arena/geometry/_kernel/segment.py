@@ -65,7 +65,7 @@ __all__ = [
 ]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
     """Minimum squared distance (m^2) over t in [0, horizon] from the robot's centre (speed
     already clamped, saturation time tau) to the segment [p, q] (:func:`wall_scan`)."""
@@ -73,7 +73,7 @@ def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
     return out[0]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def point_segment_dist2(px, py, qx, qy):
     """Squared distance (m^2) from the origin to the segment [p, q]."""
     ux = qx - px
@@ -87,7 +87,7 @@ def point_segment_dist2(px, py, qx, qy):
     return dx * dx + dy * dy
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def point_segment_distance(px, py, ax, ay, bx, by):
     """Distance (m) from the point p to the segment [a, b]: hypot(ap - t ab), t the
     foot's parameter clamped to [0, 1] (0 for a segment of zero length): the contact
@@ -102,7 +102,7 @@ def point_segment_distance(px, py, ax, ay, bx, by):
     return math.hypot(apx - abx * t, apy - aby * t)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def segment_segment_distance(p0x, p0y, p1x, p1y, ax, ay, bx, by):
     """Distance (m) between the segments [p0, p1] and [a, b] (0 if they cross): the
     smallest :func:`point_segment_distance` of an end point to the other segment."""
@@ -126,7 +126,7 @@ def segment_segment_distance(p0x, p0y, p1x, p1y, ax, ay, bx, by):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def segment_segment_dist2(ax, ay, bx, by, px, py, qx, qy):
     """Squared distance (m^2) between the segments [a, b] and [p, q]."""
     best = math.inf
@@ -273,7 +273,7 @@ def segments_admissible(
     return d > limit
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
     """(min(best, squared distance from d(s) to the segment's line), its s) when s lies in
     [0, h] and the foot of d(s) within the segment (ll = |q - p|^2 > 0), else
@@ -292,7 +292,7 @@ def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
     return best, best_s
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _foot_within(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
     """Whether the foot of d(s) on the segment's line lies within [p, q]."""
     dx = (ax * s + bx) * s + cx - px
@@ -301,7 +301,7 @@ def _foot_within(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
     return 0.0 <= along <= ll
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _roots_within(qa, qb, qc, h):
     """The roots s in [0, h] of qa s^2 + qb s + qc, smaller first (inf for a missing one)."""
     s1 = math.inf
@@ -330,7 +330,7 @@ def _roots_within(qa, qb, qc, h):
     return s1, s2
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, out):
     """Over s in [0, h] of d(s) = A s^2 + B s + C and the segment [p, q]: out = (minimum
     squared distance (m^2), its s, the first s with distance <= r (inf: none; computed when
@@ -441,7 +441,7 @@ def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, 
         out[2] = first
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _out_of_reach(px, py, qx, qy, travel, reach):
     """Cheap prune: the segment stays farther than ``reach`` (m) from every point within
     ``travel`` (m) of the origin."""
@@ -451,7 +451,7 @@ def _out_of_reach(px, py, qx, qy, travel, reach):
     return lower > reach * (1.0 + 1e-9) + 1e-12
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def segment_within(vx, vy, ax, ay, tau, travel, horizon, px, py, qx, qy, reach, buf, out):
     """Whether the robot's path (speed clamped, saturation time tau s; it stays within
     ``travel`` m of the origin) comes closer than ``reach`` (m) to the segment [p, q] (m,
