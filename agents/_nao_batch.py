@@ -23,9 +23,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry.kernels import sampled_admissible_batch
+from nao_arena.jit import kernel
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import Knowledge, commit_plans_kernel
 
@@ -75,7 +75,7 @@ TIME_CONSTANT = 0.5
 BRAKING = 0.5
 
 
-@njit(cache=True)
+@kernel
 def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pragma: no cover
     """The goal-seeking accelerations (n, 2) m/s^2 of the table's rows toward targets
     (n, 2) m (rows without ``has_target`` track standing still): what
@@ -114,7 +114,7 @@ def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pra
     return out
 
 
-@njit(cache=True)
+@kernel
 def own_rows(
     rows,
     bodies,
@@ -162,7 +162,7 @@ def own_rows(
     return pos, vel, rad, a_max, v_max, own_goals, traffic_near, aimed
 
 
-@njit(cache=True)
+@kernel
 def prepare_rows(
     rows,
     bodies,
@@ -288,7 +288,7 @@ def prepare_rows(
     )
 
 
-@njit(cache=True)
+@kernel
 def settle_members(
     m,
     times,
@@ -439,7 +439,7 @@ def settle_members(
     return status, kind, accel, tested, settled, left
 
 
-@njit(cache=True)
+@kernel
 def yield_rows(
     pos,
     vel,

@@ -19,10 +19,10 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.selection import Selection
+from nao_arena.jit import inner_kernel, kernel
 
 # real (float64) columns: state
 CUR_X, CUR_Y = 0, 1  # the current acceleration (m/s^2)
@@ -191,7 +191,7 @@ class AgentColumns:
         return self._grid_groups[1]
 
 
-@njit(cache=True)
+@inner_kernel
 def commit_row(real, whole, i, x, y, status, tested):  # pragma: no cover
     """:meth:`AgentColumns.commit` of the acceleration (x, y) m/s^2 for row i, in the
     compiled passes."""
@@ -311,7 +311,7 @@ class GridAttribute:
         ag._cols.version += 1
 
 
-@njit(cache=True)
+@kernel
 def young_adjustments(m, real, whole, opt, holds):  # pragma: no cover
     """holds[j]: whether row m[j]'s current acceleration is an avoidance adjustment young
     enough to keep (while admissible) even though it lies outside keep_band of the
@@ -325,7 +325,7 @@ def young_adjustments(m, real, whole, opt, holds):  # pragma: no cover
         )
 
 
-@njit(cache=True)
+@inner_kernel
 def detour_row(r, far, crawling, dt, to_goal, held, real, whole, opt):  # pragma: no cover
     """One step (dt s) of row r's liveness bookkeeping (see the ``nao`` module's
     Liveness) from: far from the goal, crawling (below v_max / 4), the distance to the
@@ -368,7 +368,7 @@ def detour_row(r, far, crawling, dt, to_goal, held, real, whole, opt):  # pragma
     return False
 
 
-@njit(cache=True)
+@inner_kernel
 def liveness_batch(
     live, positions, velocities, goals, radii, v_max, held, dt, real, whole, opt, turn
 ):  # pragma: no cover

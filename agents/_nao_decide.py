@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import (
@@ -39,6 +38,7 @@ from nao_arena.geometry.selection import (
     _SLIVER_DEPTH,
     _unit_rings,
 )
+from nao_arena.jit import kernel
 from nao_arena.motion import braking, onto_disc, project_onto_disc
 
 from ._nao_columns import (
@@ -90,7 +90,7 @@ ADJUSTED = Outcome.ADJUSTED  # the admissible acceleration nearest the desired o
 INFEASIBLE = Outcome.INFEASIBLE  # nothing admissible found: the caller's fallback
 
 
-@njit(cache=True)
+@kernel
 def decide_batch(
     times,
     pred,
@@ -355,7 +355,7 @@ def selection_settings(
     )
 
 
-@njit(cache=True)
+@kernel
 def keep_candidates(members, current, desired, a_max, whole, opt, holds, status):
     """Per member j (row members[j] of the agents' table, columns
     :mod:`~nao_arena.agents._nao_columns`): status[j] = KEEP_UNTESTED if its current acceleration
@@ -373,7 +373,7 @@ def keep_candidates(members, current, desired, a_max, whole, opt, holds, status)
     return count
 
 
-@njit(cache=True)
+@kernel
 def apply_decisions(members, status, kind, accel, tested, real, whole, out, settled):
     """The repairs and the selections of an admissible acceleration among the outcomes
     (kind, accel m/s^2, tested) of :func:`decide` for the members j with status[j] DECIDE,
@@ -397,7 +397,7 @@ def apply_decisions(members, status, kind, accel, tested, real, whole, out, sett
         settled[j] = True
 
 
-@njit(cache=True)
+@kernel
 def apply_braking(
     members, status, kind, tested, traffic, vel, a_max, dt, real, whole, out, settled
 ):
@@ -427,7 +427,7 @@ def apply_braking(
         settled[j] = True
 
 
-@njit(cache=True)
+@kernel
 def member_lists(nb_start, nb_index, rows):
     """The neighbour lists of the batch rows ``rows`` (CSR nb_start, nb_index of the
     whole batch), concatenated in that order: (start (len(rows) + 1,), index)."""

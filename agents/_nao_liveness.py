@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from nao_arena.jit import inner_kernel
 
 #: m/s below which the nearest neighbour counts as standing still
 STILL_SPEED = 0.1
@@ -17,7 +17,7 @@ STILL_SPEED = 0.1
 HOLD_GAP = 1.0
 
 
-@njit(cache=True)
+@inner_kernel
 def held_by_standing_kernel(
     nb_start, nb_index, rows, bodies, positions, velocities, radii, rad, goals, out
 ):

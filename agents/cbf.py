@@ -126,11 +126,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
 from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import limit_norm_sqrt
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -165,7 +165,7 @@ CONTACT = 2
 # ---------------------------------------------------------------- rows
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _pair_row(dpx, dpy, dvx, dvy, ds, alpha, gamma, share, ajx, ajy, a_max, curved):
     """Robot i's row a . u_i <= c against one body: dp = p_i - p_j (m), dv = v_i - v_j
     (m/s), D_s (m), braking alpha (m/s^2), gamma (s/m^2), the share of b robot i takes,
@@ -199,7 +199,7 @@ def _pair_row(dpx, dpy, dvx, dvy, ds, alpha, gamma, share, ajx, ajy, a_max, curv
     return -nx, -ny, share * c - (nx * ajx + ny * ajy), False
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def _robot_rows(
     b,
     k,
@@ -316,7 +316,7 @@ def _robot_rows(
 # ---------------------------------------------------------------- the 2-D programs
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _on_line(rows_a, rows_c, k, radius):
     """Row k's line a . u = c within |u| <= radius and rows[:k]: (found, point x, y,
     direction x, y, lo, hi): the points are point + t direction for lo <= t <= hi."""
@@ -351,7 +351,7 @@ def _on_line(rows_a, rows_c, k, radius):
     return True, px, py, wx, wy, lo, hi
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _seidel(rows_a, rows_c, m, radius, ox, oy, direction):
     """The point of |u| <= radius and rows[:m] nearest (ox, oy) (direction False), or
     furthest along the unit vector (ox, oy) (True): (index of the first row that could
@@ -385,7 +385,7 @@ def _seidel(rows_a, rows_c, m, radius, ox, oy, direction):
     return m, x, y
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _least_violation(rows_a, rows_c, m, begin, radius, x, y, pa, pc):
     """From (x, y), which meets rows[:begin], the point of |u| <= radius whose largest
     violation max_k (a_k . u - c_k) over rows[:m] is least (RVO2's linearProgram3 for
@@ -415,7 +415,7 @@ def _least_violation(rows_a, rows_c, m, begin, radius, x, y, pa, pc):
     return x, y
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def _qp(rows_a, rows_c, m, radius, ox, oy, lifted, pa, pc):
     """The QP: the point of |u| <= radius meeting rows[:m] nearest (ox, oy), else the
     fallback (see the module docstring): (x, y, relaxed, largest violation s* (m/s^2,
@@ -441,7 +441,7 @@ def _qp(rows_a, rows_c, m, radius, ox, oy, lifted, pa, pc):
 # ---------------------------------------------------------------- kernel
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def cbf_accelerations(
     positions,
     velocities,

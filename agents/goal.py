@@ -7,10 +7,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
+from nao_arena.jit import kernel
 from nao_arena.motion import limit_norm
 from nao_arena.sensing import Observation, SensingBatch
 
@@ -88,7 +88,7 @@ def _per_row(value: float | NDArray[np.float64], n: int) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)))
 
 
-@njit(cache=True)
+@kernel
 def goal_seeking_kernel(
     targets,
     positions,

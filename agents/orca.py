@@ -31,13 +31,14 @@ from typing import Any
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
 from nao_arena.imperfection import subset
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import limit_norm
 from nao_arena.obstacles import NO_WALLS, wall_discs_memo
 from nao_arena.sensing import Neighbours, Observation, SensingBatch
@@ -76,18 +77,18 @@ def _fma(typingctx, x, y, z):
     return sig, codegen
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _dot(ax, ay, bx, by):
     """a . b as fma(a1, b1, fma(a0, b0, 0)) (see the module docstring)."""
     return _fma(ay, by, _fma(ax, bx, 0.0))
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _det(ax, ay, bx, by):
     return ax * by - ay * bx
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _half_plane(rpx, rpy, rvx, rvy, radius, vx, vy, horizon, dt, share):
     """ORCA half-plane (point x, y; direction x, y: permitted velocities are on its left)
     for a neighbour at rel_pos (m) with relative velocity rel_vel = v_own - v_other
@@ -139,7 +140,7 @@ def _half_plane(rpx, rpy, rvx, rvy, radius, vx, vy, horizon, dt, share):
     return vx + share * ux, vy + share * uy, dx, dy
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _lp1(lp, ld, i, radius, ox, oy, direction_opt):
     """Best point on line i within |v| <= radius and lines[:i]: (found, x, y)."""
     px = lp[i, 0]
@@ -179,7 +180,7 @@ def _lp1(lp, ld, i, radius, ox, oy, direction_opt):
     return True, px + t * dx, py + t * dy
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _lp2(lp, ld, n, radius, ox, oy, direction_opt):
     """Velocity nearest opt (or furthest along the direction opt) in lines[:n] and
     |v| <= radius: (index of the first line that could not be satisfied, or n; x; y)."""
@@ -203,7 +204,7 @@ def _lp2(lp, ld, n, radius, ox, oy, direction_opt):
     return n, rx, ry
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _lp3(lp, ld, n, begin, radius, rx, ry, pp, pd):
     """Minimise the largest violation of lines[begin:n] (all soft here), from (rx, ry);
     pp, pd: scratch (>= n, 2) for the projected lines."""
@@ -248,7 +249,7 @@ def _lp3(lp, ld, n, begin, radius, rx, ry, pp, pd):
     return rx, ry
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _before(da, ia, db, ib):
     """Whether key (da, ia) sorts before (db, ib): by distance, NaN last, ties by index
     (numpy's stable argsort)."""
@@ -263,7 +264,7 @@ def _before(da, ia, db, ib):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def orca_accelerations(
     positions,
     velocities,

@@ -143,7 +143,6 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from numba import njit
 from numpy.typing import NDArray
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
@@ -161,6 +160,7 @@ from nao_arena.env_options import (
     nao_candidates,
     observation_layout,
 )
+from nao_arena.jit import kernel
 from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.sensing import neighbour_lists
 from nao_arena.world import WorldState, clip_accelerations
@@ -178,7 +178,7 @@ __all__ = [
 ]
 
 
-@njit(cache=True)
+@kernel
 def _observation_rows(
     p: NDArray[np.float64],
     v: NDArray[np.float64],

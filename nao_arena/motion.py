@@ -55,8 +55,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
+
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = [
     "SMALLEST_NORMAL",
@@ -82,7 +83,7 @@ SMALLEST_NORMAL = float(np.finfo(np.float64).tiny)
 # ----------------------------------------------------------------------- the speed limit
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def saturation_time(vx: float, vy: float, ax: float, ay: float, v_max: float) -> float:
     """Time tau (s) at which |v + a tau| reaches v_max: the positive root, inf if never.
 
@@ -106,7 +107,7 @@ def saturation_time(vx: float, vy: float, ax: float, ay: float, v_max: float) ->
     return (root - b) / aa
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def _saturation_times(v: FloatArray, a: FloatArray, v_max: FloatArray) -> FloatArray:
     out = np.empty(v.shape[0])
     for i in range(v.shape[0]):
@@ -128,7 +129,7 @@ def speed_limit_time(v: ArrayLike, a: ArrayLike, v_max: ArrayLike) -> FloatArray
 # ------------------------------------------------------------- scaling to a maximum norm
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def clip_norm(x: float, y: float, limit: float) -> tuple[float, float]:
     """(x, y) scaled to norm <= limit, direction kept: the world's clip of a command (m/s^2),
     (x, y) min(1, limit / max(|(x, y)|, 1e-300)), with |.| by hypot."""
@@ -147,7 +148,7 @@ def clip_accelerations(accels: ArrayLike, a_max: ArrayLike) -> FloatArray:
     return a * scale[:, None]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def limit_norm(x: float, y: float, limit: float) -> tuple[float, float, float]:
     """(x, y) times limit / |(x, y)| if |(x, y)| > limit, else unchanged, and |(x, y)| before
     (hypot): a velocity (m/s) to the speed limit, an acceleration (m/s^2) to a_max. The
@@ -170,7 +171,7 @@ def limit_norms(a: ArrayLike, limit: ArrayLike) -> FloatArray:
     return arr * scale[..., None]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def limit_norm_sqrt(x: float, y: float, limit: float) -> tuple[float, float, float]:
     """:func:`limit_norm` with |(x, y)| = sqrt(x^2 + y^2) (faster than hypot, but it may
     differ from it in the last bit and overflows beyond 1e154): the planner kernels'
@@ -182,7 +183,7 @@ def limit_norm_sqrt(x: float, y: float, limit: float) -> tuple[float, float, flo
     return x, y, norm
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def onto_disc(x: float, y: float, limit: float) -> tuple[float, float]:
     """(x, y) m/s^2 projected onto the disc |a| <= limit: scaled by
     limit / max(|(x, y)|, 1e-300) when |(x, y)| > limit (the compiled selection's)."""
@@ -191,7 +192,7 @@ def onto_disc(x: float, y: float, limit: float) -> tuple[float, float]:
     return x * scale, y * scale
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def project_onto_disc(x: float, y: float, limit: float) -> tuple[float, float]:
     """(x, y) m/s^2 projected onto the disc |a| <= limit (limit >= 0) as
     :meth:`nao_arena.geometry.AccelLimits.project` does it: a non-finite component taken
@@ -211,7 +212,7 @@ def project_onto_disc(x: float, y: float, limit: float) -> tuple[float, float]:
 # ------------------------------------------------------------------------------ braking
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def brake_factor(speed: float, a_max: float, dt: float) -> float:
     """b = min(a_max, speed / dt) / speed (1/s) for speed = |v| > 0 (m/s), a_max (m/s^2)
     and the control period dt (s): -b v is the acceleration that brakes towards standing
@@ -219,7 +220,7 @@ def brake_factor(speed: float, a_max: float, dt: float) -> float:
     return min(a_max, speed / dt) / speed
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def braking(vx: float, vy: float, a_max: float, dt: float) -> tuple[float, float]:
     """The acceleration (m/s^2) -min(a_max, |v| / dt) v / |v| (-:func:`brake_factor` v) of
     a body at velocity v = (vx, vy) m/s braking towards standing still within dt (s);

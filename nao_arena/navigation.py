@@ -23,11 +23,11 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import segment_segment_dist2
 from nao_arena.geometry.walls import segment_distances_xy
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = ["NavigationGrid", "navigation_grid", "route_targets", "segment_clear"]
 
@@ -108,7 +108,7 @@ def navigation_grid(
     return grid
 
 
-@njit(cache=True)
+@kernel
 def _dijkstra(free, gi, gj, cell):
     """8-connected shortest path lengths (m) over the free cells to cell (gi, gj) (which
     counts as free); diagonal steps only between free side neighbours (no corner
@@ -139,7 +139,7 @@ def _dijkstra(free, gi, gj, cell):
     return dist
 
 
-@njit(cache=True)
+@inner_kernel
 def segment_clear(ax, ay, bx, by, walls, half, sight):
     """Whether the segment [a, b] (m) stays farther than ``sight`` + half-thickness (m)
     from every wall (walls (W, 2, 2) m, half (W,) m)."""
@@ -155,7 +155,7 @@ def segment_clear(ax, ay, bx, by, walls, half, sight):
     return True
 
 
-@njit(cache=True)
+@inner_kernel
 def _lowest_near(dist, i, j, span, below):
     """The cell (a, b) within ``span`` cells of (i, j) with the least ``dist`` under
     ``below`` (the first such in row order) and that value; (-1, -1, below) if none."""
@@ -173,7 +173,7 @@ def _lowest_near(dist, i, j, span, below):
     return bi, bj, below
 
 
-@njit(cache=True)
+@kernel
 def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_steps):
     """The heading target (x, y) of a robot at (px, py) whose goal (gx, gy) it does not
     see: along the steepest descent of ``dist`` from its cell (or the best free cell next
@@ -206,7 +206,7 @@ def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_s
     return tx, ty
 
 
-@njit(cache=True)
+@kernel
 def _in_sight(positions, goals, walls, half, sight):
     """Per row: whether the goal is finite and in sight of the (finite) position."""
     n = positions.shape[0]

@@ -25,8 +25,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = [
     "around",
@@ -47,7 +48,7 @@ KNN_CELLS_PER_BODY = 16
 holds a few bodies though the grid spans the whole (mostly empty) extent."""
 
 
-@njit(cache=True)
+@kernel
 def extent(positions: FloatArray) -> tuple[float, float, float, float]:
     """The bounding box (x0, y0, x1, y1) m of the centres positions (n >= 1, 2) m."""
     x0 = positions[0, 0]
@@ -62,7 +63,7 @@ def extent(positions: FloatArray) -> tuple[float, float, float, float]:
     return x0, y0, x1, y1
 
 
-@njit(cache=True)
+@inner_kernel
 def range_grid(
     reach: float, n: int, x0: float, y0: float, x1: float, y1: float
 ) -> tuple[float, int, int]:
@@ -89,7 +90,7 @@ def range_grid(
     return h, gx, gy
 
 
-@njit(cache=True)
+@kernel
 def grid(
     positions: FloatArray, x0: float, y0: float, h: float, gx: int, gy: int
 ) -> tuple[IntArray, IntArray, IntArray]:
@@ -117,7 +118,7 @@ def grid(
     return cell, cell_start, members
 
 
-@njit(cache=True)
+@kernel
 def around(
     c0: int, cell_start: IntArray, members: IntArray, gx: int, gy: int, near: IntArray
 ) -> int:
@@ -146,7 +147,7 @@ def around(
     return c_n
 
 
-@njit(cache=True)
+@inner_kernel
 def _distance_from(
     positions: FloatArray, j: int, me: int, mx: float, my: float, use_hypot: bool
 ) -> float:
@@ -162,7 +163,7 @@ def _distance_from(
     return math.sqrt(dx * dx + dy * dy)
 
 
-@njit(cache=True)
+@kernel
 def in_range_lists(
     bodies: IntArray,
     positions: FloatArray,
@@ -219,7 +220,7 @@ def in_range_lists(
     return start, index[: start[b]].copy()
 
 
-@njit(cache=True)
+@inner_kernel
 def _typical_kth(bodies: IntArray, positions: FloatArray, sensing_range: float, most: int) -> float:
     """The median over up to 32 of ``bodies`` (evenly spread in their order) of the
     distance (m) to its most-th nearest body within range (the range when fewer are in
@@ -257,7 +258,7 @@ def _typical_kth(bodies: IntArray, positions: FloatArray, sensing_range: float, 
     return float(np.median(kth[:found]))
 
 
-@njit(cache=True)
+@inner_kernel
 def nearest_lists(
     bodies: IntArray,
     positions: FloatArray,
@@ -369,7 +370,7 @@ def nearest_lists(
     return start, index[: start[b]].copy()
 
 
-@njit(cache=True)
+@inner_kernel
 def _stable_order(key: FloatArray, m: int, order: IntArray, scratch: IntArray) -> None:
     """order[:m] = the indices 0 .. m - 1 sorted by key (a stable sort: equal keys in
     index order), without allocating: insertion-sorted runs of 16, then merged."""

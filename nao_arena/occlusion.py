@@ -28,10 +28,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import point_segment_distance
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = ["SLIVER", "visible", "visible_witness"]
 
@@ -40,13 +40,13 @@ SLIVER = 1e-12
 leaves where two shadows, or a shadow and the edge of the body, meet on one tangent ray."""
 
 
-@njit(cache=True)
+@inner_kernel
 def _wrap(angle: float) -> float:
     """``angle`` (rad) wrapped into [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True)
+@inner_kernel
 def _ray_disc(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, r: float) -> float:
     """Distance (m) along the unit ray o + t u, t >= 0, at which it first meets the disc
     (c, r); inf if it misses it. o is outside the disc."""
@@ -58,7 +58,7 @@ def _ray_disc(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, 
     return along - math.sqrt(max(r * r - across2, 0.0))
 
 
-@njit(cache=True)
+@inner_kernel
 def _ray_segment(
     ox: float, oy: float, ux: float, uy: float, ax: float, ay: float, bx: float, by: float
 ) -> float:
@@ -76,7 +76,7 @@ def _ray_segment(
     return t
 
 
-@njit(cache=True)
+@inner_kernel
 def _ray_capsule(
     ox: float, oy: float, ux: float, uy: float, seg: NDArray[np.float64], h: float
 ) -> float:
@@ -96,14 +96,14 @@ def _ray_capsule(
     return best
 
 
-@njit(cache=True)
+@inner_kernel
 def _disc_interval(ox: float, oy: float, cx: float, cy: float, r: float) -> tuple[float, float]:
     """(direction, half-width) in rad of the disc (c, r) seen from o outside it."""
     d = math.hypot(cx - ox, cy - oy)
     return math.atan2(cy - oy, cx - ox), math.asin(min(r / d, 1.0))
 
 
-@njit(cache=True)
+@inner_kernel
 def _capsule_interval(
     ox: float, oy: float, seg: NDArray[np.float64], h: float, reference: float
 ) -> tuple[float, float]:
@@ -121,7 +121,7 @@ def _capsule_interval(
     return lo + shift, hi + shift
 
 
-@njit(cache=True)
+@inner_kernel
 def _covered(lows: NDArray[np.float64], highs: NDArray[np.float64], m: int, lo: float, hi: float):
     """(whether the first m closed intervals [lows, highs] (rad) cover [lo, hi] up to gaps
     of at most :data:`SLIVER` rad, the middle of the first wider gap if not, else NaN)."""
@@ -138,7 +138,7 @@ def _covered(lows: NDArray[np.float64], highs: NDArray[np.float64], m: int, lo: 
     return False, 0.5 * (reach + hi)
 
 
-@njit(cache=True)
+@kernel
 def _witness(
     observer: int,
     target: int,
@@ -202,7 +202,7 @@ def _witness(
     return math.nan if hidden else phi + gap
 
 
-@njit(cache=True)
+@kernel
 def _visible_kernel(
     start, index, observers, occluders_start, occluders, positions, radii, walls, wall_radius
 ):  # noqa: E501

@@ -22,9 +22,9 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from nao_arena.jit import kernel
 from nao_arena.sensing import Neighbours
 
 __all__ = ["PREDICTORS", "get_predictor", "resample_paths"]
@@ -91,7 +91,7 @@ def _fine_grid(times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray
     return grid
 
 
-@njit(cache=True)
+@kernel
 def _turn_rate_arcs(positions, velocities, accelerations, heading, mid, fine, n_times):
     """Midpoint-rule arcs: per row, position (m), velocity (m/s), acceleration (m/s^2)
     and heading (rad, the velocity's angle); fine-grid midpoints ``mid`` and steps

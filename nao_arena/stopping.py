@@ -74,10 +74,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import point_segment_dist2, segment_segment_dist2
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import brake_factor, clip_norm, limit_norm, saturation_time
 from nao_arena.motion import braking as braking_accel
 from nao_arena.neighbours import around, extent, grid, range_grid
@@ -140,7 +140,7 @@ def no_knowledge() -> Knowledge:
 FloatArray = NDArray[np.float64]
 
 
-@njit(cache=True)
+@kernel
 def max_plan_points(speed: float, a_max: float, dt: float, substeps: int) -> int:
     """Substep positions of the longest stopping plan of a robot at ``speed`` (m/s) with
     a_max (m/s^2) and dt (s): the start, the commanded period and the braking periods
@@ -149,7 +149,7 @@ def max_plan_points(speed: float, a_max: float, dt: float, substeps: int) -> int
     return (1 + brake) * substeps + 1
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _period(
     px: float,
     py: float,
@@ -178,7 +178,7 @@ def _period(
     return px, py, vx, vy, k
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _brake_to_stop(
     px: float,
     py: float,
@@ -207,7 +207,7 @@ def _brake_to_stop(
     return k
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def _fill_plan(
     px: float,
     py: float,
@@ -234,7 +234,7 @@ def _fill_plan(
     return _brake_to_stop(px, py, vx, vy, a_max, dt, substeps, out, k)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def _pair_min_dist2(
     pa: FloatArray, na: int, pb: FloatArray, nb: int, substeps: int, stop2: float, skip: float
 ) -> float:
@@ -277,7 +277,7 @@ def _pair_min_dist2(
     return best
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _plan_clears_wall(
     p: FloatArray, n: int, cx: float, cy: float, dx: float, dy: float, reach: float
 ) -> bool:
@@ -290,7 +290,7 @@ def _plan_clears_wall(
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def tube_reference(
     px: float,
     py: float,
@@ -318,7 +318,7 @@ def tube_reference(
     return _brake_to_stop(px, py, vx, vy, a_max, dt, substeps, out, k)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def tube_clearance(
     plan: FloatArray,
     n_plan: int,
@@ -379,7 +379,7 @@ def tube_clearance(
     return best
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _tube_conflicts(
     i: int,
     want: FloatArray,
@@ -438,7 +438,7 @@ def _tube_conflicts(
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _near_pairs(
     pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -476,7 +476,7 @@ def _near_pairs(
     return start, index[:m]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def commit_plans_kernel(
     pos: FloatArray,
     vel: FloatArray,

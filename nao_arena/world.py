@@ -59,9 +59,9 @@ from typing import Any, cast
 import numpy as np
 import pymunk
 import pymunk.batch as pb
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from nao_arena.jit import kernel
 from nao_arena.maps import MapSpec, PolygonWall, SegmentWall, map_from_dict
 from nao_arena.motion import (
     clip_accelerations,
@@ -104,7 +104,7 @@ class WorldState:
         return len(self.radii)
 
 
-@njit(cache=True)
+@kernel
 def applied_plans(
     commanded: FloatArray, rows: NDArray[np.int64], a_max: FloatArray, n: int
 ) -> FloatArray:  # pragma: no cover
@@ -120,7 +120,7 @@ def applied_plans(
     return out
 
 
-@njit(cache=True)
+@kernel
 def _plan_period(
     accels: FloatArray,
     v: FloatArray,
@@ -170,7 +170,7 @@ def _plan_period(
     return True, any_over
 
 
-@njit(cache=True)
+@kernel
 def _finish_period(
     data: FloatArray,
     rows: NDArray[np.intp],
@@ -321,7 +321,7 @@ def _step_a_small_world() -> None:
     world.step(np.zeros((1, 2)))  # the compiled path, once pymunk is idle
 
 
-@njit(cache=True)
+@kernel
 def _substeps_kernel(
     space_step: Any,
     each_body: Any,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import textwrap
@@ -110,6 +111,48 @@ def test_named_tuples_and_int_enums_have_names_that_read_back():
     assert any("named_tuple(" in k for k in keys)
 
 
+def test_an_inner_kernel_is_called_by_kernels_and_from_python_through_a_twin(tmp_path):
+    """An inner kernel has no Python wrapper: a compiled caller calls it (cached), and a
+    call from Python goes to its twin (same results) instead of crashing."""
+    module = tmp_path / "inner_probe.py"
+    module.write_text(
+        textwrap.dedent("""
+            import numpy as np
+            from nao_arena.jit import inner_kernel, kernel
+
+            @inner_kernel(error_model="numpy")
+            def scaled(x, out):
+                out[0] = 2.0 * x
+                return x + 1.0
+
+            @kernel
+            def caller(x):
+                out = np.zeros(1)
+                return scaled(x, out) + out[0]
+        """)
+    )
+    probe = textwrap.dedent("""
+        import json, numpy as np, inner_probe
+        from nao_arena.jit import twins_made
+        first = inner_probe.caller(1.5)
+        before = twins_made()
+        out = np.zeros(1)
+        direct = inner_probe.scaled(1.5, out)
+        print(json.dumps([first, before, direct, float(out[0]), twins_made()]))
+    """)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path)}
+    runs = []
+    for _ in range(2):  # the second loads the caller from the cache
+        out = subprocess.run(
+            [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True
+        )
+        assert out.returncode == 0, out.stderr[-2000:]
+        runs.append(json.loads(out.stdout))
+    for first, before, direct, written, after in runs:
+        assert first == 2.5 + 3.0 and before == []
+        assert direct == 2.5 and written == 3.0 and after == ["inner_probe.scaled"]
+
+
 def test_manifest_json_round_trip():
     k = Kernel("m", "f", ("int64",), ("m:g(int64)",), ("core",), 1.5)
     g = Kernel("m", "g", ("int64",), (), ("core",), 0.25)
@@ -209,6 +252,8 @@ def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
         arena = Arena(load_map("crossing"), ArenaOptions(agent="goal"))
         arena.reset(0)
         record_episode(arena, os.path.join(sys.argv[1], "x.gif"), max_steps=2)
+        from nao_arena.jit import twins_made
+        print(json.dumps(twins_made()))
         print(json.dumps(sorted(key for key, (_, sig, _) in _loaded_kernels().items()
                                 if _nameable(type_name(t) for t in sig))))
     """).replace(
@@ -225,5 +270,7 @@ def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
     )
     assert out.returncode == 0, out.stderr[-2000:]
     used = set(json.loads(out.stdout.splitlines()[-1]))
+    # no production path calls a kernel compiled for compiled callers only from Python
+    assert json.loads(out.stdout.splitlines()[-2]) == []
     missing = used - set(load_manifest().kernels)
     assert not missing, f"not in the manifest (python -m nao_arena.kernels record): {missing}"

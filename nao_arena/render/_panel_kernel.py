@@ -28,7 +28,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.kernels import (
@@ -37,6 +36,7 @@ from nao_arena.geometry.kernels import (
     scan_obstacle,
     segment_min_distance,
 )
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = ["BAND", "panel_labels", "wall_clearances"]
 
@@ -54,7 +54,7 @@ NO, YES, UNSURE = 0, 1, 2
 """Answers of :func:`_below`."""
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _extent(v, a, tau, horizon):
     """Least and greatest value of one coordinate of the path (m) over t in [0, horizon]
     (finite): v t + a t^2 / 2 up to tau, then straight on."""
@@ -75,7 +75,7 @@ def _extent(v, a, tau, horizon):
     return lo, hi
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _walls_least(vx, vy, ax, ay, v_max, horizon, walls, grown, boxes, stop_below):
     """Least over the walls (W, 2, 2) m of (exact distance from the path to the wall minus
     grown (W,) m), measuring only the walls whose grown boxes (W, 4) (x lo, x hi, y lo,
@@ -119,7 +119,7 @@ def _walls_least(vx, vy, ax, ay, v_max, horizon, walls, grown, boxes, stop_below
     return best
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _windows(seg_t, seg_c, sweep):
     """Per neighbour and window of :data:`WINDOW` pieces (N, ceil(S / WINDOW)): how far (m)
     the neighbour moves from its centre at the window's start within the window (the sum of
@@ -135,7 +135,7 @@ def _windows(seg_t, seg_c, sweep):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _out_of_reach(vx, vy, ax, ay, tau, bound, seg_t, seg_c, windows, n, reach):
     """Whether robot (speed at most bound m/s) and neighbour n stay farther apart than reach
     (m) in every window: their distance at the window's start less what both move within
@@ -156,7 +156,7 @@ def _out_of_reach(vx, vy, ax, ay, tau, bound, seg_t, seg_c, windows, n, reach):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _wall_boxes(walls, grown):
     """Per wall (W, 2, 2) m: its box grown by grown (W,) m and a little slack (W, 4)."""
     boxes = np.empty((walls.shape[0], 4))
@@ -171,7 +171,7 @@ def _wall_boxes(walls, grown):
     return boxes
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def wall_clearances(
     grid: np.ndarray,
     v: np.ndarray,
@@ -193,7 +193,7 @@ def wall_clearances(
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _below(
     vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, windows, n, r, level, buf, out
 ):
@@ -259,7 +259,7 @@ def _below(
     return UNSURE
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, buf, out):
     """Neighbour n's exact clearance (m), as :func:`clearance_kernel` computes it."""
     scan_obstacle(
@@ -284,7 +284,7 @@ def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, 
     return math.sqrt(out[0]) - r
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def panel_labels(
     grid: np.ndarray,
     v: np.ndarray,
@@ -330,7 +330,7 @@ def panel_labels(
     return labels
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _fill_labels(
     grid,
     v,

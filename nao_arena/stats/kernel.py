@@ -8,11 +8,12 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.typed import Dict
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import point_segment_distance, segment_segment_distance
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = [
     "EV_DEEPER",
@@ -56,13 +57,13 @@ EV_DEEPER, EV_START, EV_END = 0, 1, 2  # + 3 for the wall family
 _MARGIN = 1.0 + 1e-9  # relative margin of squared-distance pre-tests before hypot
 
 
-@njit(cache=True)
+@kernel
 def new_depth_map() -> Any:
     """Deepest penetration (m) of each open contact episode, by pair key (see step_kernel)."""
     return Dict.empty(key_type=types.int64, value_type=types.float64)
 
 
-@njit(cache=True)
+@kernel
 def _sweep_pairs_kernel(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntArray]:
     """sweep_pairs, compiled: the same pairs in the same order."""
     n = lo.shape[0]
@@ -97,7 +98,7 @@ def _sweep_pairs_kernel(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntAr
     return out_a[:k], out_b[:k]
 
 
-@njit(cache=True)
+@inner_kernel
 def _end_separation(
     p1: FloatArray, radii: FloatArray, i: int, j: int, out: FloatArray, q: int
 ) -> None:
@@ -106,7 +107,7 @@ def _end_separation(
         out[q] = math.hypot(p1[j, 0] - p1[i, 0], p1[j, 1] - p1[i, 1]) - (radii[i] + radii[j])
 
 
-@njit(cache=True)
+@inner_kernel
 def _sorts_after(xa: float, a: int, xb: float, b: int) -> bool:
     """Whether key (xa, a) comes after (xb, b) in a stable sort on x (NaN last, as numpy)."""
     if xa > xb:
@@ -119,12 +120,12 @@ def _sorts_after(xa: float, a: int, xb: float, b: int) -> bool:
     return (na and not nb) or (na and nb and a > b)
 
 
-@njit(cache=True)
+@inner_kernel
 def _clip01(x: float) -> float:
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True)
+@inner_kernel
 def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
     """Minimum distance (m) between the centres of bodies i and j over the substep path
     (S + 1, N, 2), each moving in a straight line between rows: per substep the closest
@@ -142,7 +143,7 @@ def _swept_path_distance(path: FloatArray, i: int, j: int) -> float:
     return math.sqrt(best)
 
 
-@njit(cache=True)
+@kernel
 def swept_distances(rel: FloatArray) -> FloatArray:
     """Minimum distance (S,) m to the origin of the relative centre path rel (S + 1, 2) m,
     substep by substep (a straight line each): hypot of the closest point."""
@@ -157,7 +158,7 @@ def swept_distances(rel: FloatArray) -> FloatArray:
     return out
 
 
-@njit(cache=True)
+@kernel
 def swept_wall_distances(path: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
     """Minimum distance (S,) m between a centre's path (S + 1, 2) m, substep by substep
     (a straight line each), and the segment a-b (m)."""
@@ -169,7 +170,7 @@ def swept_wall_distances(path: FloatArray, a: FloatArray, b: FloatArray) -> Floa
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def step_kernel(
     t: float,
     dt: float,
@@ -494,7 +495,7 @@ def step_kernel(
     return codes[:ne], vals[:ne], n_prox
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def liveness_kernel(
     dt: float,
     p1: FloatArray,

@@ -7,15 +7,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.exact import candidate_setup, fill_sweep, robot_state, scan_obstacle
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_pieces
 from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_within
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel, kernel
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def sampled_admissible_batch(
     times,
     pred,
@@ -89,7 +89,7 @@ def sampled_admissible_batch(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _admissible_rows(
     times,
     pred,

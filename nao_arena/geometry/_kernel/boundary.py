@@ -9,17 +9,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan_obstacle
 from nao_arena.geometry._kernel.segment import wall_violation
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
 
 
 # called by the searches once per candidate: its callers pass borrowed arrays, so the
 # call counts no references (see nao_arena.geometry.borrow)
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def ok_disc(
     x,
     y,
@@ -108,7 +108,7 @@ def ok_disc(
     return True, 1
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _bisect_disc(
     bx,
     by,
@@ -181,7 +181,7 @@ def _bisect_disc(
     return gx, gy, count
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def bisect_disc(
     bad,
     good,
@@ -231,7 +231,7 @@ def bisect_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _sliver_push(
     x,
     y,
@@ -320,7 +320,7 @@ def _sliver_push(
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def outward_normal(x, y, disks):
     """Unit direction away from the disks whose circles pass through (x, y) (m/s^2): the
     mean of their outward normals; (0, 0) when none or they cancel."""
@@ -339,7 +339,7 @@ def outward_normal(x, y, disks):
     return nx / norm, ny / norm
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def slide_disc(
     a_d,
     best,
@@ -383,7 +383,7 @@ def slide_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _slide(
     a_d,
     best,

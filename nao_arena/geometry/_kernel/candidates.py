@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.boundary import (
     _sliver_push,
@@ -20,10 +19,11 @@ from nao_arena.geometry._kernel.boundary import (
 )
 from nao_arena.geometry._kernel.outside import _WORDS, outside_advance, outside_setup
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def try_candidates_disc(
     cands,
     start,
@@ -81,7 +81,7 @@ def try_candidates_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _try_candidates(
     cands,
     start,
@@ -145,7 +145,7 @@ def _try_candidates(
     return False, 0.0, 0.0, count, False
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _try_candidate(
     x,
     y,
@@ -256,7 +256,7 @@ def _try_candidate(
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def ring_search_disc(
     a_d,
     radii,
@@ -304,7 +304,7 @@ def ring_search_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _ring_search(
     a_d,
     radii,
@@ -415,7 +415,7 @@ def _ring_search(
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _try_ball_disc(
     a_d,
     disks,
@@ -474,7 +474,7 @@ def _try_ball_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _ball_search(
     a_d,
     disks,

@@ -8,19 +8,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def vector_norm(x, y):
     """sqrt(x^2 + y^2), without math.hypot's care for overflow (several times faster;
     the values here are accelerations and distances of ordinary size)."""
     return math.sqrt(x * x + y * y)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _farther(x, y, lim):
     """math.hypot(x, y) > lim, without the hypot unless the answer is close."""
     d2 = x * x + y * y
@@ -32,14 +32,14 @@ def _farther(x, y, lim):
     return math.hypot(x, y) > lim
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _samples_in_piece(t0, t1, n_sub, per_second):
     if not math.isfinite(t1):
         return 12
     return max(n_sub, min(256, int(math.ceil(per_second * (t1 - t0)))))
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _piece_schedule(j, S, t0, t1, n_sub, per_second):
     """(samples within piece j of S, geometric samples towards t = 0 before them, 1 if
     the piece's end is sampled too): when the disk picture samples piece [t0, t1] (s)."""
@@ -49,7 +49,7 @@ def _piece_schedule(j, S, t0, t1, n_sub, per_second):
     return k, head, tail
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _sample_time(t0, t1, i, k, head):
     """The i-th sample time (s) of piece [t0, t1] (:func:`_piece_schedule`)."""
     if not math.isfinite(t1):
@@ -61,7 +61,7 @@ def _sample_time(t0, t1, i, k, head):
     return t0 + (t1 - t0) * (i - head) / k
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _put(out, row, x, y, rho, dq):
     """Write the disk (x, y, rho, dq) into out[row]; returns the next row."""
     out[row, 0] = x
@@ -71,7 +71,7 @@ def _put(out, row, x, y, rho, dq):
     return row + 1
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def nao_disk_samples(
     v,
     seg_t,
@@ -153,7 +153,7 @@ def nao_disk_samples(
 _WALL_DISKS_PER_SAMPLE = 64
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _clip(px, py, dx, dy, cx, cy, big, lo, hi):
     """[lo, hi] cut to the u where |P + u D - c| <= big (an empty interval: lo > hi)."""
     dd = dx * dx + dy * dy
@@ -170,7 +170,7 @@ def _clip(px, py, dx, dy, cx, cy, big, lo, hi):
     return max(lo, (-half_b - sq) / dd), min(hi, (-half_b + sq) / dd)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
     """Disks of radius rho along [a, b] (see :func:`nao_disk_samples`) into out[cnt:] (or
     only counted when not ``write``); returns the new count."""
@@ -187,7 +187,7 @@ def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
     return cnt
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _wall_disks(
     v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt
 ):
@@ -252,7 +252,7 @@ def _wall_disks(
     return cnt
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _fill_disk_samples(
     v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second, thin, out
 ):
@@ -330,7 +330,7 @@ def _fill_disk_samples(
     return cnt
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def nao_disks(
     v,
     seg_t,
@@ -379,28 +379,28 @@ def nao_disks(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def nao_disks_within(samples, reach):
     """:func:`nao_disks` for ``reach`` (m/s^2) from the samples of
     :func:`nao_disk_samples` taken with a reach at least as large."""
     return disks_within(samples, radius_order(samples), reach)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def radius_order(rows):
     """Rows (disks or samples) largest radius first, equal radii in row order (a stable
     sort): the visiting order of :func:`_uncontained_in`, for any subset of the rows."""
     return np.argsort(-rows[:, 2], kind="mergesort")
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def disks_within(samples, order, reach):
     """:func:`nao_disks_within` with the samples' :func:`radius_order` given."""
     keep, _ = _uncontained_in(samples, order, reach, samples.shape[0])
     return np.ascontiguousarray(samples[keep][:, :3])
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def largest_capped_reach(samples, reach, limit, max_disks):
     """Double ``reach`` (m/s^2) while below ``limit``: the last doubled reach whose
     :func:`nao_disks_within` holds at most ``max_disks`` disks, stopping at the first
@@ -408,7 +408,7 @@ def largest_capped_reach(samples, reach, limit, max_disks):
     return capped_disks(samples, radius_order(samples), reach, limit, max_disks)[0]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def capped_disks(samples, order, reach, limit, max_disks):
     """:func:`largest_capped_reach` and its :func:`nao_disks_within` (empty when there
     is none), from the samples' :func:`radius_order`. Containment is only worked out
@@ -439,7 +439,7 @@ def capped_disks(samples, order, reach, limit, max_disks):
     return chosen, np.ascontiguousarray(samples[chosen_keep][:, :3])
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def drop_contained(disks):
     """The disks (M, 3) that no other disk contains (of identical ones, the first).
 
@@ -451,7 +451,7 @@ def drop_contained(disks):
     return disks[keep]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _uncontained_in(rows, order, reach, stop_after):
     """:func:`drop_contained`'s mask (over ``rows``) and count of kept disks, among the
     rows: disks (M, 3), or samples (M, 4) of which only those within ``reach`` (m/s^2)

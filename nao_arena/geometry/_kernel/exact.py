@@ -14,14 +14,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
 from nao_arena.geometry._kernel.robot_path import candidate_setup, robot_state
 from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wall_violation
+from nao_arena.jit import inner_kernel, kernel
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def scan_obstacle(
     vx,
     vy,
@@ -113,7 +113,7 @@ def scan_obstacle(
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n, j, reach):
     """Cheap prune: whether robot and obstacle n are so far apart at the start of piece j
     (finite) that they cannot come within ``reach`` (m) during it: the robot moves at most
@@ -128,7 +128,7 @@ def piece_out_of_reach(vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, sweep, n,
     return cx * cx + cy * cy > bound * bound
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
     """Robot minus obstacle n from time ta within piece j (which starts at t0), as
     A s^2 + B s + C (s = time since ta): (Ax, Ay, Bx, By, Cx, Cy)."""
@@ -146,7 +146,7 @@ def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
     """Whether the candidate (as in :func:`scan_obstacle`) comes closer than sqrt(reach2) (m) to
     obstacle n during piece j: the test :func:`scan_obstacle` makes there, without its prune."""
@@ -165,7 +165,7 @@ def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, 
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def piece_sweep(seg_t, seg_w, seg_b):
     """(N, S) bound on how far each obstacle moves within each piece (m)."""
     out = np.empty((seg_w.shape[0], seg_w.shape[1]))
@@ -173,7 +173,7 @@ def piece_sweep(seg_t, seg_w, seg_b):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def fill_sweep(seg_t, seg_w, seg_b, rows, out):
     """:func:`piece_sweep` of the first ``rows`` obstacles, into out[:rows]."""
     for n in range(rows):
@@ -184,7 +184,7 @@ def fill_sweep(seg_t, seg_w, seg_b, rows, out):
             out[n, j] = w * h + 0.5 * b * h * h
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def clearance_kernel(
     cand_v,
     cand_a,
@@ -267,7 +267,7 @@ def clearance_kernel(
             out_tfirst[k, N + w] = out[2]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def admissible_kernel(
     cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, out_ok
 ):
@@ -334,7 +334,7 @@ def admissible_kernel(
         out_ok[k] = ok
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _first_contact(
     vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, t_stop, buf
 ):
@@ -373,7 +373,7 @@ def _first_contact(
     return math.inf
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def latest_contact_kernel(
     cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, out_first
 ):

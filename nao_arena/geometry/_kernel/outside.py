@@ -10,15 +10,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.disks import vector_norm
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel
 
 _TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _offset(cx, cy, rho, circ, j):
     """Disk j of ``circ`` seen from the circle (cx, cy, rho): (dx, dy) from the circle's
     centre to the disk's (m/s^2), its radius, and whether the two are clearly apart
@@ -31,7 +31,7 @@ def _offset(cx, cy, rho, circ, j):
     return dx, dy, rj, dx * dx + dy * dy > far * far * (1.0 + 1e-9)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
     """Add the angular interval of the circle (cx, cy, rho) that disk j of ``circ``
     covers (j == len(circ): the outside of the limit disc, when ``in_limit``) to
@@ -85,7 +85,7 @@ def _add_interval(cx, cy, rho, in_limit, circ, skip, a_max, j, starts, ends, n):
 _BINS = 256
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _pseudo_angle(x, y):
     """A monotone stand-in for atan2(y, x) mod 2 pi, in [0, 4): no trigonometry.
     Its derivative with respect to the angle is at most 1."""
@@ -103,7 +103,7 @@ _WORDS = _BINS // 64
 _FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _set_bins(lo, hi, cover):
     """Set the bits of bins lo .. hi - 1 (0 <= lo < hi <= _BINS) in ``cover``."""
     for word in range(lo // 64, (hi - 1) // 64 + 1):
@@ -115,7 +115,7 @@ def _set_bins(lo, hi, cover):
             cover[word] |= ((np.uint64(1) << np.uint64(b - a)) - np.uint64(1)) << np.uint64(a)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _cover_bins(p0, p1, shrink, cover):
     """Mark in the bit set ``cover`` the bins inside the ccw arc [p0, p1]
     (pseudo-angles) shrunk by ``shrink`` at both ends."""
@@ -143,7 +143,7 @@ def _cover_bins(p0, p1, shrink, cover):
 _NOTHING, _MARKED, _ALL_OUTSIDE, _UNPROVABLE = 0, 1, 2, 3
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _mark(cx, cy, rho, circ, j, a_max, cover):
     """Mark in the bit set ``cover`` the bins of the circle (cx, cy, rho) that disk j of
     ``circ`` covers (j == len(circ): the outside of the limit disc |a| <= a_max).
@@ -272,7 +272,7 @@ _DE_BRUIJN_INDEX = np.array(
 )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _next_bin(cover, b, marked):
     """The first bin >= b (b < _BINS) that is marked in ``cover`` (``marked``) or not;
     _BINS when there is none."""
@@ -288,7 +288,7 @@ def _next_bin(cover, b, marked):
     return 64 * w + _DE_BRUIJN_INDEX[(low * _DE_BRUIJN) >> np.uint64(58)]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _on_circle(cx, cy, rho, p):
     """The point of the circle (cx, cy, rho) at pseudo-angle p (see :func:`_pseudo_angle`)."""
     p %= 4.0
@@ -302,7 +302,7 @@ def _on_circle(cx, cy, rho, p):
     return cx + rho * x / n, cy + rho * y / n
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _inside(circ, j, x, y):
     """Whether (x, y) lies strictly inside disk j of ``circ``."""
     dx = circ[j, 0] - x
@@ -310,7 +310,7 @@ def _inside(circ, j, x, y):
     return dx * dx + dy * dy < circ[j, 2] * circ[j, 2]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _first_stretch(cover):
     """The first unmarked bin of ``cover`` after a marked one (bin 0 when none is marked)
     and the end of the stretch of unmarked bins from it, at most a quarter turn on (may
@@ -335,7 +335,7 @@ _PROBES = 5
 
 
 # called by its one caller, _free_arc_points, once per circle visited
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     """True only if the circle (cx, cy, rho) has no free arc for :func:`_free_arc_points`
     (a cheap proof; False means: not proven).
@@ -410,7 +410,7 @@ def _surely_covered(cx, cy, rho, in_limit, circ, skip, a_max, cover, px, py):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _all_binned(cover):
     """Whether the bit set ``cover`` marks every bin."""
     for i in range(_WORDS):
@@ -419,7 +419,7 @@ def _all_binned(cover):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends, cover):
     """Append to ``out`` (from row k) the point nearest q of every free arc of the
     circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
@@ -477,7 +477,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
     return k
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0):
     """Points nearest q that lie outside every disk and inside |a| <= a_max.
 
@@ -510,7 +510,7 @@ def nearest_outside_disks(q, disks, a_max, max_out, within=math.inf, covered=0.0
     return res[:found].copy()
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, cover):
     """:func:`nearest_outside_disks` into ``res`` (max_out, 3), filled with inf; returns how
     many rows hold candidates. Scratch arrays given (borrowed here)."""
@@ -538,7 +538,7 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
     return outside_found(res, within)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def outside_found(res, within):
     """How many leading rows of ``res`` hold candidates within ``within`` (m/s^2)."""
     found = 0
@@ -547,7 +547,7 @@ def outside_found(res, within):
     return found
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def outside_setup(q, disks, a_max, within, res, lower):
     """Start :func:`nearest_outside_disks` (res (max_out, 3) filled with inf, lower (M + 1,)
     scratch): the candidate bound set just above ``within``, q itself as a candidate when
@@ -580,7 +580,7 @@ def outside_setup(q, disks, a_max, within, res, lower):
     return order, scale
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def outside_advance(
     q, disks, a_max, covered, res, lower, order, oi, row, scale, cand, starts, ends, cover
 ):

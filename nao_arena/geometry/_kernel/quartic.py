@@ -12,24 +12,24 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from nao_arena.jit import inner_kernel
 
 _NEWTON_ITERS = 200
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _cubic(s, c3, c2, c1, c0):
     return ((c3 * s + c2) * s + c1) * s + c0
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _dist2(s, ax, ay, bx, by, cx, cy):
     dx = (ax * s + bx) * s + cx
     dy = (ay * s + by) * s + cy
     return dx * dx + dy * dy
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _root_increasing(lo, hi, c3, c2, c1, c0):
     """Root of the cubic on [lo, hi] where it rises from < 0 to > 0."""
     s = 0.5 * (lo + hi)
@@ -53,7 +53,7 @@ def _root_increasing(lo, hi, c3, c2, c1, c0):
     return s
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _crossing(lo, hi, r2, ax, ay, bx, by, cx, cy):
     """First s in [lo, hi] with |d(s)|^2 <= r2, |d|^2 decreasing on the interval."""
     for _ in range(_NEWTON_ITERS):
@@ -67,7 +67,7 @@ def _crossing(lo, hi, r2, ax, ay, bx, by, cx, cy):
     return hi
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def piece_minimum(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     """Minimum of |A s^2 + B s + C|^2 over s in [0, h] (h may be inf).
 
@@ -171,7 +171,7 @@ def piece_minimum(ax, ay, bx, by, cx, cy, h, r2, want_first, out):
     out[2] = first
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def end_dist2(ax, ay, bx, by, cx, cy, h):
     """The smaller of |A s^2 + B s + C|^2 at s = 0 and s = h (when finite): the minimum
     :func:`piece_minimum` finds is at most this (it starts from these same two values)."""

@@ -11,15 +11,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_piece
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import limit_norm_sqrt
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     """Whether obstacle n (combined radius r, m) is within reach: see
     :func:`relevant_obstacles` (v already clamped to v_max)."""
@@ -43,7 +43,7 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
     """Whether the robot (velocity v m/s, limits a_max, v_max) could come within r (m) of
     an obstacle during the piece [t0, t1] s that starts at (cx, cy) m with velocity
@@ -66,7 +66,7 @@ def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
     return (not math.isfinite(h)) | (near & ((not math.isfinite(v_max)) | close))
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
     """(N,) mask of obstacles that some acceleration with |a| <= a_max could come within
     radius + margin (m) of over the horizon.
@@ -86,7 +86,7 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max, r):
     """:func:`moving_pieces` into row ``row``, and whether one of those pieces is relevant
     (:func:`_piece_relevant`, radius r m: what :func:`_relevant` answers), in one pass with
@@ -113,7 +113,7 @@ def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max,
     return hit
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def relevant_sampled_paths(
     times, pred, idx, position, nb_radius, grow, v, a_max, v_max, excursion, finite_path
 ):
@@ -159,7 +159,7 @@ def relevant_sampled_paths(
     return c[:n], w[:n], np.zeros((n, S, 2)), rad[:n], True
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _fill_relevant_paths(
     times,
     pred,
@@ -214,7 +214,7 @@ def _fill_relevant_paths(
     return n
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def relevant_subset(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, margin):
     """The obstacles :func:`relevant_obstacles` keeps, as contiguous arrays (the inputs
     themselves when all are kept), and their :func:`piece_sweep`:

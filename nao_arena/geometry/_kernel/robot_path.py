@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from nao_arena.jit import inner_kernel
 from nao_arena.motion import limit_norm_sqrt, saturation_time
 
 __all__ = ["candidate_setup", "robot_state"]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def robot_state(vx, vy, ax, ay, tau, ta):
     """Robot (acceleration, velocity, position) at time ta under the saturation model."""
     if ta < tau:
@@ -42,7 +41,7 @@ def robot_state(vx, vy, ax, ay, tau, ta):
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def candidate_setup(vx, vy, ax, ay, v_max, horizon):
     """Speed-clamped initial velocity, saturation time and a bound on the speed (m/s)."""
     vx, vy, spd = limit_norm_sqrt(vx, vy, v_max)

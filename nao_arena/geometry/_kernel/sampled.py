@@ -10,10 +10,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from nao_arena.jit import inner_kernel, kernel
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def moving_pieces(pred, body, px, py, times, c, w, row):
     """Write into c, w [row] the pieces of body's sampled centres pred[body] (T, 2) m,
     relative to (px, py): start centres (m) and velocities (m/s), as
@@ -22,7 +23,7 @@ def moving_pieces(pred, body, px, py, times, c, w, row):
         moving_piece(pred, body, px, py, times, c, w, row, j)
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def moving_piece(pred, body, px, py, times, c, w, row, j):
     """Piece j of :func:`moving_pieces` into c, w [row, j]; returns it: (start centre m,
     velocity m/s)."""
@@ -38,7 +39,7 @@ def moving_piece(pred, body, px, py, times, c, w, row, j):
     return x0, y0, wx, wy
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def static_pieces(x0, y0, times, c, w, row):
     """Write into c, w [row] the pieces of a disc at rest at (x0, y0) m (robot-relative),
     as :func:`~nao_arena.geometry.clearance.sampled_path` builds them."""
@@ -55,7 +56,7 @@ def static_pieces(x0, y0, times, c, w, row):
 RADIUS_CUT = 1.0 - 1e-9
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def path_excursions(pred):
     """Per body of ``pred`` (n, T, 2) m: the largest distance (m) of a sampled centre from
     the first one, and whether all its centres are finite."""

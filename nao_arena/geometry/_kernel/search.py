@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 # the imports ``as`` themselves are re-exports: callers import these steps from here too
 from nao_arena.geometry._kernel.boundary import bisect_disc as bisect_disc
@@ -31,10 +30,11 @@ from nao_arena.geometry._kernel.relevance import relevant_subset
 from nao_arena.geometry._kernel.segment import relevant_walls
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.outcome import Outcome
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import onto_disc
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def repair_disc(
     prev, want, a_max, steps, unit, v, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r
 ):
@@ -65,7 +65,7 @@ def repair_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def repair_relevant(
     prev,
     want,
@@ -119,7 +119,7 @@ def repair_relevant(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _first_admissible(
     cand,
     order,
@@ -175,7 +175,7 @@ def _first_admissible(
     return False, 0.0, 0.0, count
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def select_disc(
     a_d,
     v,
@@ -229,7 +229,7 @@ def select_disc(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def select_relevant(
     a_d,
     v,

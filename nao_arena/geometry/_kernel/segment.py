@@ -42,12 +42,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from nao_arena.geometry._kernel.quartic import piece_minimum
 from nao_arena.geometry._kernel.robot_path import candidate_setup
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT
 from nao_arena.geometry.borrow import borrowed
+from nao_arena.jit import inner_kernel, kernel
 
 __all__ = [
     "nearby_walls",
@@ -65,7 +65,7 @@ __all__ = [
 ]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
     """Minimum squared distance (m^2) over t in [0, horizon] from the robot's centre (speed
     already clamped, saturation time tau) to the segment [p, q] (:func:`wall_scan`)."""
@@ -73,7 +73,7 @@ def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
     return out[0]
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def point_segment_dist2(px, py, qx, qy):
     """Squared distance (m^2) from the origin to the segment [p, q]."""
     ux = qx - px
@@ -87,7 +87,7 @@ def point_segment_dist2(px, py, qx, qy):
     return dx * dx + dy * dy
 
 
-@njit(cache=True)
+@inner_kernel
 def point_segment_distance(px, py, ax, ay, bx, by):
     """Distance (m) from the point p to the segment [a, b]: hypot(ap - t ab), t the
     foot's parameter clamped to [0, 1] (0 for a segment of zero length): the contact
@@ -102,7 +102,7 @@ def point_segment_distance(px, py, ax, ay, bx, by):
     return math.hypot(apx - abx * t, apy - aby * t)
 
 
-@njit(cache=True)
+@inner_kernel
 def segment_segment_distance(p0x, p0y, p1x, p1y, ax, ay, bx, by):
     """Distance (m) between the segments [p0, p1] and [a, b] (0 if they cross): the
     smallest :func:`point_segment_distance` of an end point to the other segment."""
@@ -126,7 +126,7 @@ def segment_segment_distance(p0x, p0y, p1x, p1y, ax, ay, bx, by):
     )
 
 
-@njit(cache=True)
+@inner_kernel
 def segment_segment_dist2(ax, ay, bx, by, px, py, qx, qy):
     """Squared distance (m^2) between the segments [a, b] and [p, q]."""
     best = math.inf
@@ -160,7 +160,7 @@ def segment_segment_dist2(ax, ay, bx, by, px, py, qx, qy):
     return best
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def segment_min_distance(
     vx: float,
     vy: float,
@@ -182,7 +182,7 @@ def segment_min_distance(
     return math.sqrt(_path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out))
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def segment_admissible(
     v: np.ndarray,
     a: np.ndarray,
@@ -202,7 +202,7 @@ def segment_admissible(
     return d > radius + half_thickness + margin
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf, out):
     """(min over walls of distance - half_thickness (m), its wall index); stops at the first
     wall below ``stop_below`` (m; -inf: never). Prunes walls the robot cannot reach closer than
@@ -236,7 +236,7 @@ def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf,
     return best, index
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def segments_min_distance(
     v: np.ndarray,
     a: np.ndarray,
@@ -253,7 +253,7 @@ def segments_min_distance(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def segments_admissible(
     v: np.ndarray,
     a: np.ndarray,
@@ -273,7 +273,7 @@ def segments_admissible(
     return d > limit
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
     """(min(best, squared distance from d(s) to the segment's line), its s) when s lies in
     [0, h] and the foot of d(s) within the segment (ll = |q - p|^2 > 0), else
@@ -292,7 +292,7 @@ def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
     return best, best_s
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _foot_within(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
     """Whether the foot of d(s) on the segment's line lies within [p, q]."""
     dx = (ax * s + bx) * s + cx - px
@@ -301,7 +301,7 @@ def _foot_within(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
     return 0.0 <= along <= ll
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _roots_within(qa, qb, qc, h):
     """The roots s in [0, h] of qa s^2 + qb s + qc, smaller first (inf for a missing one)."""
     s1 = math.inf
@@ -330,7 +330,7 @@ def _roots_within(qa, qb, qc, h):
     return s1, s2
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, out):
     """Over s in [0, h] of d(s) = A s^2 + B s + C and the segment [p, q]: out = (minimum
     squared distance (m^2), its s, the first s with distance <= r (inf: none; computed when
@@ -396,7 +396,7 @@ def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, o
     out[2] = first
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, out):
     """The robot's path (speed already clamped, saturation time tau s, see
     :func:`~nao_arena.geometry._kernel.robot_path.candidate_setup`) against the static
@@ -441,7 +441,7 @@ def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, 
         out[2] = first
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def _out_of_reach(px, py, qx, qy, travel, reach):
     """Cheap prune: the segment stays farther than ``reach`` (m) from every point within
     ``travel`` (m) of the origin."""
@@ -451,7 +451,7 @@ def _out_of_reach(px, py, qx, qy, travel, reach):
     return lower > reach * (1.0 + 1e-9) + 1e-12
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def segment_within(vx, vy, ax, ay, tau, travel, horizon, px, py, qx, qy, reach, buf, out):
     """Whether the robot's path (speed clamped, saturation time tau s; it stays within
     ``travel`` m of the origin) comes closer than ``reach`` (m) to the segment [p, q] (m,
@@ -463,7 +463,7 @@ def segment_within(vx, vy, ax, ay, tau, travel, horizon, px, py, qx, qy, reach, 
     )
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, first, buf, out):
     """The index of a wall (walls (W, 2, 2) m, robot-relative; radii wall_r (W,) m) that the
     robot's path (speed clamped, saturation time tau s, speed bound ``bound`` m/s) comes
@@ -498,7 +498,7 @@ def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, f
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@inner_kernel(error_model="numpy")
 def wall_first_contact(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, t_stop, buf, out):
     """The earliest first contact (s) of the robot's path (as :func:`wall_violation`) with
     any wall (distance <= wall_r), if before t_stop (s); else inf."""
@@ -532,7 +532,7 @@ def wall_first_contact(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, t_sto
     return best if best < t_stop else math.inf
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def relevant_walls(v, a_max, v_max, horizon, walls, wall_r, margin):
     """The walls (walls (W, 2, 2) m robot-relative, radii wall_r (W,) m) that some
     acceleration with |a| <= a_max (m/s^2) could bring the robot (velocity v (2,) m/s,
@@ -572,7 +572,7 @@ def relevant_walls(v, a_max, v_max, horizon, walls, wall_r, margin):
     return out_w, out_r
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def nearby_walls(walls, half_thickness, index, position, grow, reach, cut):
     """The walls walls[index] ((M, 2, 2) m, world frame) within ``reach`` (m) + their radius
     of ``position`` (2,) m, relative to it, with radii half_thickness + grow (m), with
