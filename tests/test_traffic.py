@@ -209,11 +209,13 @@ def test_roundabout_lanes_keep_their_spacing_for_30_s() -> None:
 def test_traffic_does_not_import_maps() -> None:
     """maps builds lanes from traffic; traffic reads a map only through TrafficMap, so the
     two modules do not import each other (not even for type checking): of nao_arena,
-    traffic imports only the motion rules (the world's clip), which import none of it."""
+    traffic imports only the motion rules (the world's clip), which import only the
+    compile decorators (nao_arena.jit), which import none of it."""
     import ast
     import inspect
     from types import ModuleType
 
+    import nao_arena.jit as jit_module
     import nao_arena.motion as motion_module
     import nao_arena.traffic as traffic_module
 
@@ -226,7 +228,8 @@ def test_traffic_does_not_import_maps() -> None:
         return {m for m in found if m and m.startswith("nao_arena")}
 
     assert imports(traffic_module) <= {"nao_arena.motion"}
-    assert not imports(motion_module)
+    assert imports(motion_module) <= {"nao_arena.jit"}
+    assert not imports(jit_module)
 
 
 def test_lane_traffic_from_any_traffic_map() -> None:
