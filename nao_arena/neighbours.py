@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.jit import inner_kernel, kernel
+from nao_arena.sorting import median
 
 __all__ = [
     "around",
@@ -255,7 +256,7 @@ def _typical_kth(bodies: IntArray, positions: FloatArray, sensing_range: float, 
             found += 1
     if found == 0:
         return 0.0
-    return float(np.median(kth[:found]))
+    return median(kth, found)
 
 
 @inner_kernel

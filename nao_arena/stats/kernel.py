@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import point_segment_distance, segment_segment_distance
 from nao_arena.jit import inner_kernel, kernel
+from nao_arena.sorting import stable_argsort
 
 __all__ = [
     "EV_DEEPER",
@@ -69,7 +70,7 @@ def _sweep_pairs_kernel(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntAr
     n = lo.shape[0]
     if n < 2:
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    order = np.argsort(lo[:, 0], kind="mergesort")
+    order = stable_argsort(lo[:, 0])
     slo_x = np.empty(n)
     for r in range(n):
         slo_x[r] = lo[order[r], 0]

@@ -11,6 +11,7 @@ import numpy as np
 
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel
+from nao_arena.sorting import stable_argsort
 
 
 @inner_kernel(error_model="numpy")
@@ -390,7 +391,7 @@ def nao_disks_within(samples, reach):
 def radius_order(rows):
     """Rows (disks or samples) largest radius first, equal radii in row order (a stable
     sort): the visiting order of :func:`_uncontained_in`, for any subset of the rows."""
-    return np.argsort(-rows[:, 2], kind="mergesort")
+    return stable_argsort(-rows[:, 2])
 
 
 @inner_kernel(error_model="numpy")

@@ -14,6 +14,7 @@ import numpy as np
 from nao_arena.geometry._kernel.disks import vector_norm
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel
+from nao_arena.sorting import stable_argsort
 
 _TWO_PI = 2.0 * math.pi
 
@@ -445,7 +446,7 @@ def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts
         out[k, 0] = cx + rho * math.cos(phi_q)
         out[k, 1] = cy + rho * math.sin(phi_q)
         return k + 1
-    order = np.argsort(starts[:n])
+    order = stable_argsort(starts[:n])
     first_start = starts[order[0]]
     cur_end = ends[order[0]]
     for idx in range(1, n + 1):
@@ -576,7 +577,7 @@ def outside_setup(q, disks, a_max, within, res, lower):
             scale, abs(q[0]) + abs(q[1]) + abs(disks[i, 0]) + abs(disks[i, 1]) + abs(disks[i, 2])
         )
     lower[M] = abs(vector_norm(q[0], q[1]) - a_max)
-    order = np.argsort(lower)
+    order = stable_argsort(lower)
     return order, scale
 
 

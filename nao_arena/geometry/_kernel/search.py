@@ -32,6 +32,7 @@ from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import onto_disc
+from nao_arena.sorting import stable_argsort
 
 
 @kernel(error_model="numpy")
@@ -97,7 +98,7 @@ def repair_relevant(
             )
             dist[k] = math.hypot(cand[k, 0] - want[0], cand[k, 1] - want[1])
             k += 1
-    order = np.argsort(dist, kind="mergesort")
+    order = stable_argsort(dist)
     return _first_admissible(
         cand,
         order,
