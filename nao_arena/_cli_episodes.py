@@ -58,8 +58,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.atomic import remove_stale
     from nao_arena.isolation import EpisodeProcessEnded, run_isolated
-    from nao_arena.kernels import preload
-    from nao_arena.maps import MapError
+    from nao_arena.kernels import map_part, preload
+    from nao_arena.maps import MapError, available_maps
     from nao_arena.trials import make_map, split_agent
     from nao_arena.watchdog import EpisodeTimeout
     from nao_arena.world import World
@@ -116,6 +116,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except (MapError, ValueError) as exc:
         return _err(str(exc))
     parts = _parts(refs, render=bool(args.render))
+    if not args.render and args.map in available_maps():
+        # a shipped map: only what its recorded episodes call is compiled ahead
+        parts.append(map_part(args.map))
     # compiled and loaded before the episode's budget starts (which leaves compiles out
     # anyway), here, so that the episode's process starts warm
     compile_parts(parts)

@@ -59,6 +59,7 @@ __all__ = [
     "compile_count",
     "compile_seconds",
     "load_manifest",
+    "map_part",
     "missing_kernels",
     "parts_for_agents",
     "preload",
@@ -76,6 +77,16 @@ MANIFEST_FILE = "kernels.json"
 
 CORE = "core"
 """The part every episode compiles (world, statistics, sensing, traffic, predictors)."""
+
+MAP_PART = "map:"
+"""The prefix of a part that narrows the others to one shipped map (:func:`map_part`)."""
+
+
+def map_part(name: str) -> str:
+    """The part ``map:NAME`` (see :meth:`Manifest.for_parts`): with it, a run of the
+    shipped map NAME compiles ahead only the kernels its recorded episodes call (the
+    rest, if a rare case calls them, compile when called, outside every budget)."""
+    return MAP_PART + name
 
 
 # --------------------------------------------------------------------------- the clock
@@ -182,8 +193,9 @@ def compile_count() -> int:
 class Kernel:
     """One compiled version of a kernel: ``module``, function ``name``, argument types
     (numba reprs, e.g. ``"Array(float64, 1, 'C', False, aligned=True)"``), the kernels it
-    calls (keys), the parts that use it and its compile time (s, its own, without what
-    it calls) when the manifest was recorded."""
+    calls (keys), the parts that use it, its compile time (s, its own, without what
+    it calls) when the manifest was recorded, and the shipped maps whose recorded
+    episodes call it (with any agent; its callees not counted)."""
 
     module: str
     name: str
@@ -191,6 +203,7 @@ class Kernel:
     calls: tuple[str, ...]
     parts: tuple[str, ...]
     seconds: float
+    maps: tuple[str, ...] = ()
 
     @property
     def key(self) -> str:
@@ -210,9 +223,18 @@ class Manifest:
     kernels: Mapping[str, Kernel]
 
     def for_parts(self, parts: Iterable[str]) -> dict[str, Kernel]:
-        """The kernels that any of ``parts`` uses, with every kernel they call."""
-        wanted = set(parts)
-        todo = [k for k, kernel in self.kernels.items() if wanted & set(kernel.parts)]
+        """The kernels that any of ``parts`` uses, with every kernel they call. A part
+        ``map:NAME`` (:func:`map_part`) of a recorded map keeps only the kernels that
+        NAME's recorded episodes call (and theirs); of a map not recorded, nothing is
+        left out."""
+        wanted = {p for p in parts if not p.startswith(MAP_PART)}
+        recorded = {m for kernel in self.kernels.values() for m in kernel.maps}
+        maps = {p.removeprefix(MAP_PART) for p in parts if p.startswith(MAP_PART)} & recorded
+        todo = [
+            k
+            for k, kernel in self.kernels.items()
+            if wanted & set(kernel.parts) and (not maps or maps & set(kernel.maps))
+        ]
         out: dict[str, Kernel] = {}
         while todo:
             key = todo.pop()
@@ -233,6 +255,7 @@ def manifest_to_json(manifest: Manifest) -> str:
             "calls": sorted(k.calls),
             "parts": sorted(k.parts),
             "seconds": round(k.seconds, 3),
+            "maps": sorted(k.maps),
         }
         for key, k in sorted(manifest.kernels.items())
     }
@@ -250,6 +273,7 @@ def manifest_from_json(text: str) -> Manifest:
             calls=tuple(v["calls"]),
             parts=tuple(v["parts"]),
             seconds=float(v["seconds"]),
+            maps=tuple(v.get("maps", ())),
         )
         for key, v in data["kernels"].items()
     }
@@ -561,10 +585,11 @@ def _loaded_kernels() -> dict[str, tuple[Any, Any, Any]]:
     return out
 
 
-def _record_part(part: str, maps: Sequence[str], steps: int) -> dict[str, Any]:
-    """In a process with an empty cache: run ``steps`` steps of each map with the agent
-    ``part`` (``core``: the ``goal`` agent; ``render``: a few frames to a GIF), and
-    return the kernels compiled, each with what it calls and its own compile time."""
+def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
+    """In a process of its own, with the part's cache (empty for the part's first map):
+    run ``steps`` steps of map ``name`` with the agent ``part`` (``core``: the ``goal``
+    agent; ``render``: a few frames to a GIF), and return the kernels compiled or loaded,
+    each with what it calls (when compiled here) and its own compile time."""
     import tempfile
 
     from numba.core import event
@@ -590,16 +615,15 @@ def _record_part(part: str, maps: Sequence[str], steps: int) -> dict[str, Any]:
 
     event.register("numba:compile", Timer())
     agent = "goal" if part in (CORE, "render") else part
-    for name in maps:
-        arena = Arena(load_map(name), ArenaOptions(agent=agent))
-        if part == "render":
-            from nao_arena.render import record_episode
+    arena = Arena(load_map(name), ArenaOptions(agent=agent))
+    if part == "render":
+        from nao_arena.render import record_episode
 
-            arena.reset(0)
-            with tempfile.TemporaryDirectory() as folder:
-                record_episode(arena, os.path.join(folder, "x.gif"), max_steps=steps)
-        else:
-            arena.run(0, max_steps=steps)
+        arena.reset(0)
+        with tempfile.TemporaryDirectory() as folder:
+            record_episode(arena, os.path.join(folder, "x.gif"), max_steps=steps)
+    else:
+        arena.run(0, max_steps=steps)
     loaded = _loaded_kernels()
     by_library = {id(cres.library): key for key, (_, _, cres) in loaded.items()}
     out: dict[str, Any] = {}
@@ -635,9 +659,11 @@ RECORD_PARTS = (
 def record_manifest(
     maps: Sequence[str] | None = None, steps: int = 30, jobs: int | None = None
 ) -> Manifest:
-    """Record the manifest: each part in its own process with an empty cache (a
-    temporary ``NUMBA_CACHE_DIR``), over ``maps`` (default: every shipped map; render:
-    one map). Kernels that ``core`` uses belong to ``core`` only."""
+    """Record the manifest: each part over ``maps`` (default: every shipped map; render:
+    one map), each map in a process of its own with the part's cache (a temporary
+    ``NUMBA_CACHE_DIR``, empty for its first map: every kernel of the part compiles
+    once, and each map's process loads or compiles exactly what its episode calls).
+    Kernels that ``core`` uses belong to ``core`` only."""
     import tempfile
 
     import numba
@@ -648,28 +674,34 @@ def record_manifest(
     jobs = max(1, jobs or os.cpu_count() or 1)
     found: dict[str, dict[str, Any]] = {}
 
-    def record(part: str) -> dict[str, Any]:
-        # a process of its own, with an empty cache: every kernel of the part compiles
-        with ProcessPoolExecutor(
-            max_workers=1,
-            mp_context=get_context("spawn"),
-            initializer=_fresh_cache,
-            initargs=(root,),
-        ) as pool:
-            part_maps = maps[:1] if part == "render" else maps
-            return pool.submit(_record_part, part, part_maps, steps).result()
+    def record(part: str) -> list[tuple[str, dict[str, Any]]]:
+        cache = tempfile.mkdtemp(dir=root)
+        part_maps = maps[:1] if part == "render" else maps
+        out = []
+        for name in part_maps:  # a process per map, all with the part's cache
+            with ProcessPoolExecutor(
+                max_workers=1,
+                mp_context=get_context("spawn"),
+                initializer=_use_cache,
+                initargs=(cache,),
+            ) as pool:
+                out.append((name, pool.submit(_record_map, part, name, steps).result()))
+        return out
 
     with tempfile.TemporaryDirectory() as root, ThreadPoolExecutor(jobs) as threads:
         results = dict(zip(RECORD_PARTS, threads.map(record, RECORD_PARTS), strict=True))
-    core = set(results[CORE])
-    for part, kernels in results.items():
-        for key, entry in kernels.items():
-            if part != CORE and key in core:
-                continue
-            item = found.setdefault(key, {**entry, "parts": set(), "calls": set()})
-            item["parts"].add(part)
-            item["calls"].update(entry["calls"])
-            item["seconds"] = max(item["seconds"], entry["seconds"])
+    core = {key for _, kernels in results[CORE] for key in kernels}
+    for part, per_map in results.items():
+        for name, kernels in per_map:
+            for key, entry in kernels.items():
+                item = found.setdefault(
+                    key, {**entry, "parts": set(), "calls": set(), "maps": set()}
+                )
+                if part == CORE or key not in core:
+                    item["parts"].add(part)
+                item["calls"].update(entry["calls"])
+                item["seconds"] = max(item["seconds"], entry["seconds"])
+                item["maps"].add(name)
     # a kernel whose argument types cannot be named (function pointers) compiles when called
     found = {key: v for key, v in found.items() if _nameable(v["args"])}
     kernels = {
@@ -680,6 +712,7 @@ def record_manifest(
             calls=tuple(sorted(c for c in v["calls"] if c in found)),
             parts=tuple(sorted(v["parts"])),
             seconds=v["seconds"],
+            maps=tuple(sorted(v["maps"])),
         )
         for key, v in found.items()
     }
@@ -694,11 +727,9 @@ def _nameable(args: Iterable[str]) -> bool:
         return False
 
 
-def _fresh_cache(root: str) -> None:
-    """Worker initializer: numba caches into a new folder under ``root``."""
-    import tempfile
-
-    os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(dir=root)
+def _use_cache(folder: str) -> None:
+    """Worker initializer: numba caches into ``folder``."""
+    os.environ["NUMBA_CACHE_DIR"] = folder
     import numba
 
     numba.config.reload_config()

@@ -231,7 +231,7 @@ def _typical_kth(bodies: IntArray, positions: FloatArray, sensing_range: float, 
     samples = min(b, 32)
     kth = np.empty(samples)
     buf = np.empty(most)
-    found = 0
+    found = np.int64(0)
     for s in range(samples):
         me = bodies[(s * b) // samples]
         m = 0

@@ -27,6 +27,7 @@ from nao_arena.kernels import (
     load_manifest,
     manifest_from_json,
     manifest_to_json,
+    map_part,
     missing_kernels,
     parts_for_agents,
     type_name,
@@ -162,6 +163,36 @@ def test_manifest_json_round_trip():
     assert kernel_key("m", "f", ["int64", "bool"]) == "m:f(int64, bool)"
     assert set(manifest.for_parts(["core"])) == {k.key, g.key}
     assert manifest.for_parts(["nao"]) == {}
+
+
+def test_a_map_part_keeps_only_what_the_maps_episodes_call():
+    """map:NAME narrows the agent parts to the kernels NAME's recorded episodes call, with
+    their callees; an unknown map narrows nothing."""
+    callee = Kernel("m", "c", ("int64",), (), ("nao",), 1.0, ("busy",))
+    a = Kernel("m", "a", ("int64",), (callee.key,), ("nao",), 1.0, ("quiet",))
+    b = Kernel("m", "b", ("int64",), (), ("nao",), 1.0, ("busy",))
+    core = Kernel("m", "k", ("int64",), (), ("core",), 1.0, ("busy", "quiet"))
+    orca = Kernel("m", "o", ("int64",), (), ("orca",), 1.0, ("quiet",))
+    manifest = Manifest("0.0", {k.key: k for k in (callee, a, b, core, orca)})
+    assert manifest_from_json(manifest_to_json(manifest)) == manifest
+    quiet = manifest.for_parts([CORE, "nao", map_part("quiet")])
+    assert set(quiet) == {a.key, callee.key, core.key}  # a's callee comes along
+    assert set(manifest.for_parts([CORE, "nao", map_part("busy")])) == {
+        b.key,
+        callee.key,
+        core.key,
+    }
+    everything = manifest.for_parts([CORE, "nao"])
+    assert manifest.for_parts([CORE, "nao", map_part("mine.yaml")]) == everything
+    # the shipped manifest: every shipped map recorded; roundabout needs less than all
+    from nao_arena.maps import available_maps
+
+    shipped = load_manifest()
+    recorded = {m for k in shipped.kernels.values() for m in k.maps}
+    assert recorded == set(available_maps())
+    nao = shipped.for_parts(parts_for_agents(["nao"]))
+    roundabout = shipped.for_parts([*parts_for_agents(["nao"]), map_part("roundabout")])
+    assert set(roundabout) < set(nao)
 
 
 def test_parts_for_agents():
