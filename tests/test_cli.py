@@ -7,6 +7,7 @@ import math
 import os
 import re
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -694,7 +695,8 @@ def test_no_compile_messages_when_the_kernels_are_cached(capsys):
 
 def test_run_and_trial_compile_ahead_what_they_need(capsys, monkeypatch, tmp_path):
     """When the cache lacks some of their kernels, run and trial compile those of their
-    agents ahead of time, once, before any episode (in the trial: not in each worker)."""
+    agents ahead of time, once, before any episode (in the trial: not in each worker);
+    run of a shipped map only those that the map's recorded episodes call."""
     import nao_arena.kernels as kernels
 
     calls = []
@@ -707,7 +709,8 @@ def test_run_and_trial_compile_ahead_what_they_need(capsys, monkeypatch, tmp_pat
 
     monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)
     assert main(["run", "circle_swap", "--agent", "goal", *TINY, "--time-limit", "1"]) == 0
-    assert calls == [["core", "goal"]]
+    # a shipped map: only what its recorded episodes call
+    assert calls == [["core", "goal", kernels.map_part("circle_swap")]]
     assert "nao-arena: compiled 1/1 kernels" in capsys.readouterr().err
     argv = [
         "trial",
@@ -726,6 +729,11 @@ def test_run_and_trial_compile_ahead_what_they_need(capsys, monkeypatch, tmp_pat
     ]
     assert main([*argv, "--out", str(tmp_path / "a")]) == 0
     assert calls[1:] == [["core", "goal", "nao"]]
+    # a map file of the user's (even one named as a shipped map): every kernel of the agents
+    mine = tmp_path / "circle_swap.yaml"
+    mine.write_text((Path(__file__).parents[1] / "maps" / "circle_swap.yaml").read_text())
+    assert main(["run", str(mine), "--agent", "goal", *TINY, "--time-limit", "1"]) == 0
+    assert calls[2:] == [["core", "goal"]]
 
 
 def test_compile_refuses_unknown_agents(capsys):
