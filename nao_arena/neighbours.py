@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.jit import inner_kernel, kernel
-from nao_arena.sorting import median
+from nao_arena.sorting import median, stable_order
 
 __all__ = [
     "around",
@@ -209,7 +209,7 @@ def in_range_lists(
                 d[m] = dj
                 cand[m] = j
                 m += 1
-        _stable_order(d, m, order, scratch)
+        stable_order(d, m, order, scratch)
         if start[k] + m > index.shape[0]:
             grown = np.empty(max(2 * index.shape[0], start[k] + m), dtype=np.int64)
             for c in range(start[k]):  # no broadcasting (its checks compile long)
@@ -369,43 +369,3 @@ def nearest_lists(
             index[start[k] + i] = best_j[i]
         start[k + 1] = start[k] + m
     return start, index[: start[b]].copy()
-
-
-@inner_kernel
-def _stable_order(key: FloatArray, m: int, order: IntArray, scratch: IntArray) -> None:
-    """order[:m] = the indices 0 .. m - 1 sorted by key (a stable sort: equal keys in
-    index order), without allocating: insertion-sorted runs of 16, then merged."""
-    run = 16
-    for lo in range(0, m, run):
-        hi = min(lo + run, m)
-        for i in range(lo, hi):
-            x = key[i]
-            j = i
-            while j > lo and key[order[j - 1]] > x:
-                order[j] = order[j - 1]
-                j -= 1
-            order[j] = i
-    width = run
-    src = order
-    dst = scratch
-    in_scratch = False
-    while width < m:
-        for lo in range(0, m, 2 * width):
-            mid = min(lo + width, m)
-            hi = min(lo + 2 * width, m)
-            i = lo
-            j = mid
-            for k in range(lo, hi):
-                # take from the left run unless the right one is strictly smaller
-                if i < mid and (j >= hi or key[src[i]] <= key[src[j]]):
-                    dst[k] = src[i]
-                    i += 1
-                else:
-                    dst[k] = src[j]
-                    j += 1
-        src, dst = dst, src
-        in_scratch = not in_scratch
-        width *= 2
-    if in_scratch:
-        for i in range(m):  # element by element: no broadcasting (its checks compile long)
-            order[i] = scratch[i]

@@ -4,7 +4,8 @@ numba compiles its own ``np.argsort`` and ``np.median`` in every process that ca
 them, and never caches them (about a second each per process, and the compile-ahead
 processes each pay it). These are ordinary cached kernels instead, with numpy's
 results: :func:`stable_argsort` is ``np.argsort(keys, kind="stable")`` (NaN last, ties in
-their input order) and :func:`median` is ``np.median`` of finite values.
+their input order; :func:`stable_order` the same into arrays the caller gives) and
+:func:`median` is ``np.median`` of finite values.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 
 from nao_arena.jit import inner_kernel
 
-__all__ = ["median", "stable_argsort"]
+__all__ = ["median", "stable_argsort", "stable_order"]
 
 _RUN = 16
 """Runs of this many keys are sorted by insertion, then merged pairwise."""
@@ -28,55 +29,54 @@ def _before(a, b):
 
 
 @inner_kernel(error_model="numpy")
+def stable_order(keys, m, order, scratch):
+    """order[:m] = the indices 0 .. m - 1 sorted by keys[:m] ascending, ties in index
+    order and NaN last (``np.argsort(keys[:m], kind="stable")``), without allocating:
+    runs of 16 sorted by insertion, then merged pairwise through ``scratch`` (int64,
+    at least m long)."""
+    for lo in range(0, m, _RUN):
+        hi = min(lo + _RUN, m)
+        for i in range(lo, hi):
+            key = keys[i]
+            j = i
+            while j > lo and _before(key, keys[order[j - 1]]):
+                order[j] = order[j - 1]
+                j -= 1
+            order[j] = i
+    src = order
+    dst = scratch
+    in_scratch = False
+    width = _RUN
+    while width < m:
+        for lo in range(0, m, 2 * width):
+            mid = min(lo + width, m)
+            hi = min(lo + 2 * width, m)
+            i = lo
+            j = mid
+            for k in range(lo, hi):
+                # the right run's key goes first only when strictly before: stable
+                if i < mid and (j >= hi or not _before(keys[src[j]], keys[src[i]])):
+                    dst[k] = src[i]
+                    i += 1
+                else:
+                    dst[k] = src[j]
+                    j += 1
+        src, dst = dst, src
+        in_scratch = not in_scratch
+        width *= 2
+    if in_scratch:
+        for i in range(m):  # element by element: no broadcasting (its checks compile long)
+            order[i] = scratch[i]
+
+
+@inner_kernel(error_model="numpy")
 def stable_argsort(keys):
     """The indices (int64) that sort the 1-d array ``keys`` ascending, ties in their
     input order and NaN last: ``np.argsort(keys, kind="stable")``."""
     n = keys.shape[0]
     order = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        order[i] = i
-    for lo in range(0, n, _RUN):
-        hi = min(lo + _RUN, n)
-        for i in range(lo + 1, hi):
-            k = order[i]
-            key = keys[k]
-            j = i - 1
-            while j >= lo and _before(key, keys[order[j]]):
-                order[j + 1] = order[j]
-                j -= 1
-            order[j + 1] = k
-    if n <= _RUN:
-        return order
-    src = order
-    dst = np.empty(n, dtype=np.int64)
-    width = _RUN
-    while width < n:
-        for lo in range(0, n, 2 * width):
-            mid = min(lo + width, n)
-            hi = min(lo + 2 * width, n)
-            i = lo
-            j = mid
-            k = lo
-            while i < mid and j < hi:
-                # the right run's key goes first only when strictly before: stable
-                if _before(keys[src[j]], keys[src[i]]):
-                    dst[k] = src[j]
-                    j += 1
-                else:
-                    dst[k] = src[i]
-                    i += 1
-                k += 1
-            while i < mid:
-                dst[k] = src[i]
-                i += 1
-                k += 1
-            while j < hi:
-                dst[k] = src[j]
-                j += 1
-                k += 1
-        src, dst = dst, src
-        width *= 2
-    return src
+    stable_order(keys, n, order, np.empty(n, dtype=np.int64))
+    return order
 
 
 @inner_kernel(error_model="numpy")

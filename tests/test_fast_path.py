@@ -79,9 +79,9 @@ from nao_arena.geometry.selection import (
 )
 from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.maps import load_map
-from nao_arena.neighbours import _stable_order
 from nao_arena.predictors import turn_rate
 from nao_arena.sensing import Neighbours, neighbour_lists, neighbours_in_range
+from nao_arena.sorting import stable_order
 
 # ---------------------------------------------------------------- scenes
 
@@ -171,7 +171,7 @@ def test_stable_order_is_numpys_stable_argsort(keys, spare):
     key = np.array(keys + [99] * spare, dtype=np.float64) * 0.25
     m = len(keys)
     order = np.full(len(key), -1, dtype=np.int64)
-    _stable_order(key, m, order, np.empty(len(key), dtype=np.int64))
+    stable_order(key, m, order, np.empty(len(key), dtype=np.int64))
     np.testing.assert_array_equal(order[:m], np.argsort(key[:m], kind="stable"))
 
 
