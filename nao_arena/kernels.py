@@ -15,14 +15,16 @@ fair and as short as two or more cores allow:
   which one now; DEBUG for each kernel). The command line shows these on stderr.
 - The manifest (``kernels.json`` beside this module): the kernels that episodes of the
   shipped maps compile, per *part* (``core``: every episode; one part per built-in
-  agent; ``render``), with the kernels each one calls and its measured compile time.
+  agent; ``render``), with the kernels each one calls, its measured compile time and
+  the shipped maps whose recorded episodes call it.
   :func:`record_manifest` writes it (``python -m nao_arena.kernels record``); a test
   checks that it lists every kernel those episodes use.
 - :func:`compile_ahead`: compiles the kernels of some parts in several processes, each
   kernel once its callees are in the cache (so none is compiled twice), longest chain
   first. ``nao-arena compile`` runs it for every part; ``nao-arena run`` and ``trial``
   run it for the parts they need when the cache lacks some of them, before any budget
-  starts.
+  starts (``run`` of a shipped map: only what that map's recorded episodes call,
+  :func:`map_part`).
 """
 
 from __future__ import annotations
@@ -192,10 +194,10 @@ def compile_count() -> int:
 @dataclass(frozen=True)
 class Kernel:
     """One compiled version of a kernel: ``module``, function ``name``, argument types
-    (numba reprs, e.g. ``"Array(float64, 1, 'C', False, aligned=True)"``), the kernels it
+    (:func:`type_name`, e.g. ``"Array(float64, 1, 'C', False, aligned=True)"``), the kernels it
     calls (keys), the parts that use it, its compile time (s, its own, without what
     it calls) when the manifest was recorded, and the shipped maps whose recorded
-    episodes call it (with any agent; its callees not counted)."""
+    episodes call or load it (with any agent)."""
 
     module: str
     name: str
