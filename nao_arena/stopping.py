@@ -125,16 +125,20 @@ class Knowledge(NamedTuple):
     sigmas: float
 
 
+_NO_KNOWLEDGE = Knowledge(
+    np.zeros((0, 0), dtype=np.bool_),
+    np.zeros((0, 0, 2)),
+    np.zeros((0, 0, 2)),
+    np.zeros((0, 0), dtype=np.int64),
+    np.zeros((0, 0, 2)),
+    NOISE_SIGMAS,
+)
+
+
 def no_knowledge() -> Knowledge:
-    """The :class:`Knowledge` of perfect communication: every pair linked."""
-    return Knowledge(
-        np.zeros((0, 0), dtype=np.bool_),
-        np.zeros((0, 0, 2)),
-        np.zeros((0, 0, 2)),
-        np.zeros((0, 0), dtype=np.int64),
-        np.zeros((0, 0, 2)),
-        NOISE_SIGMAS,
-    )
+    """The :class:`Knowledge` of perfect communication: every pair linked (one shared
+    value, made once: its arrays are empty, so nothing can change them)."""
+    return _NO_KNOWLEDGE
 
 
 FloatArray = NDArray[np.float64]
