@@ -4,9 +4,11 @@ For each env (default ``crowd_v0`` and ``crossing_v0``, their default maps) two 
 policies are trained (:func:`nao_arena.sb3.train`: one policy shared by every robot),
 one on the bare env and one behind the NAO safety shield, each until the success over
 its last ``--window`` agent-episodes reaches ``--target`` or ``--timesteps`` agent-steps
-have passed. Each trained policy is then evaluated (deterministic actions) on
-``--eval-episodes`` fresh episodes, seeds 1_000_000 on (never seen in training), once
-without the shield and once behind it.
+have passed. Each trained policy is then evaluated on ``--eval-episodes`` fresh
+episodes, seeds 1_000_000 on (never seen in training), once without the shield and once
+behind it, its actions drawn from the policy's distribution as in training (seeded; with
+``--deterministic``, the distribution's mean). The policies are written to
+``OUT/policy_<env>_<plain|shield>.zip`` (``stable_baselines3.PPO.load``).
 
 Printed per trained policy, and written (atomically) to ``OUT/training.json`` and
 ``OUT/training.md``:
@@ -22,9 +24,9 @@ contact between two robots counts for each). ``OUT/curves_<env>.png``: return, s
 and contacts per agent-episode over training, per window of agent-episodes, both
 policies. Run (about an hour on a 2-core machine with the defaults):
 
-    python benchmarks/train_policies.py [--envs crowd_v0,crossing_v0] [--timesteps 3000000]
-        [--target 0.95] [--window 500] [--eval-episodes 20] [--jobs 2] [--seed 0]
-        [--out training_results]
+    python benchmarks/train_policies.py [--envs crowd_v0,crossing_v0] [--timesteps 6000000]
+        [--target 0.95] [--window 500] [--eval-episodes 20] [--deterministic] [--jobs 2]
+        [--seed 0] [--out training_results]
 """
 
 from __future__ import annotations
@@ -45,12 +47,22 @@ a generator seeded by ``--seed``; these are fixed and the same for every policy)
 
 
 def run_one(
-    env_id: str, shield: bool, timesteps: int, target: float, window: int, episodes: int, seed: int
+    env_id: str,
+    shield: bool,
+    timesteps: int,
+    target: float,
+    window: int,
+    episodes: int,
+    deterministic: bool,
+    seed: int,
+    out: Path,
 ) -> dict[str, Any]:
-    """In a worker process: train one policy and evaluate it; its figures as a dict."""
+    """In a worker process: train one policy, save it into ``out`` and evaluate it; its
+    figures as a dict."""
     import torch
 
     torch.set_num_threads(1)  # one core per training: the jobs run side by side
+    from nao_arena.atomic import atomic_write_with
     from nao_arena.sb3 import evaluate, learning_curve, train
 
     def progress(recorder: Any, steps: int) -> None:
@@ -71,11 +83,18 @@ def run_one(
         on_progress=progress,
     )
     curve = learning_curve(run.episodes, window)
-    plain = evaluate(run.model, env_id, episodes, EVAL_SEED)
-    shielded = evaluate(run.model, env_id, episodes, EVAL_SEED, shield=True)
+    out.mkdir(parents=True, exist_ok=True)
+    policy = out / f"policy_{env_id}_{'shield' if shield else 'plain'}.zip"
+    atomic_write_with(policy, run.model.save, ".zip")
+    plain = evaluate(run.model, env_id, episodes, EVAL_SEED, deterministic=deterministic)
+    shielded = evaluate(
+        run.model, env_id, episodes, EVAL_SEED, shield=True, deterministic=deterministic
+    )
     return {
         "env": env_id,
         "trained_with_shield": shield,
+        "policy": policy.name,
+        "deterministic": deterministic,
         "training": {
             "timesteps": run.timesteps,
             "seconds": run.seconds,
@@ -165,10 +184,13 @@ def plot(results: list[dict[str, Any]], env_id: str, path: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--envs", default="crowd_v0,crossing_v0")
-    parser.add_argument("--timesteps", type=float, default=3e6, help="agent-steps at most")
+    parser.add_argument("--timesteps", type=float, default=6e6, help="agent-steps at most")
     parser.add_argument("--target", type=float, default=0.95, help="success to stop at")
     parser.add_argument("--window", type=int, default=500, help="agent-episodes")
     parser.add_argument("--eval-episodes", type=int, default=20)
+    parser.add_argument(
+        "--deterministic", action="store_true", help="evaluate the policies' mean actions"
+    )
     parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path("training_results"))
@@ -195,7 +217,9 @@ def main(argv: list[str] | None = None) -> int:
                 args.target,
                 args.window,
                 args.eval_episodes,
+                args.deterministic,
                 args.seed,
+                args.out,
             )
             for e, shield in jobs
         ]

@@ -268,7 +268,12 @@ def evaluate(
 ) -> Evaluation:
     """Run ``model`` (its actions for every robot at once) on ``episodes`` episodes of
     :func:`parallel_env` seeded ``seed``, ``seed + 1``, ...; figures per
-    :class:`Evaluation`."""
+    :class:`Evaluation`. With ``deterministic=False`` the actions are drawn from the
+    policy's distribution, by torch's global generator, seeded here with ``seed``."""
+    if not deterministic:
+        import torch
+
+        torch.manual_seed(seed)
     par = parallel_env(env_id, shield, **env_kwargs)
     agents = list(par.possible_agents)
     reached = contacts = with_contact = steps = interventions = 0
@@ -389,9 +394,9 @@ class _Progress(BaseCallback):
 
 @dataclass(frozen=True)
 class Curve:
-    """A learning curve: per window of ``window`` consecutive agent-episodes (the last
-    window may be shorter), the agent-steps of training when its last episode ended, and
-    its mean return, success share and mean contact events per agent-episode."""
+    """A learning curve: per window of ``window`` consecutive agent-episodes (whole
+    windows only), the agent-steps of training when its last episode ended, and its mean
+    return, success share and mean contact events per agent-episode."""
 
     window: int
     timesteps: NDArray[np.int64]
@@ -401,11 +406,11 @@ class Curve:
 
 
 def learning_curve(episodes: Sequence[AgentEpisode], window: int) -> Curve:
-    """:class:`Curve` of ``episodes`` (in the order they finished) in windows of
-    ``window`` agent-episodes."""
+    """:class:`Curve` of ``episodes`` (in the order they finished) in whole windows of
+    ``window`` agent-episodes (the episodes after the last whole window are left out)."""
     if window < 1:
         raise ValueError(f"window: expected at least 1 agent-episode, got {window}")
-    chunks = [episodes[i : i + window] for i in range(0, len(episodes), window)]
+    chunks = [episodes[i : i + window] for i in range(0, len(episodes) - window + 1, window)]
     return Curve(
         window=window,
         timesteps=np.array([c[-1].timesteps for c in chunks], dtype=np.int64),

@@ -20,7 +20,14 @@ if os.environ.get("NAO_ARENA_REQUIRE_RL") != "1":
 from stable_baselines3 import PPO
 
 from nao_arena.envs import crowd_v0
-from nao_arena.sb3 import EpisodeRecorder, evaluate, parallel_env, vec_env
+from nao_arena.sb3 import (
+    AgentEpisode,
+    EpisodeRecorder,
+    evaluate,
+    learning_curve,
+    parallel_env,
+    vec_env,
+)
 
 SMALL: dict[str, Any] = {"n": 3, "lo": -3.0, "hi": 3.0, "time_limit": 6.0}
 """A small crowd: 3 robots in a walled 6 m square, 60 control steps per episode."""
@@ -184,3 +191,25 @@ def test_shielded_evaluation_counts_interventions():
     ev = evaluate(Greedy(), "crowd_v0", 1, seed=0, shield=True, **SMALL)
     assert 0 <= ev.interventions <= ev.steps
     assert ev.agent_episodes == 3
+
+
+def test_learning_curve_takes_whole_windows():
+    eps = [AgentEpisode(10 * (i + 1), float(i), i % 3 == 0, i % 2, 5) for i in range(7)]
+    curve = learning_curve(eps, 3)
+    assert curve.window == 3
+    assert curve.timesteps.tolist() == [30, 60]  # the 7th episode is left out
+    np.testing.assert_allclose(curve.ret, [1.0, 4.0])
+    np.testing.assert_allclose(curve.success, [1 / 3, 1 / 3])
+    np.testing.assert_allclose(curve.contacts, [1 / 3, 2 / 3])
+    assert learning_curve(eps[:2], 3).timesteps.size == 0
+    with pytest.raises(ValueError, match="window: expected at least 1"):
+        learning_curve(eps, 0)
+
+
+def test_stochastic_evaluation_repeats_with_its_seed():
+    vec = vec_env("crowd_v0", **SMALL)
+    model = PPO("MlpPolicy", vec, n_steps=16, batch_size=16, seed=0, device="cpu")
+    vec.close()
+    runs = [evaluate(model, "crowd_v0", 2, seed=4, deterministic=False, **SMALL) for _ in "ab"]
+    assert runs[0] == runs[1]
+    assert runs[0].per_episode[0]["seed"] == 4

@@ -45,6 +45,12 @@ def test_smoke_run_writes_consistent_results(tmp_path):
         ("crossing_v0", True),
     ]
     assert (out / "curves_crossing_v0.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from stable_baselines3 import PPO
+
+    for r in results:
+        assert r["deterministic"] is False
+        policy = PPO.load(out / r["policy"], device="cpu")
+        assert policy.observation_space.shape[0] > 4
     table = (out / "training.md").read_text()
     assert table in proc.stdout
     rows = [line for line in table.splitlines() if line.startswith("| crossing_v0")]
