@@ -17,7 +17,9 @@ Printed per trained policy, and written (atomically) to ``OUT/training.json`` an
   agent-steps (per 1000 agent-steps), and the success of the last window;
 - evaluation without and with the shield: agent-episodes that reached their goals (of
   all), contact events per agent-episode, and the agent-episodes with a contact (of
-  all); with the shield, the share of agent-steps whose action it replaced.
+  all); with the shield, the share of agent-steps whose action it replaced, and the
+  contact events that began while it found no admissible acceleration (status
+  ``infeasible``).
 
 A contact event is counted for the robot that started it (``infos["collisions"]``: a
 contact between two robots counts for each). ``OUT/curves_<env>.png``: return, success
@@ -128,8 +130,10 @@ def table(results: list[dict[str, Any]]) -> str:
         "| env | trained | agent-steps | time | training contacts (per 1000 agent-steps) "
         "| success, last window | success, shield off | contacts per agent-episode, "
         "shield off | with a contact, shield off | success, shield on | contacts per "
-        "agent-episode, shield on | actions replaced |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "agent-episode, shield on | contacts while nothing was admissible, shield on "
+        "| actions replaced |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
+        "| ---: |",
     ]
     for r in results:
         t = r["training"]
@@ -144,6 +148,7 @@ def table(results: list[dict[str, Any]]) -> str:
             f"| {pct(off['with_contact'], off['agent_episodes'])} "
             f"| {pct(on['reached'], on['agent_episodes'])} "
             f"| {on['contacts'] / on['agent_episodes']:.3f} "
+            f"| {on['infeasible_contacts']} of {on['contacts']} "
             f"| {pct(on['interventions'], on['steps'])} |"
         )
     return "\n".join(lines) + "\n"

@@ -52,6 +52,7 @@ __all__ = [
     "EpisodeRecorder",
     "Evaluation",
     "Training",
+    "decaying_learning_rate",
     "evaluate",
     "learning_curve",
     "parallel_env",
@@ -60,24 +61,35 @@ __all__ = [
 ]
 
 TRAINING_REWARDS = RewardWeights(progress=3.0, accel_change=0.01)
-"""The reward weights :func:`train` trains with. The env's defaults weigh a contact
-(10) against the progress of a whole crossing (about 10 m x 1 per m) and penalise each
-change of the command; a policy trained on them first learns to stand still. Progress
-weighs 3 per m here, and smoothness little. Success and contacts are measured the same
-way whatever the weights."""
+"""The reward weights :func:`train` trains with: progress 3 per m (the env's default 1)
+and the command's smoothness 0.01 (default 0.1); a contact and the goal keep their 10.
+With the defaults, a whole crossing's progress (about 10 m) earns what one contact costs,
+and the smoothness term of a policy that still explores (about 0.1 per step over 400 to
+600 steps) outweighs both. Success and contacts are counted the same way whatever the
+weights."""
+
+
+def decaying_learning_rate(progress_remaining: float) -> float:
+    """PPO's learning rate: 3e-4 at the start, falling linearly to 0 at the end of the
+    budget of agent-steps (SB3 passes the share of the budget left, 1 -> 0)."""
+    return 3e-4 * progress_remaining
+
 
 PPO_SETTINGS: dict[str, Any] = {
     "n_steps": 256,
     "batch_size": 1024,
     "n_epochs": 10,
-    "learning_rate": 3e-4,
-    "gamma": 0.99,
+    "learning_rate": decaying_learning_rate,
+    "gamma": 0.995,
     "gae_lambda": 0.95,
     "policy_kwargs": {"log_std_init": -0.5},
 }
 """The keyword arguments of SB3's ``PPO`` that :func:`train` uses (with ``MlpPolicy`` on
 the CPU). ``n_steps`` is per vector entry: a rollout holds ``n_steps`` x agents x copies
-agent-steps."""
+agent-steps. A crossing of ``crossing_v0`` takes about 110 control steps: ``gamma``
+0.995 looks about 200 ahead. With a constant learning rate and ``gamma`` 0.99, the
+policy for ``crossing_v0`` without the shield stalled below 90 % success in 3 million
+agent-steps; with these settings it reached 95 % in 2.7 million."""
 
 POSITION_MARGIN = 2.0
 """m: how far outside an open map's bounds an observed position may be (it is clipped
@@ -239,7 +251,9 @@ class Evaluation:
     """A policy's figures over ``episodes`` env episodes (``agent_episodes`` robots'
     episodes in all): ``reached`` agent-episodes reached their goals, ``contacts``
     contact events in all, ``with_contact`` agent-episodes had at least one; ``steps``
-    agent-steps; ``interventions`` agent-steps whose action the shield replaced (0
+    agent-steps; ``interventions`` agent-steps whose action the shield replaced and
+    ``infeasible_contacts`` the contact events that began in a step in which the shield
+    found no admissible acceleration for the robot (status ``infeasible``; both 0
     without the shield)."""
 
     episodes: int
@@ -249,6 +263,7 @@ class Evaluation:
     with_contact: int
     steps: int
     interventions: int = 0
+    infeasible_contacts: int = 0
     per_episode: list[dict[str, Any]] = field(default_factory=list)
 
     @property
@@ -276,7 +291,7 @@ def evaluate(
         torch.manual_seed(seed)
     par = parallel_env(env_id, shield, **env_kwargs)
     agents = list(par.possible_agents)
-    reached = contacts = with_contact = steps = interventions = 0
+    reached = contacts = with_contact = steps = interventions = infeasible_contacts = 0
     rows: list[dict[str, Any]] = []
     for k in range(episodes):
         obs, _ = par.reset(seed=seed + k)
@@ -295,7 +310,10 @@ def evaluate(
                 finished[a] = bool(info["finished"])
                 hits[a] += int(info["collisions"])
                 done_reached[a] = bool(info["reached"])
-                interventions += bool(info.get("shield", {}).get("intervened", False))
+                shielded = info.get("shield", {})
+                interventions += bool(shielded.get("intervened", False))
+                if shielded.get("status") == "infeasible":
+                    infeasible_contacts += int(info["collisions"])
         reached += sum(done_reached.values())
         contacts += sum(hits.values())
         with_contact += sum(h > 0 for h in hits.values())
@@ -315,6 +333,7 @@ def evaluate(
         with_contact=with_contact,
         steps=steps,
         interventions=interventions,
+        infeasible_contacts=infeasible_contacts,
         per_episode=rows,
     )
 

@@ -187,10 +187,24 @@ def test_evaluate_agrees_with_a_loop_over_the_same_env():
     assert ev.reached > 0
 
 
-def test_shielded_evaluation_counts_interventions():
-    ev = evaluate(Greedy(), "crowd_v0", 1, seed=0, shield=True, **SMALL)
-    assert 0 <= ev.interventions <= ev.steps
-    assert ev.agent_episodes == 3
+def test_shielded_evaluation_counts_interventions_and_infeasible_contacts():
+    ev = evaluate(Greedy(), "crowd_v0", 2, seed=0, shield=True, **SMALL)
+    par = parallel_env("crowd_v0", shield=True, **SMALL)
+    replaced = infeasible = 0
+    for k in range(2):
+        obs, _ = par.reset(seed=k)
+        while par.agents:
+            live = list(par.agents)
+            acts, _ = Greedy().predict(np.stack([obs[a] for a in live]))
+            obs, _, _, _, infos = par.step(dict(zip(live, acts, strict=True)))
+            for a in live:
+                replaced += infos[a]["shield"]["intervened"]
+                if infos[a]["shield"]["status"] == "infeasible":
+                    infeasible += infos[a]["collisions"]
+    assert (ev.interventions, ev.infeasible_contacts) == (replaced, infeasible)
+    assert 0 < ev.interventions <= ev.steps and ev.infeasible_contacts <= ev.contacts
+    plain = evaluate(Greedy(), "crowd_v0", 2, seed=0, **SMALL)
+    assert plain.interventions == plain.infeasible_contacts == 0
 
 
 def test_learning_curve_takes_whole_windows():

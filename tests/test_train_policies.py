@@ -68,6 +68,7 @@ def test_smoke_run_writes_consistent_results(tmp_path):
         assert cells[6].endswith(f"({off['reached']}/12)")
         assert cells[7] == f"{off['contacts'] / 12:.3f}"
         assert cells[9].endswith(f"({on['reached']}/12)")
+        assert cells[11] == f"{on['infeasible_contacts']} of {on['contacts']}"
         assert len(r["curve"]["timesteps"]) == len(r["curve"]["success"])
     # the shielded training's contacts: fewer than without (none in this run)
     assert results[1]["training"]["contacts"] < results[0]["training"]["contacts"]
