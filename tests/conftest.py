@@ -1,7 +1,9 @@
 """Test-suite settings.
 
 Hypothesis runs derandomized and without a local example database, so every
-machine (and CI) runs exactly the same examples.
+machine (and CI) runs exactly the same examples, and without its per-example deadline
+(200 ms by default): tests never assert wall time, and on a machine busy with other
+work one example of a property that reads a file can take longer.
 
 A plain checkout (``python -m pytest`` without installing nao_arena) imports
 ``nao_arena`` from the repository, and nao_arena itself maps its sub-packages
@@ -22,7 +24,7 @@ import nao_arena
 
 ROOT = Path(__file__).resolve().parents[1]
 
-settings.register_profile("deterministic", derandomize=True, database=None)
+settings.register_profile("deterministic", derandomize=True, database=None, deadline=None)
 settings.load_profile("deterministic")
 
 
