@@ -5,9 +5,10 @@ policies are trained (:func:`nao_arena.sb3.train`: one policy shared by every ro
 one on the bare env and one behind the NAO safety shield, each until the success over
 its last ``--window`` agent-episodes reaches ``--target`` or ``--timesteps`` agent-steps
 have passed. Each trained policy is then evaluated on ``--eval-episodes`` fresh
-episodes, seeds 1_000_000 on (never seen in training), once without the shield and once
-behind it, its actions drawn from the policy's distribution as in training (seeded; with
-``--deterministic``, the distribution's mean). The policies are written to
+episodes, seeds 1_000_000 on (training draws its episodes' seeds at random below
+2**31), once without the shield and once behind it, its actions drawn from the policy's
+distribution as in training (seeded; with ``--deterministic``, the distribution's
+mean). The policies are written to
 ``OUT/policy_<env>_<plain|shield>.zip`` (``stable_baselines3.PPO.load``).
 
 Printed per trained policy, and written (atomically) to ``OUT/training.json`` and
