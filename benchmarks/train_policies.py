@@ -24,12 +24,14 @@ Printed per trained policy, and written (atomically) to ``OUT/training.json`` an
 
 A contact event is counted for the robot that started it (``infos["collisions"]``: a
 contact between two robots counts for each). ``OUT/curves_<env>.png``: return, success
-and contacts per agent-episode over training, per window of agent-episodes, both
-policies. Run (about an hour on a 2-core machine with the defaults):
+and contacts per agent-episode over training, per ``--curve-window`` agent-episodes,
+both policies. The JSON holds every finished agent-episode of each training
+(``episodes``: agent-steps of training when it ended, return, reached, contact events,
+steps) and the curves' points. Run (about an hour on a 2-core machine with the defaults):
 
     python benchmarks/train_policies.py [--envs crowd_v0,crossing_v0] [--timesteps 6000000]
-        [--target 0.95] [--window 500] [--eval-episodes 20] [--deterministic] [--jobs 2]
-        [--seed 0] [--out training_results]
+        [--target 0.95] [--window 500] [--curve-window 100] [--eval-episodes 20]
+        [--deterministic] [--jobs 2] [--seed 0] [--out training_results]
 """
 
 from __future__ import annotations
@@ -66,7 +68,7 @@ def run_one(
 
     torch.set_num_threads(1)  # one core per training: the jobs run side by side
     from nao_arena.atomic import atomic_write_with
-    from nao_arena.sb3 import evaluate, learning_curve, train
+    from nao_arena.sb3 import evaluate, train
 
     def progress(recorder: Any, steps: int) -> None:
         print(
@@ -85,7 +87,6 @@ def run_one(
         window=window,
         on_progress=progress,
     )
-    curve = learning_curve(run.episodes, window)
     out.mkdir(parents=True, exist_ok=True)
     policy = out / f"policy_{env_id}_{'shield' if shield else 'plain'}.zip"
     atomic_write_with(policy, run.model.save, ".zip")
@@ -107,17 +108,26 @@ def run_one(
             "final_success": sum(e.reached for e in run.episodes[-window:])
             / max(1, len(run.episodes[-window:])),
         },
-        "curve": {
-            "window": curve.window,
-            "timesteps": curve.timesteps.tolist(),
-            "return": curve.ret.tolist(),
-            "success": curve.success.tolist(),
-            "contacts": curve.contacts.tolist(),
-        },
+        "episodes": [[e.timesteps, e.ret, e.reached, e.contacts, e.steps] for e in run.episodes],
         "evaluation": {
             "without_shield": {k: v for k, v in asdict(plain).items() if k != "per_episode"},
             "with_shield": {k: v for k, v in asdict(shielded).items() if k != "per_episode"},
         },
+    }
+
+
+def curve_points(episodes: list[list[Any]], window: int) -> dict[str, Any]:
+    """The learning curve (:func:`nao_arena.sb3.learning_curve`) of the JSON's episode
+    rows, as a dict of lists."""
+    from nao_arena.sb3 import AgentEpisode, learning_curve
+
+    curve = learning_curve([AgentEpisode(*row) for row in episodes], window)
+    return {
+        "window": curve.window,
+        "timesteps": curve.timesteps.tolist(),
+        "return": curve.ret.tolist(),
+        "success": curve.success.tolist(),
+        "contacts": curve.contacts.tolist(),
     }
 
 
@@ -193,6 +203,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timesteps", type=float, default=6e6, help="agent-steps at most")
     parser.add_argument("--target", type=float, default=0.95, help="success to stop at")
     parser.add_argument("--window", type=int, default=500, help="agent-episodes")
+    parser.add_argument(
+        "--curve-window", type=int, default=100, help="agent-episodes per point of the curves"
+    )
     parser.add_argument("--eval-episodes", type=int, default=20)
     parser.add_argument(
         "--deterministic", action="store_true", help="evaluate the policies' mean actions"
@@ -209,8 +222,11 @@ def main(argv: list[str] | None = None) -> int:
     if unknown or not envs:
         print(f"--envs: unknown env {', '.join(unknown) or '(none)'}", file=sys.stderr)
         return 2
-    if not (0 < args.target <= 1 and args.window >= 1 and args.eval_episodes >= 1):
-        print("--target in (0, 1], --window and --eval-episodes >= 1 expected", file=sys.stderr)
+    if not (0 < args.target <= 1 and min(args.window, args.curve_window, args.eval_episodes) >= 1):
+        print(
+            "--target in (0, 1], --window, --curve-window and --eval-episodes >= 1 expected",
+            file=sys.stderr,
+        )
         return 2
     jobs = [(e, shield) for e in envs for shield in (False, True)]
     with ProcessPoolExecutor(max(1, args.jobs), mp_context=get_context("spawn")) as pool:
@@ -230,6 +246,8 @@ def main(argv: list[str] | None = None) -> int:
             for e, shield in jobs
         ]
         results = [f.result() for f in futures]
+    for r in results:
+        r["curve"] = curve_points(r["episodes"], args.curve_window)
     args.out.mkdir(parents=True, exist_ok=True)
     text = table(results)
     print(text)

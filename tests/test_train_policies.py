@@ -35,7 +35,7 @@ def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 def test_smoke_run_writes_consistent_results(tmp_path):
     out = tmp_path / "out"
     proc = run(
-        "--envs", "crossing_v0", "--timesteps", "2000", "--window", "5",
+        "--envs", "crossing_v0", "--timesteps", "9000", "--window", "5", "--curve-window", "4",
         "--eval-episodes", "1", "--jobs", "2", "--out", str(out), cwd=tmp_path,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
@@ -57,8 +57,8 @@ def test_smoke_run_writes_consistent_results(tmp_path):
     assert len(rows) == 2
     for r, row in zip(results, rows, strict=True):
         t = r["training"]
-        # one rollout: 256 steps x 2 copies x 12 robots
-        assert t["timesteps"] == 6144 and not t["target_met"]
+        # two rollouts of 256 steps x 2 copies x 12 robots
+        assert t["timesteps"] == 12288 and not t["target_met"]
         off, on = r["evaluation"]["without_shield"], r["evaluation"]["with_shield"]
         assert off["agent_episodes"] == on["agent_episodes"] == 12
         assert off["interventions"] == 0 and 0 <= on["interventions"] <= on["steps"]
@@ -69,7 +69,12 @@ def test_smoke_run_writes_consistent_results(tmp_path):
         assert cells[7] == f"{off['contacts'] / 12:.3f}"
         assert cells[9].endswith(f"({on['reached']}/12)")
         assert cells[11] == f"{on['infeasible_contacts']} of {on['contacts']}"
-        assert len(r["curve"]["timesteps"]) == len(r["curve"]["success"])
+        episodes = r["episodes"]
+        # a 40 s episode (400 steps) of 12 robots in each copy
+        assert len(episodes) == t["agent_episodes"] == 24
+        assert r["curve"]["window"] == 4 and len(r["curve"]["success"]) == 6
+        assert r["curve"]["success"][0] == sum(e[2] for e in episodes[:4]) / 4
+        assert t["contacts"] >= sum(e[3] for e in episodes)
     # the shielded training's contacts: fewer than without (none in this run)
     assert results[1]["training"]["contacts"] < results[0]["training"]["contacts"]
 
@@ -79,6 +84,7 @@ def test_smoke_run_writes_consistent_results(tmp_path):
     [
         (("--envs", "nosuch_v0"), "--envs: unknown env nosuch_v0"),
         (("--target", "1.5"), "--target in (0, 1]"),
+        (("--curve-window", "0"), "--curve-window and --eval-episodes >= 1 expected"),
     ],
 )
 def test_bad_arguments_give_one_line_and_status_2(tmp_path, args, message):
