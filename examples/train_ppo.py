@@ -1,7 +1,7 @@
 """Train one PPO policy shared by every robot of a versioned env (Stable-Baselines3).
 
     pip install torch==2.13.0 ".[rl]"   # or any torch you have; then:
-    python examples/train_ppo.py [--env crowd_v0] [--timesteps 3000000] [--target 0.95]
+    python examples/train_ppo.py [--env crowd_v0] [--timesteps 6000000] [--target 0.95]
                                  [--copies 2] [--num-cpus 0] [--seed 0] [--shield]
                                  [--save policy.zip]
 
@@ -56,7 +56,7 @@ def summary(episodes: list[sb3.AgentEpisode]) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="crowd_v0", choices=available())
-    parser.add_argument("--timesteps", type=float, default=3e6, help="agent-steps at most")
+    parser.add_argument("--timesteps", type=float, default=6e6, help="agent-steps at most")
     parser.add_argument("--target", type=float, default=0.95, help="success to stop at")
     parser.add_argument("--copies", type=int, default=2, help="copies of the env")
     parser.add_argument(
