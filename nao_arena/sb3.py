@@ -174,7 +174,8 @@ class _SeededVecEnv(VecEnvWrapper):
 @dataclass(frozen=True)
 class AgentEpisode:
     """One finished agent-episode: ``timesteps``, the training's agent-steps when it
-    ended; ``ret``, its return; ``reached``, whether the robot reached its goal;
+    ended; ``ret``, its return (the env's rewards, as ``VecMonitor`` sums them, not the
+    scaled rewards the learner sees); ``reached``, whether the robot reached its goal;
     ``contacts``, the contact events it started; ``steps``, its control steps."""
 
     timesteps: int
@@ -217,10 +218,13 @@ class EpisodeRecorder(BaseCallback):
         self._contacts += hits
         self._steps += 1
         for i in np.flatnonzero(dones).tolist():
+            # VecMonitor's return is the env's; the callback's rewards are what the
+            # learner sees (scaled, under VecNormalize)
+            monitored = infos[i].get("episode")
             self.episodes.append(
                 AgentEpisode(
                     timesteps=int(self.num_timesteps),
-                    ret=float(self._ret[i]),
+                    ret=float(monitored["r"]) if monitored else float(self._ret[i]),
                     reached=bool(infos[i].get("reached", False)),
                     contacts=int(self._contacts[i]),
                     steps=int(self._steps[i]),
