@@ -68,7 +68,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol, cast
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.agent import (
     UNCONTAINED,
@@ -92,6 +92,7 @@ from nao_arena.imperfection import (
     subset,
     with_neighbour_noise,
 )
+from nao_arena.jit import kernel
 from nao_arena.kernels import watch_compiles
 from nao_arena.maps import MapSpec, RobotSpec
 from nao_arena.occlusion import visible
@@ -179,6 +180,23 @@ class ArenaOptions:
             )
 
 
+@kernel(error_model="numpy")
+def within_goal(
+    positions: NDArray[np.float64],
+    robots: NDArray[np.intp],
+    goals: NDArray[np.float64],
+    tolerance: float,
+    out: NDArray[np.bool_],
+) -> None:
+    """out[k]: whether robot k's centre positions[robots[k]] (m) is within ``tolerance``
+    (m) of goals[k] (m), the distance by hypot as numpy's ``np.hypot`` (the same bits)."""
+    for k in range(robots.shape[0]):
+        b = robots[k]
+        dx = positions[b, 0] - goals[k, 0]
+        dy = positions[b, 1] - goals[k, 1]
+        out[k] = math.hypot(dx, dy) <= tolerance
+
+
 @dataclass(frozen=True)
 class StepResult:
     """What one control step produced: time at its end (s), the commanded
@@ -259,6 +277,7 @@ class Arena:
         """What tables, the viewer and logs show for each robot's agent (robot order):
         its name or reference unless a caller gave a label (``--agent LABEL=REF``)."""
         # what agents sense is read-only (see SensingBatch): goals, routes, walls, times
+        self._goal_tolerance = float(spec.episode.goal_tolerance)
         self.goals = read_only(np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
         self.routes = ReadOnlyRoutes.of(
             [None if r.route is None else np.array(r.route, float) for r in self.robots]
@@ -303,6 +322,14 @@ class Arena:
         options'; see :mod:`nao_arena.imperfection`)."""
         self._sensing_rng = np.random.default_rng(0)
         self._dropout_rng = np.random.default_rng(0)
+        imp = self.imperfections
+        self._truth = (
+            not self._latency_steps
+            and not imp.noisy
+            and imp.dropout == 0.0
+            and imp.all_around
+            and not imp.occlusion
+        )
         # the robots' applied accelerations (R, 2) m/s^2 under the actuation lag
         self._applied = np.zeros((len(self.robot_ids), 2))
         # the episode's messages (None: perfect communication)
@@ -457,8 +484,11 @@ class Arena:
     def reached(self) -> NDArray[np.bool_]:
         """(R,) robots within the goal tolerance of their goals now."""
         assert self.state is not None
-        p = self.state.positions[self.robot_ids]
-        return np.hypot(*(p - self.goals).T) <= self.spec.episode.goal_tolerance
+        out = np.empty(len(self.robot_ids), dtype=np.bool_)
+        within_goal(
+            self.state.positions, self.robot_ids, self.goals, self._goal_tolerance, out
+        )
+        return out
 
     @property
     def done(self) -> bool:
@@ -584,14 +614,7 @@ class Arena:
     def senses_the_truth(self) -> bool:
         """Whether the robots sense the exact current state of every body within range:
         no sensing noise, dropout, latency, occlusion or narrow field of view."""
-        imp = self.imperfections
-        return (
-            not self._latency_steps
-            and not imp.noisy
-            and imp.dropout == 0.0
-            and imp.all_around
-            and not imp.occlusion
-        )
+        return self._truth
 
     def observations(self) -> list[Observation]:
         """One observation per robot (robot order), for the current state."""
@@ -600,30 +623,80 @@ class Arena:
 
     # ------------------------------------------------------------------ step
 
-    def step(self, actions: Mapping[int, NDArray[np.float64]] | None = None) -> StepResult:
+    def step(self, actions: Mapping[int, ArrayLike] | None = None) -> StepResult:
         """One control period. ``actions`` maps robot index (robot order, 0 <= k < number
         of robots; else ValueError) to an acceleration (2,) m/s^2 that replaces that
         robot's agent this step."""
-        assert self.state is not None and self.stats is not None, "call reset() first"
-        state = self.state
-        commanded = np.zeros((self.world.n, 2))
-        faults: list[AgentFault] = []
         actions = actions or {}
-        batch = self.sensed()
-        found: dict[int, AgentFault] = {}
-        batched, single = self._dispatch()
-        for k, acc in actions.items():
+        robots = np.zeros(len(actions), dtype=np.intp)
+        accelerations = np.zeros((len(actions), 2))
+        for i, (k, acc) in enumerate(actions.items()):
             if not 0 <= k < len(self.robot_ids):
                 raise ValueError(
                     f"actions: robot index {k} is not one of the "
                     f"{len(self.robot_ids)} robots (0 .. {len(self.robot_ids) - 1})"
                 )
-            commanded[self.robot_ids[k]] = acc
-        if actions:
-            single = [k for k in single if k not in actions]
-            batched = {cls: [k for k in rows if k not in actions] for cls, rows in batched.items()}
+            robots[i] = k
+            accelerations[i] = acc
+        return self._step(robots, accelerations, actions)
+
+    def step_robots(
+        self, robots: NDArray[np.intp], accelerations: NDArray[np.float64]
+    ) -> StepResult:
+        """:meth:`step` with the replacing accelerations as arrays: robot indices (m,)
+        (robot order, distinct, each 0 <= k < number of robots) and accelerations
+        (m, 2) m/s^2, world frame."""
+        robots = np.asarray(robots, dtype=np.intp)
+        if robots.size and not (0 <= robots.min() and robots.max() < len(self.robot_ids)):
+            raise ValueError(
+                f"robots: expected robot indices 0 .. {len(self.robot_ids) - 1}, "
+                f"got {robots.tolist()}"
+            )
+        accelerations = np.asarray(accelerations, dtype=np.float64)
+        if accelerations.shape != (len(robots), 2):
+            raise ValueError(
+                f"accelerations: expected shape ({len(robots)}, 2), got {accelerations.shape}"
+            )
+        actions = (
+            None
+            if self.recorder is None
+            else dict(zip(robots.tolist(), accelerations, strict=True))
+        )
+        return self._step(robots, accelerations, actions)
+
+    @property
+    def _sensing_draws(self) -> bool:
+        """Whether sensing a period draws from the episode's generators or keeps state
+        (noise, dropout, latency, communication): then it happens every period, whether
+        or not an agent reads it."""
+        return not self._truth or self._channel is not None
+
+    def _step(
+        self,
+        robots: NDArray[np.intp],
+        accelerations: NDArray[np.float64],
+        actions: Mapping[int, Any] | None,
+    ) -> StepResult:
+        """:meth:`step` with the replacing accelerations (m, 2) m/s^2 of ``robots`` (m,)
+        checked; ``actions``: the same as a mapping, for the recorder."""
+        assert self.state is not None and self.stats is not None, "call reset() first"
+        state = self.state
+        commanded = np.zeros((self.world.n, 2))
+        faults: list[AgentFault] = []
+        batch = self.sensed() if self._sensing_draws else None
+        found: dict[int, AgentFault] = {}
+        batched, single = self._dispatch()
+        if len(robots):
+            commanded[self.robot_ids[robots]] = accelerations
+            taken = set(robots.tolist())
+            single = [k for k in single if k not in taken]
+            batched = {cls: [k for k in rows if k not in taken] for cls, rows in batched.items()}
+        if batch is None and (single or any(batched.values()) or self.recorder is not None):
+            # the exact state, sensed only when something reads it
+            batch = self.sensed()
         pid = os.getpid()
         for k in single:
+            assert batch is not None
             acc, fault = safe_act(self.agents[k], batch.observation(k), self.agent_names[k])
             _end_if_forked(pid)
             commanded[self.robot_ids[k]] = acc
@@ -632,6 +705,7 @@ class Arena:
         for cls, rows in batched.items():
             if not rows:
                 continue
+            assert batch is not None
             accs, faults_of = self._act_batch(cls, batch, list(rows))
             _end_if_forked(pid)
             commanded[self.robot_ids[rows]] = accs
@@ -677,6 +751,7 @@ class Arena:
         )
         result = StepResult(new_state.time, new_state, commanded, contacts, faults)
         if self.recorder is not None:
+            assert batch is not None and actions is not None
             self.recorder.step(self, batch, result, actions)
         return result
 

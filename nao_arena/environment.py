@@ -143,7 +143,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -160,6 +160,7 @@ from nao_arena.env_options import (
     nao_candidates,
     observation_layout,
 )
+from nao_arena.env_step import StepArrays, _Period, period_rewards
 from nao_arena.jit import kernel
 from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.sensing import neighbour_lists
@@ -276,6 +277,10 @@ class NaoArenaParallelEnv(ParallelEnv):
         # the robots under test (people, after them, keep their own agents)
         robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots[: spec.n_robots])]
         self._controlled = self._resolve_controlled(self.options.controlled, robot_names)
+        self._controlled_array = np.array(self._controlled, dtype=np.intp)
+        self._all_rows = np.arange(len(self._controlled), dtype=np.intp)
+        w = self.options.rewards
+        self._reward_weights = np.array([w.progress, w.accel_change, w.step, w.goal])
         names = [robot_names[k] for k in self._controlled]
         self.possible_agents: list[str] = (
             grouped_names(names) if self.options.agent_names == "grouped" else names
@@ -492,7 +497,84 @@ class NaoArenaParallelEnv(ParallelEnv):
         if not live:
             return {}, {}, {}, {}, {}
         live_rows = np.fromiter((self._row[a] for a in live), dtype=np.intp, count=len(live))
-        cmd = self._actions_array(actions, live) * self._a_max[live_rows, None]
+        period = self._advance(live_rows, self._actions_array(actions, live))
+        if self.options.keep_finished:
+            out = self._keep_arrays(period)
+            rows = live_rows
+        else:
+            out = self._leaving_arrays(period)
+            rows = period.rows
+        self.events = {
+            a: {
+                "collisions": period.events.get(int(b), []),
+                "faults": period.faults.get(int(b), []),
+            }
+            for a, b in zip(live, self._bodies[rows].tolist(), strict=True)
+        }
+        obs, rew, term, trunc = out.observations, out.rewards, out.terminated, out.truncated
+        rew_l, term_l, trunc_l = rew.tolist(), term.tolist(), trunc.tolist()
+        reached_l, col_l, fault_l = (
+            out.reached.tolist(),
+            out.collisions.tolist(),
+            out.faults.tolist(),
+        )
+        fin_l = out.finished.tolist()
+        out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
+        for i, a in enumerate(live):
+            out_obs[a] = obs[i]
+            out_rew[a] = rew_l[i]
+            out_term[a] = term_l[i]
+            out_trunc[a] = trunc_l[i]
+            info = {
+                "collisions": col_l[i],
+                "reached": reached_l[i],
+                "time": out.time,
+                "faults": fault_l[i],
+            }
+            if self.options.keep_finished:
+                info["finished"] = fin_l[i]
+            out_info[a] = info
+        if self.render_mode == "human":
+            self.render()
+        return out_obs, out_rew, out_term, out_trunc, out_info
+
+    def step_arrays(self, actions: ArrayLike) -> StepArrays:
+        """One control period of an env with ``keep_finished`` (every agent live until
+        the episode ends), in arrays: ``actions`` (agents, 2), normalized accelerations in
+        ``possible_agents`` order (finite; clipped to [-1, 1]). Returns what :meth:`step`
+        returns as arrays in the same order (:class:`StepArrays`); :attr:`events` is set
+        as by :meth:`step`. The vector env (:mod:`nao_arena.vector`) steps its copies
+        with this."""
+        if not self.options.keep_finished:
+            raise ValueError("step_arrays: expected an env with keep_finished=True")
+        if self.arena.stats is None:
+            raise RuntimeError("call reset() before step()")
+        if not self.agents:
+            raise RuntimeError("step_arrays: the episode has ended; call reset()")
+        cmd = np.asarray(actions, dtype=np.float64)
+        rows = self._all_rows
+        if cmd.shape != (len(rows), 2) or not np.isfinite(cmd).all():
+            raise ValueError(
+                f"actions: expected finite numbers of shape ({len(rows)}, 2), got "
+                f"{'shape ' + str(cmd.shape) if cmd.shape != (len(rows), 2) else 'NaN or inf'}"
+            )
+        period = self._advance(rows, np.clip(cmd, -1.0, 1.0))
+        out = self._keep_arrays(period)
+        if period.events or period.faults:
+            self.events = {
+                a: {"collisions": period.events.get(b, []), "faults": period.faults.get(b, [])}
+                for a, b in zip(self.possible_agents, self._bodies.tolist(), strict=True)
+            }
+        else:
+            self.events = {a: {"collisions": [], "faults": []} for a in self.possible_agents}
+        if self.render_mode == "human":
+            self.render()
+        return out
+
+    def _advance(self, live_rows: NDArray[np.intp], actions: NDArray[np.float64]) -> _Period:
+        """The arena's control period with the live agents' (``live_rows``) normalized
+        actions (in [-1, 1]), and what every ending of a step shares (:class:`_Period`)."""
+        cmd = actions * self._a_max[live_rows, None]
         keep = self.options.keep_finished
         if keep:
             # finished agents stay live; their actions are ignored
@@ -500,31 +582,35 @@ class NaoArenaParallelEnv(ParallelEnv):
             rows, cmd = live_rows[acting], cmd[acting]
         else:
             rows = live_rows
-        arena_actions: dict[int, NDArray[np.float64]] = dict(
-            zip(np.asarray(self._controlled)[rows].tolist(), cmd, strict=True)
-        )
+        robots, accs = self._controlled_array[rows], cmd
         if self.options.after_done == "hold" and not np.all(self._alive):
             dead = np.flatnonzero(~self._alive)
             assert self.arena.state is not None  # reset() set it, with the stats
             v = self.arena.state.velocities[self._bodies[dead]]
             brake = clip_accelerations(-v / self.arena.world.dt, self._a_max[dead])
-            for i, a in zip(dead.tolist(), brake, strict=True):
-                arena_actions[self._controlled[i]] = a
-        res = self.arena.step(arena_actions)
+            robots = np.concatenate([robots, self._controlled_array[dead]])
+            accs = np.concatenate([accs, brake])
+        res = self.arena.step_robots(robots, accs)
         self.last_result = res
         state = res.state
-        opts = self.options
-        w = opts.rewards
+        w = self.options.rewards
         bodies = self._bodies[rows]
-        # reward terms
-        dist = np.hypot(*(state.positions[bodies] - self._goals[rows]).T)
-        applied = clip_accelerations(cmd, self._a_max[rows])
-        change = np.hypot(*(applied - self._prev_cmd[rows]).T) / self._a_max[rows]
-        self._prev_cmd[rows] = applied
+        assert self.arena.stats is not None  # step() checked it
         reached = self.arena.stats.reached[bodies]
-        reward = w.progress * (self._dist[rows] - dist) - w.accel_change * change - w.step
-        reward = reward + w.goal * reached
-        self._dist[rows] = dist
+        reward = np.empty(len(rows))
+        period_rewards(
+            state.positions,
+            bodies,
+            rows,
+            cmd,
+            self._goals,
+            self._a_max,
+            self._prev_cmd,
+            self._dist,
+            reached,
+            self._reward_weights,
+            reward,
+        )
         events: dict[int, list[dict[str, Any]]] = {}
         for ev in res.contacts:
             events.setdefault(ev.a, []).append(ev.to_dict())
@@ -537,102 +623,78 @@ class NaoArenaParallelEnv(ParallelEnv):
         for f in res.faults:
             faults.setdefault(int(self.arena.robot_ids[f.robot]), []).append(dataclasses.asdict(f))
         terminated = reached.copy()
-        if opts.terminate_on_collision and n_col is not None:
+        if self.options.terminate_on_collision and n_col is not None:
             terminated |= n_col > 0
         time_up = res.time >= self.time_limit - 1e-9
-        if keep:
-            return self._step_keep(
-                live, live_rows, rows, reward, terminated, time_up, events, faults, res
-            )
+        return _Period(live_rows, rows, reward, terminated, time_up, events, faults, res)
+
+    def _counts(
+        self, events: dict[int, list[dict[str, Any]]], bodies: NDArray[np.int64]
+    ) -> NDArray[np.int64]:
+        """Number of events (len(bodies),) of each body in ``events``."""
+        if not events:
+            return np.zeros(len(bodies), dtype=np.int64)
+        return np.array([len(events.get(int(b), ())) for b in bodies], dtype=np.int64)
+
+    def _leaving_arrays(self, period: _Period) -> StepArrays:
+        """The end of :meth:`step` without ``keep_finished``: agents leave ``agents``
+        when they terminate or are truncated; the arrays are over ``period.rows``."""
+        rows = period.rows
         obs = self._observe(rows)
-        out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
-        out_events: dict[str, dict[str, list[dict[str, Any]]]] = {}
-        reached_l = reached.tolist()
-        term_l = terminated.tolist()
-        rew_l = reward.tolist()
-        t = float(res.time)
-        for i, a in enumerate(live):
-            b = int(bodies[i])
-            out_obs[a] = obs[i]
-            out_rew[a] = rew_l[i]
-            out_term[a] = term_l[i]
-            out_trunc[a] = time_up
-            out_info[a] = {
-                "collisions": len(events.get(b, ())),
-                "reached": reached_l[i],
-                "time": t,
-                "faults": len(faults.get(b, ())),
-            }
-            out_events[a] = {"collisions": events.get(b, []), "faults": faults.get(b, [])}
-        self.events = out_events
-        done = terminated | time_up
+        bodies = self._bodies[rows]
+        assert self.arena.stats is not None  # step() checked it
+        reached = self.arena.stats.reached[bodies]
+        done = period.terminated | period.time_up
         if np.any(done):
             self._alive[rows[done]] = False
-            self.agents = [a for a, d in zip(live, done.tolist(), strict=True) if not d]
-        if self.render_mode == "human":
-            self.render()
-        return out_obs, out_rew, out_term, out_trunc, out_info
+            self.agents = [a for a, d in zip(self.agents, done.tolist(), strict=True) if not d]
+        return StepArrays(
+            observations=obs,
+            rewards=period.reward,
+            terminated=period.terminated,
+            truncated=np.full(len(rows), period.time_up),
+            reached=reached.copy(),
+            collisions=self._counts(period.events, bodies),
+            faults=self._counts(period.faults, bodies),
+            finished=np.zeros(len(rows), dtype=bool),
+            time=float(period.result.time),
+        )
 
-    def _step_keep(
-        self,
-        live: list[str],
-        live_rows: NDArray[np.intp],
-        rows: NDArray[np.intp],
-        reward: NDArray[np.float64],
-        terminated: NDArray[np.bool_],
-        time_up: bool,
-        events: dict[int, list[dict[str, Any]]],
-        faults: dict[int, list[dict[str, Any]]],
-        res: StepResult,
-    ) -> tuple[
-        dict[str, NDArray[np.float32]],
-        dict[str, float],
-        dict[str, bool],
-        dict[str, bool],
-        dict[str, dict[str, Any]],
-    ]:
-        """The end of :meth:`step` with ``keep_finished``: ``rows`` (the acting agents among
-        ``live_rows``) got ``reward`` and ``terminated``; every live agent stays live until
-        the time limit or until all have finished."""
+    def _keep_arrays(self, period: _Period) -> StepArrays:
+        """The end of :meth:`step` with ``keep_finished``: ``period.rows`` (the acting
+        agents among the live ones) got ``period.reward`` and ``period.terminated``; every
+        live agent stays live until the time limit or until all have finished."""
+        live_rows, rows = period.live_rows, period.rows
         finished_before = ~self._alive[live_rows]
-        self._alive[rows[terminated]] = False
+        self._alive[rows[period.terminated]] = False
         # what drove the finished robots (their agent, or braking), as the world applied it
         held = live_rows[finished_before]
-        self._prev_cmd[held] = clip_accelerations(
-            res.commanded[self._bodies[held]], self._a_max[held]
-        )
+        if len(held):
+            self._prev_cmd[held] = clip_accelerations(
+                period.result.commanded[self._bodies[held]], self._a_max[held]
+            )
         obs = self._observe(live_rows)
-        end = time_up or not np.any(self._alive)
+        end = period.time_up or not np.any(self._alive)
         finished = ~self._alive[live_rows]
         rew = np.zeros(len(live_rows))
-        rew[~finished_before] = reward
+        rew[~finished_before] = period.reward
         assert self.arena.stats is not None  # step() checked it
-        reached = self.arena.stats.reached[self._bodies[live_rows]].tolist()
-        t = float(res.time)
-        out_obs, out_rew, out_term, out_trunc, out_info = {}, {}, {}, {}, {}
-        out_events: dict[str, dict[str, list[dict[str, Any]]]] = {}
-        for i, a in enumerate(live):
-            b = int(self._bodies[live_rows[i]])
-            fin = bool(finished[i])
-            out_obs[a] = obs[i]
-            out_rew[a] = float(rew[i])
-            out_term[a] = end and fin
-            out_trunc[a] = end and time_up and not fin
-            out_info[a] = {
-                "collisions": len(events.get(b, ())),
-                "reached": reached[i],
-                "time": t,
-                "faults": len(faults.get(b, ())),
-                "finished": fin,
-            }
-            out_events[a] = {"collisions": events.get(b, []), "faults": faults.get(b, [])}
-        self.events = out_events
+        bodies = self._bodies[live_rows]
+        reached = self.arena.stats.reached[bodies]
         if end:
             self._alive[live_rows] = False
             self.agents = []
-        if self.render_mode == "human":
-            self.render()
-        return out_obs, out_rew, out_term, out_trunc, out_info
+        return StepArrays(
+            observations=obs,
+            rewards=rew,
+            terminated=finished & end,
+            truncated=~finished & (end and period.time_up),
+            reached=reached.copy(),
+            collisions=self._counts(period.events, bodies),
+            faults=self._counts(period.faults, bodies),
+            finished=finished,
+            time=float(period.result.time),
+        )
 
     @property
     def finished_agents(self) -> list[str]:

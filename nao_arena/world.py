@@ -54,7 +54,7 @@ from __future__ import annotations
 import ctypes
 import functools
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 import pymunk
@@ -357,6 +357,112 @@ def _substeps_kernel(
             each_body(space, get_body, data[substeps + _READ_STATE])
 
 
+class _Bodies(NamedTuple):
+    """What the compiled period reads of the bodies, map order: a_max (N,) m/s^2, v_max
+    (N,) m/s, masses (N,) kg, the batch row of each (N,), the control period dt (s)."""
+
+    a_max: FloatArray
+    v_max: FloatArray
+    masses: FloatArray
+    rows: NDArray[np.intp]
+    dt: float
+
+
+class _Chipmunk(NamedTuple):
+    """One world's chipmunk space and :class:`_BatchIO` buffers as compiled code takes
+    them: the space's address, the batched set and get iterators' addresses, the count
+    column, the data slots' addresses, the counts, the forces (substeps, rows, 2) N,
+    the velocities (rows, 2) m/s to write, the read array."""
+
+    space: int
+    set_body: int
+    get_body: int
+    num: int
+    data: NDArray[np.int64]
+    counts: NDArray[np.int32]
+    forces: FloatArray
+    velocities: FloatArray
+    floats: FloatArray
+
+
+@kernel
+def _write_velocities_kernel(
+    each_body: Any, chip: _Chipmunk, rows: NDArray[np.intp], v: FloatArray
+) -> None:
+    """Set every body's velocity to v (N, 2) m/s (body i at batch row rows[i])."""
+    substeps = chip.forces.shape[0]
+    for i in range(rows.shape[0]):
+        chip.velocities[rows[i], 0] = v[i, 0]
+        chip.velocities[rows[i], 1] = v[i, 1]
+    chip.counts[substeps, chip.num] = 0
+    each_body(chip.space, chip.set_body, chip.data[substeps + _WRITE_VELOCITIES])
+
+
+@kernel
+def _direct_period(
+    space_step: Any,
+    each_body: Any,
+    chip: _Chipmunk,
+    bodies: _Bodies,
+    accels: FloatArray,
+    start: FloatArray,
+    v_start: FloatArray,
+) -> tuple[bool, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """One control period straight in chipmunk (:meth:`World.step` once pymunk is idle):
+    :func:`_plan_period`, the start velocities written when some was scaled,
+    :func:`_substeps_kernel`, :func:`_finish_period` and the end velocities written when
+    some was scaled. ``accels`` (N, 2) m/s^2 the commands; ``start`` (N, 2) m and
+    ``v_start`` (N, 2) m/s the bodies at the period's start. Returns (all commands
+    finite; nothing is stepped otherwise), the substep centres (S + 1, N, 2) m, the end
+    positions (N, 2) m, velocities (N, 2) m/s, mean accelerations (N, 2) m/s^2 and the
+    applied accelerations (N, 2) m/s^2."""
+    n = accels.shape[0]
+    substeps = chip.forces.shape[0]
+    v = np.empty((n, 2))
+    applied = np.empty((n, 2))
+    path = np.empty((substeps + 1, n, 2))
+    pos = np.empty((n, 2))
+    vel = np.empty((n, 2))
+    acc = np.empty((n, 2))
+    finite, over = _plan_period(
+        accels,
+        v_start,
+        bodies.a_max,
+        bodies.v_max,
+        bodies.masses,
+        bodies.dt,
+        bodies.rows,
+        chip.forces,
+        v,
+        applied,
+    )
+    if not finite:
+        return False, path, pos, vel, acc, applied
+    if over:
+        _write_velocities_kernel(each_body, chip, bodies.rows, v)
+    path[0] = start
+    _substeps_kernel(
+        space_step,
+        each_body,
+        chip.space,
+        bodies.dt / substeps,
+        chip.set_body,
+        chip.get_body,
+        chip.data,
+        chip.counts,
+        chip.num,
+        chip.floats,
+        bodies.rows,
+        path,
+    )
+    rows_in_space = (chip.floats.shape[0] - 4) // 4
+    state = chip.floats[: 4 * rows_in_space].reshape((rows_in_space, 4))
+    if _finish_period(state, bodies.rows, bodies.v_max, v_start, bodies.dt, pos, vel, acc):
+        _write_velocities_kernel(each_body, chip, bodies.rows, vel)
+    path[substeps] = pos
+    return True, path, pos, vel, acc, applied
+
+
 #: pymunk's own bookkeeping around a step, as this pymunk version names it (checked
 #: once: with another version, or while it has something to do, :meth:`World.step`
 #: calls ``Space.step``)
@@ -501,10 +607,22 @@ class World:
         order = _body_order(self._space)
         row_of = {int(pid): r for r, pid in enumerate(order)}
         self._rows = np.array([row_of[b.id] for b in self._pm_bodies], dtype=np.intp)
-        if getattr(self, "_n_rows", None) == len(order):
-            return
-        self._n_rows = len(order)
-        self._io = _BatchIO(self.substeps, self._n_rows)
+        if getattr(self, "_n_rows", None) != len(order):
+            self._n_rows = len(order)
+            self._io = _BatchIO(self.substeps, self._n_rows)
+        io = self._io
+        self._chip = _Chipmunk(
+            _address(self._space._space),
+            _SET_BODY,
+            _GET_BODY,
+            io.num,
+            io.data,
+            io.counts,
+            io.forces,
+            io.velocities,
+            io.floats,
+        )
+        self._body_data = _Bodies(self.a_max, self.v_max, self.masses, self._rows, self.dt)
 
     # ------------------------------------------------------------------ I/O
 
@@ -527,40 +645,6 @@ class World:
             grown[: self._steps] = self._log[: self._steps]
             self._log = grown
         self._log[self._steps] = accels
-
-    def _run_substeps(self, path: FloatArray) -> None:
-        """The period's physics substeps (forces from the batch I/O's force slots), in
-        compiled code straight into chipmunk when pymunk has nothing of its own to do
-        around a step (see :func:`_pymunk_is_idle`), else through ``Space.step``; the
-        positions after each substep but the last into ``path`` (S + 1, N, 2), and the
-        final positions and velocities into the batch I/O's read array."""
-        space, io, h = self._space, self._io, self.dt / self.substeps
-        if _pymunk_is_idle(space):
-            space._locked = True
-            try:
-                _substeps_kernel(
-                    _SPACE_STEP,
-                    _EACH_BODY,
-                    _address(space._space),
-                    h,
-                    _SET_BODY,
-                    _GET_BODY,
-                    io.data,
-                    io.counts,
-                    io.num,
-                    io.floats,
-                    self._rows,
-                    path,
-                )
-            finally:
-                space._locked = False
-            return
-        for j in range(self.substeps):
-            io.write_forces(space, j)
-            space.step(h)
-            if j + 1 < self.substeps:
-                path[j + 1] = io.read_positions(space)[self._rows]
-        io.read_state(space)
 
     # ------------------------------------------------------------------ public
 
@@ -625,6 +709,38 @@ class World:
         a = np.asarray(accels, dtype=np.float64)
         if a.shape != (self.n, 2):
             raise ValueError(f"expected accelerations of shape ({self.n}, 2), got {a.shape}")
+        space, v_start = self._space, self._vel
+        if _pymunk_is_idle(space):
+            space._locked = True
+            try:
+                finite, path, pos, vel, acc, applied = _direct_period(
+                    _SPACE_STEP, _EACH_BODY, self._chip, self._body_data, a, self._pos, v_start
+                )
+            finally:
+                space._locked = False
+            if not finite:
+                raise ValueError("expected finite accelerations")
+            self._record(a)
+        else:
+            path, pos, vel, acc, applied = self._period_through_pymunk(a)
+        self._prev_positions = self._pos
+        self._pos, self._vel, self._acc = pos, vel, acc
+        path.setflags(write=False)
+        self._path = path
+        applied.setflags(write=False)
+        self._applied = applied
+        self._steps += 1
+        self.time = self._steps * self.dt
+        if len(self._replayed_rows):
+            self._replay()
+        return self.state()
+
+    def _period_through_pymunk(
+        self, a: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """:func:`_direct_period`'s steps with the substeps through ``Space.step`` (while
+        pymunk has something of its own to do around a step): the same kernels and
+        results."""
         v_start = self._vel
         v = np.empty_like(v_start)
         applied = np.empty((self.n, 2))
@@ -647,27 +763,20 @@ class World:
             self._write_velocities(v)
         path = np.empty((self.substeps + 1, self.n, 2))
         path[0] = self._pos
-        self._run_substeps(path)
-        self._prev_positions = self._pos
-        data = self._io.state()  # read by _run_substeps
-        self._pos = np.empty((self.n, 2))
+        space, io, h = self._space, self._io, self.dt / self.substeps
+        for j in range(self.substeps):
+            io.write_forces(space, j)
+            space.step(h)
+            if j + 1 < self.substeps:
+                path[j + 1] = io.read_positions(space)[self._rows]
+        data = io.read_state(space)
+        pos = np.empty((self.n, 2))
         vel = np.empty((self.n, 2))
-        self._acc = np.empty((self.n, 2))
-        if _finish_period(
-            data, self._rows, self.v_max, v_start, self.dt, self._pos, vel, self._acc
-        ):
+        acc = np.empty((self.n, 2))
+        if _finish_period(data, self._rows, self.v_max, v_start, self.dt, pos, vel, acc):
             self._write_velocities(vel)
-        path[self.substeps] = self._pos
-        path.setflags(write=False)
-        self._path = path
-        applied.setflags(write=False)
-        self._applied = applied
-        self._vel = vel
-        self._steps += 1
-        self.time = self._steps * self.dt
-        if len(self._replayed_rows):
-            self._replay()
-        return self.state()
+        path[self.substeps] = pos
+        return path, pos, vel, acc, applied
 
     def _replay(self) -> None:
         """Recorded people for the control period that starts now: each present one at its

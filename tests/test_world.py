@@ -352,12 +352,12 @@ def test_compiled_substeps_are_pymunks_own_steps(monkeypatch: pytest.MonkeyPatch
     walls; the compiled loop is the one that runs once pymunk is idle."""
     import nao_arena.world as world_module
 
-    compiled = world_module._substeps_kernel
+    compiled = world_module._direct_period
     calls = [0]
 
-    def counted(*args: object) -> None:
+    def counted(*args: object) -> object:
         calls[0] += 1
-        compiled(*args)
+        return compiled(*args)
 
     def run() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         spec = load_map("crowd", n=40, lo=-6.0, hi=6.0, seed=5)
@@ -371,7 +371,7 @@ def test_compiled_substeps_are_pymunks_own_steps(monkeypatch: pytest.MonkeyPatch
             path.append(world.substep_positions)
         return np.array(pos), np.array(vel), np.array(path)
 
-    monkeypatch.setattr(world_module, "_substeps_kernel", counted)
+    monkeypatch.setattr(world_module, "_direct_period", counted)
     fast = run()
     assert calls[0] == 59  # every period but the first (pymunk checks new bodies then)
     monkeypatch.setattr(world_module, "_pymunk_is_idle", lambda space: False)
@@ -554,12 +554,12 @@ def test_resets_do_not_leak_memory() -> None:
 
 def test_warm_up_loads_the_substeps_kernel_before_any_episode() -> None:
     code = (
-        "from nao_arena.world import World, _substeps_kernel\n"
-        "assert not _substeps_kernel.signatures\n"
+        "from nao_arena.world import World, _direct_period\n"
+        "assert not _direct_period.signatures\n"
         "World.warm_up()\n"
-        "assert len(_substeps_kernel.signatures) == 1\n"
+        "assert len(_direct_period.signatures) == 1\n"
         "World.warm_up()  # once per process\n"
-        "assert len(_substeps_kernel.signatures) == 1\n"
+        "assert len(_direct_period.signatures) == 1\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
