@@ -187,14 +187,17 @@ def within_goal(
     goals: NDArray[np.float64],
     tolerance: float,
     out: NDArray[np.bool_],
+    by_body: bool,
 ) -> None:
-    """out[k]: whether robot k's centre positions[robots[k]] (m) is within ``tolerance``
-    (m) of goals[k] (m), the distance by hypot as numpy's ``np.hypot`` (the same bits)."""
+    """Whether robot k's centre positions[robots[k]] (m) is within ``tolerance`` (m) of
+    goals[k] (m), into out[k] (robot order), or into out[robots[k]] (``by_body``: the
+    other bodies' rows untouched); the distance by hypot, as numpy's ``np.hypot`` (the
+    same bits)."""
     for k in range(robots.shape[0]):
         b = robots[k]
         dx = positions[b, 0] - goals[k, 0]
         dy = positions[b, 1] - goals[k, 1]
-        out[k] = math.hypot(dx, dy) <= tolerance
+        out[b if by_body else k] = math.hypot(dx, dy) <= tolerance
 
 
 @dataclass(frozen=True)
@@ -486,7 +489,7 @@ class Arena:
         assert self.state is not None
         out = np.empty(len(self.robot_ids), dtype=np.bool_)
         within_goal(
-            self.state.positions, self.robot_ids, self.goals, self._goal_tolerance, out
+            self.state.positions, self.robot_ids, self.goals, self._goal_tolerance, out, False
         )
         return out
 
@@ -657,6 +660,8 @@ class Arena:
             raise ValueError(
                 f"accelerations: expected shape ({len(robots)}, 2), got {accelerations.shape}"
             )
+        if len(set(robots.tolist())) != len(robots):
+            raise ValueError(f"robots: expected distinct robot indices, got {robots.tolist()}")
         actions = (
             None
             if self.recorder is None
@@ -685,8 +690,14 @@ class Arena:
         faults: list[AgentFault] = []
         batch = self.sensed() if self._sensing_draws else None
         found: dict[int, AgentFault] = {}
-        batched, single = self._dispatch()
-        if len(robots):
+        batched: dict[type[BatchAgent], list[int]] = {}
+        single: list[int] = []
+        if len(robots) == len(self.robot_ids):
+            # every robot replaced (distinct indices): no agent acts
+            commanded[self.robot_ids[robots]] = accelerations
+        else:
+            batched, single = self._dispatch()
+        if 0 < len(robots) < len(self.robot_ids):
             commanded[self.robot_ids[robots]] = accelerations
             taken = set(robots.tolist())
             single = [k for k in single if k not in taken]
@@ -739,7 +750,9 @@ class Arena:
         self.state = new_state
         self._hash_state(new_state)
         reached = np.zeros(self.world.n, dtype=bool)
-        reached[self.robot_ids] = self.reached
+        within_goal(
+            new_state.positions, self.robot_ids, self.goals, self._goal_tolerance, reached, True
+        )
         contacts = self.stats.update(
             state.time,
             before,

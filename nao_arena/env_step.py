@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from nao_arena.arena import StepResult
 from nao_arena.jit import kernel
 
-__all__ = ["StepArrays", "period_rewards"]
+__all__ = ["StepArrays", "clipped_float32", "period_rewards", "settle_finished"]
 
 
 class StepArrays(NamedTuple):
@@ -95,3 +95,56 @@ def period_rewards(
         reward = progress * (distances[r] - dist) - accel_change * change - step
         out[i] = reward + goal * (1.0 if reached[i] else 0.0)
         distances[r] = dist
+
+
+@kernel
+def clipped_float32(
+    values: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64]
+) -> NDArray[np.float32]:
+    """values (m, D) clipped to [low, high] (D,) per column, as float32: numpy's
+    ``np.clip`` then ``astype(np.float32)`` (the same bits: NaN and -0.0 kept)."""
+    m, d = values.shape
+    out = np.empty((m, d), dtype=np.float32)
+    for i in range(m):
+        for j in range(d):
+            x = values[i, j]
+            if x < low[j]:
+                x = low[j]
+            elif x > high[j]:
+                x = high[j]
+            out[i, j] = x
+    return out
+
+
+@kernel
+def settle_finished(
+    alive: NDArray[np.bool_],
+    live_rows: NDArray[np.intp],
+    terminated: NDArray[np.bool_],
+    reward: NDArray[np.float64],
+    finished_before: NDArray[np.bool_],
+    finished: NDArray[np.bool_],
+    rewards: NDArray[np.float64],
+) -> bool:
+    """The agents that finish in a period of an env with ``keep_finished``: ``alive``
+    (agents,) is updated; ``terminated`` and ``reward`` are those of the acting agents,
+    the live ones (``live_rows``, m) not finished before, in order. Writes per live
+    agent whether it had finished before the period, whether it has now, and its reward
+    (0 once finished before); returns whether some agent is still unfinished."""
+    j = 0
+    for i in range(live_rows.shape[0]):
+        r = live_rows[i]
+        before = not alive[r]
+        finished_before[i] = before
+        if before:
+            rewards[i] = 0.0
+        else:
+            rewards[i] = reward[j]
+            if terminated[j]:
+                alive[r] = False
+            j += 1
+        finished[i] = not alive[r]
+    for r in range(alive.shape[0]):
+        if alive[r]:
+            return True
+    return False

@@ -160,11 +160,20 @@ from nao_arena.env_options import (
     nao_candidates,
     observation_layout,
 )
-from nao_arena.env_step import StepArrays, _Period, period_rewards
+from nao_arena.env_step import (
+    StepArrays,
+    _Period,
+    clipped_float32,
+    period_rewards,
+    settle_finished,
+)
 from nao_arena.jit import kernel
 from nao_arena.maps import MapSpec, load_map, with_time_limit
-from nao_arena.sensing import neighbour_lists
+from nao_arena.neighbours import in_range_lists
 from nao_arena.world import WorldState, clip_accelerations
+
+_EventDicts = dict[int, list[dict[str, Any]]]
+"""Event dicts (contact events, or faults) by body index."""
 
 __all__ = [
     "NEIGHBOUR_FEATURES",
@@ -293,9 +302,13 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._rng = np.random.default_rng()
         self._viewer: Any = None
         self.last_result: StepResult | None = None
-        self.events: dict[str, dict[str, list[dict[str, Any]]]] = {}
-        """The last reset's or step's events by agent: ``{"collisions": [contact event
-        dicts], "faults": [fault dicts]}`` (the infos hold their counts)."""
+        self._event_rows: tuple[list[str], list[int], _EventDicts, _EventDicts] = (
+            [],
+            [],
+            {},
+            {},
+        )
+        self._events: dict[str, dict[str, list[dict[str, Any]]]] | None = None
 
     def __getstate__(self) -> dict[str, Any]:
         """Everything but the viewer (pygame objects; a copy opens its own on render)."""
@@ -455,6 +468,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.agents = list(self.possible_agents)
         self._alive = np.ones(len(self.possible_agents), dtype=bool)
         self._bodies = self.arena.robot_ids[self._controlled].astype(np.int64)
+        self._body_list = self._bodies.tolist()
         self._goals = self.arena.goals[self._controlled]
         self._a_max = self.arena.world.a_max[self._bodies]
         self._prev_cmd = np.zeros((len(self._controlled), 2))
@@ -467,7 +481,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         infos: dict[str, dict[str, Any]] = {
             a: {"collisions": 0, "reached": False, "time": 0.0, "faults": 0} for a in self.agents
         }
-        self.events = {a: {"collisions": [], "faults": []} for a in self.agents}
+        self._set_events(list(self.agents), self._bodies.tolist(), {}, {})
         if self.options.keep_finished:
             for info in infos.values():
                 info["finished"] = False
@@ -479,6 +493,26 @@ class NaoArenaParallelEnv(ParallelEnv):
         """Validated actions (m, 2) of the live agents, in ``live`` order, clipped to [-1, 1]
         (:func:`~nao_arena.env_actions.actions_array`)."""
         return actions_array(actions, live, self._row, self.possible_agents)
+
+    @property
+    def events(self) -> dict[str, dict[str, list[dict[str, Any]]]]:
+        """The last reset's or step's events by agent: ``{"collisions": [contact event
+        dicts], "faults": [fault dicts]}`` (the infos hold their counts)."""
+        if self._events is None:
+            names, bodies, contacts, faults = self._event_rows
+            self._events = {
+                a: {"collisions": contacts.get(b, []), "faults": faults.get(b, [])}
+                for a, b in zip(names, bodies, strict=True)
+            }
+        return self._events
+
+    def _set_events(
+        self, names: list[str], bodies: list[int], contacts: _EventDicts, faults: _EventDicts
+    ) -> None:
+        """The events of the agents ``names`` (robots ``bodies``) for :attr:`events`,
+        from the event dicts by body (built when first read)."""
+        self._event_rows = (names, bodies, contacts, faults)
+        self._events = None
 
     def step(
         self, actions: Mapping[str, Any]
@@ -504,13 +538,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         else:
             out = self._leaving_arrays(period)
             rows = period.rows
-        self.events = {
-            a: {
-                "collisions": period.events.get(int(b), []),
-                "faults": period.faults.get(int(b), []),
-            }
-            for a, b in zip(live, self._bodies[rows].tolist(), strict=True)
-        }
+        self._set_events(live, self._bodies[rows].tolist(), period.events, period.faults)
         obs, rew, term, trunc = out.observations, out.rewards, out.terminated, out.truncated
         rew_l, term_l, trunc_l = rew.tolist(), term.tolist(), trunc.tolist()
         reached_l, col_l, fault_l = (
@@ -558,15 +586,14 @@ class NaoArenaParallelEnv(ParallelEnv):
                 f"actions: expected finite numbers of shape ({len(rows)}, 2), got "
                 f"{'shape ' + str(cmd.shape) if cmd.shape != (len(rows), 2) else 'NaN or inf'}"
             )
-        period = self._advance(rows, np.clip(cmd, -1.0, 1.0))
+        return self._step_clipped(np.clip(cmd, -1.0, 1.0))
+
+    def _step_clipped(self, actions: NDArray[np.float64]) -> StepArrays:
+        """:meth:`step_arrays` with its checks done: ``actions`` (agents, 2) finite, in
+        [-1, 1], the episode running (the vector env checks all its copies at once)."""
+        period = self._advance(self._all_rows, actions)
         out = self._keep_arrays(period)
-        if period.events or period.faults:
-            self.events = {
-                a: {"collisions": period.events.get(b, []), "faults": period.faults.get(b, [])}
-                for a, b in zip(self.possible_agents, self._bodies.tolist(), strict=True)
-            }
-        else:
-            self.events = {a: {"collisions": [], "faults": []} for a in self.possible_agents}
+        self._set_events(self.possible_agents, self._body_list, period.events, period.faults)
         if self.render_mode == "human":
             self.render()
         return out
@@ -574,16 +601,21 @@ class NaoArenaParallelEnv(ParallelEnv):
     def _advance(self, live_rows: NDArray[np.intp], actions: NDArray[np.float64]) -> _Period:
         """The arena's control period with the live agents' (``live_rows``) normalized
         actions (in [-1, 1]), and what every ending of a step shares (:class:`_Period`)."""
-        cmd = actions * self._a_max[live_rows, None]
-        keep = self.options.keep_finished
-        if keep:
-            # finished agents stay live; their actions are ignored
-            acting = self._alive[live_rows]
-            rows, cmd = live_rows[acting], cmd[acting]
+        everyone = live_rows is self._all_rows and bool(self._alive.all())
+        if everyone:
+            # every agent acts (the common case, without indexing)
+            rows, cmd = live_rows, actions * self._a_max[:, None]
+            robots, accs = self._controlled_array, cmd
         else:
-            rows = live_rows
-        robots, accs = self._controlled_array[rows], cmd
-        if self.options.after_done == "hold" and not np.all(self._alive):
+            cmd = actions * self._a_max[live_rows, None]
+            if self.options.keep_finished:
+                # finished agents stay live; their actions are ignored
+                acting = self._alive[live_rows]
+                rows, cmd = live_rows[acting], cmd[acting]
+            else:
+                rows = live_rows
+            robots, accs = self._controlled_array[rows], cmd
+        if not everyone and self.options.after_done == "hold" and not np.all(self._alive):
             dead = np.flatnonzero(~self._alive)
             assert self.arena.state is not None  # reset() set it, with the stats
             v = self.arena.state.velocities[self._bodies[dead]]
@@ -594,7 +626,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.last_result = res
         state = res.state
         w = self.options.rewards
-        bodies = self._bodies[rows]
+        bodies = self._bodies if everyone else self._bodies[rows]
         assert self.arena.stats is not None  # step() checked it
         reached = self.arena.stats.reached[bodies]
         reward = np.empty(len(rows))
@@ -664,22 +696,24 @@ class NaoArenaParallelEnv(ParallelEnv):
         """The end of :meth:`step` with ``keep_finished``: ``period.rows`` (the acting
         agents among the live ones) got ``period.reward`` and ``period.terminated``; every
         live agent stays live until the time limit or until all have finished."""
-        live_rows, rows = period.live_rows, period.rows
-        finished_before = ~self._alive[live_rows]
-        self._alive[rows[period.terminated]] = False
-        # what drove the finished robots (their agent, or braking), as the world applied it
-        held = live_rows[finished_before]
-        if len(held):
+        live_rows = period.live_rows
+        m = len(live_rows)
+        finished_before = np.empty(m, dtype=np.bool_)
+        finished = np.empty(m, dtype=np.bool_)
+        rew = np.empty(m)
+        someone_left = settle_finished(
+            self._alive, live_rows, period.terminated, period.reward, finished_before, finished, rew
+        )
+        if finished_before.any():
+            # what drove the finished robots (their agent, or braking), as the world applied it
+            held = live_rows[finished_before]
             self._prev_cmd[held] = clip_accelerations(
                 period.result.commanded[self._bodies[held]], self._a_max[held]
             )
         obs = self._observe(live_rows)
-        end = period.time_up or not np.any(self._alive)
-        finished = ~self._alive[live_rows]
-        rew = np.zeros(len(live_rows))
-        rew[~finished_before] = period.reward
+        end = period.time_up or not someone_left
         assert self.arena.stats is not None  # step() checked it
-        bodies = self._bodies[live_rows]
+        bodies = self._bodies if live_rows is self._all_rows else self._bodies[live_rows]
         reached = self.arena.stats.reached[bodies]
         if end:
             self._alive[live_rows] = False
@@ -689,7 +723,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             rewards=rew,
             terminated=finished & end,
             truncated=~finished & (end and period.time_up),
-            reached=reached.copy(),
+            reached=reached,
             collisions=self._counts(period.events, bodies),
             faults=self._counts(period.faults, bodies),
             finished=finished,
@@ -724,7 +758,8 @@ class NaoArenaParallelEnv(ParallelEnv):
         out = np.zeros((m, self._obs_dim), dtype=np.float64)
         if m == 0:
             return out.astype(np.float32)
-        bodies = self._bodies[rows]
+        everyone = rows is self._all_rows
+        bodies = self._bodies if everyone else self._bodies[rows]
         k = self._k
         idx = np.zeros((m, k), dtype=np.int64)
         present = np.zeros((m, k), dtype=np.bool_)
@@ -733,7 +768,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             p, v, acc, rad = state.positions, state.velocities, state.accelerations, state.radii
             is_traffic, a_max, v_max = self._kinds, self._world_a_max, self._world_v_max
             # the sensing's neighbour search, with the env's distances (math.hypot)
-            nb_start, nb_index = neighbour_lists(bodies, p, self._sensing_range, k, hypot=True)
+            nb_start, nb_index = in_range_lists(bodies, p, self._sensing_range, k, True)
         else:
             # what the robots sense through the imperfect world's models: rows of the batch
             batch = self.arena.sensed()
@@ -767,8 +802,8 @@ class NaoArenaParallelEnv(ParallelEnv):
             a_max,
             v_max,
             bodies,
-            self._goals[rows],
-            self._prev_cmd[rows],
+            self._goals if everyone else self._goals[rows],
+            self._prev_cmd if everyone else self._prev_cmd[rows],
             max(self.time_limit - state.time, 0.0),
             nb_start,
             nb_index,
@@ -780,8 +815,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             out[:, self._layout["nao"]] = self._nao_block(sensed, bodies, idx, present)
         if opts.keep_finished:
             out[:, self._layout["finished"]] = ~self._alive[rows, None]
-        np.clip(out, self._obs_low, self._obs_high, out=out)
-        return out.astype(np.float32)
+        return clipped_float32(out, self._obs_low, self._obs_high)
 
     def _nao_block(
         self,

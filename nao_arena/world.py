@@ -51,7 +51,6 @@ differently wherever a body has two contacts at once.
 
 from __future__ import annotations
 
-import ctypes
 import functools
 from dataclasses import dataclass
 from typing import Any, NamedTuple, cast
@@ -59,9 +58,12 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 import pymunk
 import pymunk.batch as pb
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.jit import kernel
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.maps import MapSpec, PolygonWall, SegmentWall, map_from_dict
 from nao_arena.motion import (
     clip_accelerations,
@@ -202,18 +204,49 @@ def _address(pointer: Any) -> int:
     return int(pb.ffi.cast("uintptr_t", pointer))
 
 
-def _c_function(
-    name: str,
-    restype: type[ctypes._SimpleCData[Any]] | None,
-    *argtypes: type[ctypes._SimpleCData[Any]],
-) -> Any:
-    """The function ``name`` of pymunk's C library as a ctypes function, which compiled
-    code can call (pointers passed as integers)."""
-    return ctypes.CFUNCTYPE(restype, *argtypes)(_address(pb.ffi.addressof(pb.lib, name)))
+_SPACE_STEP = _address(pb.ffi.addressof(pb.lib, "cpSpaceStep"))
+_EACH_BODY = _address(pb.ffi.addressof(pb.lib, "cpSpaceEachBody"))
 
 
-_SPACE_STEP = _c_function("cpSpaceStep", None, ctypes.c_void_p, ctypes.c_double)
-_EACH_BODY = _c_function("cpSpaceEachBody", None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+@intrinsic
+def _space_step(typingctx: Any, function: Any, space: Any, h: Any) -> Any:
+    """``cpSpaceStep(space, h)`` in compiled code: the C function at address
+    ``function``, the space at address ``space`` (integers), h (s)."""
+    sig = types.void(types.int64, types.int64, types.float64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        fn, sp, step = args
+        pointer = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [pointer, ir.DoubleType()])
+        builder.call(builder.inttoptr(fn, fnty.as_pointer()), [builder.inttoptr(sp, pointer), step])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def _each_body(typingctx: Any, function: Any, space: Any, func: Any, data: Any) -> Any:
+    """``cpSpaceEachBody(space, func, data)`` in compiled code: the C function at address
+    ``function``, every other argument an address (integers)."""
+    sig = types.void(types.int64, types.int64, types.int64, types.int64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        fn, sp, it, dat = args
+        pointer = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [pointer, pointer, pointer])
+        builder.call(
+            builder.inttoptr(fn, fnty.as_pointer()),
+            [
+                builder.inttoptr(sp, pointer),
+                builder.inttoptr(it, pointer),
+                builder.inttoptr(dat, pointer),
+            ],
+        )
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
 _GET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodyGetIteratorFuncBatched"))
 _SET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodySetIteratorFuncBatched"))
 
@@ -321,42 +354,6 @@ def _step_a_small_world() -> None:
     world.step(np.zeros((1, 2)))  # the compiled path, once pymunk is idle
 
 
-@kernel
-def _substeps_kernel(
-    space_step: Any,
-    each_body: Any,
-    space: int,
-    h: float,
-    set_body: int,
-    get_body: int,
-    data: NDArray[np.int64],
-    counts: NDArray[np.int32],
-    num: int,
-    floats: FloatArray,
-    rows: NDArray[np.intp],
-    path: FloatArray,
-) -> None:
-    """One period's physics substeps of ``h`` s, in chipmunk directly: before substep j,
-    the forces of data slot j; after each but the last, every body's position into
-    path[j + 1] (N, 2) m (body i from read row rows[i]); after the last, positions and
-    velocities into ``floats`` (see :class:`_BatchIO`)."""
-    substeps = path.shape[0] - 1
-    read = substeps + 1
-    for j in range(substeps):
-        counts[j, num] = 0
-        each_body(space, set_body, data[j])
-        space_step(space, h)
-        counts[read, num] = 0
-        if j + 1 < substeps:
-            each_body(space, get_body, data[substeps + _READ_POSITIONS])
-            for i in range(rows.shape[0]):
-                r = rows[i]
-                path[j + 1, i, 0] = floats[2 * r]
-                path[j + 1, i, 1] = floats[2 * r + 1]
-        else:
-            each_body(space, get_body, data[substeps + _READ_STATE])
-
-
 class _Bodies(NamedTuple):
     """What the compiled period reads of the bodies, map order: a_max (N,) m/s^2, v_max
     (N,) m/s, masses (N,) kg, the batch row of each (N,), the control period dt (s)."""
@@ -370,10 +367,13 @@ class _Bodies(NamedTuple):
 
 class _Chipmunk(NamedTuple):
     """One world's chipmunk space and :class:`_BatchIO` buffers as compiled code takes
-    them: the space's address, the batched set and get iterators' addresses, the count
-    column, the data slots' addresses, the counts, the forces (substeps, rows, 2) N,
-    the velocities (rows, 2) m/s to write, the read array."""
+    them: the addresses of ``cpSpaceStep``, ``cpSpaceEachBody``, the space and the
+    batched set and get iterators; the count column, the data slots' addresses, the
+    counts, the forces (substeps, rows, 2) N, the velocities (rows, 2) m/s to write, the
+    read array."""
 
+    space_step: int
+    each_body: int
     space: int
     set_body: int
     get_body: int
@@ -385,23 +385,43 @@ class _Chipmunk(NamedTuple):
     floats: FloatArray
 
 
-@kernel
-def _write_velocities_kernel(
-    each_body: Any, chip: _Chipmunk, rows: NDArray[np.intp], v: FloatArray
-) -> None:
+@inner_kernel
+def _substeps(chip: _Chipmunk, rows: NDArray[np.intp], h: float, path: FloatArray) -> None:
+    """One period's physics substeps of ``h`` s, in chipmunk directly: before substep j,
+    the forces of data slot j; after each but the last, every body's position into
+    path[j + 1] (N, 2) m (body i from read row rows[i]); after the last, positions and
+    velocities into ``chip.floats`` (see :class:`_BatchIO`)."""
+    substeps = path.shape[0] - 1
+    read = substeps + 1
+    counts, num, floats, data = chip.counts, chip.num, chip.floats, chip.data
+    for j in range(substeps):
+        counts[j, num] = 0
+        _each_body(chip.each_body, chip.space, chip.set_body, data[j])
+        _space_step(chip.space_step, chip.space, h)
+        counts[read, num] = 0
+        if j + 1 < substeps:
+            _each_body(chip.each_body, chip.space, chip.get_body, data[substeps + _READ_POSITIONS])
+            for i in range(rows.shape[0]):
+                r = rows[i]
+                path[j + 1, i, 0] = floats[2 * r]
+                path[j + 1, i, 1] = floats[2 * r + 1]
+        else:
+            _each_body(chip.each_body, chip.space, chip.get_body, data[substeps + _READ_STATE])
+
+
+@inner_kernel
+def _write_velocities_kernel(chip: _Chipmunk, rows: NDArray[np.intp], v: FloatArray) -> None:
     """Set every body's velocity to v (N, 2) m/s (body i at batch row rows[i])."""
     substeps = chip.forces.shape[0]
     for i in range(rows.shape[0]):
         chip.velocities[rows[i], 0] = v[i, 0]
         chip.velocities[rows[i], 1] = v[i, 1]
     chip.counts[substeps, chip.num] = 0
-    each_body(chip.space, chip.set_body, chip.data[substeps + _WRITE_VELOCITIES])
+    _each_body(chip.each_body, chip.space, chip.set_body, chip.data[substeps + _WRITE_VELOCITIES])
 
 
 @kernel
 def _direct_period(
-    space_step: Any,
-    each_body: Any,
     chip: _Chipmunk,
     bodies: _Bodies,
     accels: FloatArray,
@@ -410,7 +430,7 @@ def _direct_period(
 ) -> tuple[bool, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """One control period straight in chipmunk (:meth:`World.step` once pymunk is idle):
     :func:`_plan_period`, the start velocities written when some was scaled,
-    :func:`_substeps_kernel`, :func:`_finish_period` and the end velocities written when
+    :func:`_substeps`, :func:`_finish_period` and the end velocities written when
     some was scaled. ``accels`` (N, 2) m/s^2 the commands; ``start`` (N, 2) m and
     ``v_start`` (N, 2) m/s the bodies at the period's start. Returns (all commands
     finite; nothing is stepped otherwise), the substep centres (S + 1, N, 2) m, the end
@@ -439,26 +459,13 @@ def _direct_period(
     if not finite:
         return False, path, pos, vel, acc, applied
     if over:
-        _write_velocities_kernel(each_body, chip, bodies.rows, v)
+        _write_velocities_kernel(chip, bodies.rows, v)
     path[0] = start
-    _substeps_kernel(
-        space_step,
-        each_body,
-        chip.space,
-        bodies.dt / substeps,
-        chip.set_body,
-        chip.get_body,
-        chip.data,
-        chip.counts,
-        chip.num,
-        chip.floats,
-        bodies.rows,
-        path,
-    )
+    _substeps(chip, bodies.rows, bodies.dt / substeps, path)
     rows_in_space = (chip.floats.shape[0] - 4) // 4
     state = chip.floats[: 4 * rows_in_space].reshape((rows_in_space, 4))
     if _finish_period(state, bodies.rows, bodies.v_max, v_start, bodies.dt, pos, vel, acc):
-        _write_velocities_kernel(each_body, chip, bodies.rows, vel)
+        _write_velocities_kernel(chip, bodies.rows, vel)
     path[substeps] = pos
     return True, path, pos, vel, acc, applied
 
@@ -612,6 +619,8 @@ class World:
             self._io = _BatchIO(self.substeps, self._n_rows)
         io = self._io
         self._chip = _Chipmunk(
+            _SPACE_STEP,
+            _EACH_BODY,
             _address(self._space._space),
             _SET_BODY,
             _GET_BODY,
@@ -714,7 +723,7 @@ class World:
             space._locked = True
             try:
                 finite, path, pos, vel, acc, applied = _direct_period(
-                    _SPACE_STEP, _EACH_BODY, self._chip, self._body_data, a, self._pos, v_start
+                    self._chip, self._body_data, a, self._pos, v_start
                 )
             finally:
                 space._locked = False
