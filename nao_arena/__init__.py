@@ -13,6 +13,7 @@ pettingzoo or pygame until a name needs them)::
 - :class:`Arena`, :class:`ArenaOptions`: the control loop (:mod:`nao_arena.arena`);
 - :func:`load_map`, :func:`available_maps`: map files (:mod:`nao_arena.maps`);
 - :func:`parallel_env`, :func:`env`: the PettingZoo envs (:mod:`nao_arena.environment`);
+  :class:`VectorEnv`: K copies of one stepped together (:mod:`nao_arena.vector`);
 - :class:`Agent`, :class:`Observation`: the agent protocol and what an agent
   senses (:mod:`nao_arena.agent`, :mod:`nao_arena.sensing`);
 - the geometry functions and :class:`AccelLimits` (:mod:`nao_arena.geometry`).
@@ -31,6 +32,7 @@ del _Path
 if TYPE_CHECKING:
     from nao_arena.agent import Agent, AgentFault, BatchAgent
     from nao_arena.arena import Arena, ArenaOptions, StepResult
+    from nao_arena.env_step import StepArrays
     from nao_arena.environment import env, parallel_env
     from nao_arena.geometry import (
         AccelLimits,
@@ -57,6 +59,7 @@ if TYPE_CHECKING:
     from nao_arena.maps import MapError, MapSpec, RobotSpec, available_maps, load_map
     from nao_arena.sensing import Neighbours, Observation, SensingBatch
     from nao_arena.stats import ContactEvent, EpisodeSummary
+    from nao_arena.vector import VectorEnv
     from nao_arena.world import WorldState
 
 del TYPE_CHECKING
@@ -80,7 +83,9 @@ __all__ = [
     "RobotSpec",
     "Selection",
     "SensingBatch",
+    "StepArrays",
     "StepResult",
+    "VectorEnv",
     "WorldState",
     "__version__",
     "ao_boundary",
@@ -138,7 +143,9 @@ _EXPORTS: dict[str, str] = {
     "Neighbours": "nao_arena.sensing",
     "RobotSpec": "nao_arena.maps",
     "SensingBatch": "nao_arena.sensing",
+    "StepArrays": "nao_arena.env_step",
     "StepResult": "nao_arena.arena",
+    "VectorEnv": "nao_arena.vector",
     "WorldState": "nao_arena.world",
     "Arena": "nao_arena.arena",
     "ArenaOptions": "nao_arena.arena",

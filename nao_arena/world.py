@@ -208,8 +208,7 @@ _SPACE_STEP = _address(pb.ffi.addressof(pb.lib, "cpSpaceStep"))
 _EACH_BODY = _address(pb.ffi.addressof(pb.lib, "cpSpaceEachBody"))
 
 
-@intrinsic
-def _space_step(typingctx: Any, function: Any, space: Any, h: Any) -> Any:
+def _space_step_call(typingctx: Any, function: Any, space: Any, h: Any) -> Any:
     """``cpSpaceStep(space, h)`` in compiled code: the C function at address
     ``function``, the space at address ``space`` (integers), h (s)."""
     sig = types.void(types.int64, types.int64, types.float64)
@@ -224,8 +223,10 @@ def _space_step(typingctx: Any, function: Any, space: Any, h: Any) -> Any:
     return sig, codegen
 
 
-@intrinsic
-def _each_body(typingctx: Any, function: Any, space: Any, func: Any, data: Any) -> Any:
+_space_step: Any = intrinsic(_space_step_call)
+
+
+def _each_body_call(typingctx: Any, function: Any, space: Any, func: Any, data: Any) -> Any:
     """``cpSpaceEachBody(space, func, data)`` in compiled code: the C function at address
     ``function``, every other argument an address (integers)."""
     sig = types.void(types.int64, types.int64, types.int64, types.int64)
@@ -245,6 +246,9 @@ def _each_body(typingctx: Any, function: Any, space: Any, func: Any, data: Any) 
         return context.get_dummy_value()
 
     return sig, codegen
+
+
+_each_body: Any = intrinsic(_each_body_call)
 
 
 _GET_BODY = _address(pb.ffi.addressof(pb.lib, "pmSpaceBodyGetIteratorFuncBatched"))
