@@ -24,10 +24,12 @@ its agents); a vector step is K env steps. Every runner makes ``--steps`` vector
 per repeat, the runners one after another in each of ``--repeats`` interleaved repeats
 (so all see the same machine load); the rates are those of each runner's best repeat.
 Construction, the first reset and ``--warmup`` steps (numba compiles on first use) are
-not timed; the resets at the end of an episode (circle_swap_v0: every 400 steps, as
-random actions reach no goal) are. Every row gives the agent-steps it timed beside its
-rates, and its agent-steps/s against the bare row's and, when VMAS ran, the best VMAS
-row's.
+not timed, and the NAO agent's kernels are loaded first; the resets at the end of an
+episode (circle_swap_v0: every 400 steps, as random actions bring few robots to their
+goals) are timed, and so is the NAO agent of every robot that reached its goal (the
+env's default ``after_done="agent"`` drives a finished robot by its own agent). Every
+row gives the agent-steps it timed beside its rates, and its agent-steps/s against the
+bare row's and, when VMAS ran, the best VMAS row's.
 Run: ``python benchmarks/bench_vector_env.py [--copies 1 4 16 64] [--sb3-copies 16]
 [--vmas-envs 1 256] [--steps 300] [--repeats 3] [--warmup 20] [--json PATH]``
 (VMAS: ``pip install vmas``).
@@ -51,6 +53,7 @@ import numpy as np
 
 from nao_arena.atomic import atomic_write_text
 from nao_arena.envs import load
+from nao_arena.kernels import parts_for_agents, preload
 from nao_arena.vector import VectorEnv
 
 ENV = "circle_swap_v0"
@@ -222,6 +225,9 @@ def main(argv: list[str] | None = None) -> int:
     for note in notes:
         print(note, flush=True)
 
+    # the kernels of the robots' own agent (NAO drives the robots that finish) load now,
+    # not when the first robot finishes inside a timed repeat
+    preload(parts_for_agents(["nao"]))
     try:
         for runner in runners:  # numba, torch and the caches warm up
             for s in range(args.warmup):

@@ -125,18 +125,21 @@ def settle_finished(
     finished_before: NDArray[np.bool_],
     finished: NDArray[np.bool_],
     rewards: NDArray[np.float64],
-) -> bool:
+) -> tuple[bool, bool, bool]:
     """The agents that finish in a period of an env with ``keep_finished``: ``alive``
     (agents,) is updated; ``terminated`` and ``reward`` are those of the acting agents,
     the live ones (``live_rows``, m) not finished before, in order. Writes per live
     agent whether it had finished before the period, whether it has now, and its reward
-    (0 once finished before); returns whether some agent is still unfinished."""
+    (0 once finished before). Returns whether some agent is still unfinished, whether
+    some live agent had finished before, and whether every agent is still unfinished."""
     j = 0
+    some_before = False
     for i in range(live_rows.shape[0]):
         r = live_rows[i]
         before = not alive[r]
         finished_before[i] = before
         if before:
+            some_before = True
             rewards[i] = 0.0
         else:
             rewards[i] = reward[j]
@@ -144,7 +147,8 @@ def settle_finished(
                 alive[r] = False
             j += 1
         finished[i] = not alive[r]
+    some_alive, all_alive = False, True
     for r in range(alive.shape[0]):
-        if alive[r]:
-            return True
-    return False
+        some_alive = some_alive or alive[r]
+        all_alive = all_alive and alive[r]
+    return some_alive, some_before, all_alive

@@ -332,6 +332,7 @@ class NaoArenaParallelEnv(ParallelEnv):
     def _install(self, spec: MapSpec) -> None:
         """A fresh arena for ``spec`` and the per-robot constants derived from it."""
         self.spec = spec
+        self._time_limit = float(spec.episode.time_limit)
         self.arena = Arena(spec, self.options.arena)
         world = self.arena.world
         # is_traffic: 1 for the bodies that are not robots (traffic and people)
@@ -389,6 +390,7 @@ class NaoArenaParallelEnv(ParallelEnv):
     def _build_spaces(self) -> None:
         lay = observation_layout(self.options)
         self._layout = lay
+        self._finished_column = lay["finished"].start
         dim = lay["finished"].stop
         low, high = self._observation_bounds(lay)
         self._obs_dim = dim
@@ -467,6 +469,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.arena.reset(episode_seed)
         self.agents = list(self.possible_agents)
         self._alive = np.ones(len(self.possible_agents), dtype=bool)
+        self._all_alive = True  # every agent unfinished (kept by _keep_arrays)
         self._bodies = self.arena.robot_ids[self._controlled].astype(np.int64)
         self._body_list = self._bodies.tolist()
         self._goals = self.arena.goals[self._controlled]
@@ -601,7 +604,7 @@ class NaoArenaParallelEnv(ParallelEnv):
     def _advance(self, live_rows: NDArray[np.intp], actions: NDArray[np.float64]) -> _Period:
         """The arena's control period with the live agents' (``live_rows``) normalized
         actions (in [-1, 1]), and what every ending of a step shares (:class:`_Period`)."""
-        everyone = live_rows is self._all_rows and bool(self._alive.all())
+        everyone = live_rows is self._all_rows and self._all_alive
         if everyone:
             # every agent acts (the common case, without indexing)
             rows, cmd = live_rows, actions * self._a_max[:, None]
@@ -657,7 +660,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         terminated = reached.copy()
         if self.options.terminate_on_collision and n_col is not None:
             terminated |= n_col > 0
-        time_up = res.time >= self.time_limit - 1e-9
+        time_up = res.time >= self._time_limit - 1e-9
         return _Period(live_rows, rows, reward, terminated, time_up, events, faults, res)
 
     def _counts(
@@ -679,6 +682,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         done = period.terminated | period.time_up
         if np.any(done):
             self._alive[rows[done]] = False
+            self._all_alive = False
             self.agents = [a for a, d in zip(self.agents, done.tolist(), strict=True) if not d]
         return StepArrays(
             observations=obs,
@@ -701,10 +705,10 @@ class NaoArenaParallelEnv(ParallelEnv):
         finished_before = np.empty(m, dtype=np.bool_)
         finished = np.empty(m, dtype=np.bool_)
         rew = np.empty(m)
-        someone_left = settle_finished(
+        someone_left, some_finished_before, self._all_alive = settle_finished(
             self._alive, live_rows, period.terminated, period.reward, finished_before, finished, rew
         )
-        if finished_before.any():
+        if some_finished_before:
             # what drove the finished robots (their agent, or braking), as the world applied it
             held = live_rows[finished_before]
             self._prev_cmd[held] = clip_accelerations(
@@ -717,6 +721,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         reached = self.arena.stats.reached[bodies]
         if end:
             self._alive[live_rows] = False
+            self._all_alive = False
             self.agents = []
         return StepArrays(
             observations=obs,
@@ -804,7 +809,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             bodies,
             self._goals if everyone else self._goals[rows],
             self._prev_cmd if everyone else self._prev_cmd[rows],
-            max(self.time_limit - state.time, 0.0),
+            max(self._time_limit - state.time, 0.0),
             nb_start,
             nb_index,
             out,
@@ -814,7 +819,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         if self._cand is not None:
             out[:, self._layout["nao"]] = self._nao_block(sensed, bodies, idx, present)
         if opts.keep_finished:
-            out[:, self._layout["finished"]] = ~self._alive[rows, None]
+            out[:, self._finished_column] = ~self._alive[rows]
         return clipped_float32(out, self._obs_low, self._obs_high)
 
     def _nao_block(
