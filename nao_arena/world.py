@@ -539,10 +539,10 @@ class World:
 
     @staticmethod
     def warm_up() -> None:
-        """Load (or, the first time, compile) the kernel that runs the physics substeps in
-        chipmunk, whose argument types (function pointers) no manifest can name, by
-        stepping a world of one body (once per process): the episodes of this process,
-        and those of the processes forked from it, then start warm."""
+        """Load (or, the first time, compile) the kernel that runs a control period in
+        chipmunk (:func:`_direct_period`) by stepping a world of one body (once per
+        process): the episodes of this process, and those of the processes forked from
+        it, then start warm."""
         _step_a_small_world()
 
     def __getstate__(self) -> dict[str, object]:
