@@ -650,6 +650,8 @@ class Arena:
         (robot order, distinct, each 0 <= k < number of robots) and accelerations
         (m, 2) m/s^2, world frame."""
         robots = np.asarray(robots, dtype=np.intp)
+        if robots.ndim != 1:
+            raise ValueError(f"robots: expected a 1-d array of indices, got shape {robots.shape}")
         if robots.size and not (0 <= robots.min() and robots.max() < len(self.robot_ids)):
             raise ValueError(
                 f"robots: expected robot indices 0 .. {len(self.robot_ids) - 1}, "
