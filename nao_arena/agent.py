@@ -34,6 +34,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import importlib.util
+import math
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -69,6 +70,7 @@ __all__ = [
     "describe",
     "load_agent",
     "safe_act",
+    "safe_act_batch",
 ]
 
 UNCONTAINED: tuple[type[BaseException], ...] = (KeyboardInterrupt, EpisodeTimeout)
@@ -249,3 +251,61 @@ def safe_act(
             obs.time, obs.robot_id, name, f"non-finite acceleration {out.tolist()}"
         )
     return out, None
+
+
+def safe_act_batch(
+    cls: type[BatchAgent],
+    agents: list[Any],
+    batch: SensingBatch,
+    rows: list[int],
+    names: Sequence[str],
+) -> tuple[NDArray[np.float64], dict[int, AgentFault]]:
+    """``cls.act_batch(agents, batch, rows)`` checked like :func:`safe_act`: each
+    result must be a finite (2,) acceleration (an exception instance is that
+    agent's failure; it gets zero acceleration); a failing call fails every agent
+    of the group. ``names``: every robot's agent name (robot order). Returns the
+    accelerations (len(rows), 2) m/s^2 and the faults by robot."""
+    try:
+        results = cls.act_batch(agents, batch, rows)
+        if (
+            type(results) is np.ndarray
+            and results.shape == (len(rows), 2)
+            and results.dtype == np.float64
+            and np.isfinite(results).all()
+        ):
+            return results.copy(), {}  # the common case of an array of them
+        results = list(results)
+        if len(results) != len(rows):
+            raise ValueError(f"act_batch returned {len(results)} results for {len(rows)} agents")
+    except UNCONTAINED:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - any agent failure is contained
+        results = [exc] * len(rows)
+    if all(type(r) is np.ndarray and r.shape == (2,) and r.dtype == np.float64 for r in results):
+        # the common case, checked at once
+        accs = np.array(results)
+        if np.all(np.isfinite(accs)):
+            return accs, {}
+    accs = np.zeros((len(rows), 2))
+    faults: dict[int, AgentFault] = {}
+    for i, (k, res) in enumerate(zip(rows, results, strict=True)):
+        name = names[k]
+        if isinstance(res, BaseException):
+            faults[k] = AgentFault(batch.time, k, name, describe(res))
+            continue
+        try:
+            acc = np.asarray(res, dtype=np.float64)
+        except UNCONTAINED:
+            raise
+        except BaseException as exc:  # noqa: BLE001
+            faults[k] = AgentFault(batch.time, k, name, describe(exc))
+            continue
+        if acc.shape != (2,):
+            faults[k] = AgentFault(
+                batch.time, k, name, f"expected an acceleration of shape (2,), got {acc.shape}"
+            )
+        elif not (math.isfinite(acc[0]) and math.isfinite(acc[1])):
+            faults[k] = AgentFault(batch.time, k, name, f"non-finite acceleration {acc.tolist()}")
+        else:
+            accs[i] = acc
+    return accs, faults

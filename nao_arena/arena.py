@@ -80,6 +80,7 @@ from nao_arena.agent import (
     describe,
     load_agent,
     safe_act,
+    safe_act_batch,
 )
 from nao_arena.communication import Channel
 from nao_arena.imperfection import (
@@ -719,7 +720,9 @@ class Arena:
             if not rows:
                 continue
             assert batch is not None
-            accs, faults_of = self._act_batch(cls, batch, list(rows))
+            accs, faults_of = safe_act_batch(
+                cls, [self.agents[k] for k in rows], batch, list(rows), self.agent_names
+            )
             _end_if_forked(pid)
             commanded[self.robot_ids[rows]] = accs
             found.update(faults_of)
@@ -839,66 +842,6 @@ class Arena:
                     single.append(k)
             self._plan = (key, batched, single)
         return self._plan[1], self._plan[2]
-
-    def _act_batch(
-        self, cls: type[BatchAgent], batch: SensingBatch, rows: list[int]
-    ) -> tuple[NDArray[np.float64], dict[int, AgentFault]]:
-        """``cls.act_batch(agents, batch, rows)`` checked like :func:`safe_act`: each
-        result must be a finite (2,) acceleration (an exception instance is that
-        agent's failure; it gets zero acceleration); a failing call fails every agent
-        of the group. Returns the accelerations (len(rows), 2) m/s^2 and the faults
-        by robot."""
-        agents = [self.agents[k] for k in rows]
-        try:
-            results = cls.act_batch(agents, batch, rows)
-            if (
-                type(results) is np.ndarray
-                and results.shape == (len(rows), 2)
-                and results.dtype == np.float64
-                and np.isfinite(results).all()
-            ):
-                return results.copy(), {}  # the common case of an array of them
-            results = list(results)
-            if len(results) != len(rows):
-                raise ValueError(
-                    f"act_batch returned {len(results)} results for {len(rows)} agents"
-                )
-        except UNCONTAINED:
-            raise
-        except BaseException as exc:  # noqa: BLE001 - any agent failure is contained
-            results = [exc] * len(rows)
-        if all(
-            type(r) is np.ndarray and r.shape == (2,) and r.dtype == np.float64 for r in results
-        ):
-            # the common case, checked at once
-            accs = np.array(results)
-            if np.all(np.isfinite(accs)):
-                return accs, {}
-        accs = np.zeros((len(rows), 2))
-        faults: dict[int, AgentFault] = {}
-        for i, (k, res) in enumerate(zip(rows, results, strict=True)):
-            name = self.agent_names[k]
-            if isinstance(res, BaseException):
-                faults[k] = AgentFault(batch.time, k, name, describe(res))
-                continue
-            try:
-                acc = np.asarray(res, dtype=np.float64)
-            except UNCONTAINED:
-                raise
-            except BaseException as exc:  # noqa: BLE001
-                faults[k] = AgentFault(batch.time, k, name, describe(exc))
-                continue
-            if acc.shape != (2,):
-                faults[k] = AgentFault(
-                    batch.time, k, name, f"expected an acceleration of shape (2,), got {acc.shape}"
-                )
-            elif not (math.isfinite(acc[0]) and math.isfinite(acc[1])):
-                faults[k] = AgentFault(
-                    batch.time, k, name, f"non-finite acceleration {acc.tolist()}"
-                )
-            else:
-                accs[i] = acc
-        return accs, faults
 
     def run(self, seed: int | None = None, max_steps: int | None = None) -> EpisodeSummary:
         """Reset, step until done (or max_steps), return the episode's summary."""

@@ -1,6 +1,6 @@
-"""The observation's bounds and its NAO block (see "Observation bounds" and
-"Observations" in :mod:`nao_arena.environment`); the own and neighbour blocks are filled
-by the compiled ``_observation_rows`` of :mod:`nao_arena.environment`."""
+"""The observation's bounds, its own and neighbour blocks (:func:`observation_rows`,
+compiled) and its NAO block (see "Observation bounds" and "Observations" in
+:mod:`nao_arena.environment`)."""
 
 from __future__ import annotations
 
@@ -11,13 +11,14 @@ from numpy.typing import NDArray
 
 from nao_arena.env_options import NEIGHBOUR_FEATURES, OWN_FEATURES, EnvOptions
 from nao_arena.geometry.clearance import path_clearance
+from nao_arena.jit import kernel
 from nao_arena.maps import Bounds
 from nao_arena.obstacles import obstacle_paths
 from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Neighbours
 from nao_arena.world import World, WorldState
 
-__all__ = ["nao_block", "observation_bounds"]
+__all__ = ["nao_block", "observation_bounds", "observation_rows"]
 
 _BOUND_SLACK = 1e-6
 """Relative widening of the observation bounds that rounding could otherwise cross."""
@@ -146,3 +147,69 @@ def nao_block(
         clear = path_clearance(candidates * a_max, state.velocities[b], path, v_max=v_max)
         out[i] = np.min(clear.clearance, axis=1)
     return np.clip(out, -opts.nao_clip, opts.nao_clip)
+
+
+@kernel
+def observation_rows(
+    p: NDArray[np.float64],
+    v: NDArray[np.float64],
+    acc: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    is_traffic: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    bodies: NDArray[np.int64],
+    goals: NDArray[np.float64],
+    prev_cmd: NDArray[np.float64],
+    time_left: float,
+    nb_start: NDArray[np.int64],
+    nb_index: NDArray[np.int64],
+    out: NDArray[np.float64],
+    idx: NDArray[np.int64],
+    present: NDArray[np.bool_],
+) -> None:
+    """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
+    (goals (m, 2) m, last commands (m, 2) m/s^2) with the first K = idx.shape[1]
+    neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
+    (:func:`~nao_arena.sensing.neighbour_lists`: nearest first; the robot itself, listed
+    last with an infinite range, is skipped; absent rows stay zero); ``idx`` /
+    ``present`` (m, K) get the neighbours' body indices and the row mask."""
+    k = idx.shape[1]
+    n_own = 16
+    for i in range(bodies.shape[0]):
+        b = bodies[i]
+        o = out[i]
+        o[0] = goals[i, 0] - p[b, 0]
+        o[1] = goals[i, 1] - p[b, 1]
+        o[2] = v[b, 0]
+        o[3] = v[b, 1]
+        o[4] = acc[b, 0]
+        o[5] = acc[b, 1]
+        o[6] = prev_cmd[i, 0]
+        o[7] = prev_cmd[i, 1]
+        o[8] = a_max[b]
+        o[9] = v_max[b]
+        o[10] = rad[b]
+        o[11] = p[b, 0]
+        o[12] = p[b, 1]
+        o[13] = goals[i, 0]
+        o[14] = goals[i, 1]
+        o[15] = time_left
+        r = 0
+        for e in range(nb_start[i], nb_start[i + 1]):
+            j = nb_index[e]
+            if j == b or r == k:
+                continue
+            idx[i, r] = j
+            present[i, r] = True
+            c = n_own + 9 * r
+            o[c] = 1.0
+            o[c + 1] = p[j, 0] - p[b, 0]
+            o[c + 2] = p[j, 1] - p[b, 1]
+            o[c + 3] = v[j, 0] - v[b, 0]
+            o[c + 4] = v[j, 1] - v[b, 1]
+            o[c + 5] = acc[j, 0]
+            o[c + 6] = acc[j, 1]
+            o[c + 7] = rad[j]
+            o[c + 8] = is_traffic[j]
+            r += 1

@@ -149,7 +149,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, StepResult
 from nao_arena.env_actions import actions_array
-from nao_arena.env_observations import nao_block, observation_bounds
+from nao_arena.env_observations import nao_block, observation_bounds, observation_rows
 from nao_arena.env_options import (
     NEIGHBOUR_FEATURES,
     OWN_FEATURES,
@@ -167,7 +167,6 @@ from nao_arena.env_step import (
     period_rewards,
     settle_finished,
 )
-from nao_arena.jit import kernel
 from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.neighbours import in_range_lists
 from nao_arena.world import WorldState, clip_accelerations
@@ -186,72 +185,6 @@ __all__ = [
     "observation_layout",
     "parallel_env",
 ]
-
-
-@kernel
-def _observation_rows(
-    p: NDArray[np.float64],
-    v: NDArray[np.float64],
-    acc: NDArray[np.float64],
-    rad: NDArray[np.float64],
-    is_traffic: NDArray[np.float64],
-    a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64],
-    bodies: NDArray[np.int64],
-    goals: NDArray[np.float64],
-    prev_cmd: NDArray[np.float64],
-    time_left: float,
-    nb_start: NDArray[np.int64],
-    nb_index: NDArray[np.int64],
-    out: NDArray[np.float64],
-    idx: NDArray[np.int64],
-    present: NDArray[np.bool_],
-) -> None:
-    """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
-    (goals (m, 2) m, last commands (m, 2) m/s^2) with the first K = idx.shape[1]
-    neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
-    (:func:`~nao_arena.sensing.neighbour_lists`: nearest first; the robot itself, listed
-    last with an infinite range, is skipped; absent rows stay zero); ``idx`` /
-    ``present`` (m, K) get the neighbours' body indices and the row mask."""
-    k = idx.shape[1]
-    n_own = 16
-    for i in range(bodies.shape[0]):
-        b = bodies[i]
-        o = out[i]
-        o[0] = goals[i, 0] - p[b, 0]
-        o[1] = goals[i, 1] - p[b, 1]
-        o[2] = v[b, 0]
-        o[3] = v[b, 1]
-        o[4] = acc[b, 0]
-        o[5] = acc[b, 1]
-        o[6] = prev_cmd[i, 0]
-        o[7] = prev_cmd[i, 1]
-        o[8] = a_max[b]
-        o[9] = v_max[b]
-        o[10] = rad[b]
-        o[11] = p[b, 0]
-        o[12] = p[b, 1]
-        o[13] = goals[i, 0]
-        o[14] = goals[i, 1]
-        o[15] = time_left
-        r = 0
-        for e in range(nb_start[i], nb_start[i + 1]):
-            j = nb_index[e]
-            if j == b or r == k:
-                continue
-            idx[i, r] = j
-            present[i, r] = True
-            c = n_own + 9 * r
-            o[c] = 1.0
-            o[c + 1] = p[j, 0] - p[b, 0]
-            o[c + 2] = p[j, 1] - p[b, 1]
-            o[c + 3] = v[j, 0] - v[b, 0]
-            o[c + 4] = v[j, 1] - v[b, 1]
-            o[c + 5] = acc[j, 0]
-            o[c + 6] = acc[j, 1]
-            o[c + 7] = rad[j]
-            o[c + 8] = is_traffic[j]
-            r += 1
 
 
 class NaoArenaParallelEnv(ParallelEnv):
@@ -798,7 +731,7 @@ class NaoArenaParallelEnv(ParallelEnv):
                 names=(),
                 kinds=tuple(state.kinds[b] for b in of_row.tolist()),
             )
-        _observation_rows(
+        observation_rows(
             p,
             v,
             acc,

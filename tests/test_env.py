@@ -381,7 +381,8 @@ def test_neighbour_kernel_matches_sorting(seed):
     """The env's neighbour rows come from the sensing's search (neighbour_lists with
     math.hypot distances): the K nearest within range, ties by index, never the robot
     itself (also with an infinite range, where the search lists it last)."""
-    from nao_arena.environment import OWN_FEATURES, _observation_rows
+    from nao_arena.env_observations import observation_rows
+    from nao_arena.environment import OWN_FEATURES
 
     rng = np.random.default_rng(seed)
     n = int(rng.integers(2, 40))
@@ -402,7 +403,7 @@ def test_neighbour_kernel_matches_sorting(seed):
     idx = np.zeros((m, k), dtype=np.int64)
     present = np.zeros((m, k), dtype=bool)
     start, index = neighbour_lists(bodies, p, rng_m, k, hypot=True)
-    _observation_rows(
+    observation_rows(
         p,
         v,
         acc,
