@@ -1,19 +1,35 @@
 """What the compiled baselines (``orca``, ``cbf``) share around their kernels: arrays as
-the kernels take them (contiguous, typed), the robots' mask memoised for the arena's kinds
-array, the agents' option tables memoised per group of agents, and the dispatch of a
-batch between the kernel and subclasses with an ``act`` of their own."""
+the kernels take them (contiguous, typed) and bundled by what they describe
+(:class:`BodyArrays`, :class:`NeighbourLists`, :class:`RobotTargets`,
+:class:`WallSegments`), the robots' mask
+memoised for the arena's kinds array, the agents' option tables memoised per group of
+agents, and the dispatch of a batch between the kernel and subclasses with an ``act`` of
+their own."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.sensing import SensingBatch
 
-__all__ = ["OptionTables", "act_rows", "f64", "i64", "robot_mask"]
+__all__ = [
+    "BodyArrays",
+    "NeighbourLists",
+    "OptionTables",
+    "RobotTargets",
+    "WallSegments",
+    "act_rows",
+    "body_arrays",
+    "f64",
+    "i64",
+    "neighbour_lists",
+    "robot_mask",
+    "wall_segments",
+]
 
 T = TypeVar("T")
 
@@ -27,6 +43,65 @@ def f64(a: Any) -> NDArray[np.float64]:
 def i64(a: Any) -> NDArray[np.int64]:
     """A contiguous int64 array (a copy only where needed, as :func:`f64`)."""
     return np.ascontiguousarray(a, dtype=np.int64)
+
+
+class BodyArrays(NamedTuple):
+    """Every body sensed (N rows, world frame) as the kernels take them: reactive (N,)
+    the bodies that reciprocate (take half of the avoidance), positions (N, 2) m,
+    velocities (N, 2) m/s, radii (N,) m, a_max (N,) m/s^2, v_max (N,) m/s."""
+
+    reactive: NDArray[np.bool_]
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    a_max: NDArray[np.float64]
+    v_max: NDArray[np.float64]
+
+
+class WallSegments(NamedTuple):
+    """Walls as the kernels take them: segments (W, 2, 2) m, half-thicknesses (W,) m."""
+
+    segments: NDArray[np.float64]
+    half_thickness: NDArray[np.float64]
+
+
+class NeighbourLists(NamedTuple):
+    """The robots' neighbours, CSR: robot k's are the body indices
+    ``bodies[start[k]:start[k + 1]]``."""
+
+    start: NDArray[np.int64]
+    bodies: NDArray[np.int64]
+
+
+class RobotTargets(NamedTuple):
+    """The robots (R, robot order): their bodies (R,) (body indices) and the points they
+    head for, targets (R, 2) m where has_target (R,)."""
+
+    bodies: NDArray[np.int64]
+    targets: NDArray[np.float64]
+    has_target: NDArray[np.bool_]
+
+
+def body_arrays(batch: SensingBatch, reactive: NDArray[np.bool_] | None = None) -> BodyArrays:
+    """The bodies of ``batch`` as :class:`BodyArrays`; ``reactive`` None: the robots."""
+    return BodyArrays(
+        robot_mask(batch.kinds) if reactive is None else reactive,
+        f64(batch.positions),
+        f64(batch.velocities),
+        f64(batch.radii),
+        f64(batch.a_max),
+        f64(batch.v_max),
+    )
+
+
+def wall_segments(batch: SensingBatch) -> WallSegments:
+    """The walls of ``batch`` as :class:`WallSegments`."""
+    return WallSegments(f64(batch.walls).reshape(-1, 2, 2), f64(batch.wall_radius))
+
+
+def neighbour_lists(batch: SensingBatch) -> NeighbourLists:
+    """The neighbour lists of ``batch`` as :class:`NeighbourLists`."""
+    return NeighbourLists(i64(batch.nb_start), i64(batch.nb_index))
 
 
 _LAST_KINDS: list[Any] = [None, None]

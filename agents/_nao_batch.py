@@ -57,7 +57,7 @@ from ._nao_decide import (
     keep_candidates,
 )
 from ._nao_liveness import held_by_standing_kernel
-from .goal import APPROACH_GAIN, goal_seeking_kernel
+from .goal import APPROACH_GAIN, Headings, goal_seeking_kernel
 
 __all__ = [
     "BRAKING",
@@ -102,9 +102,7 @@ def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pra
         vel,
         a_max,
         cap,
-        offset,
-        cos_off,
-        sin_off,
+        Headings(offset, cos_off, sin_off),
         np.full(n, TIME_CONSTANT),
         BRAKING,
         APPROACH_GAIN,

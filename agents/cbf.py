@@ -123,21 +123,27 @@ import math
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
-from nao_arena.agents.goal import APPROACH_GAIN, goal_seeking_kernel
+from nao_arena.agents.goal import APPROACH_GAIN, Headings, goal_seeking_kernel
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import limit_norm_sqrt
 from nao_arena.sensing import Observation, SensingBatch
 
-from ._kernel_inputs import OptionTables, act_rows
+from ._kernel_inputs import (
+    OptionTables,
+    RobotTargets,
+    act_rows,
+    body_arrays,
+    neighbour_lists,
+    wall_segments,
+)
 from ._kernel_inputs import f64 as _f64
 from ._kernel_inputs import i64 as _i64
-from ._kernel_inputs import robot_mask as _reactive
 
 __all__ = ["CBFAgent", "CBFStats", "cbf_accelerations", "constraint_rows", "solve_qp"]
 
@@ -199,33 +205,43 @@ def _pair_row(dpx, dpy, dvx, dvy, ds, alpha, gamma, share, ajx, ajy, a_max, curv
     return -nx, -ny, share * c - (nx * ajx + ny * ajy), False
 
 
+class _RowSettings(NamedTuple):
+    """How a robot's constraint rows are made: gamma (s/m^2), margin (m), reach (m: walls
+    whose surface is within it count), brake (fraction of a_max), reciprocal (robots
+    take half), drop (leave out the rows that cannot bind)."""
+
+    gamma: float
+    margin: float
+    reach: float
+    brake: float
+    reciprocal: bool
+    drop: bool
+
+
 @kernel(error_model="numpy")
 def _robot_rows(
     b,
     k,
-    positions,
-    velocities,
+    sensed,
     accelerations,
-    radii,
-    a_max,
-    reactive,
-    nb_start,
-    nb_index,
+    neighbours,
     walls,
-    wall_radius,
-    gamma,
-    margin,
-    reach,
-    brake,
-    reciprocal,
-    drop,
+    settings,
     rows_a,
     rows_c,
 ):
     """The constraint rows of robot k (body b) into rows_a (.., 2), rows_c (..): its
     neighbours (nb_index[nb_start[k]:nb_start[k + 1]], in that order), then the walls
     whose surface is within ``reach`` m, in order; ``drop``: leave out rows that cannot
-    bind (c >= a_max). Returns (number of rows, whether any is a contact row)."""
+    bind (c >= a_max). ``sensed``: :class:`~nao_arena.agents._kernel_inputs.BodyArrays`;
+    accelerations (N, 2) m/s^2; ``neighbours``:
+    :class:`~nao_arena.agents._kernel_inputs.NeighbourLists`; ``walls``:
+    :class:`~nao_arena.agents._kernel_inputs.WallSegments`; ``settings``:
+    :class:`_RowSettings`. Returns (number of rows, whether any is a contact row)."""
+    reactive, positions, velocities, radii, a_max, _ = sensed
+    nb_start, nb_index = neighbours
+    walls, wall_radius = walls
+    gamma, margin, reach, brake, reciprocal, drop = settings
     px = positions[b, 0]
     py = positions[b, 1]
     vx = velocities[b, 0]
@@ -443,21 +459,12 @@ def _qp(rows_a, rows_c, m, radius, ox, oy, lifted, pa, pc):
 
 @kernel(error_model="numpy")
 def cbf_accelerations(
-    positions,
-    velocities,
+    sensed,
     accelerations,
-    radii,
-    a_max,
-    v_max,
-    reactive,
-    bodies,
-    targets,
-    has_target,
-    nb_start,
-    nb_index,
+    robots,
+    neighbours,
     rows,
     walls,
-    wall_radius,
     options,
     has_v_pref,
     reciprocal,
@@ -468,14 +475,18 @@ def cbf_accelerations(
     """CBF accelerations of the robots ``rows`` (robot order) into out (len(rows), 2)
     m/s^2, with each one's status bits (RELAXED, CONTACT) and largest violation (m/s^2).
 
-    Bodies (N): positions (N, 2) m, velocities (N, 2) m/s, accelerations (N, 2) m/s^2,
-    radii (N,) m, a_max (N,) m/s^2, v_max (N,) m/s, reactive (N,) (robots). Robots (R):
-    bodies (R,), targets (R, 2) m where has_target (R,), neighbours nb_index[nb_start[k]:
-    nb_start[k + 1]] (body indices). Walls (W, 2, 2) m with half-thickness (W,) m. Per
-    row: options (rows, 7): gamma (s/m^2), margin (m), v_pref (m/s; used where
-    has_v_pref), time_constant (s), sensing_range (m; walls), braking (fraction of
-    a_max), detour (rad); reciprocal (rows,).
+    Bodies (N): ``sensed`` (:class:`~nao_arena.agents._kernel_inputs.BodyArrays`), their
+    accelerations (N, 2) m/s^2. Robots (R): ``robots``
+    (:class:`~nao_arena.agents._kernel_inputs.RobotTargets`), their ``neighbours``
+    (:class:`~nao_arena.agents._kernel_inputs.NeighbourLists`). ``walls``:
+    :class:`~nao_arena.agents._kernel_inputs.WallSegments`. Per row: options (rows, 7):
+    gamma (s/m^2), margin (m), v_pref (m/s; used where has_v_pref), time_constant (s),
+    sensing_range (m; walls), braking (fraction of a_max), detour (rad); reciprocal
+    (rows,).
     """
+    reactive, positions, velocities, radii, a_max, v_max = sensed
+    bodies, targets, has_target = robots
+    nb_start, nb_index = neighbours
     n = rows.shape[0]
     # the nominal: goal seeking (agents/goal.py), all rows at once
     tg = np.empty((n, 2))
@@ -513,13 +524,11 @@ def cbf_accelerations(
         cos_off[i] = math.cos(offset[i])
         sin_off[i] = math.sin(offset[i])
         most = max(most, nb_start[k + 1] - nb_start[k])
-    goal_seeking_kernel(
-        tg, pos, vel, am, cap, zero, zero, zero, tau, _BRAKING, APPROACH_GAIN, has, nominal
-    )
-    goal_seeking_kernel(
-        tg, pos, vel, am, cap, offset, cos_off, sin_off, tau, _BRAKING, APPROACH_GAIN, has, turned
-    )
-    most += walls.shape[0]
+    straight = Headings(zero, zero, zero)
+    goal_seeking_kernel(tg, pos, vel, am, cap, straight, tau, _BRAKING, APPROACH_GAIN, has, nominal)
+    detour = Headings(offset, cos_off, sin_off)
+    goal_seeking_kernel(tg, pos, vel, am, cap, detour, tau, _BRAKING, APPROACH_GAIN, has, turned)
+    most += walls.segments.shape[0]
     rows_a = np.empty((most, 2))
     rows_c = np.empty(most)
     lifted = np.empty(most)
@@ -528,27 +537,16 @@ def cbf_accelerations(
     for i in range(n):
         k = rows[i]
         b = bodies[k]
-        m, contact = _robot_rows(
-            b,
-            k,
-            positions,
-            velocities,
-            accelerations,
-            radii,
-            a_max,
-            reactive,
-            nb_start,
-            nb_index,
-            walls,
-            wall_radius,
+        settings = _RowSettings(
             options[i, _GAMMA],
             options[i, _MARGIN],
             options[i, _SENSING_RANGE],
             options[i, _BRAKE],
             reciprocal[i],
             True,
-            rows_a,
-            rows_c,
+        )
+        m, contact = _robot_rows(
+            b, k, sensed, accelerations, neighbours, walls, settings, rows_a, rows_c
         )
         radius = a_max[b]
         nx = nominal[i, 0]
@@ -589,25 +587,17 @@ def constraint_rows(
     nb = int(batch.nb_start[k + 1] - batch.nb_start[k]) + len(batch.walls)
     rows_a = np.empty((nb, 2))
     rows_c = np.empty(nb)
+    settings = _RowSettings(
+        float(gamma), float(margin), float(sensing_range), float(braking), bool(reciprocal), False
+    )
     m, contact = _robot_rows(
         int(batch.bodies[k]),
         int(k),
-        _f64(batch.positions),
-        _f64(batch.velocities),
+        body_arrays(batch),
         _f64(batch.accelerations),
-        _f64(batch.radii),
-        _f64(batch.a_max),
-        _reactive(batch.kinds),
-        _i64(batch.nb_start),
-        _i64(batch.nb_index),
-        _f64(batch.walls).reshape(-1, 2, 2),
-        _f64(batch.wall_radius),
-        float(gamma),
-        float(margin),
-        float(sensing_range),
-        float(braking),
-        bool(reciprocal),
-        False,
+        neighbour_lists(batch),
+        wall_segments(batch),
+        settings,
         rows_a,
         rows_c,
     )
@@ -815,21 +805,12 @@ def _batch_accelerations(
     status = np.empty(n, dtype=np.int64)
     violation = np.empty(n)
     cbf_accelerations(
-        _f64(batch.positions),
-        _f64(batch.velocities),
+        body_arrays(batch),
         _f64(batch.accelerations),
-        _f64(batch.radii),
-        _f64(batch.a_max),
-        _f64(batch.v_max),
-        _reactive(batch.kinds),
-        _i64(batch.bodies),
-        targets,
-        has_target,
-        _i64(batch.nb_start),
-        _i64(batch.nb_index),
+        RobotTargets(_i64(batch.bodies), targets, has_target),
+        neighbour_lists(batch),
         rows,
-        _f64(batch.walls).reshape(-1, 2, 2),
-        _f64(batch.wall_radius),
+        wall_segments(batch),
         options,
         has_v_pref,
         recip,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -69,9 +69,7 @@ def goal_seeking_accels(
         f(velocities, dtype=np.float64),
         f(a_max, dtype=np.float64),
         f(speed_cap, dtype=np.float64),
-        offsets,
-        cos_off,
-        sin_off,
+        Headings(offsets, cos_off, sin_off),
         _per_row(time_constant, n),
         float(braking),
         float(approach_gain),
@@ -88,6 +86,15 @@ def _per_row(value: float | NDArray[np.float64], n: int) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)))
 
 
+class Headings(NamedTuple):
+    """Heading offsets (n,) rad (counter-clockwise positive) with their cosines and sines
+    (n,), one per row."""
+
+    offset: NDArray[np.float64]
+    cos: NDArray[np.float64]
+    sin: NDArray[np.float64]
+
+
 @kernel
 def goal_seeking_kernel(
     targets,
@@ -95,9 +102,7 @@ def goal_seeking_kernel(
     velocities,
     a_max,
     speed_cap,
-    offset,
-    cos_off,
-    sin_off,
+    headings,
     tau,
     braking,
     approach_gain,
@@ -105,7 +110,8 @@ def goal_seeking_kernel(
     out,
 ):
     """:func:`goal_seeking_accels` row by row into ``out`` (n, 2) m/s^2; the heading
-    offsets (rad) come with their cosines and sines."""
+    offsets: :class:`Headings`."""
+    offset, cos_off, sin_off = headings
     for i in range(targets.shape[0]):
         dx = targets[i, 0] - positions[i, 0]
         dy = targets[i, 1] - positions[i, 1]

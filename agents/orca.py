@@ -27,7 +27,7 @@ import dataclasses
 import math
 import operator
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from llvmlite import ir
@@ -43,7 +43,15 @@ from nao_arena.motion import limit_norm
 from nao_arena.obstacles import NO_WALLS, wall_discs_memo
 from nao_arena.sensing import Neighbours, Observation, SensingBatch
 
-from ._kernel_inputs import OptionTables, act_rows
+from ._kernel_inputs import (
+    BodyArrays,
+    NeighbourLists,
+    OptionTables,
+    RobotTargets,
+    act_rows,
+    body_arrays,
+    neighbour_lists,
+)
 from ._kernel_inputs import f64 as _f64
 from ._kernel_inputs import i64 as _i64
 from ._kernel_inputs import robot_mask as _reactive
@@ -264,24 +272,24 @@ def _before(da, ia, db, ib):
     return False
 
 
+class WallDiscs(NamedTuple):
+    """The walls as discs, in sets: centres (D, 2) m and radii (D,) m (grown by a robot's
+    radius and margin), set s the discs ``start[s]:start[s + 1]``; the set of each row
+    of a kernel call (rows,) (-1: none)."""
+
+    centres: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    start: NDArray[np.int64]
+    of_row: NDArray[np.int64]
+
+
 @kernel(error_model="numpy")
 def orca_accelerations(
-    positions,
-    velocities,
-    radii,
-    a_max,
-    v_max,
-    reactive,
-    bodies,
-    goals,
-    has_goal,
-    nb_start,
-    nb_index,
+    sensed,
+    robots,
+    neighbours,
     rows,
-    wall_c,
-    wall_r,
-    wall_start,
-    wall_set,
+    wall_discs,
     options,
     has_v_pref,
     limit,
@@ -289,16 +297,19 @@ def orca_accelerations(
 ):
     """ORCA accelerations (len(rows), 2) m/s^2 of the robots ``rows`` (robot order).
 
-    Bodies (N): positions (N, 2) m, velocities (N, 2) m/s, radii, a_max, v_max (N,),
-    reactive (N,) (robots: they take half of the avoidance). Robots (R): bodies (R,)
-    body indices, goals (R, 2) m where has_goal (R,), neighbours nb_index[nb_start[k]:
-    nb_start[k + 1]] (body indices). Per row: wall discs wall_c, wall_r
-    [wall_start[s]:wall_start[s + 1]] of set s = wall_set[row] (-1: none; radii grown
-    by the robot's radius and margin), options (rows, 5): horizon (s), margin (m),
+    Bodies (N): ``sensed`` (:class:`~nao_arena.agents._kernel_inputs.BodyArrays`; the
+    reactive ones take half of the avoidance). Robots (R): ``robots``
+    (:class:`~nao_arena.agents._kernel_inputs.RobotTargets`: the goals), their
+    ``neighbours`` (:class:`~nao_arena.agents._kernel_inputs.NeighbourLists`). Per row:
+    the wall discs of its set (:class:`WallDiscs`), options (rows, 5): horizon (s), margin (m),
     v_pref (m/s; used where has_v_pref), time_constant (s), sensing_range (m) (wall
     discs within it count), limit: how many of the nearest obstacles count (< 0: all).
     dt: control period (s).
     """
+    reactive, positions, velocities, radii, a_max, v_max = sensed
+    bodies, goals, has_goal = robots
+    nb_start, nb_index = neighbours
+    wall_c, wall_r, wall_start, wall_set = wall_discs
     n = rows.shape[0]
     out = np.zeros((n, 2))
     # scratch sized for the row with the most obstacles
@@ -537,23 +548,24 @@ class ORCAAgent:
         wall_c, wall_r, wall_start, wall_set = _wall_sets(
             obs.walls, obs.wall_radius, np.array([obs.radius + self.margin])
         )
-        acc = orca_accelerations(
+        sensed = BodyArrays(
+            reactive,
             positions,
             velocities,
             radii,
             _f64(np.full(m + 1, obs.a_max)),
             _f64(np.full(m + 1, obs.v_max)),
-            reactive,
+        )
+        robot = RobotTargets(np.zeros(1, dtype=np.int64), goals, np.array([target is not None]))
+        neighbours = NeighbourLists(
+            np.array([0, m], dtype=np.int64), np.arange(1, m + 1, dtype=np.int64)
+        )
+        acc = orca_accelerations(
+            sensed,
+            robot,
+            neighbours,
             np.zeros(1, dtype=np.int64),
-            goals,
-            np.array([target is not None]),
-            np.array([0, m], dtype=np.int64),
-            np.arange(1, m + 1, dtype=np.int64),
-            np.zeros(1, dtype=np.int64),
-            wall_c,
-            wall_r,
-            wall_start,
-            wall_set,
+            WallDiscs(wall_c, wall_r, wall_start, wall_set),
             options,
             has_v_pref,
             limit,
@@ -657,22 +669,11 @@ def _view_accelerations(
     else:
         wall_c, wall_r, wall_start, wall_set = _no_wall_sets(len(rows))
     return orca_accelerations(
-        _f64(batch.positions),
-        _f64(batch.velocities),
-        _f64(batch.radii),
-        _f64(batch.a_max),
-        _f64(batch.v_max),
-        reactive,
-        bodies,
-        _f64(batch.goals),
-        _every_goal(len(bodies)),
-        _i64(batch.nb_start),
-        _i64(batch.nb_index),
+        body_arrays(batch, reactive),
+        RobotTargets(bodies, _f64(batch.goals), _every_goal(len(bodies))),
+        neighbour_lists(batch),
         rows,
-        wall_c,
-        wall_r,
-        wall_start,
-        wall_set,
+        WallDiscs(wall_c, wall_r, wall_start, wall_set),
         options,
         has_v_pref,
         limit,
