@@ -720,9 +720,7 @@ class Arena:
             if not rows:
                 continue
             assert batch is not None
-            accs, faults_of = safe_act_batch(
-                cls, [self.agents[k] for k in rows], batch, list(rows), self.agent_names
-            )
+            accs, faults_of = self._act_batch(cls, batch, list(rows))
             _end_if_forked(pid)
             commanded[self.robot_ids[rows]] = accs
             found.update(faults_of)
@@ -842,6 +840,13 @@ class Arena:
                     single.append(k)
             self._plan = (key, batched, single)
         return self._plan[1], self._plan[2]
+
+    def _act_batch(
+        self, cls: type[BatchAgent], batch: SensingBatch, rows: list[int]
+    ) -> tuple[NDArray[np.float64], dict[int, AgentFault]]:
+        """:func:`~nao_arena.agent.safe_act_batch` for the agents of ``rows`` (robot order),
+        all of class ``cls``."""
+        return safe_act_batch(cls, [self.agents[k] for k in rows], batch, rows, self.agent_names)
 
     def run(self, seed: int | None = None, max_steps: int | None = None) -> EpisodeSummary:
         """Reset, step until done (or max_steps), return the episode's summary."""
