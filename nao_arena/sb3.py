@@ -106,7 +106,7 @@ def parallel_env(env_id: str, shield: bool = False, **env_kwargs: Any) -> Any:
     observation bounds, optionally behind the NAO shield, with observations scaled to
     [0, 1]. ``env_kwargs``: :class:`nao_arena.env_options.EnvOptions` fields and map
     parameters."""
-    par = load(env_id).parallel_env(**bounded_kwargs(env_id, env_kwargs))
+    par, _ = _bounded_env(env_id, env_kwargs)
     if shield:
         from nao_arena.shield import NAOShield
 
@@ -117,13 +117,22 @@ def parallel_env(env_id: str, shield: bool = False, **env_kwargs: Any) -> Any:
 def bounded_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """``env_kwargs`` with ``keep_finished=True`` and, when the env's observations would
     have an infinite bound (an open map), ``position_margin`` :data:`POSITION_MARGIN`."""
+    par, kwargs = _bounded_env(env_id, env_kwargs)
+    par.close()
+    return kwargs
+
+
+def _bounded_env(env_id: str, env_kwargs: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    """The parallel env of :func:`bounded_kwargs`' keywords, and those keywords (a second
+    env is built only for an open map)."""
     kwargs = {"keep_finished": True, **env_kwargs}
     par = load(env_id).parallel_env(**kwargs)
     space = par.observation_space(par.possible_agents[0])
-    par.close()
     if np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high)):
-        return kwargs
-    return {"position_margin": POSITION_MARGIN, **kwargs}
+        return par, kwargs
+    par.close()
+    kwargs = {"position_margin": POSITION_MARGIN, **kwargs}
+    return load(env_id).parallel_env(**kwargs), kwargs
 
 
 class _FinalInfos(BaseParallelWrapper):

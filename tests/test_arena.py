@@ -440,3 +440,43 @@ def test_shared_plans_are_the_accelerations_the_world_applied() -> None:
     arena.commanded = arena.commanded * 0.5
     plans = arena.sensing().plans
     assert plans is not None and plans.tobytes() == expected().tobytes()
+
+
+def test_step_robots_is_step_with_the_same_actions_bit_for_bit():
+    """``step_robots`` (arrays) and ``step`` (a dict) replace the same robots' agents: the
+    same states, commands and contacts, with the other robots' agents acting, and with
+    every robot replaced (then no agent acts)."""
+    for replaced in ([0, 2], [0, 1, 2, 3]):
+        spec = load_map("circle_swap", n=4)
+        by_dict, by_arrays = Arena(spec), Arena(spec)
+        by_dict.reset(seed=3)
+        by_arrays.reset(seed=3)
+        rng = np.random.default_rng(0)
+        robots = np.array(replaced, dtype=np.intp)
+        for _ in range(60):
+            acc = rng.uniform(-3.0, 3.0, (len(robots), 2))
+            a = by_dict.step(dict(zip(robots.tolist(), acc, strict=True)))
+            b = by_arrays.step_robots(robots, acc)
+            assert np.array_equal(a.state.positions, b.state.positions)
+            assert np.array_equal(a.state.velocities, b.state.velocities)
+            assert np.array_equal(a.commanded, b.commanded)
+            assert [c.to_dict() for c in a.contacts] == [c.to_dict() for c in b.contacts]
+        assert by_dict.summary().trajectory_hash == by_arrays.summary().trajectory_hash
+
+
+@pytest.mark.parametrize(
+    ("robots", "accelerations", "message"),
+    [
+        ([0, 5], np.zeros((2, 2)), r"robots: expected robot indices 0 \.\. 1, got \[0, 5\]"),
+        ([-1], np.zeros((1, 2)), r"robots: expected robot indices 0 \.\. 1, got \[-1\]"),
+        ([1, 1], np.zeros((2, 2)), r"robots: expected distinct robot indices, got \[1, 1\]"),
+        ([[0, 1]], np.zeros((2, 2)), r"robots: expected a 1-d array of indices, got shape"),
+        ([0, 1], np.zeros((2, 3)), r"accelerations: expected shape \(2, 2\), got \(2, 3\)"),
+    ],
+)
+def test_step_robots_refuses_bad_arrays_by_name(robots, accelerations, message):
+    arena = Arena(load_map("circle_swap", n=2))
+    arena.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        arena.step_robots(np.array(robots), accelerations)
+    assert arena.time == 0.0  # nothing stepped
