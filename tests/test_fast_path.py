@@ -26,7 +26,7 @@ from reference.kernels_reference import (
     slide_ref,
 )
 from reference.predictors_reference import turn_rate_numpy
-from reference.selection_reference import CandidateTester, nearest_by_disks, search
+from reference.selection_reference import CandidateTester, bundles, nearest_by_disks, search
 
 from nao_arena.agents._nao_columns import StepMemo
 from nao_arena.agents._nao_decide import (
@@ -42,6 +42,7 @@ from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.boundary import Scratch
 from nao_arena.geometry._kernel.candidates import _try_ball_disc
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
@@ -366,12 +367,8 @@ def test_ball_search_tries_the_candidates_of_nearest_outside_disks(seed):
             disks = nao_disks_within(samples, reach)
             for covered in (0.0, 0.25 * reach):
                 cands = nearest_outside_disks(a_d, disks, 2.0, 8, reach, covered)
-                ref = try_candidates_disc(
-                    cands, 0, reach, a_d, 1e-3, 2.0, t.v, t.v_max, *p.arrays, t.sweep, 0.0, disks
-                )
-                got = _try_ball_disc(
-                    a_d, disks, reach, 1e-3, 2.0, t.v, t.v_max, *p.arrays, t.sweep, 0.0, covered
-                )
+                ref = try_candidates_disc(cands, 0, reach, a_d, 1e-3, *bundles(t, 2.0), 0.0, disks)
+                got = _try_ball_disc(a_d, disks, reach, 1e-3, *bundles(t, 2.0), 0.0, covered)
                 assert got[:4] == ref[:4]
                 assert got[4] == (len(cands) == 0)
 
@@ -751,8 +748,7 @@ def test_compiled_bisect_and_slide_match_python_loops(seed):
         pytest.fail("no scene with a boundary")
     good = grid[ok][0]
     bad = grid[~ok][0]
-    p = t.path
-    args = (limits.a_max, t.v, t.v_max, *p.arrays, t.sweep, t.margin)
+    args = (*bundles(t, limits.a_max), t.margin)
     before = t.count
     ref = bisect_ref(t, bad, good, 1e-3)
     ref_count = t.count - before
@@ -948,22 +944,12 @@ def test_compiled_rings_match_the_python_rings(seed):
     Python loop it replaces (all rings tested, the innermost with an admissible candidate
     wins, its nearest admissible candidate is bisected and slid): the same answers."""
     t, rng, _, _ = _boundary_scene(seed)
-    p = t.path
     radii = 4.0 * 0.5 ** np.arange(7, -1, -1)
     found_any = 0
     for _ in range(10):
         a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
         found, x, y, _ = ring_search_disc(
-            a_d,
-            radii,
-            selection._unit_rings(8, 16),
-            1e-3,
-            2.0,
-            t.v,
-            t.v_max,
-            *p.arrays,
-            t.sweep,
-            0.0,
+            a_d, radii, selection._unit_rings(8, 16), 1e-3, *bundles(t, 2.0), 0.0
         )
         cands = selection._ring_candidates(a_d, radii, 16, t.limits)
         ok = t.ok(cands).reshape(8, 16)
@@ -1135,19 +1121,7 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
             disks = nao_disks_within(samples, 8.0)
             cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
             for k in range(len(cands)):
-                args = (
-                    cands[k : k + 1],
-                    0,
-                    8.0,
-                    a_d,
-                    1e-3,
-                    2.0,
-                    t.v,
-                    t.v_max,
-                    *p.arrays,
-                    t.sweep,
-                    0.0,
-                )
+                args = (cands[k : k + 1], 0, 8.0, a_d, 1e-3, *bundles(t, 2.0), 0.0)
                 found, x, y, _, _ = try_candidates_disc(*args, disks)
                 ray_only = try_candidates_disc(*args, np.zeros((0, 3)))[0]
                 assert found or not ray_only
@@ -1180,9 +1154,7 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
             carried,
             np.array([rng.integers(n_obs), rng.integers(n_pieces)], dtype=np.int64),
         ):
-            ok, tested = ok_disc(
-                a[0], a[1], 2.0, t.v[0], t.v[1], t.v_max, *p.arrays, t.sweep, 0.0, buf, res, hint
-            )
+            ok, tested = ok_disc(a[0], a[1], *bundles(t, 2.0), 0.0, Scratch(buf, res, hint))
             assert ok == want and tested == 1
 
 

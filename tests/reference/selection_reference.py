@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.boundary import Limits, Obstacles, Walls
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
     nao_disk_samples,
@@ -93,20 +94,27 @@ class CandidateTester(_Tester):
         return bool(res[0])
 
 
+def bundles(t: _Tester, a_max: float | None = None) -> tuple[Limits, Obstacles, Walls]:
+    """The tester's robot (its limits' a_max unless given), obstacles and walls as the
+    compiled search takes them (:mod:`nao_arena.geometry._kernel.boundary`)."""
+    p = t.path
+    seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r = p.arrays
+    return (
+        Limits(t.limits.a_max if a_max is None else a_max, t.v[0], t.v[1], t.v_max),
+        Obstacles(seg_t, seg_c, seg_w, seg_b, radius, t.sweep),
+        Walls(walls, wall_r),
+    )
+
+
 def bisect(
     t: CandidateTester, bad: NDArray[np.float64], good: NDArray[np.float64], tol: float
 ) -> NDArray[np.float64]:
     """Shrink [bad, good] to a boundary point within tol (compiled); the admissible end."""
-    p = t.path
     gx, gy, count = bisect_disc(
         np.asarray(bad, dtype=np.float64),
         np.asarray(good, dtype=np.float64),
         tol,
-        t.limits.a_max,
-        t.v,
-        t.v_max,
-        *p.arrays,
-        t.sweep,
+        *bundles(t),
         t.margin,
     )
     t.count += count
@@ -117,16 +125,11 @@ def slide_towards(
     t: CandidateTester, a_d: NDArray[np.float64], best: NDArray[np.float64], tol: float
 ) -> NDArray[np.float64]:
     """Improve an admissible boundary point towards a_d (compiled)."""
-    p = t.path
     x, y, count = slide_disc(
         np.asarray(a_d, dtype=np.float64),
         np.asarray(best, dtype=np.float64),
         tol,
-        t.limits.a_max,
-        t.v,
-        t.v_max,
-        *p.arrays,
-        t.sweep,
+        *bundles(t),
         t.margin,
     )
     t.count += count
@@ -188,23 +191,11 @@ def try_ball(
 ) -> NDArray[np.float64] | None:
     """The nearest candidate outside ``disks`` within ``reach`` of a_d that is admissible
     (or pushed out of a sliver and bisected back onto the boundary), or None."""
-    p = t.path
     a_max = t.limits.a_max
     cands = nearest_outside_disks(a_d, disks, a_max, 8, reach)
     if compiled:
         found, x, y, count, _ = try_candidates_disc(
-            cands,
-            0,
-            reach,
-            a_d,
-            tol,
-            a_max,
-            t.v,
-            t.v_max,
-            *p.arrays,
-            t.sweep,
-            t.margin,
-            disks,
+            cands, 0, reach, a_d, tol, *bundles(t, a_max), t.margin, disks
         )
         t.count += count
         return np.array([x, y]) if found else None

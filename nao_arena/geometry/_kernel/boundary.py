@@ -2,13 +2,21 @@
 (m/s^2), with a hint of what rejected the last one, and the steps onto and along the
 NAO boundary: bisection, pushes out of slivers between sampled disks, and sliding
 along the boundary towards the desired acceleration a_d.
+
+The test's arguments travel in named bundles (:class:`Limits`, :class:`Obstacles`,
+:class:`Walls`, :class:`Scratch`), which numba passes as their fields: a bundle costs
+nothing at run time, and two arrays given in the wrong order no longer compile. A
+function that borrows its arrays (see :mod:`nao_arena.geometry.borrow`) builds the
+bundles again from the borrowed fields.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan_obstacle
 from nao_arena.geometry._kernel.segment import wall_violation
@@ -17,50 +25,82 @@ from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
 
 
+class Limits(NamedTuple):
+    """The robot as the admissibility test takes it (frame of :mod:`nao_arena.geometry`:
+    the robot at the origin): the limit disc |a| <= a_max (m/s^2), the robot's velocity
+    (vx, vy) (m/s) and its speed limit v_max (m/s)."""
+
+    a_max: float
+    vx: float
+    vy: float
+    v_max: float
+
+
+class Obstacles(NamedTuple):
+    """The N moving obstacles the test checks (frame of :mod:`nao_arena.geometry`:
+    positions relative to the robot's, times from now): piecewise-quadratic paths over
+    the S pieces of the times seg_t (S+1,) s, per obstacle and piece the start centre
+    seg_c (N, S, 2) m, velocity seg_w (N, S, 2) m/s and acceleration seg_b (N, S, 2)
+    m/s^2; radius (N,) m (grown by the robot's); sweep (N, S) m: how far each obstacle
+    moves within each piece at most
+    (:func:`~nao_arena.geometry._kernel.exact.piece_sweep`)."""
+
+    seg_t: NDArray[np.float64]
+    seg_c: NDArray[np.float64]
+    seg_w: NDArray[np.float64]
+    seg_b: NDArray[np.float64]
+    radius: NDArray[np.float64]
+    sweep: NDArray[np.float64]
+
+
+class Walls(NamedTuple):
+    """The W walls the test checks: segment ends (W, 2, 2) m relative to the robot
+    (frame of :mod:`nao_arena.geometry`), radius (W,) m (grown by the robot's; see
+    :func:`~nao_arena.geometry._kernel.segment.wall_violation`)."""
+
+    ends: NDArray[np.float64]
+    radius: NDArray[np.float64]
+
+
+class Scratch(NamedTuple):
+    """The test's scratch arrays: buf (3,) and res (3,) (no units: the scans' working
+    space and results) and hint (2,) int64, the (obstacle, piece) that last rejected a
+    candidate (see :func:`ok_disc`)."""
+
+    buf: NDArray[np.float64]
+    res: NDArray[np.float64]
+    hint: NDArray[np.int64]
+
+
 # called by the searches once per candidate: its callers pass borrowed arrays, so the
 # call counts no references (see nao_arena.geometry.borrow)
 @inner_kernel(error_model="numpy")
-def ok_disc(
-    x,
-    y,
-    a_max,
-    vx,
-    vy,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    buf,
-    res,
-    hint,
-):
+def ok_disc(x, y, limits, obstacles, walls, margin, scratch):
     """Admissibility of the acceleration (x, y) m/s^2 within the limit disc |a| <= a_max:
     returns (admissible, 1 if it was tested against the obstacles (inside the disc)).
-    Obstacles: the N moving ones (seg_*, radius), then the W walls (walls, wall_r; see
-    :func:`~nao_arena.geometry._kernel.segment.wall_violation`).
+    Obstacles: the N moving ones (``obstacles``), then the W walls (``walls``; see
+    :func:`~nao_arena.geometry._kernel.segment.wall_violation`); clearance margin m.
 
-    hint: (obstacle, piece) that last rejected a candidate (-1: none; obstacle N + w:
-    wall w). That piece (or wall) is tested first, then that obstacle, then the others (a
-    rejection anywhere is the same answer, so the order does not change it); updated on a
-    rejection.
+    scratch.hint: (obstacle, piece) that last rejected a candidate (-1: none; obstacle
+    N + w: wall w). That piece (or wall) is tested first, then that obstacle, then the
+    others (a rejection anywhere is the same answer, so the order does not change it);
+    updated on a rejection.
     """
+    a_max = limits.a_max
     if x * x + y * y > a_max * a_max * (1 + 1e-12) + 1e-300:
         return False, 0
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    ends, wall_r = walls
+    buf, res, hint = scratch
     N = seg_c.shape[0]
-    W = walls.shape[0]
+    W = ends.shape[0]
     if N == 0 and W == 0:
         return True, 1
-    cvx, cvy, tau, bound = candidate_setup(vx, vy, x, y, v_max, seg_t[-1])
+    cvx, cvy, tau, bound = candidate_setup(limits.vx, limits.vy, x, y, limits.v_max, seg_t[-1])
     if W and N <= hint[0] < N + W:
         if (
             wall_violation(
-                cvx, cvy, x, y, tau, bound, seg_t[-1], walls, wall_r, margin, hint[0] - N, buf, res
+                cvx, cvy, x, y, tau, bound, seg_t[-1], ends, wall_r, margin, hint[0] - N, buf, res
             )
             >= 0
         ):
@@ -99,7 +139,7 @@ def ok_disc(
             return False, 1
     if W:
         w = wall_violation(
-            cvx, cvy, x, y, tau, bound, seg_t[-1], walls, wall_r, margin, np.int64(-1), buf, res
+            cvx, cvy, x, y, tau, bound, seg_t[-1], ends, wall_r, margin, np.int64(-1), buf, res
         )
         if w >= 0:
             hint[0] = N + w
@@ -109,38 +149,23 @@ def ok_disc(
 
 
 @inner_kernel(error_model="numpy")
-def _bisect_disc(
-    bx,
-    by,
-    gx,
-    gy,
-    tol,
-    a_max,
-    vx,
-    vy,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    buf,
-    res,
-    hint,
-    give_up,
-):
+def _bisect_disc(bx, by, gx, gy, tol, limits, obstacles, walls, margin, scratch, give_up):
     """Shrink [b, g] (g admissible) onto the boundary within tol: (gx, gy, tests). When
     b starts at the origin of the caller's distances (the slide's a_d), ``give_up``
     stops the search as soon as b is that far from its start: every point left on the
-    segment is farther (the caller then discards the result)."""
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius, sweep = borrowed(radius), borrowed(sweep)
-    walls, wall_r = borrowed(walls), borrowed(wall_r)
-    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    segment is farther (the caller then discards the result). Borrows the bundles'
+    arrays."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
     gap = math.hypot(gx - bx, gy - by)
     ox = bx
     oy = by
@@ -150,26 +175,7 @@ def _bisect_disc(
             return gx, gy, count
         mx = 0.5 * (bx + gx)
         my = 0.5 * (by + gy)
-        ok, c = ok_disc(
-            mx,
-            my,
-            a_max,
-            vx,
-            vy,
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
-            walls,
-            wall_r,
-            sweep,
-            margin,
-            buf,
-            res,
-            hint,
-        )
+        ok, c = ok_disc(mx, my, limits, obstacles, walls, margin, scratch)
         count += c
         if ok:
             gx = mx
@@ -182,138 +188,55 @@ def _bisect_disc(
 
 
 @inner_kernel(error_model="numpy")
-def bisect_disc(
-    bad,
-    good,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-):
+def bisect_disc(bad, good, tol, limits, obstacles, walls, margin):
     """Shrink the segment [bad, good] (m/s^2; good admissible) onto the NAO boundary
     within tol (m/s^2), with the limit disc |a| <= a_max. Returns (the admissible end
     x, y, how many candidates were tested) — :func:`selection._bisect` compiled."""
-    buf = np.empty(3)
-    res = np.empty(3)
-    hint = np.full(2, -1, dtype=np.int64)
     return _bisect_disc(
         bad[0],
         bad[1],
         good[0],
         good[1],
         tol,
-        a_max,
-        v[0],
-        v[1],
-        v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
+        limits,
+        obstacles,
         walls,
-        wall_r,
-        sweep,
         margin,
-        buf,
-        res,
-        hint,
+        Scratch(np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64)),
         math.inf,
     )
 
 
 @inner_kernel(error_model="numpy")
-def _sliver_push(
-    x,
-    y,
-    ux,
-    uy,
-    tol,
-    a_max,
-    vx,
-    vy,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    buf,
-    res,
-    hint,
-):
+def _sliver_push(x, y, ux, uy, tol, limits, obstacles, walls, margin, scratch):
     """Push the inadmissible point (x, y) along the unit direction (ux, uy) by tol, 2 tol,
     4 tol, ... below a_max / 4; the first admissible push is bisected back onto the
-    boundary within tol. Returns (found, x, y, candidates tested)."""
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius, sweep = borrowed(radius), borrowed(sweep)
-    walls, wall_r = borrowed(walls), borrowed(wall_r)
-    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    boundary within tol. Returns (found, x, y, candidates tested). Borrows the bundles'
+    arrays."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    hint = borrowed(scratch.hint)
+    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), hint)
     count = 0
     step = tol
-    while step < 0.25 * a_max:
+    while step < 0.25 * limits.a_max:
         px = x + step * ux
         py = y + step * uy
-        ok, c = ok_disc(
-            px,
-            py,
-            a_max,
-            vx,
-            vy,
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
-            walls,
-            wall_r,
-            sweep,
-            margin,
-            buf,
-            res,
-            hint,
-        )
+        ok, c = ok_disc(px, py, limits, obstacles, walls, margin, scratch)
         count += c
         if ok:
             hint[0] = -1
             hint[1] = -1
             gx, gy, c = _bisect_disc(
-                x,
-                y,
-                px,
-                py,
-                tol,
-                a_max,
-                vx,
-                vy,
-                v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
-                margin,
-                buf,
-                res,
-                hint,
-                math.inf,
+                x, y, px, py, tol, limits, obstacles, walls, margin, scratch, math.inf
             )
             return True, gx, gy, count + c
         step *= 2.0
@@ -340,23 +263,7 @@ def outward_normal(x, y, disks):
 
 
 @inner_kernel(error_model="numpy")
-def slide_disc(
-    a_d,
-    best,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-):
+def slide_disc(a_d, best, tol, limits, obstacles, walls, margin):
     """Rotate the admissible boundary point ``best`` about a_d (m/s^2) by shrinking angles,
     pulling each admissible probe back onto the boundary, while it gets nearer a_d by
     more than tol (m/s^2). Returns (x, y, candidates tested) —
@@ -365,50 +272,30 @@ def slide_disc(
         a_d,
         best,
         tol,
-        a_max,
-        v,
-        v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
+        limits,
+        obstacles,
         walls,
-        wall_r,
-        sweep,
         margin,
-        np.empty(3),
-        np.empty(3),
-        np.full(2, -1, dtype=np.int64),
+        Scratch(np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64)),
     )
 
 
 @inner_kernel(error_model="numpy")
-def _slide(
-    a_d,
-    best,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    buf,
-    res,
-    hint,
-):
-    """:func:`slide_disc` with its scratch arrays given (borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius, sweep = borrowed(radius), borrowed(sweep)
-    walls, wall_r = borrowed(walls), borrowed(wall_r)
-    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+def _slide(a_d, best, tol, limits, obstacles, walls, margin, scratch):
+    """:func:`slide_disc` with its scratch arrays given (the bundles' arrays borrowed
+    here)."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    a_max = limits.a_max
     ax = a_d[0]
     ay = a_d[1]
     bx = best[0]
@@ -431,52 +318,12 @@ def _slide(
             if not math.isfinite(fy):
                 fy = 0.0
             fx, fy = onto_disc(fx, fy, a_max)
-            ok, c = ok_disc(
-                fx,
-                fy,
-                a_max,
-                v[0],
-                v[1],
-                v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
-                margin,
-                buf,
-                res,
-                hint,
-            )
+            ok, c = ok_disc(fx, fy, limits, obstacles, walls, margin, scratch)
             count += c
             if not ok:
                 continue
             px, py, c = _bisect_disc(
-                ax,
-                ay,
-                fx,
-                fy,
-                tol,
-                a_max,
-                v[0],
-                v[1],
-                v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
-                margin,
-                buf,
-                res,
-                hint,
-                dist - tol,
+                ax, ay, fx, fy, tol, limits, obstacles, walls, margin, scratch, dist - tol
             )
             count += c
             d = math.hypot(px - ax, py - ay)

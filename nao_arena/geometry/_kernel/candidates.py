@@ -2,15 +2,24 @@
 acceleration a_d first: the disk picture's candidates (pushed out of slivers when
 inadmissible), the ball search that tries the nearest points outside the disks as each
 becomes final, and rings of candidates around a_d.
+
+The robot, obstacles, walls and scratch arrays travel in the bundles of :mod:`.boundary`
+(:class:`~.boundary.Limits`, :class:`~.boundary.Obstacles`, :class:`~.boundary.Walls`,
+:class:`~.boundary.Scratch`).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.boundary import (
+    Obstacles,
+    Scratch,
+    Walls,
     _sliver_push,
     bisect_disc,
     ok_disc,
@@ -23,27 +32,28 @@ from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
 
 
+class OutsideSearch(NamedTuple):
+    """The state of :func:`_ball_search`'s search for the nearest points outside the M
+    disks (accelerations m/s^2 in the frame of :mod:`nao_arena.geometry`), as
+    :func:`~nao_arena.geometry._kernel.outside.outside_setup` starts it and
+    :func:`~nao_arena.geometry._kernel.outside.outside_advance` advances it: out (8, 3)
+    the rows found (x, y, distance from a_d) m/s^2, lower (M + 1,) the distances from
+    a_d to the circles (the limit circle last) m/s^2, order (M,) int64 the circles'
+    visiting order, scale m/s^2 the bound for rounding, and the scratch arrays cand
+    (2 M + 8, 2) m/s^2, starts and ends (2 M + 4,) rad (arcs), cover (_WORDS,) uint64."""
+
+    out: NDArray[np.float64]
+    lower: NDArray[np.float64]
+    order: NDArray[np.int64]
+    scale: float
+    cand: NDArray[np.float64]
+    starts: NDArray[np.float64]
+    ends: NDArray[np.float64]
+    cover: NDArray[np.uint64]
+
+
 @inner_kernel(error_model="numpy")
-def try_candidates_disc(
-    cands,
-    start,
-    reach,
-    a_d,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    disks,
-):
+def try_candidates_disc(cands, start, reach, a_d, tol, limits, obstacles, walls, margin, disks):
     """Confirm disk-picture candidates exactly, nearest first (limit disc |a| <= a_max).
 
     cands: (K, 3) rows (x, y, distance from a_d) m/s^2 in increasing distance, tried
@@ -62,55 +72,33 @@ def try_candidates_disc(
         reach,
         a_d,
         tol,
-        a_max,
-        v,
-        v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
+        limits,
+        obstacles,
         walls,
-        wall_r,
-        sweep,
         margin,
         disks,
-        np.empty(3),
-        np.empty(3),
-        np.full(2, -1, dtype=np.int64),
+        Scratch(np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64)),
     )
 
 
 @inner_kernel(error_model="numpy")
 def _try_candidates(
-    cands,
-    start,
-    reach,
-    a_d,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    disks,
-    buf,
-    res,
-    hint,
+    cands, start, reach, a_d, tol, limits, obstacles, walls, margin, disks, scratch
 ):
-    """:func:`try_candidates_disc` with its scratch arrays given (borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius, sweep = borrowed(radius), borrowed(sweep)
-    walls, wall_r = borrowed(walls), borrowed(wall_r)
-    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
-    cands, a_d, v, disks = borrowed(cands), borrowed(a_d), borrowed(v), borrowed(disks)
+    """:func:`try_candidates_disc` with its scratch arrays given (the arrays borrowed
+    here)."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    cands, a_d, disks = borrowed(cands), borrowed(a_d), borrowed(disks)
     count = 0
     for i in range(start, cands.shape[0]):
         dist = cands[i, 2]
@@ -122,22 +110,12 @@ def _try_candidates(
             dist,
             a_d,
             tol,
-            a_max,
-            v,
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
+            limits,
+            obstacles,
             walls,
-            wall_r,
-            sweep,
             margin,
             disks,
-            buf,
-            res,
-            hint,
+            scratch,
         )
         count += c
         if found:
@@ -146,55 +124,12 @@ def _try_candidates(
 
 
 @inner_kernel(error_model="numpy")
-def _try_candidate(
-    x,
-    y,
-    dist,
-    a_d,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    disks,
-    buf,
-    res,
-    hint,
-):
+def _try_candidate(x, y, dist, a_d, tol, limits, obstacles, walls, margin, disks, scratch):
     """One candidate (x, y) m/s^2 at ``dist`` from a_d of :func:`try_candidates_disc`: it,
     or its pushes out of a sliver, if admissible. Returns (found, x, y, candidates
     tested)."""
-    vx = v[0]
-    vy = v[1]
     count = 0
-    ok, c = ok_disc(
-        x,
-        y,
-        a_max,
-        vx,
-        vy,
-        v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
-        walls,
-        wall_r,
-        sweep,
-        margin,
-        buf,
-        res,
-        hint,
-    )
+    ok, c = ok_disc(x, y, limits, obstacles, walls, margin, scratch)
     count += c
     if ok:
         return True, x, y, count
@@ -205,22 +140,11 @@ def _try_candidate(
             (x - a_d[0]) / dist,
             (y - a_d[1]) / dist,
             tol,
-            a_max,
-            vx,
-            vy,
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
+            limits,
+            obstacles,
             walls,
-            wall_r,
-            sweep,
             margin,
-            buf,
-            res,
-            hint,
+            scratch,
         )
         count += c
         if found:
@@ -228,27 +152,7 @@ def _try_candidate(
     ux, uy = outward_normal(x, y, disks)
     if ux != 0.0 or uy != 0.0:
         found, gx, gy, c = _sliver_push(
-            x,
-            y,
-            ux,
-            uy,
-            tol,
-            a_max,
-            vx,
-            vy,
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
-            walls,
-            wall_r,
-            sweep,
-            margin,
-            buf,
-            res,
-            hint,
+            x, y, ux, uy, tol, limits, obstacles, walls, margin, scratch
         )
         count += c
         if found:
@@ -257,24 +161,7 @@ def _try_candidate(
 
 
 @inner_kernel(error_model="numpy")
-def ring_search_disc(
-    a_d,
-    radii,
-    unit,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-):
+def ring_search_disc(a_d, radii, unit, tol, limits, obstacles, walls, margin):
     """The ring fallback of :func:`selection.select_acceleration` compiled for the limit
     disc: rings a_d + radii[i] * unit[i] (m/s^2, projected onto |a| <= a_max), innermost
     first; the admissible candidate of the first ring that has one, nearest a_d, is
@@ -285,55 +172,33 @@ def ring_search_disc(
         radii,
         unit,
         tol,
-        a_max,
-        v,
-        v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
+        limits,
+        obstacles,
         walls,
-        wall_r,
-        sweep,
         margin,
-        np.empty(3),
-        np.empty(3),
-        np.full(2, -1, dtype=np.int64),
+        Scratch(np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64)),
         np.empty((unit.shape[1], 2)),
     )
 
 
 @inner_kernel(error_model="numpy")
-def _ring_search(
-    a_d,
-    radii,
-    unit,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    buf,
-    res,
-    hint,
-    cand,
-):
-    """:func:`ring_search_disc` with its scratch arrays given (borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius, sweep = borrowed(radius), borrowed(sweep)
-    walls, wall_r = borrowed(walls), borrowed(wall_r)
-    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+def _ring_search(a_d, radii, unit, tol, limits, obstacles, walls, margin, scratch, cand):
+    """:func:`ring_search_disc` with its scratch arrays given (the arrays borrowed
+    here)."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
     a_d, radii, unit = borrowed(a_d), borrowed(radii), borrowed(unit)
-    v, cand = borrowed(v), borrowed(cand)
+    cand = borrowed(cand)
+    a_max = limits.a_max
     P = unit.shape[1]
     count = 0
     for i in range(radii.shape[0]):
@@ -348,172 +213,77 @@ def _ring_search(
             d = math.hypot(x - a_d[0], y - a_d[1])
             if d >= best_d:
                 continue  # cannot become the nearest admissible one of this ring
-            ok, c = ok_disc(
-                x,
-                y,
-                a_max,
-                v[0],
-                v[1],
-                v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
-                margin,
-                buf,
-                res,
-                hint,
-            )
+            ok, c = ok_disc(x, y, limits, obstacles, walls, margin, scratch)
             count += c
             if ok:
                 best = k
                 best_d = d
         if best >= 0:
-            gx, gy, c = bisect_disc(
-                a_d,
-                cand[best],
-                tol,
-                a_max,
-                v,
-                v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
-                margin,
-            )
+            gx, gy, c = bisect_disc(a_d, cand[best], tol, limits, obstacles, walls, margin)
             count += c
             start = np.empty(2)
             start[0] = gx
             start[1] = gy
-            x, y, c = slide_disc(
-                a_d,
-                start,
-                tol,
-                a_max,
-                v,
-                v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
-                margin,
-            )
+            x, y, c = slide_disc(a_d, start, tol, limits, obstacles, walls, margin)
             return True, x, y, count + c
     return False, 0.0, 0.0, count
 
 
 @inner_kernel(error_model="numpy")
-def _try_ball_disc(
-    a_d,
-    disks,
-    reach,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    covered,
-):
+def _try_ball_disc(a_d, disks, reach, tol, limits, obstacles, walls, margin, covered):
     """:func:`selection._try_ball` for the limit disc: (found, x, y, candidates tested,
     whether the disks cover the whole ball). ``covered``: see
     :func:`nearest_outside_disks`."""
     M = disks.shape[0]
     out = np.full((8, 3), math.inf)
     lower = np.empty(M + 1)
-    order, scale = outside_setup(a_d, disks, a_max, reach, out, lower)
+    order, scale = outside_setup(a_d, disks, limits.a_max, reach, out, lower)
     return _ball_search(
         a_d,
         disks,
         reach,
         tol,
-        a_max,
-        v,
-        v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
+        limits,
+        obstacles,
         walls,
-        wall_r,
-        sweep,
         margin,
         covered,
-        out,
-        lower,
-        order,
-        scale,
-        np.empty((2 * M + 8, 2)),
-        np.empty(2 * M + 4),
-        np.empty(2 * M + 4),
-        np.empty(_WORDS, dtype=np.uint64),
-        np.empty(3),
-        np.empty(3),
-        np.full(2, -1, dtype=np.int64),
+        OutsideSearch(
+            out,
+            lower,
+            order,
+            scale,
+            np.empty((2 * M + 8, 2)),
+            np.empty(2 * M + 4),
+            np.empty(2 * M + 4),
+            np.empty(_WORDS, dtype=np.uint64),
+        ),
+        Scratch(np.empty(3), np.empty(3), np.full(2, -1, dtype=np.int64)),
     )
 
 
 @inner_kernel(error_model="numpy")
 def _ball_search(
-    a_d,
-    disks,
-    reach,
-    tol,
-    a_max,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    sweep,
-    margin,
-    covered,
-    out,
-    lower,
-    order,
-    scale,
-    cand,
-    starts,
-    ends,
-    cover,
-    buf,
-    res,
-    hint,
+    a_d, disks, reach, tol, limits, obstacles, walls, margin, covered, search, scratch
 ):
     """:func:`_try_ball_disc` after :func:`outside_setup`, with its scratch arrays given
-    (borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b = borrowed(seg_t), borrowed(seg_c), borrowed(seg_w), borrowed(seg_b)
-    radius, sweep = borrowed(radius), borrowed(sweep)
-    walls, wall_r = borrowed(walls), borrowed(wall_r)
-    a_d, disks, v = borrowed(a_d), borrowed(disks), borrowed(v)
+    (the arrays borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    a_d, disks = borrowed(a_d), borrowed(disks)
+    out, lower, order, scale, cand, starts, ends, cover = search
     out, lower, order, cand = borrowed(out), borrowed(lower), borrowed(order), borrowed(cand)
     starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
-    buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
+    a_max = limits.a_max
     # nearest_outside_disks(a_d, disks, a_max, 8, reach, covered) tried with
     # try_candidates_disc, each candidate as soon as it is final: the circles farther
     # than the admissible one are never visited (same candidates, same order)
@@ -532,22 +302,12 @@ def _ball_search(
             dist,
             a_d,
             tol,
-            a_max,
-            v,
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
+            limits,
+            obstacles,
             walls,
-            wall_r,
-            sweep,
             margin,
             disks,
-            buf,
-            res,
-            hint,
+            scratch,
         )
         count += c
         if found:

@@ -14,8 +14,8 @@ import math
 import numpy as np
 
 # the imports ``as`` themselves are re-exports: callers import these steps from here too
+from nao_arena.geometry._kernel.boundary import Limits, Obstacles, Scratch, Walls, ok_disc
 from nao_arena.geometry._kernel.boundary import bisect_disc as bisect_disc
-from nao_arena.geometry._kernel.boundary import ok_disc
 from nao_arena.geometry._kernel.boundary import outward_normal as outward_normal
 from nao_arena.geometry._kernel.boundary import slide_disc as slide_disc
 from nao_arena.geometry._kernel.candidates import _try_ball_disc, ring_search_disc
@@ -147,29 +147,14 @@ def _first_admissible(
     walls, wall_r = borrowed(walls), borrowed(wall_r)
     buf, res, hint = borrowed(buf), borrowed(res), borrowed(hint)
     cand, order, v = borrowed(cand), borrowed(order), borrowed(v)
+    limits = Limits(a_max, v[0], v[1], v_max)
+    obstacles = Obstacles(seg_t, seg_c, seg_w, seg_b, radius, sweep)
+    wall_set = Walls(walls, wall_r)
+    scratch = Scratch(buf, res, hint)
     count = 0
     for o in range(order.shape[0]):
         k = order[o]
-        ok, c = ok_disc(
-            cand[k, 0],
-            cand[k, 1],
-            a_max,
-            v[0],
-            v[1],
-            v_max,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            radius,
-            walls,
-            wall_r,
-            sweep,
-            margin,
-            buf,
-            res,
-            hint,
-        )
+        ok, c = ok_disc(cand[k, 0], cand[k, 1], limits, obstacles, wall_set, margin, scratch)
         count += c
         if ok:
             return True, cand[k, 0], cand[k, 1], count
@@ -258,25 +243,11 @@ def select_relevant(
     buf = np.empty(3)
     res = np.empty(3)
     hint = np.full(2, -1, dtype=np.int64)
+    limits = Limits(a_max, v[0], v[1], v_max)
+    obstacles = Obstacles(seg_t, c, w, b, r, sweep)
+    wall_set = Walls(walls, wall_r)
     ok, count = ok_disc(
-        a_d[0],
-        a_d[1],
-        a_max,
-        v[0],
-        v[1],
-        v_max,
-        seg_t,
-        c,
-        w,
-        b,
-        r,
-        walls,
-        wall_r,
-        sweep,
-        margin,
-        buf,
-        res,
-        hint,
+        a_d[0], a_d[1], limits, obstacles, wall_set, margin, Scratch(buf, res, hint)
     )
     if ok:
         return Outcome.DESIRED, a_d[0], a_d[1], count
@@ -294,23 +265,7 @@ def select_relevant(
     chosen, disks = capped_disks(samples, order, 0.5 * reach, max(limit, reach), max_disks)
     if chosen >= 0.0:
         found, x, y, k, empty = _try_ball_disc(
-            a_d,
-            disks,
-            chosen,
-            tol,
-            a_max,
-            v,
-            v_max,
-            seg_t,
-            c,
-            w,
-            b,
-            r,
-            walls,
-            wall_r,
-            sweep,
-            margin,
-            0.0,
+            a_d, disks, chosen, tol, limits, obstacles, wall_set, margin, 0.0
         )
         count += k
         if found:
@@ -319,22 +274,7 @@ def select_relevant(
             covered = chosen
     # 2. rings of candidates
     found, x, y, k = ring_search_disc(
-        a_d,
-        ring_radii,
-        unit_rings,
-        tol,
-        a_max,
-        v,
-        v_max,
-        seg_t,
-        c,
-        w,
-        b,
-        r,
-        walls,
-        wall_r,
-        sweep,
-        margin,
+        a_d, ring_radii, unit_rings, tol, limits, obstacles, wall_set, margin
     )
     count += k
     if found:
@@ -345,17 +285,9 @@ def select_relevant(
         disks_within(samples, order, last),
         last,
         tol,
-        a_max,
-        v,
-        v_max,
-        seg_t,
-        c,
-        w,
-        b,
-        r,
-        walls,
-        wall_r,
-        sweep,
+        limits,
+        obstacles,
+        wall_set,
         margin,
         covered,
     )
