@@ -29,6 +29,7 @@ from nao_arena.jit import kernel
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import Knowledge, commit_plans_kernel
 
+from ._nao_bundles import DecidingRobots, Decisions
 from ._nao_columns import (
     AROUND,
     CUR_X,
@@ -113,24 +114,26 @@ def desired_rows(targets, has_target, pos, vel, a_max, v_max, real, opt):  # pra
 
 
 @kernel
-def own_rows(
-    rows,
-    bodies,
-    positions,
-    velocities,
-    radii,
-    body_a_max,
-    body_v_max,
-    goals,
-    nb_start,
-    nb_index,
-    traffic,
-):  # pragma: no cover
+def own_rows(inputs):  # pragma: no cover
     """Each robot's own state, one row per batch row of ``rows``, gathered from the body
-    arrays (``bodies``: each batch row's body): position (m), velocity (m/s), radius (m),
-    a_max (m/s^2), v_max (m/s), its goal (goals (R, 2) m, batch rows), whether traffic
-    (``traffic`` (N,): per body; empty: no body is) is among its neighbours (CSR
-    nb_start, nb_index of the batch rows), and whether every goal is finite."""
+    arrays of ``inputs`` (:class:`~nao_arena.agents._nao_bundles.OwnInputs`; ``bodies``:
+    each batch row's body): position (m), velocity (m/s), radius (m), a_max (m/s^2),
+    v_max (m/s), its goal (goals (R, 2) m, batch rows), whether traffic (``traffic``
+    (B,): per body; empty: no body is) is among its neighbours (CSR nb_start, nb_index
+    of the batch rows), and whether every goal is finite."""
+    (
+        rows,
+        bodies,
+        positions,
+        velocities,
+        radii,
+        body_a_max,
+        body_v_max,
+        goals,
+        nb_start,
+        nb_index,
+        traffic,
+    ) = inputs
     n = rows.shape[0]
     pos = np.empty((n, 2))
     vel = np.empty((n, 2))
@@ -161,26 +164,10 @@ def own_rows(
 
 
 @kernel
-def prepare_rows(
-    rows,
-    bodies,
-    positions,
-    velocities,
-    radii,
-    body_a_max,
-    body_v_max,
-    goals,
-    nb_start,
-    nb_index,
-    traffic,
-    walls,
-    wall_half,
-    dt,
-    real,
-    whole,
-    opt,
-):  # pragma: no cover
-    """The start of a batch's step for the table's rows (agent i drives batch row rows[i]).
+def prepare_rows(inputs, wall_segments, dt, table):  # pragma: no cover
+    """The start of a batch's step for the rows of the agents' table ``table``
+    (:class:`~nao_arena.agents._nao_bundles.AgentTable`; agent i drives batch row
+    rows[i] of ``inputs``, :class:`~nao_arena.agents._nao_bundles.OwnInputs`).
 
     The robots' own state (:func:`own_rows`); ``live``: the rows that decide this step
     (REPLAN, or no selection yet), n_live of them; ``out``: the current accelerations
@@ -189,8 +176,9 @@ def prepare_rows(
     robots hold them, :func:`~nao_arena.agents._nao_liveness.held_by_standing_kernel`;
     turn[i]: the detour turns once more, its angle for the caller to draw) and the goal
     seeking toward the goals (:func:`desired_rows`), valid where ``direct``: every goal
-    is finite and, for the robots that ``navigate``, in sight past the walls (W, 2, 2) m
-    of half-thickness wall_half (m) (:func:`~nao_arena.navigation.segment_clear` at the
+    is finite and, for the robots that ``navigate``, in sight past the walls
+    (``wall_segments``, :class:`~nao_arena.agents._kernel_inputs.WallSegments`: (W, 2, 2)
+    m of half-thickness (W,) m) (:func:`~nao_arena.navigation.segment_clear` at the
     robot's radius; their AROUND is then cleared, as
     :func:`~nao_arena.navigation.route_targets` clears it); else the caller finds the
     heading targets.
@@ -199,19 +187,11 @@ def prepare_rows(
     traffic_near, desired, direct); turns counts turn; desired is unset (the caller's to
     find) when no row is live, some detour turned or not ``direct``.
     """
-    pos, vel, rad, a_max, v_max, own_goals, traffic_near, direct = own_rows(
-        rows,
-        bodies,
-        positions,
-        velocities,
-        radii,
-        body_a_max,
-        body_v_max,
-        goals,
-        nb_start,
-        nb_index,
-        traffic,
-    )
+    rows, bodies, nb_start, nb_index = inputs.rows, inputs.bodies, inputs.nb_start, inputs.nb_index
+    positions, velocities, radii = inputs.positions, inputs.velocities, inputs.radii
+    walls, wall_half = wall_segments
+    real, whole, opt = table
+    pos, vel, rad, a_max, v_max, own_goals, traffic_near, direct = own_rows(inputs)
     n = rows.shape[0]
     live = np.empty(n, dtype=np.bool_)
     out = np.empty((n, 2))
@@ -288,63 +268,40 @@ def prepare_rows(
 
 @kernel
 def settle_members(
-    m,
-    times,
-    pred,
-    excursion,
-    finite_path,
-    nb_start,
-    nb_index,
-    nb_radius,
-    wall_seg,
-    wall_half,
-    wall_start,
-    wall_index,
-    pos,
-    vel,
-    rad,
-    a_max,
-    v_max,
-    current,
-    desired,
-    traffic,
-    dt,
-    ring_radii,
-    unit_rings,
-    repair_steps,
-    repair_unit,
-    max_disks,
-    n_sub,
-    per_second,
-    sliver_depth,
-    real,
-    whole,
-    opt,
-    out,
+    m, paths, lists, nb_radius, own, current, desired, dt, settings, table, out
 ):  # pragma: no cover
-    """The decisions of the members m (rows of the agents' table; they share the
-    predictions ``pred`` at ``times`` and see the obstacles of the member CSR lists, as
-    :func:`~nao_arena.agents._nao_decide.decide_batch` reads them).
+    """The decisions of the members m (rows of the agents' table ``table``,
+    :class:`~nao_arena.agents._nao_bundles.AgentTable`; they share the predictions
+    ``paths``, :class:`~nao_arena.agents._nao_bundles.Predictions`, and see the obstacles
+    of the member CSR lists ``lists``,
+    :class:`~nao_arena.agents._nao_bundles.ObstacleLists`, with every body's radius
+    nb_radius (B,) m, as :func:`~nao_arena.agents._nao_decide.decide_batch` reads them).
 
     1. The keep test: a member keeps its current acceleration current[i] (m/s^2) where
        :func:`~nao_arena.agents._nao_decide.keep_candidates` allows it (within keep_band
        of desired[i], or a young adjustment) and it stays admissible
        (:func:`~nao_arena.geometry._kernel.batch.sampled_admissible_batch`);
     2. the others are repaired (young adjustments) or select in full
-       (:func:`~nao_arena.agents._nao_decide.decide_batch`; ring_radii .. sliver_depth: its
-       selection parameters), committed into the table and ``out`` (n, 2) m/s^2
+       (:func:`~nao_arena.agents._nao_decide.decide_batch`; ``settings``: its
+       :class:`~nao_arena.agents._nao_bundles.SelectionSettings`, ring radii per
+       member), committed into the table and ``out`` (n, 2) m/s^2
        (:func:`~nao_arena.agents._nao_decide.apply_decisions`), and where nothing is
        admissible and the fallback is braking, braking is
-       (:func:`~nao_arena.agents._nao_decide.apply_braking`; traffic[i]: traffic among
-       the neighbours, dt s).
+       (:func:`~nao_arena.agents._nao_decide.apply_braking`; traffic_near[i]: traffic
+       among the neighbours, dt s).
 
-    Per-row arrays (n rows): pos (m), vel (m/s), rad (m), a_max (m/s^2), v_max (m/s),
-    current, desired (m/s^2), traffic. Returns, per member, status (KEPT, DECIDE: decided
-    here, KEEP_UNTESTED: a keep candidate whose paths are not finite, tested by the
-    caller), the decide outcomes (kind, accel m/s^2,
-    tested; kind UNDECIDED where not decided), settled (kept or committed here; the
-    others are left to the caller) and how many are not settled.
+    ``own`` (:class:`~nao_arena.agents._nao_bundles.RobotRows`, n rows): pos (m), vel
+    (m/s), rad (m), a_max (m/s^2), v_max (m/s), traffic_near; per row current, desired
+    (m/s^2). Returns, per member, status (KEPT, DECIDE: decided here, KEEP_UNTESTED: a
+    keep candidate whose paths are not finite, tested by the caller), the decide
+    outcomes (kind, accel m/s^2, tested; kind UNDECIDED where not decided), settled
+    (kept or committed here; the others are left to the caller) and how many are not
+    settled.
     """
+    times, pred, excursion, finite_path = paths
+    nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
+    pos, vel, rad, a_max, v_max, traffic = own
+    real, whole, opt = table
     k = m.shape[0]
     every = k == pos.shape[0]  # m: distinct rows in order, so all of them
     p = pos if every else pos[m]
@@ -397,37 +354,16 @@ def settle_members(
     if todo.shape[0]:
         grow = r + margin
         decide_batch(
-            times,
-            pred,
-            excursion,
-            finite_path,
-            nb_start,
-            nb_index,
+            paths,
+            lists,
             nb_radius,
-            wall_seg,
-            wall_half,
-            wall_start,
-            wall_index,
             todo,
-            p,
-            v,
-            grow,
-            a,
-            s,
+            DecidingRobots(p, v, grow, a, s),
             holds,
             c,
             d,
-            ring_radii,
-            unit_rings,
-            repair_steps,
-            repair_unit,
-            max_disks,
-            n_sub,
-            per_second,
-            sliver_depth,
-            kind,
-            accel,
-            tested,
+            settings,
+            Decisions(kind, accel, tested),
         )
         apply_decisions(m, status, kind, accel, tested, real, whole, out, settled)
         apply_braking(m, status, kind, tested, traffic, vel, a_max, dt, real, whole, out, settled)
@@ -439,30 +375,22 @@ def settle_members(
 
 @kernel
 def yield_rows(
-    pos,
-    vel,
-    out,
-    rad,
-    a_max,
-    v_max,
-    failed,
-    dt,
-    substeps,
-    margin,
-    walls,
-    wall_half,
-    know,
-    real,
-    whole,
+    own, out, failed, dt, substeps, margin, wall_segments, know, table
 ):  # pragma: no cover
     """The stopping-plan rule (:func:`~nao_arena.stopping.commit_plans_kernel`) over the
-    table's rows that re-plan with stopping plans (STOPPING and REPLAN) and decided this
-    step (not ``failed``): a robot whose plan would meet another's, or a wall (W, 2, 2)
-    m of half-thickness wall_half (m), at the sum of the radii plus margin (m), brakes
-    instead; it commits that braking acceleration as a selection of status YIELDED, into
-    the table and ``out`` (n, 2) m/s^2. Per row: pos (m), vel (m/s), out (m/s^2), rad
-    (m), a_max (m/s^2), v_max (m/s); the world's dt (s) and substeps; ``know``: what the
-    rows know of each other (:class:`~nao_arena.stopping.Knowledge`, rows by rows)."""
+    rows of the agents' table ``table`` (:class:`~nao_arena.agents._nao_bundles.AgentTable`)
+    that re-plan with stopping plans (STOPPING and REPLAN) and decided this step (not
+    ``failed``): a robot whose plan would meet another's, or a wall (``wall_segments``,
+    :class:`~nao_arena.agents._kernel_inputs.WallSegments`: (W, 2, 2) m of
+    half-thickness (W,) m), at the sum of the radii plus margin (m), brakes instead; it
+    commits that braking acceleration as a selection of status YIELDED, into the table
+    and ``out`` (n, 2) m/s^2. ``own`` (:class:`~nao_arena.agents._nao_bundles.RobotRows`,
+    per row): pos (m), vel (m/s), rad (m), a_max (m/s^2), v_max (m/s); out (m/s^2); the
+    world's dt (s) and substeps; ``know``: what the rows know of each other
+    (:class:`~nao_arena.stopping.Knowledge`, rows by rows)."""
+    pos, vel, rad, a_max, v_max = own.pos, own.vel, own.rad, own.a_max, own.v_max
+    walls, wall_half = wall_segments
+    real, whole = table.real, table.whole
     n = pos.shape[0]
     take = np.empty(n, dtype=np.bool_)
     count = 0

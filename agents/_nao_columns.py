@@ -24,6 +24,8 @@ from numpy.typing import NDArray
 from nao_arena.geometry.selection import Selection
 from nao_arena.jit import inner_kernel, kernel
 
+from ._nao_bundles import AgentTable, SelectionSettings
+
 # real (float64) columns: state
 CUR_X, CUR_Y = 0, 1  # the current acceleration (m/s^2)
 SEL_X, SEL_Y = 2, 3  # the acceleration of the last full selection (m/s^2)
@@ -86,12 +88,16 @@ class StepMemo:
     array (``kinds``, ``traffic``; see :func:`~nao_arena.agents._nao_step.traffic_mask`)
     and the fallback ring radii (n, rings) m/s^2 of the last limits (``limits``: the
     bytes of a_max, ``ring_radii``; see
-    :func:`~nao_arena.agents._nao_decide.ring_radii_rows`). Replaced a pair at a time."""
+    :func:`~nao_arena.agents._nao_decide.ring_radii_rows`). Replaced a pair at a time.
+    ``settings``: the last selection settings
+    (:func:`~nao_arena.agents._nao_decide.selection_settings`), valid while their
+    ring radii are ``ring_radii``."""
 
     kinds: Any = None
     traffic: NDArray[np.bool_] | None = None
     limits: bytes | None = None
     ring_radii: NDArray[np.float64] | None = None
+    settings: SelectionSettings | None = None
 
 
 class AgentColumns:
@@ -102,12 +108,15 @@ class AgentColumns:
     ``seen``:
     (batch, predictions, excursions) of the last step, indexed by the SEEN column;
     ``members``: the agents of the rows (None once an agent has left the table);
-    ``memo``: what its steps work out once (:class:`StepMemo`)."""
+    ``memo``: what its steps work out once (:class:`StepMemo`); ``table``: the three
+    arrays as the compiled calls take them
+    (:class:`~nao_arena.agents._nao_bundles.AgentTable`)."""
 
     def __init__(self, n: int) -> None:
         self.real = np.zeros((n, N_REAL))
         self.whole = np.zeros((n, N_WHOLE), dtype=np.int64)
         self.opt = np.zeros((n, N_OPT))
+        self.table = AgentTable(self.real, self.whole, self.opt)
         self.selections: list[Selection | None] = [None] * n
         self.seen: list[tuple[Any, NDArray[np.float64], Any]] = []
         self.members: tuple[Any, ...] | None = None

@@ -41,6 +41,13 @@ from nao_arena.geometry.selection import (
 from nao_arena.jit import kernel
 from nao_arena.motion import braking, onto_disc, project_onto_disc
 
+from ._nao_bundles import (
+    DecidingRobots,
+    Decisions,
+    ObstacleLists,
+    Predictions,
+    SelectionSettings,
+)
 from ._nao_columns import (
     AUTO,
     BRAKE,
@@ -71,17 +78,6 @@ __all__ = [
     "selection_settings",
 ]
 
-ObstacleLists = tuple[
-    NDArray[np.int64],
-    NDArray[np.int64],
-    NDArray[np.float64],
-    NDArray[np.float64],
-    NDArray[np.int64],
-    NDArray[np.int64],
-]
-"""The CSR obstacle lists of a group of robots: (nb_start, nb_index, wall_seg, wall_half,
-wall_start, wall_index)."""
-
 # the outcomes decide_batch writes (:class:`~nao_arena.geometry.outcome.Outcome`)
 UNDECIDED = Outcome.UNDECIDED  # non-finite input or paths: the caller decides (and reports)
 REPAIRED = Outcome.REPAIRED  # a nearby admissible acceleration (the adjustment keeps its age)
@@ -91,56 +87,43 @@ INFEASIBLE = Outcome.INFEASIBLE  # nothing admissible found: the caller's fallba
 
 
 @kernel
-def decide_batch(
-    times,
-    pred,
-    excursion,
-    finite_path,
-    nb_start,
-    nb_index,
-    nb_radius,
-    wall_seg,
-    wall_half,
-    wall_start,
-    wall_index,
-    rows,
-    pos,
-    vel,
-    grow,
-    a_max,
-    v_max,
-    repair,
-    current,
-    desired,
-    ring_radii,
-    unit_rings,
-    repair_steps,
-    repair_unit,
-    max_disks,
-    n_sub,
-    per_second,
-    sliver_depth,
-    kind,
-    accel,
-    tested,
-):
+def decide_batch(paths, lists, nb_radius, rows, robots, repair, current, desired, settings, out):
     """Re-select for the robots ``rows`` (indices into the per-robot arrays).
 
     Robot k sees the bodies nb_index[nb_start[k]:nb_start[k + 1]] (world-frame
     centres pred[body] (T, 2) m at ``times`` s, radii nb_radius[body] + grow[k] m)
     and the walls wall_index[wall_start[k]:wall_start[k + 1]] of wall_seg ((M, 2, 2) m,
     world frame; radii wall_half (m) + grow[k], cut as
-    :func:`~nao_arena.geometry._kernel.segment.nearby_walls` cuts them); position pos[k]
-    (m), velocity vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s). excursion,
-    finite_path: :func:`~nao_arena.geometry._kernel.sampled.path_excursions` of ``pred``.
+    :func:`~nao_arena.geometry._kernel.segment.nearby_walls` cuts them) (``paths``:
+    :class:`~nao_arena.agents._nao_bundles.Predictions`, with the excursions of
+    ``pred``; ``lists``: :class:`~nao_arena.agents._nao_bundles.ObstacleLists`;
+    nb_radius (B,) m: every body's radius); ``robots``
+    (:class:`~nao_arena.agents._nao_bundles.DecidingRobots`): position pos[k] (m),
+    velocity vel[k] (m/s), limits a_max[k] (m/s^2) and v_max[k] (m/s).
     When repair[k], the current acceleration current[k] is first repaired towards
-    desired[k] (m/s^2). Selection parameters: ring_radii[k] (m/s^2), unit_rings,
-    max_disks, n_sub, per_second, sliver_depth (fraction of a_max), as
+    desired[k] (m/s^2). ``settings``
+    (:class:`~nao_arena.agents._nao_bundles.SelectionSettings`): ring_radii[k] (m/s^2),
+    unit_rings, max_disks, n_sub, per_second, sliver_depth (fraction of a_max), as
     :func:`~nao_arena.geometry.selection.select_acceleration` passes them.
 
-    Writes kind[k] (an :class:`~nao_arena.geometry.outcome.Outcome`), accel[k] (m/s^2,
-    for REPAIRED, DESIRED, ADJUSTED) and tested[k] (candidates tested by the selection).
+    Writes ``out`` (:class:`~nao_arena.agents._nao_bundles.Decisions`): kind[k] (an
+    :class:`~nao_arena.geometry.outcome.Outcome`), accel[k] (m/s^2, for REPAIRED,
+    DESIRED, ADJUSTED) and tested[k] (candidates tested by the selection).
     """
+    times, pred, excursion, finite_path = paths
+    nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
+    pos, vel, grow, a_max, v_max = robots
+    (
+        ring_radii,
+        unit_rings,
+        repair_steps,
+        repair_unit,
+        max_disks,
+        n_sub,
+        per_second,
+        sliver_depth,
+    ) = settings
+    kind, accel, tested = out
     for k in rows:
         vx = vel[k, 0]
         vy = vel[k, 1]
@@ -271,80 +254,60 @@ def ring_radii_rows(
 
 
 def decide(
-    times: NDArray[np.float64],
-    pred: NDArray[np.float64],
-    excursions: tuple[NDArray[np.float64], NDArray[np.bool_]],
+    paths: Predictions,
     lists: ObstacleLists,
     nb_radius: NDArray[np.float64],
     rows: NDArray[np.int64],
-    pos: NDArray[np.float64],
-    vel: NDArray[np.float64],
-    grow: NDArray[np.float64],
-    a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64],
+    robots: DecidingRobots,
     repair: NDArray[np.bool_],
     current: NDArray[np.float64],
     desired: NDArray[np.float64],
     memo: StepMemo | None = None,
-) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
+) -> Decisions:
     """:func:`decide_batch` with the settings :func:`~nao_arena.geometry.select_acceleration`
-    and :func:`~nao_arena.geometry.repair_acceleration` use by default. lists: the CSR
-    obstacle lists (nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index); per-robot
-    arrays as in :func:`decide_batch`; memo: where the ring radii are remembered
-    (:func:`ring_radii_rows`). Returns (kind, accel m/s^2, tested) per robot (kind
-    UNDECIDED for the robots not in ``rows``)."""
-    nb_start, nb_index, wall_seg, wall_half, wall_start, wall_index = lists
-    n = len(a_max)
-    kind = np.full(n, Outcome.UNDECIDED, dtype=np.int64)
-    accel = np.zeros((n, 2))
-    tested = np.zeros(n, dtype=np.int64)
-    decide_batch(
-        np.ascontiguousarray(times, dtype=np.float64),
-        pred,
-        excursions[0],
-        excursions[1],
-        nb_start,
-        nb_index,
-        np.ascontiguousarray(nb_radius),
-        wall_seg,
-        wall_half,
-        wall_start,
-        wall_index,
-        rows,
-        np.ascontiguousarray(pos),
-        np.ascontiguousarray(vel),
-        np.ascontiguousarray(grow),
-        np.ascontiguousarray(a_max),
-        np.ascontiguousarray(v_max),
-        repair,
-        np.ascontiguousarray(current),
-        np.ascontiguousarray(desired),
-        *selection_settings(a_max, memo),
-        kind,
-        accel,
-        tested,
+    and :func:`~nao_arena.geometry.repair_acceleration` use by default
+    (:func:`selection_settings`). paths: the time grid and the predictions with their
+    excursions; lists: the members' CSR obstacle lists; nb_radius (B,) m: every body's
+    radius; per-robot arrays as in :func:`decide_batch`; memo: where the settings are
+    remembered (:func:`ring_radii_rows`). Returns the :class:`Decisions` (kind, accel
+    m/s^2, tested) per robot (kind UNDECIDED for the robots not in ``rows``)."""
+    f = np.ascontiguousarray
+    n = len(robots.a_max)
+    out = Decisions(
+        np.full(n, Outcome.UNDECIDED, dtype=np.int64),
+        np.zeros((n, 2)),
+        np.zeros(n, dtype=np.int64),
     )
-    return kind, accel, tested
+    decide_batch(
+        Predictions(f(paths.times, dtype=np.float64), paths.pred, paths.excursion, paths.finite),
+        lists,
+        f(nb_radius),
+        rows,
+        DecidingRobots(
+            f(robots.pos), f(robots.vel), f(robots.grow), f(robots.a_max), f(robots.v_max)
+        ),
+        repair,
+        f(current),
+        f(desired),
+        selection_settings(robots.a_max, memo),
+        out,
+    )
+    return out
 
 
 def selection_settings(
     a_max: NDArray[np.float64], memo: StepMemo | None = None
-) -> tuple[
-    NDArray[np.float64],
-    NDArray[np.float64],
-    NDArray[np.float64],
-    NDArray[np.float64],
-    int,
-    int,
-    float,
-    float,
-]:
-    """The arguments ring_radii .. sliver_depth of :func:`decide_batch` for robots of
-    limits a_max (m/s^2): the settings :func:`~nao_arena.geometry.select_acceleration`
-    and :func:`~nao_arena.geometry.repair_acceleration` use by default (memo: see
-    :func:`ring_radii_rows`)."""
-    return (
-        ring_radii_rows(a_max, memo),
+) -> SelectionSettings:
+    """The :class:`SelectionSettings` of :func:`decide_batch` for robots of limits a_max
+    (m/s^2): the settings :func:`~nao_arena.geometry.select_acceleration` and
+    :func:`~nao_arena.geometry.repair_acceleration` use by default. With a ``memo``
+    (the agents' table's), the settings of the last limits are remembered there, with
+    their ring radii (:func:`ring_radii_rows`; not to be modified)."""
+    radii = ring_radii_rows(a_max, memo)
+    if memo is not None and memo.settings is not None and memo.settings.ring_radii is radii:
+        return memo.settings
+    settings = SelectionSettings(
+        radii,
         _unit_rings(_RINGS, _RING_POINTS),
         _REPAIR_STEPS,
         _REPAIR_UNIT,
@@ -353,6 +316,9 @@ def selection_settings(
         _DISKS_PER_SECOND,
         _SLIVER_DEPTH,
     )
+    if memo is not None:
+        memo.settings = settings
+    return settings
 
 
 @kernel

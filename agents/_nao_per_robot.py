@@ -43,7 +43,7 @@ from nao_arena.sensing import SensingBatch
 from ._nao_columns import KEEP_UNTESTED
 
 if TYPE_CHECKING:
-    from ._nao_step import RobotRows
+    from ._nao_step import GroupView, RobotRows
     from .nao import NAOAgent
 
 Excursions = tuple[NDArray[np.float64], NDArray[np.bool_]]
@@ -269,25 +269,25 @@ def nearest_on(
 
 def undecided(
     agents: Sequence[NAOAgent],
-    m: NDArray[np.int64],
+    view: GroupView,
     status: NDArray[np.int64],
     settled: NDArray[np.bool_],
     errors: dict[int, Exception],
     out: NDArray[np.float64],
     batch: SensingBatch,
     rows_a: NDArray[np.int64],
-    pred: NDArray[np.float64],
-    excursions: Excursions,
     own: RobotRows,
     current: NDArray[np.float64],
     desired: NDArray[np.float64],
 ) -> None:
-    """The members m (rows of the agents' table; agent i drives batch row rows_a[i])
-    that the compiled calls left unsettled, robot by robot: status KEEP_UNTESTED (undecided there:
-    an irregular time grid, non-finite paths) keeps its current acceleration current[i]
-    (m/s^2) where that is admissible; then a young adjustment is repaired, else the
-    full selection toward desired[i] (m/s^2) with the agent's fallback. Writes ``out``
+    """The members m of ``view`` (rows of the agents' table; agent i drives batch row
+    rows_a[i]; the view's predictions and their excursions) that the compiled calls left
+    unsettled, robot by robot: status KEEP_UNTESTED (undecided there: an irregular time
+    grid, non-finite paths) keeps its current acceleration current[i] (m/s^2) where that
+    is admissible; then a young adjustment is repaired, else the full selection toward
+    desired[i] (m/s^2) with the agent's fallback. Writes ``out``
     (n, 2) m/s^2; a robot whose step raises gets its exception in ``errors``."""
+    m, pred, excursions = view.m, view.pred, view.excursions
     vel, a_max, v_max = own.vel, own.a_max, own.v_max
     for j in np.flatnonzero(~settled).tolist():
         i = int(m[j])

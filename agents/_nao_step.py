@@ -25,6 +25,14 @@ from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.sensing import SensingBatch, is_frozen
 
 from ._nao_batch import desired_rows, own_rows
+from ._nao_bundles import (
+    DecidingRobots,
+    Decisions,
+    ObstacleLists,
+    OwnInputs,
+    Predictions,
+    RobotRows,
+)
 from ._nao_columns import (
     AROUND,
     DECIDE,
@@ -38,50 +46,13 @@ from ._nao_columns import (
     AgentColumns,
     StepMemo,
 )
-from ._nao_decide import ObstacleLists, decide, keep_candidates, member_lists
+from ._nao_decide import decide, keep_candidates, member_lists
 from ._nao_per_robot import Excursions
 
 if TYPE_CHECKING:
     from .nao import NAOAgent
 
-Decisions = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]
-"""Per member: the outcome kind, acceleration (m/s^2) and candidates tested of
-:func:`~nao_arena.agents._nao_decide.decide`."""
-
 _NO_TRAFFIC = np.zeros(0, dtype=np.bool_)
-
-
-class OwnInputs(NamedTuple):
-    """The arguments of :func:`~nao_arena.agents._nao_batch.own_rows` (and the first ones
-    of ``prepare_rows``), contiguous as the kernels take them: the batch rows of the
-    robots, the body of each batch row, per body position (m), velocity (m/s), radius
-    (m), a_max (m/s^2), v_max (m/s); per batch row the goal (m) and the CSR neighbour
-    lists; per body whether it is traffic (empty: no body is)."""
-
-    rows: NDArray[np.int64]
-    bodies: NDArray[np.int64]
-    positions: NDArray[np.float64]
-    velocities: NDArray[np.float64]
-    radii: NDArray[np.float64]
-    a_max: NDArray[np.float64]
-    v_max: NDArray[np.float64]
-    goals: NDArray[np.float64]
-    nb_start: NDArray[np.int64]
-    nb_index: NDArray[np.int64]
-    traffic: NDArray[np.bool_]
-
-
-class RobotRows(NamedTuple):
-    """Each robot's own state, by row of the agents' table: position (n, 2) m,
-    velocity (n, 2) m/s, radius (n,) m, a_max (n,) m/s^2, v_max (n,) m/s, and whether
-    traffic is among its neighbours (n,)."""
-
-    pos: NDArray[np.float64]
-    vel: NDArray[np.float64]
-    rad: NDArray[np.float64]
-    a_max: NDArray[np.float64]
-    v_max: NDArray[np.float64]
-    traffic_near: NDArray[np.bool_]
 
 
 class GroupView(NamedTuple):
@@ -95,6 +66,13 @@ class GroupView(NamedTuple):
     pred: NDArray[np.float64]
     excursions: Excursions
     lists: ObstacleLists | None
+
+    @property
+    def paths(self) -> Predictions:
+        """The group's time grid (contiguous) and predictions with their excursions, as
+        the compiled calls take them (:class:`~nao_arena.agents._nao_bundles.Predictions`)."""
+        times = np.ascontiguousarray(self.agent.times, dtype=np.float64)
+        return Predictions(times, self.pred, self.excursions[0], self.excursions[1])
 
 
 def traffic_mask(kinds: NDArray[np.str_], memo: StepMemo) -> NDArray[np.bool_] | None:
@@ -111,8 +89,8 @@ def traffic_mask(kinds: NDArray[np.str_], memo: StepMemo) -> NDArray[np.bool_] |
 
 
 def own_inputs(batch: SensingBatch, rows_a: NDArray[np.int64], memo: StepMemo) -> OwnInputs:
-    """:class:`OwnInputs` of the batch rows ``rows_a`` (the traffic mask remembered in
-    ``memo``, :func:`traffic_mask`)."""
+    """:class:`~nao_arena.agents._nao_bundles.OwnInputs` of the batch rows ``rows_a`` (the
+    traffic mask remembered in ``memo``, :func:`traffic_mask`)."""
     f = np.ascontiguousarray
     traffic = traffic_mask(batch.kinds, memo)
     return OwnInputs(
@@ -135,7 +113,7 @@ def own_rows_of(batch: SensingBatch, rows_a: NDArray[np.int64], memo: StepMemo) 
     robot its position (m), velocity (m/s), radius (m), a_max (m/s^2), v_max (m/s),
     goal (m), whether traffic is among its neighbours; and whether every goal is
     finite."""
-    return own_rows(*own_inputs(batch, rows_a, memo))
+    return own_rows(own_inputs(batch, rows_a, memo))
 
 
 def group_view(
@@ -178,7 +156,9 @@ def obstacle_lists(
     walls = np.ascontiguousarray(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
     half = np.ascontiguousarray(batch.wall_radius, dtype=np.float64)
     if not len(walls):
-        return (nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64))
+        return ObstacleLists(
+            nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64)
+        )
     # the walls within each member's range: distance <= range + half-thickness + grow
     grow = own.rad[m] + cols.opt[m, MARGIN]
     reach = cols.opt[m, RANGE]
@@ -186,7 +166,7 @@ def obstacle_lists(
     near = dist <= reach[:, None] + half[None, :] + grow[:, None]
     member, which = np.nonzero(near)
     np.cumsum(np.bincount(member, minlength=len(m)), out=wall_start[1:])
-    return nb_start, nb_index, walls, half, wall_start, which.astype(np.int64)
+    return ObstacleLists(nb_start, nb_index, walls, half, wall_start, which.astype(np.int64))
 
 
 def members(arrays: tuple[NDArray[Any], ...], m: NDArray[np.int64]) -> list[NDArray[Any]]:
@@ -279,23 +259,8 @@ def decide_members(
     p, v, r, a, s, c, d = members(
         (own.pos, own.vel, own.rad, own.a_max, own.v_max, current, desired), m
     )
-    return decide(
-        view.agent.times,
-        view.pred,
-        view.excursions,
-        view.lists,
-        nb_radius,
-        todo,
-        p,
-        v,
-        r + cols.opt[m, MARGIN],
-        a,
-        s,
-        holds,
-        c,
-        d,
-        cols.memo,
-    )
+    robots = DecidingRobots(p, v, r + cols.opt[m, MARGIN], a, s)
+    return decide(view.paths, view.lists, nb_radius, todo, robots, holds, c, d, cols.memo)
 
 
 def desired_accels(

@@ -104,6 +104,7 @@ from nao_arena.stopping import NOISE_SIGMAS
 
 from . import _nao_columns as col
 from . import _nao_per_robot as per_robot
+from ._kernel_inputs import wall_segments
 from ._nao_batch import prepare_rows, settle_members, yield_rows
 from ._nao_columns import (
     AGE,
@@ -593,11 +594,8 @@ def _act_rows(
         logs = [ag._log_for(batch) for ag in agents]
         batch = compensated(batch, rows_a, logs)
     cols = columns_of(agents)
-    real, whole = cols.real, cols.whole
     errors: dict[int, Exception] = {}
-    f = np.ascontiguousarray
-    walls = f(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
-    wall_half = f(batch.wall_radius, dtype=np.float64)
+    walls = wall_segments(batch)
     (
         pos,
         vel,
@@ -613,15 +611,7 @@ def _act_rows(
         traffic_near,
         desired,
         direct,
-    ) = prepare_rows(
-        *own_inputs(batch, rows_a, cols.memo),
-        walls,
-        wall_half,
-        float(batch.dt),
-        real,
-        whole,
-        cols.opt,
-    )
+    ) = prepare_rows(own_inputs(batch, rows_a, cols.memo), walls, float(batch.dt), cols.table)
     if not n_live:
         _log_commands(logs, batch.time, out)
         return _through_lag(agents, out, batch), errors  # holds keep their acceleration
@@ -654,71 +644,36 @@ def _act_rows(
             left = len(m)
             settled = np.zeros(len(m), dtype=bool)
         else:
-            # the members' walls (wall_half above stays every wall's half-thickness)
-            nb_start, nb_index, seg_m, half_m, start_m, index_m = view.lists
             status, _, _, _, settled, left = settle_members(
                 m,
-                f(ag0.times, dtype=np.float64),
-                pred,
-                view.excursions[0],
-                view.excursions[1],
-                nb_start,
-                nb_index,
-                f(batch.radii, dtype=np.float64),
-                seg_m,
-                half_m,
-                start_m,
-                index_m,
-                pos,
-                vel,
-                rad,
-                a_max,
-                v_max,
+                view.paths,
+                view.lists,
+                np.ascontiguousarray(batch.radii, dtype=np.float64),
+                own,
                 current,
                 desired,
-                traffic_near,
                 float(batch.dt),
-                *selection_settings(a_max if len(m) == len(a_max) else a_max[m], cols.memo),
-                real,
-                whole,
-                cols.opt,
+                selection_settings(a_max if len(m) == len(a_max) else a_max[m], cols.memo),
+                cols.table,
                 out,
             )
         if left:
             per_robot.undecided(
-                agents,
-                m,
-                status,
-                settled,
-                errors,
-                out,
-                batch,
-                rows_a,
-                pred,
-                view.excursions,
-                own,
-                current,
-                desired,
+                agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
     failed = np.zeros(len(rows_a), dtype=np.bool_)
     if errors:
         failed[list(errors)] = True
     yield_rows(
-        pos,
-        vel,
+        own,
         out,
-        rad,
-        a_max,
-        v_max,
         failed,
         float(batch.dt),
         int(batch.substeps),
         PLAN_MARGIN,
         walls,
-        wall_half,
         know,
-        real,
-        whole,
+        cols.table,
     )
     _log_commands(logs, batch.time, out)
     return _through_lag(agents, out, batch), errors

@@ -36,11 +36,14 @@ from bench_crowds import warm_up
 from numpy.typing import NDArray
 
 import nao_arena.agents.nao as nao_module
+from nao_arena.agents._nao_bundles import DecidingRobots, Decisions, ObstacleLists, Predictions
 from nao_arena.agents._nao_columns import MARGIN, young_adjustments
 from nao_arena.agents._nao_decide import decide_batch
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.maps import load_map
+
+_ROWS = 3  # the position of decide_batch's rows (the robots it decides) in its arguments
 
 
 def _episode(map_name: str, n: int) -> Arena:
@@ -59,30 +62,32 @@ def _decide_call(
     """The ``decide_batch`` call that ``settle_members(*args)`` made inside (copied
     arguments, fresh outputs), from its arguments, the members' ``holds`` before it ran
     and the status it returned; None when it decided nothing."""
-    m = args[0]
+    m, paths, lists, nb_radius, own, current, desired, _, settings, table, _ = args
     todo = np.flatnonzero(status == 0)
     if not len(todo):
         return None
-    every = len(m) == len(args[12])
-    p, v, r, a, s, c, d = (x.copy() if every else x[m] for x in args[12:19])
-    grow = r + args[31][m, MARGIN]
-    copied = tuple(x.copy() if isinstance(x, np.ndarray) else x for x in args[1:12])
+    every = len(m) == len(own.pos)
+    p, v, r, a, s, c, d = (
+        x.copy() if every else x[m]
+        for x in (own.pos, own.vel, own.rad, own.a_max, own.v_max, current, desired)
+    )
+    grow = r + table.opt[m, MARGIN]
     k = len(m)
     return (
-        *copied,
+        Predictions(*(x.copy() for x in paths)),
+        ObstacleLists(*(x.copy() for x in lists)),
+        nb_radius.copy(),
         todo,
-        p,
-        v,
-        grow,
-        a,
-        s,
+        DecidingRobots(p, v, grow, a, s),
         holds,
         c,
         d,
-        *args[21:29],
-        np.full(k, Outcome.UNDECIDED, dtype=np.int64),
-        np.zeros((k, 2)),
-        np.zeros(k, dtype=np.int64),
+        settings,
+        Decisions(
+            np.full(k, Outcome.UNDECIDED, dtype=np.int64),
+            np.zeros((k, 2)),
+            np.zeros(k, dtype=np.int64),
+        ),
     )
 
 
@@ -122,14 +127,14 @@ def capture(map_name: str, n: int, window: float) -> tuple[list[tuple[Any, ...]]
     def recording(*args: Any) -> Any:
         if now[0] < first:
             return original(*args)
-        m, real, whole, opt = args[0], args[29], args[30], args[31]
+        m, table = args[0], args[9]
         holds = np.empty(len(m), dtype=np.bool_)
-        young_adjustments(m, real, whole, opt, holds)  # before the call commits
+        young_adjustments(m, table.real, table.whole, table.opt, holds)  # before it commits
         out = original(*args)
         call = _decide_call(args, holds, out[0])
         if call is not None:
             expected = replay([call], keep=True)[1][0]
-            rows = call[11]
+            rows = call[_ROWS]
             if any(
                 not np.array_equal(e[rows], o[rows])
                 for e, o in zip(expected, out[1:4], strict=True)
@@ -160,18 +165,18 @@ def replay(
     kept = []
     for args in calls:
         a = list(args)
-        a[-3], a[-2], a[-1] = a[-3].copy(), a[-2].copy(), a[-1].copy()  # kind, accel, tested
+        a[-1] = decided = Decisions(*(x.copy() for x in a[-1]))  # fresh kind, accel, tested
         t0 = time.perf_counter()
         decide_batch(*a)
         total += time.perf_counter() - t0
         if keep:
-            kept.append((a[-3], a[-2], a[-1]))
+            kept.append(decided)
+        rows = a[_ROWS]
         if digest is not None:
-            rows = a[11]
-            for out in a[-3:]:
+            for out in decided:
                 digest.update(np.ascontiguousarray(out[rows]).tobytes())
         if kinds is not None:
-            kinds.update(Outcome(int(a[-3][k])).name.lower() for k in a[11])
+            kinds.update(Outcome(int(decided.kind[k])).name.lower() for k in rows)
     return (total, kept) if keep else total
 
 
@@ -188,7 +193,7 @@ def main() -> None:
     kinds: Counter[str] = Counter()
     replay(calls, digest, kinds)
     best = min(replay(calls) for _ in range(max(1, args.repeat)))
-    rows = sum(len(c[11]) for c in calls)
+    rows = sum(len(c[_ROWS]) for c in calls)
     agent_steps = steps * args.size
     print(
         f"{args.map} n={args.size}: densest {steps} steps ({agent_steps} agent-steps), "

@@ -16,6 +16,7 @@ from reference.nao_batch_reference import act_rows_reference
 
 from nao_arena.agents import _nao_columns as columns
 from nao_arena.agents._nao_batch import desired_rows, own_rows
+from nao_arena.agents._nao_bundles import OwnInputs
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.agents.nao import NAOAgent
 from nao_arena.sensing import SensingBatch, neighbour_lists
@@ -222,17 +223,19 @@ def test_own_rows_gathers_each_robots_state_and_traffic_flag(seed, n, cars):
     start, index = neighbour_lists(bodies, pos, 1.5)
     rows = rng.permutation(n)[: int(rng.integers(1, n + 1))].astype(np.int64)
     got = own_rows(
-        rows,
-        bodies,
-        pos,
-        vel,
-        radii,
-        a_max,
-        v_max,
-        goals,
-        start,
-        index,
-        traffic if cars else np.zeros(0, dtype=bool),
+        OwnInputs(
+            rows,
+            bodies,
+            pos,
+            vel,
+            radii,
+            a_max,
+            v_max,
+            goals,
+            start,
+            index,
+            traffic if cars else np.zeros(0, dtype=bool),
+        )
     )
     b = bodies[rows]
     want = (pos[b], vel[b], radii[b], a_max[b], v_max[b], goals[rows])

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nao_arena.agents._nao_bundles import DecidingRobots, ObstacleLists, Predictions
 from nao_arena.agents._nao_decide import decide
 from nao_arena.geometry import AccelLimits, Outcome, PiecewisePath, select_acceleration
 from nao_arena.geometry._kernel.sampled import path_excursions
@@ -65,7 +66,7 @@ def test_batched_decision_uses_the_selections_codes() -> None:
     2 meant DESIRED in one and 'nothing admissible' in the other)."""
     times = np.linspace(0.0, 3.0, 7)
     pred = np.zeros((1, 7, 2))
-    lists = (
+    lists = ObstacleLists(
         np.zeros(2, dtype=np.int64),
         np.zeros(0, dtype=np.int64),
         np.zeros((0, 2, 2)),
@@ -73,18 +74,15 @@ def test_batched_decision_uses_the_selections_codes() -> None:
         np.zeros(2, dtype=np.int64),
         np.zeros(0, dtype=np.int64),
     )
+    robot = DecidingRobots(
+        np.zeros((1, 2)), np.array([[1.0, 0.0]]), np.array([0.3]), np.array([2.0]), np.array([1.5])
+    )
     kind, accel, _ = decide(
-        times,
-        pred,
-        path_excursions(pred),
+        Predictions(times, pred, *path_excursions(pred)),
         lists,
         np.array([0.3]),
         np.array([0]),
-        np.zeros((1, 2)),
-        np.array([[1.0, 0.0]]),
-        np.array([0.3]),
-        np.array([2.0]),
-        np.array([1.5]),
+        robot,
         np.zeros(1, dtype=bool),
         np.zeros((1, 2)),
         np.array([[0.5, 0.0]]),

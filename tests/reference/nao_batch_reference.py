@@ -133,19 +133,7 @@ def act_rows_reference(
             )
         if not settled.all():
             undecided(
-                agents,
-                m,
-                status,
-                settled,
-                errors,
-                out,
-                batch,
-                rows_a,
-                pred,
-                view.excursions,
-                own,
-                current,
-                desired,
+                agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
     take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
     if errors:
