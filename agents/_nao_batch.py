@@ -27,7 +27,7 @@ import numpy as np
 from nao_arena.geometry.kernels import sampled_admissible_batch
 from nao_arena.jit import kernel
 from nao_arena.navigation import segment_clear
-from nao_arena.stopping import Knowledge, commit_plans_kernel
+from nao_arena.stopping import Group, Knowledge, commit_plans_kernel
 
 from ._nao_bundles import DecidingRobots, Decisions
 from ._nao_columns import (
@@ -413,12 +413,14 @@ def yield_rows(
             know.sigmas,
         )
     commit_plans_kernel(
-        pos if every else pos[g],
-        vel if every else vel[g],
+        Group(
+            pos if every else pos[g],
+            vel if every else vel[g],
+            rad if every else rad[g],
+            a_max if every else a_max[g],
+            v_max if every else v_max[g],
+        ),
         out if every else out[g],
-        rad if every else rad[g],
-        a_max if every else a_max[g],
-        v_max if every else v_max[g],
         dt,
         substeps,
         margin,

@@ -5,6 +5,7 @@ compiled) and its NAO block (see "Observation bounds" and "Observations" in
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,7 +19,7 @@ from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Neighbours
 from nao_arena.world import World, WorldState
 
-__all__ = ["nao_block", "observation_bounds", "observation_rows"]
+__all__ = ["RobotRows", "nao_block", "observation_bounds", "observation_rows"]
 
 _BOUND_SLACK = 1e-6
 """Relative widening of the observation bounds that rounding could otherwise cross."""
@@ -149,18 +150,28 @@ def nao_block(
     return np.clip(out, -opts.nao_clip, opts.nao_clip)
 
 
+class RobotRows(NamedTuple):
+    """What :func:`observation_rows` reads besides the bodies' sensed state (world
+    frame; m rows, N bodies): per row, bodies (m,) int64 the row's body index, goals
+    (m, 2) m its goal and prev_cmd (m, 2) m/s^2 its last command; per body, is_traffic
+    (N,) 1.0 for a body that is not a robot (traffic, people), else 0.0, and the limits
+    a_max (N,) m/s^2 and v_max (N,) m/s."""
+
+    bodies: NDArray[np.int64]
+    goals: NDArray[np.float64]
+    prev_cmd: NDArray[np.float64]
+    is_traffic: NDArray[np.float64]
+    a_max: NDArray[np.float64]
+    v_max: NDArray[np.float64]
+
+
 @kernel
 def observation_rows(
     p: NDArray[np.float64],
     v: NDArray[np.float64],
     acc: NDArray[np.float64],
     rad: NDArray[np.float64],
-    is_traffic: NDArray[np.float64],
-    a_max: NDArray[np.float64],
-    v_max: NDArray[np.float64],
-    bodies: NDArray[np.int64],
-    goals: NDArray[np.float64],
-    prev_cmd: NDArray[np.float64],
+    rows: RobotRows,
     time_left: float,
     nb_start: NDArray[np.int64],
     nb_index: NDArray[np.int64],
@@ -168,12 +179,15 @@ def observation_rows(
     idx: NDArray[np.int64],
     present: NDArray[np.bool_],
 ) -> None:
-    """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the robots ``bodies``
-    (goals (m, 2) m, last commands (m, 2) m/s^2) with the first K = idx.shape[1]
-    neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
+    """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the rows' robots
+    (:class:`RobotRows`; the bodies' positions p (N, 2) m, velocities v (N, 2) m/s,
+    accelerations acc (N, 2) m/s^2 and radii rad (N,) m; time_left s) with the first K =
+    idx.shape[1] neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
     (:func:`~nao_arena.sensing.neighbour_lists`: nearest first; the robot itself, listed
     last with an infinite range, is skipped; absent rows stay zero); ``idx`` /
     ``present`` (m, K) get the neighbours' body indices and the row mask."""
+    bodies, goals, prev_cmd = rows.bodies, rows.goals, rows.prev_cmd
+    is_traffic, a_max, v_max = rows.is_traffic, rows.a_max, rows.v_max
     k = idx.shape[1]
     n_own = 16
     for i in range(bodies.shape[0]):

@@ -149,7 +149,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, StepResult
 from nao_arena.env_actions import actions_array
-from nao_arena.env_observations import nao_block, observation_bounds, observation_rows
+from nao_arena.env_observations import RobotRows, nao_block, observation_bounds, observation_rows
 from nao_arena.env_options import (
     NEIGHBOUR_FEATURES,
     OWN_FEATURES,
@@ -408,6 +408,15 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._goals = self.arena.goals[self._controlled]
         self._a_max = self.arena.world.a_max[self._bodies]
         self._prev_cmd = np.zeros((len(self._controlled), 2))
+        # observation_rows' bundle for every row and the truth, built once per episode
+        self._robot_rows = RobotRows(
+            self._bodies,
+            self._goals,
+            self._prev_cmd,
+            self._kinds,
+            self._world_a_max,
+            self._world_v_max,
+        )
         state = self.arena.state
         assert state is not None
         self._dist = np.hypot(*(state.positions[self._bodies] - self._goals).T)
@@ -704,7 +713,11 @@ class NaoArenaParallelEnv(ParallelEnv):
         sensed = state
         if self.arena.senses_the_truth:
             p, v, acc, rad = state.positions, state.velocities, state.accelerations, state.radii
-            is_traffic, a_max, v_max = self._kinds, self._world_a_max, self._world_v_max
+            robot_rows = self._robot_rows
+            if not everyone:
+                robot_rows = robot_rows._replace(
+                    bodies=bodies, goals=self._goals[rows], prev_cmd=self._prev_cmd[rows]
+                )
             # the sensing's neighbour search, with the env's distances (math.hypot)
             nb_start, nb_index = in_range_lists(bodies, p, self._sensing_range, k, True)
         else:
@@ -714,8 +727,14 @@ class NaoArenaParallelEnv(ParallelEnv):
             bodies = np.asarray(batch.bodies, dtype=np.int64)[robots]
             p, v, acc, rad = batch.positions, batch.velocities, batch.accelerations, batch.radii
             of_row = batch.body_of(np.arange(len(rad)))
-            is_traffic = self._kinds[of_row]
-            a_max, v_max = np.asarray(batch.a_max), np.asarray(batch.v_max)
+            robot_rows = RobotRows(
+                bodies,
+                self._goals if everyone else self._goals[rows],
+                self._prev_cmd if everyone else self._prev_cmd[rows],
+                self._kinds[of_row],
+                np.asarray(batch.a_max),
+                np.asarray(batch.v_max),
+            )
             first, last = batch.nb_start[robots], batch.nb_start[robots + 1]
             nb_start = np.concatenate(([0], np.cumsum(last - first))).astype(np.int64)
             nb_index = np.concatenate(
@@ -736,12 +755,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             v,
             acc,
             rad,
-            is_traffic,
-            a_max,
-            v_max,
-            bodies,
-            self._goals if everyone else self._goals[rows],
-            self._prev_cmd if everyone else self._prev_cmd[rows],
+            robot_rows,
             max(self._time_limit - state.time, 0.0),
             nb_start,
             nb_index,

@@ -174,11 +174,13 @@ def _lowest_near(dist, i, j, span, below):
 
 
 @kernel
-def _descend(dist, free, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_steps):
+def _descend(dist, ox, oy, cell, px, py, gx, gy, walls, half, sight, max_steps):
     """The heading target (x, y) of a robot at (px, py) whose goal (gx, gy) it does not
-    see: along the steepest descent of ``dist`` from its cell (or the best free cell next
-    to it), the farthest cell centre it sees, up to max_steps cells; the goal when the
-    field has no path from there."""
+    see: along the steepest descent of ``dist`` (the goal's field over the grid of
+    lower-left corner (ox, oy) and cells of side ``cell``) from its cell (or the best
+    free cell next to it), the farthest cell centre it sees (a line of sight ``sight`` m
+    clear of the walls (W, 2, 2) m of half-thicknesses ``half`` (W,) m), up to max_steps
+    cells; the goal when the field has no path from there."""
     nx, ny = dist.shape
     i = min(max(int(math.floor((px - ox) / cell)), 0), nx - 1)
     j = min(max(int(math.floor((py - oy) / cell)), 0), ny - 1)
@@ -247,7 +249,6 @@ def route_targets(
         p, g = positions[k], goals[k]
         out[k] = _descend(
             grid.field(g),
-            grid.free,
             grid.origin[0],
             grid.origin[1],
             grid.cell,

@@ -85,7 +85,9 @@ from nao_arena.neighbours import around, extent, grid, range_grid
 __all__ = [
     "FORGET_PERIODS",
     "NOISE_SIGMAS",
+    "Group",
     "Knowledge",
+    "Noise",
     "commit_plans",
     "max_plan_points",
     "no_knowledge",
@@ -122,6 +124,28 @@ class Knowledge(NamedTuple):
     velocity: NDArray[np.float64]
     free: NDArray[np.int64]
     spread: NDArray[np.float64]
+    sigmas: float
+
+
+class Group(NamedTuple):
+    """The robots of a group (rows i; world frame): position (n, 2) m, velocity (n, 2)
+    m/s, radius (n,) m, the acceleration limit a_max (n,) m/s^2 and the speed limit
+    v_max (n,) m/s."""
+
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    radius: NDArray[np.float64]
+    a_max: NDArray[np.float64]
+    v_max: NDArray[np.float64]
+
+
+class Noise(NamedTuple):
+    """The noise a tube grows by (:func:`tube_clearance`): the standard deviations of
+    the noise on the known state, spread_p m on the position and spread_v m/s on the
+    velocity, and how many of them (sigmas) the tube grows by."""
+
+    spread_p: float
+    spread_v: float
     sigmas: float
 
 
@@ -334,9 +358,7 @@ def tube_clearance(
     v_max: float,
     dt: float,
     substeps: int,
-    spread_p: float,
-    spread_v: float,
-    sigmas: float,
+    noise: Noise,
 ) -> float:
     """The smallest distance (m) between a plan (points plan[:n_plan], from now; straight
     between substeps; it stands at its last point once ended) and another robot's tube
@@ -348,9 +370,10 @@ def tube_clearance(
       bound the speeds of any braking plan and of the centre (each at most its speed at
       T less a_max (tau - T - dt));
 
-    plus ``sigmas`` (spread_p + spread_v tau) for the noise on the known state (m, m/s).
-    Negative: the plan enters the tube. Each substep's segment counts with the radius
-    at its end (it never shrinks)."""
+    plus ``sigmas`` (spread_p + spread_v tau) for the noise on the known state (m, m/s;
+    :class:`Noise`). Negative: the plan enters the tube. Each substep's segment counts
+    with the radius at its end (it never shrinks)."""
+    spread_p, spread_v, sigmas = noise.spread_p, noise.spread_v, noise.sigmas
     h = dt / substeps
     offset = (free - 1) * substeps
     big_t = free * dt
@@ -389,10 +412,7 @@ def _tube_conflicts(
     want: FloatArray,
     n_want: int,
     ext: float,
-    pos: FloatArray,
-    radius: FloatArray,
-    a_max: FloatArray,
-    v_max: FloatArray,
+    group: Group,
     dt: float,
     substeps: int,
     margin: float,
@@ -400,8 +420,9 @@ def _tube_conflicts(
     scratch: FloatArray,
 ) -> bool:
     """Whether robot i's wanted plan (want[:n_want], reaching ext m from its centre)
-    meets the tube (:func:`tube_clearance`) of a robot it knows of and is not linked
-    with (:class:`Knowledge`) at the sum of the radii plus margin (m)."""
+    meets the tube (:func:`tube_clearance`) of a robot of the group it knows of and is
+    not linked with (:class:`Knowledge`) at the sum of the radii plus margin (m)."""
+    pos, radius, a_max, v_max = group.position, group.radius, group.a_max, group.v_max
     n = pos.shape[0]
     for j in range(n):
         f = know.free[i, j]
@@ -433,9 +454,7 @@ def _tube_conflicts(
             v_max[j],
             dt,
             substeps,
-            sp,
-            sv,
-            know.sigmas,
+            Noise(sp, sv, know.sigmas),
         )
         if clear < reach:
             return True
@@ -482,12 +501,8 @@ def _near_pairs(
 
 @kernel(error_model="numpy")
 def commit_plans_kernel(
-    pos: FloatArray,
-    vel: FloatArray,
+    group: Group,
     desired: FloatArray,
-    radius: FloatArray,
-    a_max: FloatArray,
-    v_max: FloatArray,
     dt: float,
     substeps: int,
     margin: float,
@@ -497,11 +512,14 @@ def commit_plans_kernel(
     brake: NDArray[np.bool_],
     braking: FloatArray,
 ) -> int:
-    """:func:`commit_plans` on arrays; writes brake (n,) and the standing plans'
+    """:func:`commit_plans` on arrays: the robots (:class:`Group`), their desired
+    accelerations (n, 2) m/s^2; writes brake (n,) and the standing plans'
     accelerations braking (n, 2), returns the number of pair checks made (nothing is
     written, and 0 returned, when a position, velocity or desired acceleration is not
     finite). ``know``: what the robots know of each other (:class:`Knowledge`; every
     pair linked when its ``linked`` is empty)."""
+    pos, vel, radius = group.position, group.velocity, group.radius
+    a_max, v_max = group.a_max, group.v_max
     n = pos.shape[0]
     if n == 0:
         return 0
@@ -607,10 +625,7 @@ def commit_plans_kernel(
                 want[i],
                 n_want[i],
                 ext[i],
-                pos,
-                radius,
-                a_max,
-                v_max,
+                group,
                 dt,
                 substeps,
                 margin,
@@ -722,12 +737,14 @@ def commit_plans(
     braking = np.zeros((n, 2))
     f = np.ascontiguousarray
     commit_plans_kernel(
-        f(positions, dtype=np.float64),
-        f(velocities, dtype=np.float64),
+        Group(
+            f(positions, dtype=np.float64),
+            f(velocities, dtype=np.float64),
+            f(radii, dtype=np.float64),
+            f(a_max, dtype=np.float64),
+            f(v_max, dtype=np.float64),
+        ),
         f(desired, dtype=np.float64),
-        f(radii, dtype=np.float64),
-        f(a_max, dtype=np.float64),
-        f(v_max, dtype=np.float64),
         float(dt),
         int(substeps),
         float(margin),

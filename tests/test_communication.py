@@ -16,6 +16,7 @@ from nao_arena.communication import OFF, Channel, Communication, exchanges, lost
 from nao_arena.maps import MapError, load_map, map_from_dict
 from nao_arena.stopping import (
     Knowledge,
+    Noise,
     commit_plans,
     plan_clearance,
     stopping_plan,
@@ -252,7 +253,7 @@ def test_a_plan_clear_of_a_tube_is_clear_of_every_path_in_it(
     n_ref = tube_reference(*known_p, *known_v, free, A_MAX, V_MAX, DT, SUBSTEPS, ref)
     bound = tube_clearance(
         plan_i, len(plan_i), ref, n_ref, float(np.hypot(*known_v)), free, A_MAX, V_MAX, DT,
-        SUBSTEPS, sigma_p, sigma_v, sigmas,
+        SUBSTEPS, Noise(sigma_p, sigma_v, sigmas),
     )  # fmt: skip
     actual = plan_clearance(plan_i, path_j, SUBSTEPS)
     assert actual >= bound - 1e-9
@@ -275,9 +276,8 @@ def test_the_noise_widens_the_tube_by_its_sigmas(angle: float) -> None:
     speed = float(np.hypot(*known_v))
 
     def clearance(sigmas: float) -> float:
-        return tube_clearance(
-            point, 1, ref, n_ref, speed, 1, A_MAX, V_MAX, DT, SUBSTEPS, sigma_p, sigma_v, sigmas
-        )
+        noise = Noise(sigma_p, sigma_v, sigmas)
+        return tube_clearance(point, 1, ref, n_ref, speed, 1, A_MAX, V_MAX, DT, SUBSTEPS, noise)
 
     assert clearance(3.0) <= 1.0
     assert clearance(0.0) > 1.0

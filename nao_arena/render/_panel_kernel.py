@@ -26,6 +26,7 @@ only where the path's bounding box meets the wall's box grown by its half-thickn
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -52,6 +53,48 @@ FREE = -1
 WALLS = -2
 NO, YES, UNSURE = 0, 1, 2
 """Answers of :func:`_below`."""
+
+
+class Candidate(NamedTuple):
+    """A grid acceleration's path as :func:`~nao_arena.geometry._kernel.exact.scan_obstacle`
+    takes it (robot frame, the robot at the origin at t = 0): the velocity vx, vy (m/s,
+    clamped to v_max) and acceleration ax, ay (m/s^2), kept until tau (s), and the bound
+    (m/s) on its speed (:func:`~nao_arena.geometry.kernels.candidate_setup`)."""
+
+    vx: float
+    vy: float
+    ax: float
+    ay: float
+    tau: float
+    bound: float
+
+
+class Neighbours(NamedTuple):
+    """The neighbours' paths (robot-relative), piece by piece: seg_t (S + 1,) s the pieces'
+    ends, seg_c, seg_w, seg_b (N, S, 2) m, m/s, m/s^2 each piece's start, velocity and
+    acceleration, sweep (N, S) m its :func:`~nao_arena.geometry._kernel.exact.piece_sweep`,
+    and windows (N, ceil(S / WINDOW)) m (:func:`_windows`)."""
+
+    seg_t: np.ndarray
+    seg_c: np.ndarray
+    seg_w: np.ndarray
+    seg_b: np.ndarray
+    sweep: np.ndarray
+    windows: np.ndarray
+
+
+class Scratch(NamedTuple):
+    """The scratch arrays of :func:`_fill_labels` (N neighbours): cand (N,) int64 the
+    candidate neighbours' indices, state (N,) int64 their :func:`_below` answers, upper
+    (N,) m an upper bound on each one's clearance, and buf, out (3,) float64 the
+    :func:`~nao_arena.geometry._kernel.exact.scan_obstacle` buffers (out[0]: a squared
+    distance, m^2)."""
+
+    cand: np.ndarray
+    state: np.ndarray
+    upper: np.ndarray
+    buf: np.ndarray
+    out: np.ndarray
 
 
 @inner_kernel(error_model="numpy")
@@ -194,13 +237,14 @@ def wall_clearances(
 
 
 @inner_kernel(error_model="numpy")
-def _below(
-    vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, windows, n, r, level, buf, out
-):
-    """Whether neighbour n's exact clearance (radius r m) is below ``level`` (m) for the
-    candidate (as :func:`~nao_arena.geometry._kernel.exact.scan_obstacle` takes it):
-    :data:`YES`, :data:`NO`, or :data:`UNSURE` where it may lie within :data:`BAND` of
-    level. out[0] then holds a squared distance (m^2) the path reaches (NO: unset)."""
+def _below(cand, paths, n, r, level, buf, out):
+    """Whether neighbour n's exact clearance (radius r m; paths :class:`Neighbours`) is
+    below ``level`` (m) for the candidate (:class:`Candidate`): :data:`YES`, :data:`NO`,
+    or :data:`UNSURE` where it may lie within :data:`BAND` of level. out[0] then holds a
+    squared distance (m^2) the path reaches (NO: unset)."""
+    vx, vy, ax, ay, tau, bound = cand.vx, cand.vy, cand.ax, cand.ay, cand.tau, cand.bound
+    seg_t, seg_c, seg_w, seg_b = paths.seg_t, paths.seg_c, paths.seg_w, paths.seg_b
+    sweep, windows = paths.sweep, paths.windows
     outer = r + level + BAND
     if not outer > 0.0:
         return NO  # the clearance is at least -r
@@ -260,8 +304,12 @@ def _below(
 
 
 @inner_kernel(error_model="numpy")
-def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, buf, out):
-    """Neighbour n's exact clearance (m), as :func:`clearance_kernel` computes it."""
+def _exact(cand, paths, n, r, buf, out):
+    """Neighbour n's exact clearance (m; radius r m, paths :class:`Neighbours`) for the
+    candidate (:class:`Candidate`), as :func:`clearance_kernel` computes it."""
+    vx, vy, ax, ay, tau, bound = cand.vx, cand.vy, cand.ax, cand.ay, cand.tau, cand.bound
+    seg_t, seg_c, seg_w, seg_b = paths.seg_t, paths.seg_c, paths.seg_w, paths.seg_b
+    sweep = paths.sweep
     scan_obstacle(
         vx,
         vy,
@@ -310,50 +358,27 @@ def panel_labels(
         grid,
         v,
         v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
+        Neighbours(seg_t, seg_c, seg_w, seg_b, sweep, _windows(seg_t, seg_c, sweep)),
         radius,
-        sweep,
-        _windows(seg_t, seg_c, sweep),
         walls,
         grown,
         _wall_boxes(walls, grown),
-        np.empty(N, dtype=np.int64),
-        np.empty(N, dtype=np.int64),
-        np.empty(N),
-        np.empty(3),
-        np.empty(3),
+        Scratch(
+            np.empty(N, dtype=np.int64),
+            np.empty(N, dtype=np.int64),
+            np.empty(N),
+            np.empty(3),
+            np.empty(3),
+        ),
         labels,
     )
     return labels
 
 
 @inner_kernel(error_model="numpy")
-def _fill_labels(
-    grid,
-    v,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    sweep,
-    windows,
-    walls,
-    grown,
-    boxes,
-    cand,
-    state,
-    upper,
-    buf,
-    out,
-    labels,
-):
-    """:func:`panel_labels` into labels, with the neighbours' :func:`_windows`, the walls'
-    boxes and scratch arrays (cand, state (N,) ints, upper (N,), buf and out (3,)). Arrays
+def _fill_labels(grid, v, v_max, paths, radius, walls, grown, boxes, scratch, labels):
+    """:func:`panel_labels` into labels, with the neighbours' paths and :func:`_windows`
+    (:class:`Neighbours`), the walls' boxes and scratch arrays (:class:`Scratch`). Arrays
     borrowed here.
 
     Per acceleration: the candidates are the neighbours whose clearance may be negative
@@ -361,21 +386,19 @@ def _fill_labels(
     negative, only those that may lie below W (else the walls win). One sure candidate
     left is the label; otherwise the exact clearance of the likeliest least, then of each
     other candidate that may lie below the least so far."""
-    grid, v, seg_t, seg_c = borrowed(grid), borrowed(v), borrowed(seg_t), borrowed(seg_c)
-    seg_w, seg_b, radius, sweep = (
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
+    grid, v, radius = borrowed(grid), borrowed(v), borrowed(radius)
+    paths = Neighbours(
+        borrowed(paths.seg_t),
+        borrowed(paths.seg_c),
+        borrowed(paths.seg_w),
+        borrowed(paths.seg_b),
+        borrowed(paths.sweep),
+        borrowed(paths.windows),
     )
-    windows, walls, grown, boxes = (
-        borrowed(windows),
-        borrowed(walls),
-        borrowed(grown),
-        borrowed(boxes),
-    )
-    cand, state, upper = borrowed(cand), borrowed(state), borrowed(upper)
-    buf, out, labels = borrowed(buf), borrowed(out), borrowed(labels)
+    seg_t, seg_c = paths.seg_t, paths.seg_c
+    walls, grown, boxes = borrowed(walls), borrowed(grown), borrowed(boxes)
+    cand, state, upper = borrowed(scratch.cand), borrowed(scratch.state), borrowed(scratch.upper)
+    buf, out, labels = borrowed(scratch.buf), borrowed(scratch.out), borrowed(labels)
     N = seg_c.shape[0]
     horizon = seg_t[-1]
     degenerate = not (horizon > seg_t[0])  # an empty horizon: the exact clearance decides
@@ -383,29 +406,12 @@ def _fill_labels(
         ax = grid[k, 0]
         ay = grid[k, 1]
         vx, vy, tau, bound = candidate_setup(v[0], v[1], ax, ay, v_max, horizon)
+        c_k = Candidate(vx, vy, ax, ay, tau, bound)
         m = 0
         for n in range(N):
             s = UNSURE
             if not degenerate:
-                s = _below(
-                    vx,
-                    vy,
-                    ax,
-                    ay,
-                    tau,
-                    bound,
-                    seg_t,
-                    seg_c,
-                    seg_w,
-                    seg_b,
-                    sweep,
-                    windows,
-                    n,
-                    radius[n],
-                    0.0,
-                    buf,
-                    out,
-                )
+                s = _below(c_k, paths, n, radius[n], 0.0, buf, out)
             if s != NO:
                 cand[m] = n
                 state[m] = s
@@ -423,25 +429,7 @@ def _fill_labels(
                 n = cand[i]
                 s = UNSURE
                 if not degenerate:
-                    s = _below(
-                        vx,
-                        vy,
-                        ax,
-                        ay,
-                        tau,
-                        bound,
-                        seg_t,
-                        seg_c,
-                        seg_w,
-                        seg_b,
-                        sweep,
-                        windows,
-                        n,
-                        radius[n],
-                        wall,
-                        buf,
-                        out,
-                    )
+                    s = _below(c_k, paths, n, radius[n], wall, buf, out)
                 if s != NO:
                     cand[kept] = n
                     state[kept] = s
@@ -461,68 +449,14 @@ def _fill_labels(
             if upper[i] < upper[first]:
                 first = i
         owner = cand[first]
-        best = _exact(
-            vx,
-            vy,
-            ax,
-            ay,
-            tau,
-            bound,
-            seg_t,
-            seg_c,
-            seg_w,
-            seg_b,
-            sweep,
-            owner,
-            radius[owner],
-            buf,
-            out,
-        )
+        best = _exact(c_k, paths, owner, radius[owner], buf, out)
         for i in range(m):
             n = cand[i]
             if i == first:
                 continue
-            if (
-                not degenerate
-                and _below(
-                    vx,
-                    vy,
-                    ax,
-                    ay,
-                    tau,
-                    bound,
-                    seg_t,
-                    seg_c,
-                    seg_w,
-                    seg_b,
-                    sweep,
-                    windows,
-                    n,
-                    radius[n],
-                    best,
-                    buf,
-                    out,
-                )
-                == NO
-            ):
+            if not degenerate and _below(c_k, paths, n, radius[n], best, buf, out) == NO:
                 continue
-            c = _exact(
-                vx,
-                vy,
-                ax,
-                ay,
-                tau,
-                bound,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                sweep,
-                n,
-                radius[n],
-                buf,
-                out,
-            )
+            c = _exact(c_k, paths, n, radius[n], buf, out)
             if c < best or (c == best and n < owner):
                 best = c
                 owner = n

@@ -5,7 +5,7 @@ contact and proximity episode flags, for all pairs in one numba call per step.""
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import types
@@ -20,6 +20,7 @@ __all__ = [
     "EV_DEEPER",
     "EV_END",
     "EV_START",
+    "EpisodeArrays",
     "new_depth_map",
     "step_kernel",
     "sweep_pairs",
@@ -171,6 +172,44 @@ def swept_wall_distances(path: FloatArray, a: FloatArray, b: FloatArray) -> Floa
     return out
 
 
+class EpisodeArrays(NamedTuple):
+    """The arrays :func:`step_kernel` works on that stay the same objects from step to
+    step (world frame; N bodies, W walls). Read only, fixed for the episode: radii (N,)
+    m the bodies' radii; is_robot (N,) bool which bodies are robots; cfg (5,) =
+    (separation_range m, ttc_horizon s, near_miss_distance m, hysteresis m,
+    adjustment_threshold m/s^2); wall_lo, wall_hi (W, 2) m the walls' broad-phase boxes
+    (grown by the half-thickness and half the separation range); wall_segs (W, 2, 2) m
+    the walls' segments; wall_radii (W,) m their half-thicknesses; wall_normals (W, 2)
+    their unit normals. Kept between steps and updated in place: order (N + W,) intp
+    the broad phase's order of the boxes at the previous step; the contact episode
+    flags touch_bb (N, N) bool (upper triangle) and touch_bw (N, W) bool; the proximity
+    episode flags prox (N, N) bool and prox_contact (N, N) bool (whether the episode
+    touched); per body (N,): path_length m and adjustments (int64 count) until the
+    goal, reached (bool) and time_to_goal s, the least separation min_sep m and time to
+    collision min_ttc s, near_misses (int64 count)."""
+
+    radii: FloatArray
+    is_robot: NDArray[np.bool_]
+    cfg: FloatArray
+    wall_lo: FloatArray
+    wall_hi: FloatArray
+    wall_segs: FloatArray
+    wall_radii: FloatArray
+    wall_normals: FloatArray
+    order: IntArray
+    touch_bb: NDArray[np.bool_]
+    touch_bw: NDArray[np.bool_]
+    prox: NDArray[np.bool_]
+    prox_contact: NDArray[np.bool_]
+    path_length: FloatArray
+    adjustments: NDArray[np.int64]
+    reached: NDArray[np.bool_]
+    time_to_goal: FloatArray
+    min_sep: FloatArray
+    min_ttc: FloatArray
+    near_misses: NDArray[np.int64]
+
+
 @kernel(error_model="numpy")
 def step_kernel(
     t: float,
@@ -181,38 +220,31 @@ def step_kernel(
     a_prev: FloatArray,
     has_prev: bool,
     goal: NDArray[np.bool_],
-    radii: FloatArray,
-    is_robot: NDArray[np.bool_],
-    wall_lo: FloatArray,
-    wall_hi: FloatArray,
-    wall_segs: FloatArray,
-    wall_radii: FloatArray,
-    wall_normals: FloatArray,
-    cfg: FloatArray,
-    order: IntArray,
     n_prox: int,
-    touch_bb: NDArray[np.bool_],
-    touch_bw: NDArray[np.bool_],
-    prox: NDArray[np.bool_],
-    prox_contact: NDArray[np.bool_],
     depth: Any,
-    path_length: FloatArray,
-    adjustments: NDArray[np.int64],
-    reached: NDArray[np.bool_],
-    time_to_goal: FloatArray,
-    min_sep: FloatArray,
-    min_ttc: FloatArray,
-    near_misses: NDArray[np.int64],
+    arrays: EpisodeArrays,
 ) -> tuple[NDArray[np.int64], FloatArray, int]:
     """One control step of EpisodeStats (see EpisodeStats.update); arrays updated in place.
 
-    cfg = (separation_range, ttc_horizon, near_miss_distance, hysteresis,
-    adjustment_threshold) in m, s, m, m, m/s^2; depth: the deepest penetration (m)
-    of each open contact episode (see new_depth_map). Returns the contact events as
-    rows (code, a, b) with a value each (code EV_DEEPER: the new deepest penetration
-    m; EV_START: the separation m; EV_END: unused; +3 for walls, b the wall index),
-    in the order to apply them, and the new proximity count.
+    The step [t, t + dt] (s): path (S + 1, N, 2) m the centres after each substep; v1
+    (N, 2) m/s the velocities at its end; acc (N, 2) m/s^2 the commanded accelerations,
+    a_prev (N, 2) m/s^2 the previous step's (read if has_prev; overwritten with acc);
+    goal (N,) bool whether each body is within its goal's tolerance at the end; n_prox:
+    the number of open proximity episodes; depth: the deepest penetration (m) of each
+    open contact episode (see new_depth_map); the bodies, walls and the state kept
+    between steps (:class:`EpisodeArrays`). Returns the contact events
+    as rows (code, a, b) with a value each (code EV_DEEPER: the new deepest penetration
+    m; EV_START: the separation m; EV_END: unused; +3 for walls, b the wall index), in
+    the order to apply them, and the new proximity count.
     """
+    radii, is_robot, cfg = arrays.radii, arrays.is_robot, arrays.cfg
+    wall_lo, wall_hi, wall_segs = arrays.wall_lo, arrays.wall_hi, arrays.wall_segs
+    wall_radii, wall_normals = arrays.wall_radii, arrays.wall_normals
+    order, touch_bb, touch_bw = arrays.order, arrays.touch_bb, arrays.touch_bw
+    prox, prox_contact = arrays.prox, arrays.prox_contact
+    path_length, adjustments = arrays.path_length, arrays.adjustments
+    reached, time_to_goal = arrays.reached, arrays.time_to_goal
+    min_sep, min_ttc, near_misses = arrays.min_sep, arrays.min_ttc, arrays.near_misses
     sep_range, ttc_h, near_d, hyst, adj = cfg[0], cfg[1], cfg[2], cfg[3], cfg[4]
     n = radii.shape[0]
     nw = wall_radii.shape[0]

@@ -15,6 +15,7 @@ from nao_arena.stats.events import first_disc_touch, first_touching_substep, fir
 from nao_arena.stats.kernel import (
     EV_DEEPER,
     EV_START,
+    EpisodeArrays,
     liveness_kernel,
     new_depth_map,
     step_kernel,
@@ -159,11 +160,40 @@ class EpisodeStats:
         self.at_goal = np.zeros(n, dtype=bool)
         self.deadlock_time = math.nan
         self.deadlock_duration = 0.0
+        self._bundle()
+
+    def _bundle(self) -> None:
+        """step_kernel's named bundle, built once: it holds the very arrays of the
+        attributes (the kernel updates the episode's state in place)."""
+        self._arrays = EpisodeArrays(
+            self.radii,
+            self.is_robot,
+            self._cfg,
+            self._wall_lo,
+            self._wall_hi,
+            self.wall_segments,
+            self.wall_radii,
+            self._wall_normals,
+            self._order,
+            self._touch_bb,
+            self._touch_bw,
+            self._prox,
+            self._prox_contact,
+            self.path_length,
+            self.adjustments,
+            self.reached,
+            self.time_to_goal,
+            self.min_separation,
+            self.min_ttc,
+            self.near_misses,
+        )
 
     def __getstate__(self) -> dict[str, Any]:
-        """The attributes, the depth map (a numba typed dict) as a plain dict."""
+        """The attributes, the depth map (a numba typed dict) as a plain dict, without
+        the kernel's bundle (built again from the attributes)."""
         state = self.__dict__.copy()
         state["_depth"] = dict(self._depth)
+        del state["_arrays"]
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -173,6 +203,7 @@ class EpisodeStats:
         for key, value in state["_depth"].items():
             depth[key] = value
         self._depth = depth
+        self._bundle()
 
     # ------------------------------------------------------------------ update
 
@@ -226,28 +257,9 @@ class EpisodeStats:
             self._a_prev,
             has_prev,
             goal,
-            self.radii,
-            self.is_robot,
-            self._wall_lo,
-            self._wall_hi,
-            self.wall_segments,
-            self.wall_radii,
-            self._wall_normals,
-            self._cfg,
-            self._order,
             self._n_prox,
-            self._touch_bb,
-            self._touch_bw,
-            self._prox,
-            self._prox_contact,
             self._depth,
-            self.path_length,
-            self.adjustments,
-            self.reached,
-            self.time_to_goal,
-            self.min_separation,
-            self.min_ttc,
-            self.near_misses,
+            self._arrays,
         )
         started: list[ContactEvent] = []
         if len(codes):
