@@ -175,9 +175,9 @@ _KIND_STATUS: dict[int, str] = {  # looked up by the compiled kinds (int)
 
 
 class NAOAgent:
-    """NAO avoidance. Options: horizon (s), samples (per horizon; None: one every 0.1 s),
-    predictor name, margin (m), keep_band (m/s^2), v_pref (m/s), sensing_range (m),
-    detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
+    """NAO avoidance. Options (keyword-only): horizon (s), samples (per horizon; None:
+    one every 0.1 s), predictor name, margin (m), keep_band (m/s^2), v_pref (m/s),
+    sensing_range (m), detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
     "latest_contact"), goal_zone (m), navigate (heads around walls that stand between
     the robot and its goal, see :mod:`nao_arena.navigation`), stopping_plans (commits
     to stopping plans with the other robots of its batch and brakes where its choice
@@ -221,6 +221,7 @@ class NAOAgent:
 
     def __init__(
         self,
+        *,
         horizon: float = 3.0,
         samples: int | None = None,
         predictor: str | None = None,
@@ -709,6 +710,7 @@ class AOAgent(NAOAgent):
 
     def __init__(
         self,
+        *,
         horizon: float = 3.0,
         samples: int | None = None,
         margin: float = 0.15,
@@ -726,20 +728,20 @@ class AOAgent(NAOAgent):
         noise_sigmas: float = NOISE_SIGMAS,
     ) -> None:
         super().__init__(
-            horizon,
-            samples,
-            "constant_acceleration",
-            margin,
-            keep_band,
-            v_pref,
-            sensing_range,
-            detour_after,
-            replan,
-            reselect_after,
-            infeasible,
-            goal_zone,
-            navigate,
-            stopping_plans,
-            switch_side_after,
-            noise_sigmas,
+            horizon=horizon,
+            samples=samples,
+            predictor="constant_acceleration",
+            margin=margin,
+            keep_band=keep_band,
+            v_pref=v_pref,
+            sensing_range=sensing_range,
+            detour_after=detour_after,
+            replan=replan,
+            reselect_after=reselect_after,
+            infeasible=infeasible,
+            goal_zone=goal_zone,
+            navigate=navigate,
+            stopping_plans=stopping_plans,
+            switch_side_after=switch_side_after,
+            noise_sigmas=noise_sigmas,
         )
