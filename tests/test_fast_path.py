@@ -42,7 +42,7 @@ from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
-from nao_arena.geometry._kernel.boundary import Scratch
+from nao_arena.geometry._kernel.bundles import Obstacles, Paths, Scratch, Walls
 from nao_arena.geometry._kernel.candidates import _try_ball_disc
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
@@ -605,8 +605,8 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
             vel[k][None].copy(),
             acc[k][None].copy(),
             v_max[k],
-            *path.arrays,
-            piece_sweep(path.t, path.velocity, path.acceleration),
+            Obstacles(*path.moving_arrays, piece_sweep(path.t, path.velocity, path.acceleration)),
+            Walls(path.walls, path.wall_radius),
             0.0,
             ok,
         )
@@ -638,13 +638,8 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
         cand_v,
         cand_a,
         v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
-        walls,
-        wall_r,
+        Paths(seg_t, seg_c, seg_w, seg_b, radius),
+        Walls(walls, wall_r),
         clear,
         np.empty((k, n + 3)),
         np.empty((k, n + 3)),
@@ -661,14 +656,8 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
                 cand_v[i][None].copy(),
                 cand_a[i][None].copy(),
                 v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
+                Obstacles(seg_t, seg_c, seg_w, seg_b, radius, sweep),
+                Walls(walls, wall_r),
                 margin,
                 ok,
             )

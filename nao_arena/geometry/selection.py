@@ -35,6 +35,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nao_arena.geometry._kernel.bundles import Obstacles, Walls
 from nao_arena.geometry._kernel.exact import latest_contact_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_obstacles
 from nao_arena.geometry._kernel.search import repair_disc, select_disc
@@ -114,7 +115,9 @@ class _Tester:
     """The obstacles of ``path`` that some acceleration within ``limits`` can reach
     (robot velocity v m/s, speed limit v_max m/s, clearance margin m), against which a
     selection's result is measured and its latest contact searched; ``count``: the
-    candidates tested so far."""
+    candidates tested so far. ``obstacles`` and ``walls``: those of ``path`` kept, as
+    the compiled tests take them (:class:`~nao_arena.geometry._kernel.bundles.Obstacles`
+    with their ``sweep``, :class:`~nao_arena.geometry._kernel.bundles.Walls`)."""
 
     def __init__(
         self,
@@ -152,6 +155,9 @@ class _Tester:
                 wall_r,
             )
         self.sweep = piece_sweep(self.path.t, self.path.velocity, self.path.acceleration)
+        p = self.path
+        self.obstacles = Obstacles(p.t, p.c, p.velocity, p.acceleration, p.radius, self.sweep)
+        self.walls = Walls(p.walls, p.wall_radius)
         self.v = v
         self.limits = limits
         self.margin = margin
@@ -163,13 +169,12 @@ class _Tester:
         out = np.full(len(a), np.inf)
         if self.path.n_obstacles == 0:
             return out
-        p = self.path
         latest_contact_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, a.shape)),
             a,
             self.v_max,
-            *p.arrays,
-            self.sweep,
+            self.obstacles,
+            self.walls,
             out,
         )
         return out

@@ -31,6 +31,7 @@ import numpy as np
 
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.kernels import (
+    Motion,
     candidate_setup,
     robot_state,
     scan_obstacle,
@@ -208,12 +209,7 @@ def _below(
         return NO
     if (
         scan_obstacle(
-            vx,
-            vy,
-            ax,
-            ay,
-            tau,
-            bound,
+            Motion(vx, vy, ax, ay, tau, bound),
             seg_t,
             seg_c,
             seg_w,
@@ -235,12 +231,7 @@ def _below(
             return YES
         if (
             scan_obstacle(
-                vx,
-                vy,
-                ax,
-                ay,
-                tau,
-                bound,
+                Motion(vx, vy, ax, ay, tau, bound),
                 seg_t,
                 seg_c,
                 seg_w,
@@ -263,12 +254,7 @@ def _below(
 def _exact(vx, vy, ax, ay, tau, bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, buf, out):
     """Neighbour n's exact clearance (m), as :func:`clearance_kernel` computes it."""
     scan_obstacle(
-        vx,
-        vy,
-        ax,
-        ay,
-        tau,
-        bound,
+        Motion(vx, vy, ax, ay, tau, bound),
         seg_t,
         seg_c,
         seg_w,

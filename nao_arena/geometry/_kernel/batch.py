@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import Motion
 from nao_arena.geometry._kernel.exact import candidate_setup, fill_sweep, robot_state, scan_obstacle
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_pieces
 from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_within
@@ -138,6 +139,7 @@ def _admissible_rows(
         ax = acc[k, 0]
         ay = acc[k, 1]
         vx, vy, tau, bound = candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
+        motion = Motion(vx, vy, ax, ay, tau, bound)
         px = pos[k, 0]
         py = pos[k, 1]
         # skip the obstacles that stay far: |x(t)| <= bound t for the robot (and it stays
@@ -185,9 +187,7 @@ def _admissible_rows(
                 wall_half[d] + (radius[k] + margin[k]),
                 math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT,
             )
-            if segment_within(
-                vx, vy, ax, ay, tau, travel, horizon, ax0, ay0, bx0, by0, r, buf, res
-            ):
+            if segment_within(motion, travel, horizon, ax0, ay0, bx0, by0, r, buf, res):
                 ok = 0
                 break
         if ok == 0 or n == 0:
@@ -198,12 +198,7 @@ def _admissible_rows(
         fill_sweep(times, w, b, n, sweep)
         for q in range(n):
             scan_obstacle(
-                vx,
-                vy,
-                ax,
-                ay,
-                tau,
-                bound,
+                motion,
                 times,
                 c,
                 w,

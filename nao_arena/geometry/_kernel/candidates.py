@@ -3,9 +3,9 @@ acceleration a_d first: the disk picture's candidates (pushed out of slivers whe
 inadmissible), the ball search that tries the nearest points outside the disks as each
 becomes final, and rings of candidates around a_d.
 
-The robot, obstacles, walls and scratch arrays travel in the bundles of :mod:`.boundary`
-(:class:`~.boundary.Limits`, :class:`~.boundary.Obstacles`, :class:`~.boundary.Walls`,
-:class:`~.boundary.Scratch`).
+The robot, obstacles, walls and scratch arrays travel in the bundles of :mod:`.bundles`
+(:class:`~.bundles.Limits`, :class:`~.bundles.Obstacles`, :class:`~.bundles.Walls`,
+:class:`~.bundles.Scratch`).
 """
 
 from __future__ import annotations
@@ -17,15 +17,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.boundary import (
-    Obstacles,
-    Scratch,
-    Walls,
     _sliver_push,
     bisect_disc,
     ok_disc,
     outward_normal,
     slide_disc,
 )
+from nao_arena.geometry._kernel.bundles import Obstacles, Scratch, Walls
 from nao_arena.geometry._kernel.outside import _WORDS, outside_advance, outside_setup
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel

@@ -13,11 +13,13 @@ import math
 
 import numpy as np
 
-# the imports ``as`` themselves are re-exports: callers import these steps from here too
-from nao_arena.geometry._kernel.boundary import Limits, Obstacles, Scratch, Walls, ok_disc
 from nao_arena.geometry._kernel.boundary import bisect_disc as bisect_disc
+
+# the imports ``as`` themselves are re-exports: callers import these steps from here too
+from nao_arena.geometry._kernel.boundary import ok_disc
 from nao_arena.geometry._kernel.boundary import outward_normal as outward_normal
 from nao_arena.geometry._kernel.boundary import slide_disc as slide_disc
+from nao_arena.geometry._kernel.bundles import Limits, Obstacles, Scratch, Walls
 from nao_arena.geometry._kernel.candidates import _try_ball_disc, ring_search_disc
 from nao_arena.geometry._kernel.candidates import try_candidates_disc as try_candidates_disc
 from nao_arena.geometry._kernel.disks import (
