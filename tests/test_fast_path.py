@@ -42,7 +42,16 @@ from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
-from nao_arena.geometry._kernel.bundles import Obstacles, Paths, Scratch, Walls
+from nao_arena.geometry._kernel.bundles import (
+    IndexLists,
+    Obstacles,
+    Paths,
+    Predictions,
+    Robots,
+    Scratch,
+    Walls,
+    WorldWalls,
+)
 from nao_arena.geometry._kernel.candidates import _try_ball_disc
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
@@ -557,23 +566,13 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
     pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
     out = np.full(n, 7, dtype=np.int64)
     sampled_admissible_batch(
-        times,
-        pred,
-        start,
-        index,
-        rad,
-        wall_c,
-        wall_r,
-        wall_start,
-        wall_index,
+        Predictions(times, pred, rad, *path_excursions(pred)),
+        IndexLists(start, index),
+        WorldWalls(wall_c, wall_r),
+        IndexLists(wall_start, wall_index),
         np.arange(n),
-        pos,
-        vel,
+        Robots(pos, vel, v_max, rad, margin),
         acc,
-        v_max,
-        rad,
-        margin,
-        *path_excursions(pred),
         out,
     )
     for k in range(n):
@@ -686,23 +685,13 @@ def test_batched_admissibility_flags_non_finite_paths():
     n = len(nb_all)
     out = np.zeros(n, dtype=np.int64)
     sampled_admissible_batch(
-        times,
-        pred,
-        start,
-        index,
-        nb_all.radii,
-        wall_c,
-        wall_r,
-        wall_start,
-        wall_index,
+        Predictions(times, pred, nb_all.radii, *path_excursions(pred)),
+        IndexLists(start, index),
+        WorldWalls(wall_c, wall_r),
+        IndexLists(wall_start, wall_index),
         np.arange(n),
-        nb_all.positions,
-        nb_all.velocities,
+        Robots(nb_all.positions, nb_all.velocities, v_max, nb_all.radii, margin),
         acc,
-        v_max,
-        nb_all.radii,
-        margin,
-        *path_excursions(pred),
         out,
     )
     has_nb = np.diff(start) > 0
