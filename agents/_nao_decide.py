@@ -19,6 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import (
+    Obstacles,
+    SearchSettings,
+    Walls,
     nearby_walls,
     piece_sweep,
     relevant_sampled_paths,
@@ -193,14 +196,8 @@ def decide_batch(
                     repair_unit,
                     vel[k],
                     v_max[k],
-                    times,
-                    c,
-                    w,
-                    b,
-                    rad,
-                    walls,
-                    wall_r,
-                    sweep,
+                    Obstacles(times, c, w, b, rad, sweep),
+                    Walls(walls, wall_r),
                 )
                 if found:
                     kind[k] = Outcome.REPAIRED
@@ -222,22 +219,18 @@ def decide_batch(
             vel[k],
             a_max[k],
             v_max[k],
-            times,
-            c,
-            w,
-            b,
-            rad,
-            walls,
-            wall_r,
-            sweep,
+            Obstacles(times, c, w, b, rad, sweep),
+            Walls(walls, wall_r),
             0.0,
-            tol,
-            ring_radii[k],
-            unit_rings,
-            max_disks,
-            n_sub,
-            per_second,
-            sliver_depth * a_max[k],
+            SearchSettings(
+                tol,
+                ring_radii[k],
+                unit_rings,
+                max_disks,
+                n_sub,
+                per_second,
+                sliver_depth * a_max[k],
+            ),
         )
         tested[k] = count
         if status == Outcome.DESIRED:

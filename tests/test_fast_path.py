@@ -45,10 +45,12 @@ from nao_arena.geometry._kernel.batch import sampled_admissible_batch
 from nao_arena.geometry._kernel.bundles import (
     IndexLists,
     Obstacles,
+    OutsideSearch,
     Paths,
     Predictions,
     Robots,
     Scratch,
+    SearchSettings,
     Walls,
     WorldWalls,
 )
@@ -119,7 +121,12 @@ def _disk_scene(rng: np.random.Generator, crowded: bool):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     reach = float(rng.choice([0.25, 1.0, 4.0]))
-    return nao_disks(v, *path.arrays, 0.0, 4, q, reach, 2.0), q
+    return nao_disks(v, *_disk_obstacles(path), 0.0, 4, q, reach, 2.0), q
+
+
+def _disk_obstacles(path: PiecewisePath) -> tuple[Paths, Walls]:
+    """The obstacles and walls of ``path`` as the disk picture and the search take them."""
+    return Paths(*path.moving_arrays), Walls(path.walls, path.wall_radius)
 
 
 # ---------------------------------------------------------------- sensing
@@ -318,22 +325,17 @@ def _outside_rows(q, disks, a_max, within, covered, row):
     lower = np.empty(len(disks) + 1)
     order, scale = outside_setup(q, disks, a_max, within, res, lower)
     m = len(disks)
-    oi = outside_advance(
-        q,
-        disks,
-        a_max,
-        covered,
+    search = OutsideSearch(
         res,
         lower,
         order,
-        0,
-        row,
         scale,
         np.empty((2 * m + 8, 2)),
         np.empty(2 * m + 4),
         np.empty(2 * m + 4),
         np.empty(4, dtype=np.uint64),
     )
+    oi = outside_advance(q, disks, a_max, covered, search, 0, row)
     return res, oi
 
 
@@ -371,7 +373,7 @@ def test_ball_search_tries_the_candidates_of_nearest_outside_disks(seed):
     p = t.path
     for _ in range(4):
         a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-        samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
+        samples = nao_disk_samples(t.v, *_disk_obstacles(p), 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
         for reach in (0.5, 2.0, 8.0):
             disks = nao_disks_within(samples, reach)
             for covered in (0.0, 0.25 * reach):
@@ -392,7 +394,15 @@ def test_capped_disks_are_the_chosen_balls_disks(seed):
     times = np.linspace(0.0, 2.5, 26)
     path = _straight_paths(rng, n, times, spread=2.0)
     samples = nao_disk_samples(
-        rng.normal(size=2), *path.arrays, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02
+        rng.normal(size=2),
+        *_disk_obstacles(path),
+        0.1,
+        2,
+        rng.normal(size=2),
+        16.0,
+        2.0,
+        16.0,
+        0.02,
     )
     for cap in (2, 8, 24, 64, 1000):
         chosen, disks = capped_disks(samples, radius_order(samples), 0.0625, 8.0, cap)
@@ -413,7 +423,9 @@ def test_largest_capped_reach_matches_the_doubling(seed):
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, n, times, spread=2.0)
     q = rng.normal(size=2)
-    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(
+        rng.normal(size=2), *_disk_obstacles(path), 0.1, 2, q, 16.0, 2.0, 16.0, 0.02
+    )
     for cap in (4, 16, 48):
         reach, ref = 0.125, -1.0
         while reach < 8.0:
@@ -432,7 +444,7 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     path = _straight_paths(rng, n, times, spread=3.0)
     v = rng.normal(size=2)
     q = rng.normal(size=2)
-    args = (v, *path.arrays, 0.1, 4, q)
+    args = (v, *_disk_obstacles(path), 0.1, 4, q)
     samples = nao_disk_samples(*args, 8.0, 2.0)
     for reach in (0.125, 0.5, 2.0, 8.0):
         np.testing.assert_array_equal(
@@ -475,7 +487,7 @@ def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     for reach in (0.5, 4.0):
-        got = nao_disk_samples(v, *path.arrays, 0.1, 2, q, reach, 2.0, 16.0, 0.0)
+        got = nao_disk_samples(v, *_disk_obstacles(path), 0.1, 2, q, reach, 2.0, 16.0, 0.0)
         ref = disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
         assert got.shape == ref.shape
         np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
@@ -489,7 +501,7 @@ def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     rng = np.random.default_rng(500 + seed)
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, 1, times, spread=3.0)
-    args = (rng.normal(size=2), *path.arrays, 0.1, 2, np.zeros(2), 8.0, 2.0, 16.0)
+    args = (rng.normal(size=2), *_disk_obstacles(path), 0.1, 2, np.zeros(2), 8.0, 2.0, 16.0)
     full = nao_disk_samples(*args)
     thin = 0.02
     kept = nao_disk_samples(*args, thin)
@@ -1056,15 +1068,17 @@ def test_compiled_selection_matches_the_python_steps(seed):
             t.v,
             2.0,
             t.v_max,
-            *p.arrays,
+            *_disk_obstacles(p),
             0.0,
-            1e-3,
-            radii,
-            selection._unit_rings(8, 16),
-            selection._MAX_DISKS,
-            selection._DISKS_PER_PIECE,
-            selection._DISKS_PER_SECOND,
-            selection._SLIVER_DEPTH * 2.0,
+            SearchSettings(
+                1e-3,
+                radii,
+                selection._unit_rings(8, 16),
+                selection._MAX_DISKS,
+                selection._DISKS_PER_PIECE,
+                selection._DISKS_PER_SECOND,
+                selection._SLIVER_DEPTH * 2.0,
+            ),
         )
         ref = search(t, a_d, radii, 16, 1e-3)
         statuses.add(status)
@@ -1095,7 +1109,7 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
         p = t.path
         for _ in range(3):
             a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-            samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
+            samples = nao_disk_samples(t.v, *_disk_obstacles(p), 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
             disks = nao_disks_within(samples, 8.0)
             cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
             for k in range(len(cands)):

@@ -22,7 +22,7 @@ from test_segment_clearance import point_segment_distance
 
 from nao_arena.arena import Arena
 from nao_arena.geometry import AccelLimits, select_acceleration
-from nao_arena.geometry._kernel.bundles import Motion
+from nao_arena.geometry._kernel.bundles import Motion, Paths, Walls
 from nao_arena.geometry._kernel.disks import nao_disk_samples
 from nao_arena.geometry._kernel.robot_path import candidate_setup
 from nao_arena.geometry._kernel.segment import wall_scan
@@ -193,13 +193,8 @@ def test_wall_disks_of_the_picture_are_inside_the_nao(seed):
     empty = np.zeros((0, len(TIMES) - 1, 2))
     rows = nao_disk_samples(
         v,
-        TIMES,
-        empty,
-        empty,
-        empty,
-        np.zeros(0),
-        walls,
-        radii,
+        Paths(TIMES, empty, empty, empty, np.zeros(0)),
+        Walls(walls, radii),
         0.0,
         2,
         np.zeros(2),

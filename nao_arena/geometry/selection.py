@@ -35,7 +35,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nao_arena.geometry._kernel.bundles import Obstacles, Walls
+from nao_arena.geometry._kernel.bundles import Obstacles, Paths, SearchSettings, Walls
 from nao_arena.geometry._kernel.exact import latest_contact_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_obstacles
 from nao_arena.geometry._kernel.search import repair_disc, select_disc
@@ -226,6 +226,24 @@ def _unit_rings(rings: int, points: int) -> NDArray[np.float64]:
     return unit
 
 
+def _contiguous_paths(path: PiecewisePath) -> Paths:
+    """The moving obstacles of ``path`` as the compiled search takes them: contiguous
+    :class:`~nao_arena.geometry._kernel.bundles.Paths`."""
+    return Paths(
+        np.ascontiguousarray(path.t),
+        np.ascontiguousarray(path.c),
+        np.ascontiguousarray(path.velocity),
+        np.ascontiguousarray(path.acceleration),
+        np.ascontiguousarray(path.radius),
+    )
+
+
+def _contiguous_walls(path: PiecewisePath) -> Walls:
+    """The walls of ``path`` as the compiled search takes them: contiguous
+    :class:`~nao_arena.geometry._kernel.bundles.Walls`."""
+    return Walls(np.ascontiguousarray(path.walls), np.ascontiguousarray(path.wall_radius))
+
+
 def _ring_candidates(
     a_d: NDArray[np.float64], radii: NDArray[np.float64], points: int, limits: AccelLimits
 ) -> NDArray[np.float64]:
@@ -278,21 +296,18 @@ def select_acceleration(
         v_arr,
         limits.a_max,
         float(v_max),
-        np.ascontiguousarray(path.t),
-        np.ascontiguousarray(path.c),
-        np.ascontiguousarray(path.velocity),
-        np.ascontiguousarray(path.acceleration),
-        np.ascontiguousarray(path.radius),
-        np.ascontiguousarray(path.walls),
-        np.ascontiguousarray(path.wall_radius),
+        _contiguous_paths(path),
+        _contiguous_walls(path),
         float(margin),
-        tol,
-        radii,
-        _unit_rings(rings, ring_points),
-        _MAX_DISKS,
-        _DISKS_PER_PIECE,
-        _DISKS_PER_SECOND,
-        _SLIVER_DEPTH * limits.a_max,
+        SearchSettings(
+            tol,
+            radii,
+            _unit_rings(rings, ring_points),
+            _MAX_DISKS,
+            _DISKS_PER_PIECE,
+            _DISKS_PER_SECOND,
+            _SLIVER_DEPTH * limits.a_max,
+        ),
     )
     found = a_d if status == Outcome.DESIRED else np.array([x, y])
     if status != Outcome.INFEASIBLE and not with_clearance:
@@ -375,13 +390,8 @@ def repair_acceleration(
         _REPAIR_UNIT,
         v_arr,
         float(v_max),
-        np.ascontiguousarray(path.t),
-        np.ascontiguousarray(path.c),
-        np.ascontiguousarray(path.velocity),
-        np.ascontiguousarray(path.acceleration),
-        np.ascontiguousarray(path.radius),
-        np.ascontiguousarray(path.walls),
-        np.ascontiguousarray(path.wall_radius),
+        _contiguous_paths(path),
+        _contiguous_walls(path),
     )
     return np.array([x, y]) if found else None
 

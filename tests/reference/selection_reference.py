@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.geometry._kernel.bundles import Limits, Obstacles, Walls
+from nao_arena.geometry._kernel.bundles import Limits, Obstacles, Paths, Walls
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
     nao_disk_samples,
@@ -158,7 +158,8 @@ def nearest_by_disks(
         last *= 2.0
     samples = nao_disk_samples(
         t.v,
-        *p.arrays,
+        Paths(*p.moving_arrays),
+        t.walls,
         t.margin,
         _DISKS_PER_PIECE,
         a_d,

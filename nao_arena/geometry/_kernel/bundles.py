@@ -28,6 +28,7 @@ __all__ = [
     "Limits",
     "Motion",
     "Obstacles",
+    "OutsideSearch",
     "Paths",
     "Predictions",
     "Robots",
@@ -115,6 +116,28 @@ class Scratch(NamedTuple):
     buf: NDArray[np.float64]
     res: NDArray[np.float64]
     hint: NDArray[np.int64]
+
+
+class OutsideSearch(NamedTuple):
+    """The state of a search for the points nearest the query q outside the M disks
+    (accelerations m/s^2 in the frame of :mod:`nao_arena.geometry`), as
+    :func:`~nao_arena.geometry._kernel.outside.outside_setup` starts it and
+    :func:`~nao_arena.geometry._kernel.outside.outside_advance` advances it: out
+    (max_out, 3) the rows found (x, y, distance from q) m/s^2, lower (M + 1,) the
+    distances from q to the circles (the limit circle last) m/s^2, order (M + 1,) int64
+    the circles' visiting order, scale m/s^2 the bound for rounding, and the scratch
+    arrays cand (2 M + 8, 2) m/s^2 (one circle's free-arc points), starts and ends
+    (2 M + 4,) rad (arcs), cover (_WORDS,) uint64 (bins; see
+    :mod:`~nao_arena.geometry._kernel.outside`)."""
+
+    out: NDArray[np.float64]
+    lower: NDArray[np.float64]
+    order: NDArray[np.int64]
+    scale: float
+    cand: NDArray[np.float64]
+    starts: NDArray[np.float64]
+    ends: NDArray[np.float64]
+    cover: NDArray[np.uint64]
 
 
 class SearchSettings(NamedTuple):

@@ -2,7 +2,8 @@
 
 For every circle, the arcs not covered by the other disks are found (a bit set
 of angular bins rules out fully covered circles cheaply); the point of each
-free arc nearest the query is a candidate.
+free arc nearest the query is a candidate. A search's state and scratch arrays travel
+in an :class:`~.bundles.OutsideSearch`.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import math
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import OutsideSearch
 from nao_arena.geometry._kernel.disks import vector_norm
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel
@@ -421,16 +423,18 @@ def _all_binned(cover):
 
 
 @inner_kernel(error_model="numpy")
-def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends, cover):
-    """Append to ``out`` (from row k) the point nearest q of every free arc of the
-    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
-    and, when ``in_limit``, inside the limit disc |a| <= a_max.
-    Returns the new row count, or -1 when the whole circle is covered.
-    starts/ends: scratch of at least 2 len(circ) + 4 rows; cover: _WORDS uint64.
+def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, search, k):
+    """Append to search.cand (from row k) the point nearest q of every free arc of the
+    circle (cx, cy, rho) (m/s^2): arcs no disk of ``circ`` (except row ``skip``) covers
+    and, when ``in_limit``, inside the limit disc |a| <= a_max (m/s^2).
+    Returns the new row count, or -1 when the whole circle is covered. The
+    :class:`~.bundles.OutsideSearch` ``search`` lends its scratch arrays: cand, starts
+    and ends (at least 2 len(circ) + 4 rows), cover (_WORDS uint64).
 
     Most circles of a crowded picture are covered entirely: a cheap proof
     (:func:`_surely_covered`) skips the exact angles for them.
     """
+    out, starts, ends, cover = search.cand, search.starts, search.ends, search.cover
     q, circ, out = borrowed(q), borrowed(circ), borrowed(out)
     starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
     M = circ.shape[0]
@@ -525,16 +529,9 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
         disks,
         a_max,
         covered,
-        res,
-        lower,
-        order,
+        OutsideSearch(res, lower, order, scale, cand, starts, ends, cover),
         np.int64(0),
         max_out,
-        scale,
-        cand,
-        starts,
-        ends,
-        cover,
     )
     return outside_found(res, within)
 
@@ -582,15 +579,17 @@ def outside_setup(q, disks, a_max, within, res, lower):
 
 
 @inner_kernel(error_model="numpy")
-def outside_advance(
-    q, disks, a_max, covered, res, lower, order, oi, row, scale, cand, starts, ends, cover
-):
-    """Visit the circles order[oi:] (:func:`outside_setup`) as :func:`nearest_outside_disks`
-    does, inserting their free-arc points into ``res``, but only until row ``row`` of
-    ``res`` is final: every circle left is farther from q than that row's candidate by
-    far more than rounding (a point of a circle is at least its ``lower`` from q), so no
-    later candidate can come before it (row >= max_out: until the end). Returns the
-    position in ``order`` to resume from (len(order): nothing is left to visit)."""
+def outside_advance(q, disks, a_max, covered, search, oi, row):
+    """Visit the circles order[oi:] of the :class:`~.bundles.OutsideSearch` ``search``
+    (:func:`outside_setup`; q (2,) m/s^2, disks (M, 3) m/s^2, a_max m/s^2, covered m/s^2
+    as :func:`nearest_outside_disks` takes them) as :func:`nearest_outside_disks` does,
+    inserting their free-arc points into its rows ``res`` = search.out, but only until
+    row ``row`` of ``res`` is final: every circle left is farther from q than that row's
+    candidate by far more than rounding (a point of a circle is at least its ``lower``
+    from q), so no later candidate can come before it (row >= max_out: until the end).
+    Returns the position in ``order`` to resume from (len(order): nothing is left to
+    visit)."""
+    res, lower, order, scale, cand, starts, ends, cover = search
     q, disks, res, lower, order = (
         borrowed(q),
         borrowed(disks),
@@ -599,6 +598,7 @@ def outside_advance(
         borrowed(order),
     )
     cand, starts, ends, cover = borrowed(cand), borrowed(starts), borrowed(ends), borrowed(cover)
+    search = OutsideSearch(res, lower, order, scale, cand, starts, ends, cover)
     M = disks.shape[0]
     max_out = res.shape[0]
     while oi < order.shape[0]:
@@ -619,9 +619,7 @@ def outside_advance(
         cx, cy, rho, skip = (
             (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else (0.0, 0.0, a_max, -1)
         )
-        k = _free_arc_points(
-            cx, cy, rho, i < M, q, disks, skip, a_max, cand, np.int64(0), starts, ends, cover
-        )
+        k = _free_arc_points(cx, cy, rho, i < M, q, disks, skip, a_max, search, np.int64(0))
         for c in range(max(k, 0)):
             d = vector_norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:
