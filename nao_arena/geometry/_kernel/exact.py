@@ -19,10 +19,11 @@ import math
 
 import numpy as np
 
-from nao_arena.geometry._kernel.bundles import Motion
+from nao_arena.geometry._kernel.bundles import Motion, Walls
 from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
 from nao_arena.geometry._kernel.robot_path import candidate_setup, robot_state
 from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wall_violation
+from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel, kernel
 
 
@@ -249,9 +250,11 @@ def admissible_kernel(cand_v, cand_a, v_max, obstacles, walls, margin, out_ok):
     :class:`~.bundles.Walls`: ends (W, 2, 2) m, radii (W,) m).
 
     Prunes pieces with a conservative distance bound and stops at the first
-    violation, so it is much cheaper than the exact clearance.
+    violation, so it is much cheaper than the exact clearance. The walls' arrays are
+    borrowed here.
     """
     seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)
@@ -338,9 +341,11 @@ def latest_contact_kernel(cand_v, cand_a, v_max, obstacles, walls, out_first):
 
     A candidate's scan stops as soon as its earliest contact falls below the
     best (latest) found so far among earlier candidates; its entry is then
-    an upper bound below that best (it cannot win), not the exact value.
+    an upper bound below that best (it cannot win), not the exact value. The walls'
+    arrays are borrowed here.
     """
     seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)

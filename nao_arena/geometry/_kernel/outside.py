@@ -9,6 +9,7 @@ in an :class:`~.bundles.OutsideSearch`.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -19,6 +20,15 @@ from nao_arena.jit import inner_kernel
 from nao_arena.sorting import stable_argsort
 
 _TWO_PI = 2.0 * math.pi
+
+
+class Circle(NamedTuple):
+    """A circle in acceleration space (frame of :mod:`nao_arena.geometry`): centre
+    (cx, cy) m/s^2, radius rho m/s^2 (a disk's rim, or the limit circle)."""
+
+    cx: float
+    cy: float
+    rho: float
 
 
 @inner_kernel(error_model="numpy")
@@ -423,18 +433,17 @@ def _all_binned(cover):
 
 
 @inner_kernel(error_model="numpy")
-def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, search, k):
-    """Append to search.cand (from row k) the point nearest q of every free arc of the
-    circle (cx, cy, rho) (m/s^2): arcs no disk of ``circ`` (except row ``skip``) covers
+def _free_arc_points(circle, in_limit, q, circ, skip, a_max, out, k, starts, ends, cover):
+    """Append to ``out`` (from row k) the point nearest q of every free arc of the
+    :class:`Circle` ``circle``: arcs no disk of ``circ`` (except row ``skip``) covers
     and, when ``in_limit``, inside the limit disc |a| <= a_max (m/s^2).
-    Returns the new row count, or -1 when the whole circle is covered. The
-    :class:`~.bundles.OutsideSearch` ``search`` lends its scratch arrays: cand, starts
-    and ends (at least 2 len(circ) + 4 rows), cover (_WORDS uint64).
+    Returns the new row count, or -1 when the whole circle is covered.
+    starts/ends: scratch of at least 2 len(circ) + 4 rows; cover: _WORDS uint64.
 
     Most circles of a crowded picture are covered entirely: a cheap proof
     (:func:`_surely_covered`) skips the exact angles for them.
     """
-    out, starts, ends, cover = search.cand, search.starts, search.ends, search.cover
+    cx, cy, rho = circle
     q, circ, out = borrowed(q), borrowed(circ), borrowed(out)
     starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
     M = circ.shape[0]
@@ -598,7 +607,6 @@ def outside_advance(q, disks, a_max, covered, search, oi, row):
         borrowed(order),
     )
     cand, starts, ends, cover = borrowed(cand), borrowed(starts), borrowed(ends), borrowed(cover)
-    search = OutsideSearch(res, lower, order, scale, cand, starts, ends, cover)
     M = disks.shape[0]
     max_out = res.shape[0]
     while oi < order.shape[0]:
@@ -619,7 +627,19 @@ def outside_advance(q, disks, a_max, covered, search, oi, row):
         cx, cy, rho, skip = (
             (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else (0.0, 0.0, a_max, -1)
         )
-        k = _free_arc_points(cx, cy, rho, i < M, q, disks, skip, a_max, search, np.int64(0))
+        k = _free_arc_points(
+            Circle(cx, cy, rho),
+            i < M,
+            q,
+            disks,
+            skip,
+            a_max,
+            cand,
+            np.int64(0),
+            starts,
+            ends,
+            cover,
+        )
         for c in range(max(k, 0)):
             d = vector_norm(cand[c, 0] - q[0], cand[c, 1] - q[1])
             if d < res[max_out - 1, 2]:

@@ -140,8 +140,15 @@ def relevant_sampled_paths(
     w = np.empty((total, S, 2))
     rad = np.empty(total)
     # the pieces' accelerations are zero: only the kept rows are allocated (and zeroed)
+    # the arguments' views are borrowed (nao_arena.geometry.borrow) for the one call
     n = _fill_relevant_paths(
-        Predictions(times, pred, nb_radius, excursion, finite_path),
+        Predictions(
+            borrowed(times),
+            borrowed(pred),
+            borrowed(nb_radius),
+            borrowed(excursion),
+            borrowed(finite_path),
+        ),
         idx,
         position,
         grow,

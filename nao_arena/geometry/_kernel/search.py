@@ -70,7 +70,17 @@ def repair_disc(prev, want, a_max, steps, unit, v, v_max, paths, walls):
 def repair_relevant(prev, want, a_max, steps, unit, v, v_max, obstacles, walls):
     """:func:`repair_disc` for obstacles that are all relevant (as :func:`relevant_subset`
     keeps them, margin 0): the :class:`~.bundles.Obstacles`, with their
-    :func:`piece_sweep`, and the :class:`~.bundles.Walls`."""
+    :func:`piece_sweep`, and the :class:`~.bundles.Walls` (their arrays borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
     K = steps.shape[0] * unit.shape[0]
     cand = np.empty((K, 2))
     dist = np.empty(K)
@@ -153,8 +163,20 @@ def select_disc(a_d, v, a_max, v_max, paths, walls, margin, settings):
 def select_relevant(a_d, v, a_max, v_max, obstacles, walls, margin, settings):
     """:func:`select_disc` for obstacles that are all relevant (as :func:`relevant_subset`
     keeps them for this margin): the :class:`~.bundles.Obstacles`, with their
-    :func:`piece_sweep`, and the :class:`~.bundles.Walls`."""
+    :func:`piece_sweep`, and the :class:`~.bundles.Walls` (their arrays, and the
+    settings', borrowed here)."""
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    obstacles = Obstacles(
+        borrowed(seg_t),
+        borrowed(seg_c),
+        borrowed(seg_w),
+        borrowed(seg_b),
+        borrowed(radius),
+        borrowed(sweep),
+    )
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
     tol, ring_radii, unit_rings, max_disks, n_sub, per_second, thin = settings
+    ring_radii, unit_rings = borrowed(ring_radii), borrowed(unit_rings)
     seg_t, c, w, b, r, _ = obstacles
     buf = np.empty(3)
     res = np.empty(3)
