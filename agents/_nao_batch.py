@@ -24,7 +24,13 @@ import math
 
 import numpy as np
 
-from nao_arena.geometry.kernels import sampled_admissible_batch
+from nao_arena.geometry.kernels import (
+    IndexLists,
+    Predictions,
+    Robots,
+    WorldWalls,
+    sampled_admissible_batch,
+)
 from nao_arena.jit import kernel
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import Group, Knowledge, commit_plans_kernel
@@ -323,24 +329,13 @@ def settle_members(
         todo = np.flatnonzero(status == KEEP_UNTESTED)
         res = np.full(k, -1, dtype=np.int64)
         sampled_admissible_batch(
-            times,
-            pred,
-            nb_start,
-            nb_index,
-            nb_radius,
-            wall_seg,
-            wall_half,
-            wall_start,
-            wall_index,
+            Predictions(times, pred, nb_radius, excursion, finite_path),
+            IndexLists(nb_start, nb_index),
+            WorldWalls(wall_seg, wall_half),
+            IndexLists(wall_start, wall_index),
             todo,
-            p,
-            v,
+            Robots(p, v, s, r, margin),
             c,
-            s,
-            r,
-            margin,
-            excursion,
-            finite_path,
             res,
         )
         # 1: keep; 0: not admissible (select); -1: non-finite paths (the caller reports it)

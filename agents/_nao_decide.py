@@ -19,6 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import (
+    Obstacles,
+    SearchSettings,
+    Walls,
     nearby_walls,
     piece_sweep,
     relevant_sampled_paths,
@@ -176,14 +179,8 @@ def decide_batch(paths, lists, nb_radius, rows, robots, repair, current, desired
                     repair_unit,
                     vel[k],
                     v_max[k],
-                    times,
-                    c,
-                    w,
-                    b,
-                    rad,
-                    walls,
-                    wall_r,
-                    sweep,
+                    Obstacles(times, c, w, b, rad, sweep),
+                    Walls(walls, wall_r),
                 )
                 if found:
                     kind[k] = Outcome.REPAIRED
@@ -205,22 +202,18 @@ def decide_batch(paths, lists, nb_radius, rows, robots, repair, current, desired
             vel[k],
             a_max[k],
             v_max[k],
-            times,
-            c,
-            w,
-            b,
-            rad,
-            walls,
-            wall_r,
-            sweep,
+            Obstacles(times, c, w, b, rad, sweep),
+            Walls(walls, wall_r),
             0.0,
-            tol,
-            ring_radii[k],
-            unit_rings,
-            max_disks,
-            n_sub,
-            per_second,
-            sliver_depth * a_max[k],
+            SearchSettings(
+                tol,
+                ring_radii[k],
+                unit_rings,
+                max_disks,
+                n_sub,
+                per_second,
+                sliver_depth * a_max[k],
+            ),
         )
         tested[k] = count
         if status == Outcome.DESIRED:

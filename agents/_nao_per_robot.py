@@ -30,6 +30,8 @@ from nao_arena.geometry import (
     select_acceleration,
 )
 from nao_arena.geometry.kernels import (
+    Obstacles,
+    Walls,
     admissible_kernel,
     piece_sweep,
     relevant_sampled_paths,
@@ -180,8 +182,8 @@ def admissible(
         v[None].copy(),
         a[None].copy(),
         v_max,
-        *path.arrays,
-        piece_sweep(path.t, path.velocity, path.acceleration),
+        Obstacles(*path.moving_arrays, piece_sweep(path.t, path.velocity, path.acceleration)),
+        Walls(path.walls, path.wall_radius),
         0.0,
         ok,
     )

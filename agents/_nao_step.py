@@ -19,7 +19,14 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.geometry.kernels import path_excursions, sampled_admissible_batch
+from nao_arena.geometry.kernels import (
+    IndexLists,
+    Predictions,
+    Robots,
+    WorldWalls,
+    path_excursions,
+    sampled_admissible_batch,
+)
 from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.sensing import SensingBatch, is_frozen
@@ -212,24 +219,19 @@ def keep_current(
         (own.pos, own.vel, current, own.v_max, own.rad), m
     )
     sampled_admissible_batch(
-        f(view.agent.times, dtype=np.float64),
-        view.pred,
-        nb_start,
-        nb_index,
-        f(nb_radius),
-        wall_seg,
-        wall_half,
-        wall_start,
-        wall_index,
+        Predictions(
+            f(view.agent.times, dtype=np.float64),
+            view.pred,
+            f(nb_radius),
+            view.excursions[0],
+            view.excursions[1],
+        ),
+        IndexLists(nb_start, nb_index),
+        WorldWalls(wall_seg, wall_half),
+        IndexLists(wall_start, wall_index),
         todo,
-        pos_m,
-        vel_m,
+        Robots(pos_m, vel_m, v_max_m, rad_m, cols.opt[m, MARGIN]),
         cur_m,
-        v_max_m,
-        rad_m,
-        cols.opt[m, MARGIN],
-        view.excursions[0],
-        view.excursions[1],
         res,
     )
     # 1: keep; 0: not admissible (select); -1: non-finite paths (the slow path reports it)

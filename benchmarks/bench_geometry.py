@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from nao_arena.geometry import AccelLimits, path_clearance, sampled_path, select_acceleration
+from nao_arena.geometry._kernel.bundles import Obstacles, Walls
 from nao_arena.geometry._kernel.exact import admissible_kernel, piece_sweep
 
 
@@ -62,7 +63,13 @@ def main() -> None:
         vv = np.ascontiguousarray(np.broadcast_to(v, a.shape))
         dt_adm = _timeit(
             lambda a=a, path=path, sweep=sweep, ok=ok, vv=vv: admissible_kernel(
-                vv, a, np.inf, *path.arrays, sweep, 0.0, ok
+                vv,
+                a,
+                np.inf,
+                Obstacles(*path.moving_arrays, sweep),
+                Walls(path.walls, path.wall_radius),
+                0.0,
+                ok,
             )
         )
         dt_np = _timeit(lambda a=a, c=c: numpy_samples_only(a, v, t, c, 1.0))

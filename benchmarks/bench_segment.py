@@ -20,6 +20,7 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
+from nao_arena.geometry._kernel.bundles import Obstacles, Paths, Walls
 from nao_arena.geometry._kernel.exact import admissible_kernel, clearance_kernel, piece_sweep
 from nao_arena.geometry._kernel.segment import segments_admissible, segments_min_distance
 from nao_arena.geometry.clearance import ao_path
@@ -97,7 +98,14 @@ def main() -> None:
         )
         dt_disc = per_call(
             lambda path=path, clear=clear, tmin=tmin, tfirst=tfirst: clearance_kernel(
-                vv, accels, V_MAX, *path.arrays, clear, tmin, tfirst
+                vv,
+                accels,
+                V_MAX,
+                Paths(*path.moving_arrays),
+                Walls(path.walls, path.wall_radius),
+                clear,
+                tmin,
+                tfirst,
             )
         )
         dt_seg_adm = per_call(
@@ -107,7 +115,13 @@ def main() -> None:
         )
         dt_disc_adm = per_call(
             lambda path=path, sweep=sweep, disc_ok=disc_ok: admissible_kernel(
-                vv, accels, V_MAX, *path.arrays, sweep, 0.0, disc_ok
+                vv,
+                accels,
+                V_MAX,
+                Obstacles(*path.moving_arrays, sweep),
+                Walls(path.walls, path.wall_radius),
+                0.0,
+                disc_ok,
             )
         )
         # the disc chain is conservative: its clearance (to grown discs) never exceeds the

@@ -43,7 +43,18 @@ from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import selection
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
-from nao_arena.geometry._kernel.boundary import Scratch
+from nao_arena.geometry._kernel.bundles import (
+    IndexLists,
+    Obstacles,
+    OutsideSearch,
+    Paths,
+    Predictions,
+    Robots,
+    Scratch,
+    SearchSettings,
+    Walls,
+    WorldWalls,
+)
 from nao_arena.geometry._kernel.candidates import _try_ball_disc
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
@@ -111,7 +122,12 @@ def _disk_scene(rng: np.random.Generator, crowded: bool):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     reach = float(rng.choice([0.25, 1.0, 4.0]))
-    return nao_disks(v, *path.arrays, 0.0, 4, q, reach, 2.0), q
+    return nao_disks(v, *_disk_obstacles(path), 0.0, 4, q, reach, 2.0), q
+
+
+def _disk_obstacles(path: PiecewisePath) -> tuple[Paths, Walls]:
+    """The obstacles and walls of ``path`` as the disk picture and the search take them."""
+    return Paths(*path.moving_arrays), Walls(path.walls, path.wall_radius)
 
 
 # ---------------------------------------------------------------- sensing
@@ -310,22 +326,17 @@ def _outside_rows(q, disks, a_max, within, covered, row):
     lower = np.empty(len(disks) + 1)
     order, scale = outside_setup(q, disks, a_max, within, res, lower)
     m = len(disks)
-    oi = outside_advance(
-        q,
-        disks,
-        a_max,
-        covered,
+    search = OutsideSearch(
         res,
         lower,
         order,
-        0,
-        row,
         scale,
         np.empty((2 * m + 8, 2)),
         np.empty(2 * m + 4),
         np.empty(2 * m + 4),
         np.empty(4, dtype=np.uint64),
     )
+    oi = outside_advance(q, disks, a_max, covered, search, 0, row)
     return res, oi
 
 
@@ -363,7 +374,7 @@ def test_ball_search_tries_the_candidates_of_nearest_outside_disks(seed):
     p = t.path
     for _ in range(4):
         a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-        samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
+        samples = nao_disk_samples(t.v, *_disk_obstacles(p), 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
         for reach in (0.5, 2.0, 8.0):
             disks = nao_disks_within(samples, reach)
             for covered in (0.0, 0.25 * reach):
@@ -384,7 +395,15 @@ def test_capped_disks_are_the_chosen_balls_disks(seed):
     times = np.linspace(0.0, 2.5, 26)
     path = _straight_paths(rng, n, times, spread=2.0)
     samples = nao_disk_samples(
-        rng.normal(size=2), *path.arrays, 0.1, 2, rng.normal(size=2), 16.0, 2.0, 16.0, 0.02
+        rng.normal(size=2),
+        *_disk_obstacles(path),
+        0.1,
+        2,
+        rng.normal(size=2),
+        16.0,
+        2.0,
+        16.0,
+        0.02,
     )
     for cap in (2, 8, 24, 64, 1000):
         chosen, disks = capped_disks(samples, radius_order(samples), 0.0625, 8.0, cap)
@@ -405,7 +424,9 @@ def test_largest_capped_reach_matches_the_doubling(seed):
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, n, times, spread=2.0)
     q = rng.normal(size=2)
-    samples = nao_disk_samples(rng.normal(size=2), *path.arrays, 0.1, 2, q, 16.0, 2.0, 16.0, 0.02)
+    samples = nao_disk_samples(
+        rng.normal(size=2), *_disk_obstacles(path), 0.1, 2, q, 16.0, 2.0, 16.0, 0.02
+    )
     for cap in (4, 16, 48):
         reach, ref = 0.125, -1.0
         while reach < 8.0:
@@ -424,7 +445,7 @@ def test_nao_disks_within_a_smaller_reach_match_nao_disks(seed):
     path = _straight_paths(rng, n, times, spread=3.0)
     v = rng.normal(size=2)
     q = rng.normal(size=2)
-    args = (v, *path.arrays, 0.1, 4, q)
+    args = (v, *_disk_obstacles(path), 0.1, 4, q)
     samples = nao_disk_samples(*args, 8.0, 2.0)
     for reach in (0.125, 0.5, 2.0, 8.0):
         np.testing.assert_array_equal(
@@ -467,7 +488,7 @@ def test_disk_samples_are_every_sample_that_meets_ball_and_limit(seed):
     v = rng.normal(size=2)
     q = rng.normal(size=2)
     for reach in (0.5, 4.0):
-        got = nao_disk_samples(v, *path.arrays, 0.1, 2, q, reach, 2.0, 16.0, 0.0)
+        got = nao_disk_samples(v, *_disk_obstacles(path), 0.1, 2, q, reach, 2.0, 16.0, 0.0)
         ref = disk_samples_ref(v, path, 0.1, 2, q, reach, 2.0, 16.0)
         assert got.shape == ref.shape
         np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
@@ -481,7 +502,7 @@ def test_thinned_disk_samples_keep_every_left_out_disk_close(seed):
     rng = np.random.default_rng(500 + seed)
     times = np.linspace(0.0, 3.0, 31)
     path = _straight_paths(rng, 1, times, spread=3.0)
-    args = (rng.normal(size=2), *path.arrays, 0.1, 2, np.zeros(2), 8.0, 2.0, 16.0)
+    args = (rng.normal(size=2), *_disk_obstacles(path), 0.1, 2, np.zeros(2), 8.0, 2.0, 16.0)
     full = nao_disk_samples(*args)
     thin = 0.02
     kept = nao_disk_samples(*args, thin)
@@ -558,23 +579,13 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
     pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
     out = np.full(n, 7, dtype=np.int64)
     sampled_admissible_batch(
-        times,
-        pred,
-        start,
-        index,
-        rad,
-        wall_c,
-        wall_r,
-        wall_start,
-        wall_index,
+        Predictions(times, pred, rad, *path_excursions(pred)),
+        IndexLists(start, index),
+        WorldWalls(wall_c, wall_r),
+        IndexLists(wall_start, wall_index),
         np.arange(n),
-        pos,
-        vel,
+        Robots(pos, vel, v_max, rad, margin),
         acc,
-        v_max,
-        rad,
-        margin,
-        *path_excursions(pred),
         out,
     )
     for k in range(n):
@@ -606,8 +617,8 @@ def test_batched_admissibility_matches_admissible_kernel(seed):
             vel[k][None].copy(),
             acc[k][None].copy(),
             v_max[k],
-            *path.arrays,
-            piece_sweep(path.t, path.velocity, path.acceleration),
+            Obstacles(*path.moving_arrays, piece_sweep(path.t, path.velocity, path.acceleration)),
+            Walls(path.walls, path.wall_radius),
             0.0,
             ok,
         )
@@ -639,13 +650,8 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
         cand_v,
         cand_a,
         v_max,
-        seg_t,
-        seg_c,
-        seg_w,
-        seg_b,
-        radius,
-        walls,
-        wall_r,
+        Paths(seg_t, seg_c, seg_w, seg_b, radius),
+        Walls(walls, wall_r),
         clear,
         np.empty((k, n + 3)),
         np.empty((k, n + 3)),
@@ -662,14 +668,8 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
                 cand_v[i][None].copy(),
                 cand_a[i][None].copy(),
                 v_max,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                sweep,
+                Obstacles(seg_t, seg_c, seg_w, seg_b, radius, sweep),
+                Walls(walls, wall_r),
                 margin,
                 ok,
             )
@@ -698,23 +698,13 @@ def test_batched_admissibility_flags_non_finite_paths():
     n = len(nb_all)
     out = np.zeros(n, dtype=np.int64)
     sampled_admissible_batch(
-        times,
-        pred,
-        start,
-        index,
-        nb_all.radii,
-        wall_c,
-        wall_r,
-        wall_start,
-        wall_index,
+        Predictions(times, pred, nb_all.radii, *path_excursions(pred)),
+        IndexLists(start, index),
+        WorldWalls(wall_c, wall_r),
+        IndexLists(wall_start, wall_index),
         np.arange(n),
-        nb_all.positions,
-        nb_all.velocities,
+        Robots(nb_all.positions, nb_all.velocities, v_max, nb_all.radii, margin),
         acc,
-        v_max,
-        nb_all.radii,
-        margin,
-        *path_excursions(pred),
         out,
     )
     has_nb = np.diff(start) > 0
@@ -1079,15 +1069,17 @@ def test_compiled_selection_matches_the_python_steps(seed):
             t.v,
             2.0,
             t.v_max,
-            *p.arrays,
+            *_disk_obstacles(p),
             0.0,
-            1e-3,
-            radii,
-            selection._unit_rings(8, 16),
-            selection._MAX_DISKS,
-            selection._DISKS_PER_PIECE,
-            selection._DISKS_PER_SECOND,
-            selection._SLIVER_DEPTH * 2.0,
+            SearchSettings(
+                1e-3,
+                radii,
+                selection._unit_rings(8, 16),
+                selection._MAX_DISKS,
+                selection._DISKS_PER_PIECE,
+                selection._DISKS_PER_SECOND,
+                selection._SLIVER_DEPTH * 2.0,
+            ),
         )
         ref = search(t, a_d, radii, 16, 1e-3)
         statuses.add(status)
@@ -1118,7 +1110,7 @@ def test_sliver_candidates_pushed_along_the_outward_normal_are_admissible():
         p = t.path
         for _ in range(3):
             a_d = t.limits.project(rng.uniform(-2.5, 2.5, size=2))
-            samples = nao_disk_samples(t.v, *p.arrays, 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
+            samples = nao_disk_samples(t.v, *_disk_obstacles(p), 0.0, 2, a_d, 8.0, 2.0, 16.0, 0.02)
             disks = nao_disks_within(samples, 8.0)
             cands = nearest_outside_disks(a_d, disks, 2.0, 8, 8.0)
             for k in range(len(cands)):

@@ -9,6 +9,7 @@ import pytest
 from nao_arena.agents._nao_bundles import DecidingRobots, ObstacleLists, Predictions
 from nao_arena.agents._nao_decide import decide
 from nao_arena.geometry import AccelLimits, Outcome, PiecewisePath, select_acceleration
+from nao_arena.geometry._kernel.bundles import Paths, SearchSettings, Walls
 from nao_arena.geometry._kernel.sampled import path_excursions
 from nao_arena.geometry._kernel.search import select_disc
 from nao_arena.geometry.selection import _ring_radii, _unit_rings
@@ -32,15 +33,10 @@ def _select_disc(desired: tuple[float, float], path: PiecewisePath) -> Outcome:
         np.array([1.0, 0.0]),
         2.0,
         1.5,
-        *path.arrays,
+        Paths(*path.moving_arrays),
+        Walls(path.walls, path.wall_radius),
         0.0,
-        1e-3,
-        _ring_radii(2.0, 4),
-        _unit_rings(4, 16),
-        64,
-        6,
-        16.0,
-        0.0,
+        SearchSettings(1e-3, _ring_radii(2.0, 4), _unit_rings(4, 16), 64, 6, 16.0, 0.0),
     )
     return status
 

@@ -22,6 +22,7 @@ from test_segment_clearance import point_segment_distance
 
 from nao_arena.arena import Arena
 from nao_arena.geometry import AccelLimits, select_acceleration
+from nao_arena.geometry._kernel.bundles import Motion, Paths, Walls
 from nao_arena.geometry._kernel.disks import nao_disk_samples
 from nao_arena.geometry._kernel.robot_path import candidate_setup
 from nao_arena.geometry._kernel.segment import wall_scan
@@ -154,9 +155,10 @@ def test_first_contact_and_closest_approach_match_forward_simulation(
     p, q = np.array([px, py]), np.array([px + dx, py + dy])
     t, d = simulated_distances(v, a, v_max, [[p, q]])
     d = d[0]
-    cvx, cvy, tau, _ = candidate_setup(vx, vy, ax, ay, v_max, HORIZON)
+    cvx, cvy, tau, bound = candidate_setup(vx, vy, ax, ay, v_max, HORIZON)
+    motion = Motion(cvx, cvy, ax, ay, tau, bound)
     out = np.empty(3)
-    wall_scan(cvx, cvy, ax, ay, tau, HORIZON, px, py, px + dx, py + dy, r, True, np.empty(3), out)
+    wall_scan(motion, HORIZON, px, py, px + dx, py + dy, r, True, np.empty(3), out)
     err = step_error(v, a)
     first = out[2]
     inside = np.flatnonzero(d <= r)
@@ -191,13 +193,8 @@ def test_wall_disks_of_the_picture_are_inside_the_nao(seed):
     empty = np.zeros((0, len(TIMES) - 1, 2))
     rows = nao_disk_samples(
         v,
-        TIMES,
-        empty,
-        empty,
-        empty,
-        np.zeros(0),
-        walls,
-        radii,
+        Paths(TIMES, empty, empty, empty, np.zeros(0)),
+        Walls(walls, radii),
         0.0,
         2,
         np.zeros(2),

@@ -27,6 +27,7 @@ from typing import Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nao_arena.geometry._kernel.bundles import Paths, Walls
 from nao_arena.geometry._kernel.exact import clearance_kernel
 
 __all__ = [
@@ -264,7 +265,16 @@ def path_clearance(
     clear = np.empty((k, n))
     tmin = np.empty((k, n))
     tfirst = np.empty((k, n))
-    clearance_kernel(cand_v, a, float(v_max), *path.arrays, clear, tmin, tfirst)
+    clearance_kernel(
+        cand_v,
+        a,
+        float(v_max),
+        Paths(*path.moving_arrays),
+        Walls(path.walls, path.wall_radius),
+        clear,
+        tmin,
+        tfirst,
+    )
     if single_a:
         clear, tmin, tfirst = clear[0], tmin[0], tfirst[0]
     return Clearance(clear, tmin, tfirst)

@@ -6,13 +6,25 @@ reference counting). Code outside :mod:`nao_arena.geometry` (agents, stopping pl
 navigation, obstacles, the renderer) imports them from here, so that the private modules
 can be split or renamed without touching their callers.
 
-Every name is a numba-compiled function (``cache=True``) or a constant, with the frame
-and units of :mod:`nao_arena.geometry`: the robot at the origin with velocity v (m/s),
-obstacle centres relative to it (m), accelerations in m/s^2, times in s, radii already
-grown by the robot's radius (m).
+Every name is a numba-compiled function (``cache=True``), a constant, or a named bundle
+that the kernels take their arguments in (:mod:`nao_arena.geometry._kernel.bundles`),
+with the frame and units of :mod:`nao_arena.geometry`: the robot at the origin with
+velocity v (m/s), obstacle centres relative to it (m), accelerations in m/s^2, times in
+s, radii already grown by the robot's radius (m).
 """
 
 from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.bundles import (
+    IndexLists,
+    Motion,
+    Obstacles,
+    Paths,
+    Predictions,
+    Robots,
+    SearchSettings,
+    Walls,
+    WorldWalls,
+)
 from nao_arena.geometry._kernel.exact import (
     admissible_kernel,
     candidate_setup,
@@ -35,6 +47,15 @@ from nao_arena.geometry._kernel.segment import (
 
 __all__ = [
     "RADIUS_CUT",
+    "IndexLists",
+    "Motion",
+    "Obstacles",
+    "Paths",
+    "Predictions",
+    "Robots",
+    "SearchSettings",
+    "Walls",
+    "WorldWalls",
     "admissible_kernel",
     "candidate_setup",
     "nearby_walls",

@@ -35,6 +35,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nao_arena.geometry._kernel.bundles import Obstacles, Paths, SearchSettings, Walls
 from nao_arena.geometry._kernel.exact import latest_contact_kernel, piece_sweep
 from nao_arena.geometry._kernel.relevance import relevant_obstacles
 from nao_arena.geometry._kernel.search import repair_disc, select_disc
@@ -114,7 +115,9 @@ class _Tester:
     """The obstacles of ``path`` that some acceleration within ``limits`` can reach
     (robot velocity v m/s, speed limit v_max m/s, clearance margin m), against which a
     selection's result is measured and its latest contact searched; ``count``: the
-    candidates tested so far."""
+    candidates tested so far. ``obstacles`` and ``walls``: those of ``path`` kept, as
+    the compiled tests take them (:class:`~nao_arena.geometry._kernel.bundles.Obstacles`
+    with their ``sweep``, :class:`~nao_arena.geometry._kernel.bundles.Walls`)."""
 
     def __init__(
         self,
@@ -152,6 +155,9 @@ class _Tester:
                 wall_r,
             )
         self.sweep = piece_sweep(self.path.t, self.path.velocity, self.path.acceleration)
+        p = self.path
+        self.obstacles = Obstacles(p.t, p.c, p.velocity, p.acceleration, p.radius, self.sweep)
+        self.walls = Walls(p.walls, p.wall_radius)
         self.v = v
         self.limits = limits
         self.margin = margin
@@ -163,13 +169,12 @@ class _Tester:
         out = np.full(len(a), np.inf)
         if self.path.n_obstacles == 0:
             return out
-        p = self.path
         latest_contact_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, a.shape)),
             a,
             self.v_max,
-            *p.arrays,
-            self.sweep,
+            self.obstacles,
+            self.walls,
             out,
         )
         return out
@@ -219,6 +224,24 @@ def _unit_rings(rings: int, points: int) -> NDArray[np.float64]:
         if len(_RING_SETS) < 64:
             _RING_SETS[(rings, points)] = unit
     return unit
+
+
+def _contiguous_paths(path: PiecewisePath) -> Paths:
+    """The moving obstacles of ``path`` as the compiled search takes them: contiguous
+    :class:`~nao_arena.geometry._kernel.bundles.Paths`."""
+    return Paths(
+        np.ascontiguousarray(path.t),
+        np.ascontiguousarray(path.c),
+        np.ascontiguousarray(path.velocity),
+        np.ascontiguousarray(path.acceleration),
+        np.ascontiguousarray(path.radius),
+    )
+
+
+def _contiguous_walls(path: PiecewisePath) -> Walls:
+    """The walls of ``path`` as the compiled search takes them: contiguous
+    :class:`~nao_arena.geometry._kernel.bundles.Walls`."""
+    return Walls(np.ascontiguousarray(path.walls), np.ascontiguousarray(path.wall_radius))
 
 
 def _ring_candidates(
@@ -273,21 +296,18 @@ def select_acceleration(
         v_arr,
         limits.a_max,
         float(v_max),
-        np.ascontiguousarray(path.t),
-        np.ascontiguousarray(path.c),
-        np.ascontiguousarray(path.velocity),
-        np.ascontiguousarray(path.acceleration),
-        np.ascontiguousarray(path.radius),
-        np.ascontiguousarray(path.walls),
-        np.ascontiguousarray(path.wall_radius),
+        _contiguous_paths(path),
+        _contiguous_walls(path),
         float(margin),
-        tol,
-        radii,
-        _unit_rings(rings, ring_points),
-        _MAX_DISKS,
-        _DISKS_PER_PIECE,
-        _DISKS_PER_SECOND,
-        _SLIVER_DEPTH * limits.a_max,
+        SearchSettings(
+            tol,
+            radii,
+            _unit_rings(rings, ring_points),
+            _MAX_DISKS,
+            _DISKS_PER_PIECE,
+            _DISKS_PER_SECOND,
+            _SLIVER_DEPTH * limits.a_max,
+        ),
     )
     found = a_d if status == Outcome.DESIRED else np.array([x, y])
     if status != Outcome.INFEASIBLE and not with_clearance:
@@ -370,13 +390,8 @@ def repair_acceleration(
         _REPAIR_UNIT,
         v_arr,
         float(v_max),
-        np.ascontiguousarray(path.t),
-        np.ascontiguousarray(path.c),
-        np.ascontiguousarray(path.velocity),
-        np.ascontiguousarray(path.acceleration),
-        np.ascontiguousarray(path.radius),
-        np.ascontiguousarray(path.walls),
-        np.ascontiguousarray(path.wall_radius),
+        _contiguous_paths(path),
+        _contiguous_walls(path),
     )
     return np.array([x, y]) if found else None
 

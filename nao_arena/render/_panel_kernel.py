@@ -32,6 +32,7 @@ import numpy as np
 
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.geometry.kernels import (
+    Motion,
     candidate_setup,
     robot_state,
     scan_obstacle,
@@ -252,12 +253,7 @@ def _below(cand, paths, n, r, level, buf, out):
         return NO
     if (
         scan_obstacle(
-            vx,
-            vy,
-            ax,
-            ay,
-            tau,
-            bound,
+            Motion(vx, vy, ax, ay, tau, bound),
             seg_t,
             seg_c,
             seg_w,
@@ -279,12 +275,7 @@ def _below(cand, paths, n, r, level, buf, out):
             return YES
         if (
             scan_obstacle(
-                vx,
-                vy,
-                ax,
-                ay,
-                tau,
-                bound,
+                Motion(vx, vy, ax, ay, tau, bound),
                 seg_t,
                 seg_c,
                 seg_w,
@@ -311,12 +302,7 @@ def _exact(cand, paths, n, r, buf, out):
     seg_t, seg_c, seg_w, seg_b = paths.seg_t, paths.seg_c, paths.seg_w, paths.seg_b
     sweep = paths.sweep
     scan_obstacle(
-        vx,
-        vy,
-        ax,
-        ay,
-        tau,
-        bound,
+        Motion(vx, vy, ax, ay, tau, bound),
         seg_t,
         seg_c,
         seg_w,

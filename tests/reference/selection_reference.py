@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from nao_arena.geometry._kernel.boundary import Limits, Obstacles, Walls
+from nao_arena.geometry._kernel.bundles import Limits, Obstacles, Paths, Walls
 from nao_arena.geometry._kernel.disks import (
     capped_disks,
     nao_disk_samples,
@@ -58,13 +58,12 @@ class CandidateTester(_Tester):
             return out
         cand = np.ascontiguousarray(a[idx])
         res = np.empty(len(idx), dtype=bool)
-        p = self.path
         admissible_kernel(
             np.ascontiguousarray(np.broadcast_to(self.v, cand.shape)),
             cand,
             self.v_max,
-            *p.arrays,
-            self.sweep,
+            self.obstacles,
+            self.walls,
             self.margin,
             res,
         )
@@ -81,13 +80,12 @@ class CandidateTester(_Tester):
         if self.path.n_obstacles == 0:
             return True
         res = np.zeros(1, dtype=bool)
-        p = self.path
         admissible_kernel(
             np.ascontiguousarray(self.v.reshape(1, 2), dtype=np.float64),
             np.array([[x, y]]),
             self.v_max,
-            *p.arrays,
-            self.sweep,
+            self.obstacles,
+            self.walls,
             self.margin,
             res,
         )
@@ -96,13 +94,11 @@ class CandidateTester(_Tester):
 
 def bundles(t: _Tester, a_max: float | None = None) -> tuple[Limits, Obstacles, Walls]:
     """The tester's robot (its limits' a_max unless given), obstacles and walls as the
-    compiled search takes them (:mod:`nao_arena.geometry._kernel.boundary`)."""
-    p = t.path
-    seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r = p.arrays
+    compiled search takes them (:mod:`nao_arena.geometry._kernel.bundles`)."""
     return (
         Limits(t.limits.a_max if a_max is None else a_max, t.v[0], t.v[1], t.v_max),
-        Obstacles(seg_t, seg_c, seg_w, seg_b, radius, t.sweep),
-        Walls(walls, wall_r),
+        t.obstacles,
+        t.walls,
     )
 
 
@@ -162,7 +158,8 @@ def nearest_by_disks(
         last *= 2.0
     samples = nao_disk_samples(
         t.v,
-        *p.arrays,
+        Paths(*p.moving_arrays),
+        t.walls,
         t.margin,
         _DISKS_PER_PIECE,
         a_d,

@@ -1,5 +1,6 @@
 """The compiled geometry kernels (numba, ``cache=True``), one module per concept:
 
+- :mod:`.bundles`: the named bundles (NamedTuples) the kernels take their arguments in;
 - :mod:`.quartic`: exact minimum distance on one piece of a piecewise-quadratic path;
 - :mod:`.exact`: exact clearance, admissibility and first contact of
   constant-acceleration candidates (speed capped at v_max) against piecewise paths;

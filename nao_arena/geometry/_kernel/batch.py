@@ -1,5 +1,7 @@
 """Batched admissibility: one acceleration per robot against sampled obstacle paths
-(neighbours' predicted centres and walls), all robots in one compiled call.
+(neighbours' predicted centres and walls), all robots in one compiled call. The inputs
+travel in the world-frame bundles of :mod:`.bundles` (:class:`~.bundles.Predictions`,
+:class:`~.bundles.IndexLists`, :class:`~.bundles.WorldWalls`, :class:`~.bundles.Robots`).
 """
 
 from __future__ import annotations
@@ -8,6 +10,7 @@ import math
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import Motion, Obstacles
 from nao_arena.geometry._kernel.exact import candidate_setup, fill_sweep, robot_state, scan_obstacle
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_pieces
 from nao_arena.geometry._kernel.segment import point_segment_dist2, segment_within
@@ -16,74 +19,51 @@ from nao_arena.jit import inner_kernel, kernel
 
 
 @kernel(error_model="numpy")
-def sampled_admissible_batch(
-    times,
-    pred,
-    nb_start,
-    nb_index,
-    nb_radius,
-    wall_seg,
-    wall_half,
-    wall_start,
-    wall_index,
-    rows,
-    pos,
-    vel,
-    acc,
-    v_max,
-    radius,
-    margin,
-    excursion,
-    finite_path,
-    out,
-):
+def sampled_admissible_batch(predictions, neighbours, walls, wall_lists, rows, robots, acc, out):
     """Admissibility of one acceleration per robot against sampled obstacle paths.
 
-    For each robot k of ``rows``: its obstacles are the bodies
-    nb_index[nb_start[k]:nb_start[k + 1]] with world-frame centres pred[body]
-    (T, 2) m at ``times`` (s, times[0] = 0, T >= 2), radii nb_radius[body] +
-    radius[k] + margin[k] (m), then the walls wall_index[wall_start[k]:wall_start[k + 1]]
-    of wall_seg ((M, 2, 2) m, world frame) with radii wall_half (m, half-thicknesses) +
-    radius[k] + margin[k], cut alike (see
+    For each robot k of ``rows`` (the rows of the :class:`~.bundles.Robots` ``robots``:
+    position pos[k] m, velocity vel[k] m/s, speed limit v_max[k] m/s, radius[k] m,
+    margin[k] m; world frame): its obstacles are the bodies
+    ``neighbours.indices[neighbours.start[k]:neighbours.start[k + 1]]`` (an
+    :class:`~.bundles.IndexLists`) of the :class:`~.bundles.Predictions`, with
+    world-frame centres pred[body] (T, 2) m at ``times`` (s, times[0] = 0, T >= 2),
+    radii radius[body] + radius[k] + margin[k] (m), then the walls
+    ``wall_lists.indices[wall_lists.start[k]:wall_lists.start[k + 1]]`` of the
+    :class:`~.bundles.WorldWalls` (ends (M, 2, 2) m, world frame) with radii half (m,
+    half-thicknesses) + radius[k] + margin[k], cut alike (see
     :func:`~nao_arena.geometry._kernel.segment.nearby_walls`). The paths are built exactly as
     :func:`~nao_arena.geometry.clearance.sampled_path` builds them from the
     robot-relative centres (a radius larger than the distance at t = 0 is cut to
     that distance times 1 - 1e-9), and acc[k] (m/s^2) is tested as
-    :func:`admissible_kernel` tests it (velocity vel[k] m/s, speed limit
-    v_max[k] m/s, margin 0). excursion, finite_path: :func:`path_excursions` of
-    ``pred``. out[k] = 1 admissible, 0 not, -1 non-finite centres (left to the
-    caller).
+    :func:`admissible_kernel` tests it (margin 0). The predictions' excursion and
+    finite: :func:`path_excursions` of ``pred``. out[k] = 1 admissible, 0 not, -1
+    non-finite centres (left to the caller).
     """
+    times = predictions.times
+    nb_start = neighbours.start
     S = times.shape[0] - 1
     most = 0  # the most obstacles a robot has: the scratch rows
     for k in rows:
         most = max(most, nb_start[k + 1] - nb_start[k])
     _admissible_rows(
-        times,
-        pred,
-        nb_start,
-        nb_index,
-        nb_radius,
-        wall_seg,
-        wall_half,
-        wall_start,
-        wall_index,
+        predictions,
+        neighbours,
+        walls,
+        wall_lists,
         rows,
-        pos,
-        vel,
+        robots,
         acc,
-        v_max,
-        radius,
-        margin,
-        excursion,
-        finite_path,
         out,
         np.empty(most, dtype=np.int64),
-        np.empty(most),
-        np.empty((most, S, 2)),
-        np.empty((most, S, 2)),
-        np.zeros((most, S, 2)),
-        np.empty((most, S)),
+        Obstacles(
+            times,
+            np.empty((most, S, 2)),
+            np.empty((most, S, 2)),
+            np.zeros((most, S, 2)),
+            np.empty(most),
+            np.empty((most, S)),
+        ),
         np.empty(3),
         np.empty(3),
     )
@@ -91,36 +71,18 @@ def sampled_admissible_batch(
 
 @inner_kernel(error_model="numpy")
 def _admissible_rows(
-    times,
-    pred,
-    nb_start,
-    nb_index,
-    nb_radius,
-    wall_seg,
-    wall_half,
-    wall_start,
-    wall_index,
-    rows,
-    pos,
-    vel,
-    acc,
-    v_max,
-    radius,
-    margin,
-    excursion,
-    finite_path,
-    out,
-    keep,
-    keep_r,
-    c,
-    w,
-    b,
-    sweep,
-    buf,
-    res,
+    predictions, neighbours, walls, wall_lists, rows, robots, acc, out, keep, kept, buf, res
 ):
-    """:func:`sampled_admissible_batch` with its scratch arrays given (rows enough for
-    every robot's obstacles; b zero). Arrays borrowed here."""
+    """:func:`sampled_admissible_batch` with its scratch arrays given: keep (rows enough
+    for every robot's obstacles) int64, the indices of a robot's obstacles kept, and
+    ``kept`` the :class:`~.bundles.Obstacles` they become (their pieces, cut radii and
+    sweeps; as many rows; seg_b zero), buf and res (3,). Arrays borrowed here."""
+    times, pred, nb_radius, excursion, finite_path = predictions
+    nb_start, nb_index = neighbours
+    wall_seg, wall_half = walls
+    wall_start, wall_index = wall_lists
+    pos, vel, v_max, radius, margin = robots
+    _, c, w, b, keep_r, sweep = kept
     times, pred = borrowed(times), borrowed(pred)
     nb_start, nb_index = borrowed(nb_start), borrowed(nb_index)
     nb_radius, wall_seg, wall_half = borrowed(nb_radius), borrowed(wall_seg), borrowed(wall_half)
@@ -138,6 +100,7 @@ def _admissible_rows(
         ax = acc[k, 0]
         ay = acc[k, 1]
         vx, vy, tau, bound = candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
+        motion = Motion(vx, vy, ax, ay, tau, bound)
         px = pos[k, 0]
         py = pos[k, 1]
         # skip the obstacles that stay far: |x(t)| <= bound t for the robot (and it stays
@@ -185,9 +148,7 @@ def _admissible_rows(
                 wall_half[d] + (radius[k] + margin[k]),
                 math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT,
             )
-            if segment_within(
-                vx, vy, ax, ay, tau, travel, horizon, ax0, ay0, bx0, by0, r, buf, res
-            ):
+            if segment_within(motion, travel, horizon, ax0, ay0, bx0, by0, r, buf, res):
                 ok = 0
                 break
         if ok == 0 or n == 0:
@@ -198,12 +159,7 @@ def _admissible_rows(
         fill_sweep(times, w, b, n, sweep)
         for q in range(n):
             scan_obstacle(
-                vx,
-                vy,
-                ax,
-                ay,
-                tau,
-                bound,
+                motion,
                 times,
                 c,
                 w,

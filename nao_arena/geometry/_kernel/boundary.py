@@ -3,73 +3,24 @@
 NAO boundary: bisection, pushes out of slivers between sampled disks, and sliding
 along the boundary towards the desired acceleration a_d.
 
-The test's arguments travel in named bundles (:class:`Limits`, :class:`Obstacles`,
-:class:`Walls`, :class:`Scratch`), which numba passes as their fields: a bundle costs
-nothing at run time, and two arrays given in the wrong order no longer compile. A
-function that borrows its arrays (see :mod:`nao_arena.geometry.borrow`) builds the
-bundles again from the borrowed fields.
+The test's arguments travel in the named bundles of :mod:`.bundles` (:class:`~.bundles.Limits`,
+:class:`~.bundles.Obstacles`, :class:`~.bundles.Walls`, :class:`~.bundles.Scratch`), the
+candidate's motion in :class:`~.bundles.Motion`. A function that borrows its arrays
+(see :mod:`nao_arena.geometry.borrow`) builds the bundles again from the borrowed fields.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
+from nao_arena.geometry._kernel.bundles import Motion, Obstacles, Scratch, Walls
 from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan_obstacle
 from nao_arena.geometry._kernel.segment import wall_violation
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
-
-
-class Limits(NamedTuple):
-    """The robot as the admissibility test takes it (frame of :mod:`nao_arena.geometry`:
-    the robot at the origin): the limit disc |a| <= a_max (m/s^2), the robot's velocity
-    (vx, vy) (m/s) and its speed limit v_max (m/s)."""
-
-    a_max: float
-    vx: float
-    vy: float
-    v_max: float
-
-
-class Obstacles(NamedTuple):
-    """The N moving obstacles the test checks (frame of :mod:`nao_arena.geometry`:
-    positions relative to the robot's, times from now): piecewise-quadratic paths over
-    the S pieces of the times seg_t (S+1,) s, per obstacle and piece the start centre
-    seg_c (N, S, 2) m, velocity seg_w (N, S, 2) m/s and acceleration seg_b (N, S, 2)
-    m/s^2; radius (N,) m (grown by the robot's); sweep (N, S) m: how far each obstacle
-    moves within each piece at most
-    (:func:`~nao_arena.geometry._kernel.exact.piece_sweep`)."""
-
-    seg_t: NDArray[np.float64]
-    seg_c: NDArray[np.float64]
-    seg_w: NDArray[np.float64]
-    seg_b: NDArray[np.float64]
-    radius: NDArray[np.float64]
-    sweep: NDArray[np.float64]
-
-
-class Walls(NamedTuple):
-    """The W walls the test checks: segment ends (W, 2, 2) m relative to the robot
-    (frame of :mod:`nao_arena.geometry`), radius (W,) m (grown by the robot's; see
-    :func:`~nao_arena.geometry._kernel.segment.wall_violation`)."""
-
-    ends: NDArray[np.float64]
-    radius: NDArray[np.float64]
-
-
-class Scratch(NamedTuple):
-    """The test's scratch arrays: buf (3,) and res (3,) (no units: the scans' working
-    space and results) and hint (2,) int64, the (obstacle, piece) that last rejected a
-    candidate (see :func:`ok_disc`)."""
-
-    buf: NDArray[np.float64]
-    res: NDArray[np.float64]
-    hint: NDArray[np.int64]
 
 
 # called by the searches once per candidate: its callers pass borrowed arrays, so the
@@ -90,37 +41,25 @@ def ok_disc(x, y, limits, obstacles, walls, margin, scratch):
     if x * x + y * y > a_max * a_max * (1 + 1e-12) + 1e-300:
         return False, 0
     seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    ends, wall_r = walls
     buf, res, hint = scratch
     N = seg_c.shape[0]
-    W = ends.shape[0]
+    W = walls.ends.shape[0]
     if N == 0 and W == 0:
         return True, 1
     cvx, cvy, tau, bound = candidate_setup(limits.vx, limits.vy, x, y, limits.v_max, seg_t[-1])
+    motion = Motion(cvx, cvy, x, y, tau, bound)
     if W and N <= hint[0] < N + W:
-        if (
-            wall_violation(
-                cvx, cvy, x, y, tau, bound, seg_t[-1], ends, wall_r, margin, hint[0] - N, buf, res
-            )
-            >= 0
-        ):
+        if wall_violation(motion, seg_t[-1], walls, margin, hint[0] - N, buf, res) >= 0:
             return False, 1
     first = hint[0] if 0 <= hint[0] < N else 0
     if N and first == hint[0] and 0 <= hint[1] < seg_c.shape[1]:
         reach = radius[first] + margin
-        if piece_within(
-            cvx, cvy, x, y, tau, seg_t, seg_c, seg_w, seg_b, first, hint[1], reach * reach, buf
-        ):
+        if piece_within(motion, seg_t, seg_c, seg_w, seg_b, first, hint[1], reach * reach, buf):
             return False, 1
     for i in range(N):
         n = first if i == 0 else (i - 1 if i <= first else i)
         j = scan_obstacle(
-            cvx,
-            cvy,
-            x,
-            y,
-            tau,
-            bound,
+            motion,
             seg_t,
             seg_c,
             seg_w,
@@ -138,9 +77,7 @@ def ok_disc(x, y, limits, obstacles, walls, margin, scratch):
             hint[1] = j
             return False, 1
     if W:
-        w = wall_violation(
-            cvx, cvy, x, y, tau, bound, seg_t[-1], ends, wall_r, margin, np.int64(-1), buf, res
-        )
+        w = wall_violation(motion, seg_t[-1], walls, margin, np.int64(-1), buf, res)
         if w >= 0:
             hint[0] = N + w
             hint[1] = -1

@@ -3,53 +3,29 @@ acceleration a_d first: the disk picture's candidates (pushed out of slivers whe
 inadmissible), the ball search that tries the nearest points outside the disks as each
 becomes final, and rings of candidates around a_d.
 
-The robot, obstacles, walls and scratch arrays travel in the bundles of :mod:`.boundary`
-(:class:`~.boundary.Limits`, :class:`~.boundary.Obstacles`, :class:`~.boundary.Walls`,
-:class:`~.boundary.Scratch`).
+The robot, obstacles, walls and scratch arrays travel in the bundles of :mod:`.bundles`
+(:class:`~.bundles.Limits`, :class:`~.bundles.Obstacles`, :class:`~.bundles.Walls`,
+:class:`~.bundles.Scratch`).
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
 from nao_arena.geometry._kernel.boundary import (
-    Obstacles,
-    Scratch,
-    Walls,
     _sliver_push,
     bisect_disc,
     ok_disc,
     outward_normal,
     slide_disc,
 )
+from nao_arena.geometry._kernel.bundles import Obstacles, OutsideSearch, Scratch, Walls
 from nao_arena.geometry._kernel.outside import _WORDS, outside_advance, outside_setup
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
-
-
-class OutsideSearch(NamedTuple):
-    """The state of :func:`_ball_search`'s search for the nearest points outside the M
-    disks (accelerations m/s^2 in the frame of :mod:`nao_arena.geometry`), as
-    :func:`~nao_arena.geometry._kernel.outside.outside_setup` starts it and
-    :func:`~nao_arena.geometry._kernel.outside.outside_advance` advances it: out (8, 3)
-    the rows found (x, y, distance from a_d) m/s^2, lower (M + 1,) the distances from
-    a_d to the circles (the limit circle last) m/s^2, order (M,) int64 the circles'
-    visiting order, scale m/s^2 the bound for rounding, and the scratch arrays cand
-    (2 M + 8, 2) m/s^2, starts and ends (2 M + 4,) rad (arcs), cover (_WORDS,) uint64."""
-
-    out: NDArray[np.float64]
-    lower: NDArray[np.float64]
-    order: NDArray[np.int64]
-    scale: float
-    cand: NDArray[np.float64]
-    starts: NDArray[np.float64]
-    ends: NDArray[np.float64]
-    cover: NDArray[np.uint64]
 
 
 @inner_kernel(error_model="numpy")
@@ -283,6 +259,7 @@ def _ball_search(
     out, lower, order, scale, cand, starts, ends, cover = search
     out, lower, order, cand = borrowed(out), borrowed(lower), borrowed(order), borrowed(cand)
     starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
+    search = OutsideSearch(out, lower, order, scale, cand, starts, ends, cover)
     a_max = limits.a_max
     # nearest_outside_disks(a_d, disks, a_max, 8, reach, covered) tried with
     # try_candidates_disc, each candidate as soon as it is final: the circles farther
@@ -290,9 +267,7 @@ def _ball_search(
     count = 0
     oi = np.int64(0)  # not the literal 0 (see nao_arena.geometry._kernel)
     for row in range(8):
-        oi = outside_advance(
-            a_d, disks, a_max, covered, out, lower, order, oi, row, scale, cand, starts, ends, cover
-        )
+        oi = outside_advance(a_d, disks, a_max, covered, search, oi, row)
         dist = out[row, 2]
         if not (dist <= reach and dist < math.inf):
             return False, 0.0, 0.0, count, row == 0

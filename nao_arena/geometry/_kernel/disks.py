@@ -1,6 +1,7 @@
 """The disk picture: the NAO union near a query point, as sampled disks in
 acceleration space (m/s^2), with containment filtering and the choice of the
-largest ball whose disks stay within a cap.
+largest ball whose disks stay within a cap. The obstacles arrive as
+:class:`~.bundles.Paths`, the walls as :class:`~.bundles.Walls`.
 """
 
 from __future__ import annotations
@@ -73,35 +74,19 @@ def _put(out, row, x, y, rho, dq):
 
 
 @inner_kernel(error_model="numpy")
-def nao_disk_samples(
-    v,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    margin,
-    n_sub,
-    q,
-    reach,
-    a_max,
-    per_second=16.0,
-    thin=0.0,
-):
+def nao_disk_samples(v, paths, walls, margin, n_sub, q, reach, a_max, per_second=16.0, thin=0.0):
     """The sampled disks of :func:`nao_disks` before containment is filtered:
     (M, 4) rows (m_x, m_y, rho, distance of m from q), m/s^2 — for
     :func:`nao_disks_within`, which gives nao_disks for any smaller reach.
 
     Sampled disks of the NAO union near q, in acceleration space (m/s^2).
 
-    A constant acceleration a collides with an obstacle at time t iff
-    |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
-    (no speed saturation). Samples every piece at max(n_sub, per_second * h)
-    times (and the first piece also geometrically towards t = 0), grows r by
-    ``margin`` and keeps the disks that intersect both the ball B(q, reach)
-    and the limit disc |a| <= a_max.
+    A constant acceleration a collides with an obstacle (of the :class:`~.bundles.Paths`)
+    at time t iff |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
+    (v (2,) m/s the robot's velocity; no speed saturation). Samples every piece at
+    max(n_sub, per_second * h) times (per_second 1/s; and the first piece also
+    geometrically towards t = 0), grows r by ``margin`` (m) and keeps the disks that
+    intersect both the ball B(q, reach) and the limit disc |a| <= a_max (m/s^2).
 
     thin (m/s^2): when > 0, a disk is left out while its centre lies within
     sqrt(8 thin rho) of the obstacle's last kept disk (whose radius is at least
@@ -109,7 +94,8 @@ def nao_disk_samples(
     deep. The obstacle's last disk before a gap (a disk outside the ball or the
     limit disc) and at the end of the horizon is always kept.
 
-    Walls (walls (W, 2, 2) m robot-relative, radii wall_r (W,) m): at time t a wall's
+    Walls (the :class:`~.bundles.Walls`: ends (W, 2, 2) m robot-relative, radii (W,) m):
+    at time t a wall's
     NAO is the capsule of radius rho(t) around the segment from 2 (p - v t) / t^2 to
     2 (q - v t) / t^2; its part that meets the ball and the limit disc is covered by
     disks of radius rho(t) centred on the segment, close enough that the notches
@@ -118,18 +104,18 @@ def nao_disk_samples(
     candidates catch), at the same times as a static obstacle's, thinned out in time
     alike (see :func:`_wall_disks`).
     """
+    seg_t, seg_c = paths.seg_t, paths.seg_c
     N = seg_c.shape[0]
     S = seg_c.shape[1]
     total = 0
     for j in range(S):
         total += _samples_in_piece(seg_t[j], seg_t[j + 1], n_sub, per_second) + 9
     rows = N * total
-    if walls.shape[0]:
+    if walls.ends.shape[0]:
         rows += _wall_disks(
             v,
             seg_t,
             walls,
-            wall_r,
             margin,
             n_sub,
             q,
@@ -141,12 +127,10 @@ def nao_disk_samples(
             np.int64(0),
         )  # not a literal
     out = np.empty((rows, 4))
-    cnt = _fill_disk_samples(
-        v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second, thin, out
-    )
-    if walls.shape[0]:
+    cnt = _fill_disk_samples(v, paths, margin, n_sub, q, reach, a_max, per_second, thin, out)
+    if walls.ends.shape[0]:
         cnt = _wall_disks(
-            v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt
+            v, seg_t, walls, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt
         )
     return out[:cnt]
 
@@ -189,20 +173,20 @@ def _put_capsule(out, cnt, write, ax, ay, bx, by, rho, thin, q):
 
 
 @inner_kernel(error_model="numpy")
-def _wall_disks(
-    v, seg_t, walls, wall_r, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt
-):
-    """The walls' disks of :func:`nao_disk_samples` into out[cnt:]; returns the new count.
-    With an empty ``out`` it only counts them (from cnt).
+def _wall_disks(v, seg_t, walls, margin, n_sub, q, reach, a_max, per_second, thin, out, cnt):
+    """The walls' disks of :func:`nao_disk_samples` (the :class:`~.bundles.Walls`, over the
+    pieces of the times seg_t s) into out[cnt:]; returns the new count. With an empty
+    ``out`` it only counts them (from cnt).
 
     Thinning (thin > 0), as for the obstacles' disks: a sample's capsule (its part within
     the ball and the limit disc) is left out while both its ends lie within
     sqrt(8 thin rho) of the last kept capsule's and its radius rho is at most that one's
     (every disk along it is then that close to one of the kept capsule's); the last
     capsule before a gap and at the end of the horizon is always kept."""
+    ends, wall_r = walls
     write = out.shape[0] > 0
     S = seg_t.shape[0] - 1
-    for w in range(walls.shape[0]):
+    for w in range(ends.shape[0]):
         rr = wall_r[w] + margin
         kept = False  # a capsule is kept and no gap since
         pend = False  # a capsule was thinned out after it
@@ -217,10 +201,10 @@ def _wall_disks(
                 if t * t <= 0.0 or not math.isfinite(2.0 / (t * t)):
                     continue
                 inv = 2.0 / (t * t)
-                px = (walls[w, 0, 0] - v[0] * t) * inv
-                py = (walls[w, 0, 1] - v[1] * t) * inv
-                dx = (walls[w, 1, 0] - v[0] * t) * inv - px
-                dy = (walls[w, 1, 1] - v[1] * t) * inv - py
+                px = (ends[w, 0, 0] - v[0] * t) * inv
+                py = (ends[w, 0, 1] - v[1] * t) * inv
+                dx = (ends[w, 1, 0] - v[0] * t) * inv - px
+                dy = (ends[w, 1, 1] - v[1] * t) * inv - py
                 rho = rr * inv
                 lo, hi = _clip(px, py, dx, dy, q[0], q[1], rho + reach, 0.0, 1.0)
                 if lo <= hi:
@@ -254,11 +238,10 @@ def _wall_disks(
 
 
 @inner_kernel(error_model="numpy")
-def _fill_disk_samples(
-    v, seg_t, seg_c, seg_w, seg_b, radius, margin, n_sub, q, reach, a_max, per_second, thin, out
-):
-    """:func:`nao_disk_samples` into the rows of ``out``; returns how many it wrote.
-    Arrays borrowed here."""
+def _fill_disk_samples(v, paths, margin, n_sub, q, reach, a_max, per_second, thin, out):
+    """:func:`nao_disk_samples` of the :class:`~.bundles.Paths` into the rows of ``out``;
+    returns how many it wrote. Arrays borrowed here."""
+    seg_t, seg_c, seg_w, seg_b, radius = paths
     v, seg_t, seg_c, seg_w = borrowed(v), borrowed(seg_t), borrowed(seg_c), borrowed(seg_w)
     seg_b, radius, q, out = borrowed(seg_b), borrowed(radius), borrowed(q), borrowed(out)
     N = seg_c.shape[0]
@@ -332,50 +315,21 @@ def _fill_disk_samples(
 
 
 @inner_kernel(error_model="numpy")
-def nao_disks(
-    v,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    margin,
-    n_sub,
-    q,
-    reach,
-    a_max,
-    per_second=16.0,
-):
+def nao_disks(v, paths, walls, margin, n_sub, q, reach, a_max, per_second=16.0):
     """Sampled disks of the NAO union near q, in acceleration space (m/s^2).
 
-    A constant acceleration a collides with an obstacle at time t iff
-    |a - m(t)| <= rho(t), m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2
-    (no speed saturation). Samples every piece at max(n_sub, per_second * h)
-    times (and the first piece also geometrically towards t = 0), grows r by
-    ``margin`` and keeps the disks that intersect both the ball B(q, reach)
-    and the limit disc |a| <= a_max; disks inside another are dropped.
-    Returns (M, 3) rows (m_x, m_y, rho).
+    A constant acceleration a collides with an obstacle (of the :class:`~.bundles.Paths`;
+    walls: the :class:`~.bundles.Walls`) at time t iff |a - m(t)| <= rho(t),
+    m(t) = 2 (c(t) - v t) / t^2, rho(t) = 2 r / t^2 (v (2,) m/s the robot's velocity; no
+    speed saturation). Samples every piece at max(n_sub, per_second * h) times (per_second
+    1/s; and the first piece also geometrically towards t = 0), grows r by ``margin`` (m)
+    and keeps the disks that intersect both the ball B(q, reach) and the limit disc
+    |a| <= a_max (m/s^2); disks inside another are dropped. Returns (M, 3) rows
+    (m_x, m_y, rho).
     """
     return drop_contained(
         np.ascontiguousarray(
-            nao_disk_samples(
-                v,
-                seg_t,
-                seg_c,
-                seg_w,
-                seg_b,
-                radius,
-                walls,
-                wall_r,
-                margin,
-                n_sub,
-                q,
-                reach,
-                a_max,
-                per_second,
-            )[:, :3]
+            nao_disk_samples(v, paths, walls, margin, n_sub, q, reach, a_max, per_second)[:, :3]
         )
     )
 

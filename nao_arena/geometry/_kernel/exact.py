@@ -7,6 +7,10 @@ velocity scaled down to v_max. Obstacles follow piecewise-quadratic paths
 (times seg_t (S+1,) s; per obstacle and piece the start centre seg_c m,
 velocity seg_w m/s and acceleration seg_b m/s^2); the minimum distance on each
 piece comes from :func:`~nao_arena.geometry._kernel.quartic.piece_minimum`.
+
+A candidate's motion travels as a :class:`~.bundles.Motion`; the kernels called from
+Python take the obstacles as :class:`~.bundles.Paths` or :class:`~.bundles.Obstacles`
+and the walls as :class:`~.bundles.Walls`.
 """
 
 from __future__ import annotations
@@ -15,33 +19,20 @@ import math
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import Motion, Walls
 from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
 from nao_arena.geometry._kernel.robot_path import candidate_setup, robot_state
 from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wall_violation
+from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel, kernel
 
 
 @inner_kernel(error_model="numpy")
-def scan_obstacle(
-    vx,
-    vy,
-    ax,
-    ay,
-    tau,
-    speed_bound,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    sweep,
-    n,
-    r,
-    thresh,
-    want_first,
-    buf,
-    out,
-):
-    """Scan obstacle n over all pieces for one robot candidate.
+def scan_obstacle(motion, seg_t, seg_c, seg_w, seg_b, sweep, n, r, thresh, want_first, buf, out):
+    """Scan obstacle n (radius r m) over all pieces for one robot candidate (its
+    :class:`~.bundles.Motion`). The obstacles' paths: seg_t (S+1,) s, seg_c, seg_w, seg_b
+    (N, S, 2) m, m/s, m/s^2 and their sweep (N, S) m, as in :class:`~.bundles.Obstacles`
+    (whose radii the callers grow or cut into r).
 
     With a finite ``thresh`` (m) the scan only decides whether the clearance
     falls below it: it prunes pieces that cannot come that close and returns
@@ -49,6 +40,7 @@ def scan_obstacle(
     piece's index (else -1). Otherwise out = (min squared distance, its time, first contact
     time), and it returns -1.
     """
+    vx, vy, ax, ay, tau, speed_bound = motion
     S = seg_c.shape[1]
     r2 = r * r
     best = math.inf
@@ -147,9 +139,11 @@ def _relative(vx, vy, ax, ay, tau, ta, t0, seg_c, seg_w, seg_b, n, j):
 
 
 @inner_kernel(error_model="numpy")
-def piece_within(vx, vy, ax, ay, tau, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
-    """Whether the candidate (as in :func:`scan_obstacle`) comes closer than sqrt(reach2) (m) to
-    obstacle n during piece j: the test :func:`scan_obstacle` makes there, without its prune."""
+def piece_within(motion, seg_t, seg_c, seg_w, seg_b, n, j, reach2, buf):
+    """Whether the candidate (its :class:`~.bundles.Motion`, as in :func:`scan_obstacle`)
+    comes closer than sqrt(reach2) (m) to obstacle n during piece j: the test
+    :func:`scan_obstacle` makes there, without its prune."""
+    vx, vy, ax, ay, tau, _ = motion
     t0 = seg_t[j]
     t1 = seg_t[j + 1]
     ta = t0
@@ -185,35 +179,24 @@ def fill_sweep(seg_t, seg_w, seg_b, rows, out):
 
 
 @kernel(error_model="numpy")
-def clearance_kernel(
-    cand_v,
-    cand_a,
-    v_max,
-    seg_t,
-    seg_c,
-    seg_w,
-    seg_b,
-    radius,
-    walls,
-    wall_r,
-    out_clear,
-    out_tmin,
-    out_tfirst,
-):
+def clearance_kernel(cand_v, cand_a, v_max, paths, walls, out_clear, out_tmin, out_tfirst):
     """Exact clearance for K candidates x (N obstacles, then W walls).
 
     cand_v, cand_a: (K, 2) initial velocity (m/s) and constant acceleration
-    (m/s^2) of the robot per candidate. seg_t: (S + 1,) piece boundaries (s),
-    seg_t[0] = 0, last may be inf. seg_c, seg_w, seg_b: (N, S, 2) obstacle
-    centre (m, relative to the robot's start), velocity and acceleration at
-    the start of each piece. radius: (N,) combined radius (m). walls: (W, 2, 2)
-    static segments (m, robot-relative ends), wall_r: (W,) their combined radii (m).
+    (m/s^2) of the robot per candidate; v_max: its speed limit (m/s). paths: the
+    :class:`~.bundles.Paths` (seg_t (S + 1,) piece boundaries (s), seg_t[0] = 0, last
+    may be inf; seg_c, seg_w, seg_b (N, S, 2) obstacle centre (m, relative to the
+    robot's start), velocity and acceleration at the start of each piece; radius (N,)
+    combined radius (m)). walls: the :class:`~.bundles.Walls` (ends (W, 2, 2) static
+    segments (m, robot-relative), radius (W,) their combined radii (m)).
     Outputs (K, N + W): clearance (m), time of closest approach (s), time of
     first contact (s, inf if none).
     """
+    seg_t, seg_c, seg_w, seg_b, radius = paths
+    ends, wall_r = walls
     K = cand_a.shape[0]
     N = seg_c.shape[0]
-    W = walls.shape[0]
+    W = ends.shape[0]
     sweep = np.zeros((N, seg_c.shape[1]))
     buf = np.empty(3)
     out = np.empty(3)
@@ -222,14 +205,10 @@ def clearance_kernel(
         vx, vy, tau, bound = candidate_setup(
             cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
+        motion = Motion(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound)
         for n in range(N):
             scan_obstacle(
-                vx,
-                vy,
-                cand_a[k, 0],
-                cand_a[k, 1],
-                tau,
-                bound,
+                motion,
                 seg_t,
                 seg_c,
                 seg_w,
@@ -247,16 +226,12 @@ def clearance_kernel(
             out_tfirst[k, n] = out[2]
         for w in range(W):
             wall_scan(
-                vx,
-                vy,
-                cand_a[k, 0],
-                cand_a[k, 1],
-                tau,
+                motion,
                 horizon,
-                walls[w, 0, 0],
-                walls[w, 0, 1],
-                walls[w, 1, 0],
-                walls[w, 1, 1],
+                ends[w, 0, 0],
+                ends[w, 0, 1],
+                ends[w, 1, 0],
+                ends[w, 1, 1],
                 wall_r[w],
                 np.bool_(True),
                 buf,
@@ -268,15 +243,18 @@ def clearance_kernel(
 
 
 @kernel(error_model="numpy")
-def admissible_kernel(
-    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, margin, out_ok
-):
-    """out_ok[k] = True iff candidate k keeps clearance >= margin (m) from every obstacle
-    and wall (walls (W, 2, 2) m, radii wall_r (W,) m, see :func:`clearance_kernel`).
+def admissible_kernel(cand_v, cand_a, v_max, obstacles, walls, margin, out_ok):
+    """out_ok[k] = True iff candidate k (cand_v, cand_a, v_max: see
+    :func:`clearance_kernel`) keeps clearance >= margin (m) from every obstacle (the
+    :class:`~.bundles.Obstacles`: the paths with their sweeps) and wall (the
+    :class:`~.bundles.Walls`: ends (W, 2, 2) m, radii (W,) m).
 
     Prunes pieces with a conservative distance bound and stops at the first
-    violation, so it is much cheaper than the exact clearance.
+    violation, so it is much cheaper than the exact clearance. The walls' arrays are
+    borrowed here.
     """
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)
@@ -286,15 +264,11 @@ def admissible_kernel(
         vx, vy, tau, bound = candidate_setup(
             cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
+        motion = Motion(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound)
         ok = True
         for n in range(N):
             scan_obstacle(
-                vx,
-                vy,
-                cand_a[k, 0],
-                cand_a[k, 1],
-                tau,
-                bound,
+                motion,
                 seg_t,
                 seg_c,
                 seg_w,
@@ -312,33 +286,19 @@ def admissible_kernel(
                 break
         if (
             ok
-            and walls.shape[0]
-            and wall_violation(
-                vx,
-                vy,
-                cand_a[k, 0],
-                cand_a[k, 1],
-                tau,
-                bound,
-                horizon,
-                walls,
-                wall_r,
-                margin,
-                -1,
-                buf,
-                out,
-            )
-            >= 0
+            and walls.ends.shape[0]
+            and wall_violation(motion, horizon, walls, margin, -1, buf, out) >= 0
         ):
             ok = False
         out_ok[k] = ok
 
 
 @inner_kernel(error_model="numpy")
-def _first_contact(
-    vx, vy, ax, ay, tau, speed_bound, seg_t, seg_c, seg_w, seg_b, sweep, n, r, t_stop, buf
-):
-    """First time (s) the robot comes within r of obstacle n, if before t_stop; else inf."""
+def _first_contact(motion, seg_t, seg_c, seg_w, seg_b, sweep, n, r, t_stop, buf):
+    """First time (s) the robot (its :class:`~.bundles.Motion`) comes within r (m) of
+    obstacle n (paths and sweeps as :func:`scan_obstacle` takes them), if before t_stop
+    (s); else inf."""
+    vx, vy, ax, ay, tau, speed_bound = motion
     S = seg_c.shape[1]
     r2 = r * r
     for j in range(S):
@@ -374,16 +334,18 @@ def _first_contact(
 
 
 @kernel(error_model="numpy")
-def latest_contact_kernel(
-    cand_v, cand_a, v_max, seg_t, seg_c, seg_w, seg_b, radius, walls, wall_r, sweep, out_first
-):
-    """Earliest first contact (s) over all obstacles and walls per candidate, for picking
-    the latest.
+def latest_contact_kernel(cand_v, cand_a, v_max, obstacles, walls, out_first):
+    """Earliest first contact (s) over all obstacles (the :class:`~.bundles.Obstacles`) and
+    walls (the :class:`~.bundles.Walls`) per candidate (see :func:`admissible_kernel`),
+    for picking the latest.
 
     A candidate's scan stops as soon as its earliest contact falls below the
     best (latest) found so far among earlier candidates; its entry is then
-    an upper bound below that best (it cannot win), not the exact value.
+    an upper bound below that best (it cannot win), not the exact value. The walls'
+    arrays are borrowed here.
     """
+    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
+    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)
@@ -394,15 +356,11 @@ def latest_contact_kernel(
         vx, vy, tau, bound = candidate_setup(
             cand_v[k, 0], cand_v[k, 1], cand_a[k, 0], cand_a[k, 1], v_max, horizon
         )
+        motion = Motion(vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound)
         tf = math.inf
         for n in range(N):
             f = _first_contact(
-                vx,
-                vy,
-                cand_a[k, 0],
-                cand_a[k, 1],
-                tau,
-                bound,
+                motion,
                 seg_t,
                 seg_c,
                 seg_w,
@@ -417,10 +375,8 @@ def latest_contact_kernel(
                 tf = f
             if tf < best:
                 break
-        if walls.shape[0] and not tf < best:
-            f = wall_first_contact(
-                vx, vy, cand_a[k, 0], cand_a[k, 1], tau, bound, horizon, walls, wall_r, tf, buf, out
-            )
+        if walls.ends.shape[0] and not tf < best:
+            f = wall_first_contact(motion, horizon, walls, tf, buf, out)
             if f < tf:
                 tf = f
         out_first[k] = tf

@@ -2,21 +2,33 @@
 
 For every circle, the arcs not covered by the other disks are found (a bit set
 of angular bins rules out fully covered circles cheaply); the point of each
-free arc nearest the query is a candidate.
+free arc nearest the query is a candidate. A search's state and scratch arrays travel
+in an :class:`~.bundles.OutsideSearch`.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import OutsideSearch
 from nao_arena.geometry._kernel.disks import vector_norm
 from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel
 from nao_arena.sorting import stable_argsort
 
 _TWO_PI = 2.0 * math.pi
+
+
+class Circle(NamedTuple):
+    """A circle in acceleration space (frame of :mod:`nao_arena.geometry`): centre
+    (cx, cy) m/s^2, radius rho m/s^2 (a disk's rim, or the limit circle)."""
+
+    cx: float
+    cy: float
+    rho: float
 
 
 @inner_kernel(error_model="numpy")
@@ -421,16 +433,17 @@ def _all_binned(cover):
 
 
 @inner_kernel(error_model="numpy")
-def _free_arc_points(cx, cy, rho, in_limit, q, circ, skip, a_max, out, k, starts, ends, cover):
+def _free_arc_points(circle, in_limit, q, circ, skip, a_max, out, k, starts, ends, cover):
     """Append to ``out`` (from row k) the point nearest q of every free arc of the
-    circle (cx, cy, rho): arcs no disk of ``circ`` (except row ``skip``) covers
-    and, when ``in_limit``, inside the limit disc |a| <= a_max.
+    :class:`Circle` ``circle``: arcs no disk of ``circ`` (except row ``skip``) covers
+    and, when ``in_limit``, inside the limit disc |a| <= a_max (m/s^2).
     Returns the new row count, or -1 when the whole circle is covered.
     starts/ends: scratch of at least 2 len(circ) + 4 rows; cover: _WORDS uint64.
 
     Most circles of a crowded picture are covered entirely: a cheap proof
     (:func:`_surely_covered`) skips the exact angles for them.
     """
+    cx, cy, rho = circle
     q, circ, out = borrowed(q), borrowed(circ), borrowed(out)
     starts, ends, cover = borrowed(starts), borrowed(ends), borrowed(cover)
     M = circ.shape[0]
@@ -525,16 +538,9 @@ def _nearest_outside(q, disks, a_max, within, covered, res, cand, starts, ends, 
         disks,
         a_max,
         covered,
-        res,
-        lower,
-        order,
+        OutsideSearch(res, lower, order, scale, cand, starts, ends, cover),
         np.int64(0),
         max_out,
-        scale,
-        cand,
-        starts,
-        ends,
-        cover,
     )
     return outside_found(res, within)
 
@@ -582,15 +588,17 @@ def outside_setup(q, disks, a_max, within, res, lower):
 
 
 @inner_kernel(error_model="numpy")
-def outside_advance(
-    q, disks, a_max, covered, res, lower, order, oi, row, scale, cand, starts, ends, cover
-):
-    """Visit the circles order[oi:] (:func:`outside_setup`) as :func:`nearest_outside_disks`
-    does, inserting their free-arc points into ``res``, but only until row ``row`` of
-    ``res`` is final: every circle left is farther from q than that row's candidate by
-    far more than rounding (a point of a circle is at least its ``lower`` from q), so no
-    later candidate can come before it (row >= max_out: until the end). Returns the
-    position in ``order`` to resume from (len(order): nothing is left to visit)."""
+def outside_advance(q, disks, a_max, covered, search, oi, row):
+    """Visit the circles order[oi:] of the :class:`~.bundles.OutsideSearch` ``search``
+    (:func:`outside_setup`; q (2,) m/s^2, disks (M, 3) m/s^2, a_max m/s^2, covered m/s^2
+    as :func:`nearest_outside_disks` takes them) as :func:`nearest_outside_disks` does,
+    inserting their free-arc points into its rows ``res`` = search.out, but only until
+    row ``row`` of ``res`` is final: every circle left is farther from q than that row's
+    candidate by far more than rounding (a point of a circle is at least its ``lower``
+    from q), so no later candidate can come before it (row >= max_out: until the end).
+    Returns the position in ``order`` to resume from (len(order): nothing is left to
+    visit)."""
+    res, lower, order, scale, cand, starts, ends, cover = search
     q, disks, res, lower, order = (
         borrowed(q),
         borrowed(disks),
@@ -620,7 +628,17 @@ def outside_advance(
             (disks[i, 0], disks[i, 1], disks[i, 2], i) if i < M else (0.0, 0.0, a_max, -1)
         )
         k = _free_arc_points(
-            cx, cy, rho, i < M, q, disks, skip, a_max, cand, np.int64(0), starts, ends, cover
+            Circle(cx, cy, rho),
+            i < M,
+            q,
+            disks,
+            skip,
+            a_max,
+            cand,
+            np.int64(0),
+            starts,
+            ends,
+            cover,
         )
         for c in range(max(k, 0)):
             d = vector_norm(cand[c, 0] - q[0], cand[c, 1] - q[1])

@@ -3,7 +3,8 @@
 An obstacle is kept when some acceleration |a| <= a_max (speed capped at
 v_max) could bring the robot within its combined radius plus a margin (m) on
 some piece; the others cannot affect admissibility and are dropped before the
-exact tests.
+exact tests. The robot travels as a :class:`~.bundles.Limits` (its velocity already
+scaled down to v_max), the sampled paths as :class:`~.bundles.Predictions`.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import math
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import Limits, Predictions
 from nao_arena.geometry._kernel.exact import piece_sweep
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT, moving_piece
 from nao_arena.geometry.borrow import borrowed
@@ -20,9 +22,10 @@ from nao_arena.motion import limit_norm_sqrt
 
 
 @inner_kernel(error_model="numpy")
-def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
-    """Whether obstacle n (combined radius r, m) is within reach: see
-    :func:`relevant_obstacles` (v already clamped to v_max)."""
+def _relevant(limits, seg_t, seg_c, seg_w, seg_b, n, r):
+    """Whether obstacle n (combined radius r, m; paths as in :class:`~.bundles.Paths`) is
+    within reach of the robot (its :class:`~.bundles.Limits`, velocity already clamped
+    to v_max): see :func:`relevant_obstacles`."""
     for j in range(seg_c.shape[1]):
         if _piece_relevant(
             seg_c[n, j, 0],
@@ -33,10 +36,7 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
             seg_b[n, j, 1],
             seg_t[j],
             seg_t[j + 1],
-            vx,
-            vy,
-            a_max,
-            v_max,
+            limits,
             r,
         ):
             return True
@@ -44,12 +44,14 @@ def _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, r):
 
 
 @inner_kernel(error_model="numpy")
-def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, vx, vy, a_max, v_max, r):
-    """Whether the robot (velocity v m/s, limits a_max, v_max) could come within r (m) of
-    an obstacle during the piece [t0, t1] s that starts at (cx, cy) m with velocity
-    (wx, wy) m/s and acceleration (bx, by) m/s^2: |x(t) - v t| <= a_max t^2 / 2 and
-    |x(t)| <= v_max t must both allow it (see :func:`relevant_obstacles`). A piece of
-    infinite length always may. Branch-free, so loops over pieces vectorise."""
+def _piece_relevant(cx, cy, wx, wy, bx, by, t0, t1, limits, r):
+    """Whether the robot (its :class:`~.bundles.Limits`: velocity v m/s, a_max m/s^2,
+    v_max m/s) could come within r (m) of an obstacle during the piece [t0, t1] s that
+    starts at (cx, cy) m with velocity (wx, wy) m/s and acceleration (bx, by) m/s^2:
+    |x(t) - v t| <= a_max t^2 / 2 and |x(t)| <= v_max t must both allow it (see
+    :func:`relevant_obstacles`). A piece of infinite length always may. Branch-free, so
+    loops over pieces vectorise."""
+    a_max, vx, vy, v_max = limits
     h = t1 - t0
     dx = cx - vx * t0
     dy = cy - vy * t0
@@ -80,17 +82,20 @@ def relevant_obstacles(v, a_max, v_max, seg_t, seg_c, seg_w, seg_b, radius, marg
     radius = borrowed(radius)
     N = seg_c.shape[0]
     vx, vy, _ = limit_norm_sqrt(v[0], v[1], v_max)
+    limits = Limits(a_max, vx, vy, v_max)
     out = np.zeros(N, dtype=np.bool_)
     for n in range(N):
-        out[n] = _relevant(vx, vy, a_max, v_max, seg_t, seg_c, seg_w, seg_b, n, radius[n] + margin)
+        out[n] = _relevant(limits, seg_t, seg_c, seg_w, seg_b, n, radius[n] + margin)
     return out
 
 
 @inner_kernel(error_model="numpy")
-def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max, r):
+def _moving_relevant(pred, body, px, py, times, c, w, row, limits, r):
     """:func:`moving_pieces` into row ``row``, and whether one of those pieces is relevant
-    (:func:`_piece_relevant`, radius r m: what :func:`_relevant` answers), in one pass with
-    no early exit (the compiler vectorises it; most obstacles tested are not relevant)."""
+    to the robot (its :class:`~.bundles.Limits`; :func:`_piece_relevant`, radius r m: what
+    :func:`_relevant` answers), in one pass with no early exit (the compiler vectorises
+    it; most obstacles tested are not relevant)."""
+    v_max = limits.v_max
     if math.isfinite(v_max) and math.isfinite(times[0]) and math.isfinite(times[-1]):
         # first a cheap proof that no piece passes the v_max test: |w| h <= |dx| + |dy|
         # (no division, no square root); the factor covers the rounding of the exact test
@@ -107,9 +112,7 @@ def _moving_relevant(pred, body, px, py, times, c, w, row, vx, vy, a_max, v_max,
     hit = False
     for j in range(times.shape[0] - 1):
         x0, y0, wx, wy = moving_piece(pred, body, px, py, times, c, w, row, j)
-        hit = hit | _piece_relevant(
-            x0, y0, wx, wy, 0.0, 0.0, times[j], times[j + 1], vx, vy, a_max, v_max, r
-        )
+        hit = hit | _piece_relevant(x0, y0, wx, wy, 0.0, 0.0, times[j], times[j + 1], limits, r)
     return hit
 
 
@@ -137,18 +140,21 @@ def relevant_sampled_paths(
     w = np.empty((total, S, 2))
     rad = np.empty(total)
     # the pieces' accelerations are zero: only the kept rows are allocated (and zeroed)
+    # the arguments' views are borrowed (nao_arena.geometry.borrow) for the one call
     n = _fill_relevant_paths(
-        times,
-        pred,
+        Predictions(
+            borrowed(times),
+            borrowed(pred),
+            borrowed(nb_radius),
+            borrowed(excursion),
+            borrowed(finite_path),
+        ),
         idx,
         position,
-        nb_radius,
         grow,
         v,
         a_max,
         v_max,
-        excursion,
-        finite_path,
         c,
         w,
         c[:0],
@@ -160,27 +166,14 @@ def relevant_sampled_paths(
 
 
 @inner_kernel(error_model="numpy")
-def _fill_relevant_paths(
-    times,
-    pred,
-    idx,
-    position,
-    nb_radius,
-    grow,
-    v,
-    a_max,
-    v_max,
-    excursion,
-    finite_path,
-    c,
-    w,
-    b,
-    rad,
-):
+def _fill_relevant_paths(predictions, idx, position, grow, v, a_max, v_max, c, w, b, rad):
     """:func:`relevant_sampled_paths` into c, w, rad (rows for every obstacle given; b, the
-    zero accelerations, is not written):
-    returns how many rows it kept, -1 when a neighbour's centres are not all finite.
+    zero accelerations, is not written): the bodies ``idx`` of the
+    :class:`~.bundles.Predictions`, relative to ``position`` (2,) m, radii grown by
+    ``grow`` m; the robot's velocity v (2,) m/s, limits a_max m/s^2 and v_max m/s.
+    Returns how many rows it kept, -1 when a neighbour's centres are not all finite.
     Arrays borrowed here."""
+    times, pred, nb_radius, excursion, finite_path = predictions
     times, pred, idx, position = borrowed(times), borrowed(pred), borrowed(idx), borrowed(position)
     nb_radius, v = borrowed(nb_radius), borrowed(v)
     excursion, finite_path = borrowed(excursion), borrowed(finite_path)
@@ -190,6 +183,7 @@ def _fill_relevant_paths(
         if not finite_path[idx[i]]:
             return -1
     vx, vy, _ = limit_norm_sqrt(v[0], v[1], v_max)
+    limits = Limits(a_max, vx, vy, v_max)
     px = position[0]
     py = position[1]
     # |x(t)| <= v_max t: an obstacle that stays farther than v_max times the horizon
@@ -209,7 +203,7 @@ def _fill_relevant_paths(
             if dist - ex > (r + travel + 2.0 * ex) * (1.0 + 1e-9) + 1e-12:
                 continue
         rad[n] = r
-        if _moving_relevant(pred, body, px, py, times, c, w, n, vx, vy, a_max, v_max, r):
+        if _moving_relevant(pred, body, px, py, times, c, w, n, limits, r):
             n += 1
     return n
 

@@ -30,19 +30,22 @@ first contacts and the roots of e(s)^2 = r^2 |q - p|^2 whose foot lies within [p
 (distances to the ends are never below the distance to the segment, and at the first
 contact the distance is exactly r, reached at an end or at an interior foot).
 
-Walls in the selection: ``walls`` (W, 2, 2) robot-relative ends (m) and ``wall_r``
-(W,) their combined radii (m: half-thickness + the robot's radius + its margin, cut
+Walls in the selection: a :class:`~.bundles.Walls` bundle, robot-relative ends (W, 2, 2)
+m and their combined radii (W,) m (half-thickness + the robot's radius + its margin, cut
 to just under the current distance like every obstacle's); an acceleration is
-admissible against wall w when its path stays at least wall_r[w] + margin from the
-segment (:func:`wall_violation`).
+admissible against wall w when its path stays at least radius[w] + margin from the
+segment (:func:`wall_violation`). The robot's path arrives as a :class:`~.bundles.Motion`;
+a piece of it and a segment's line travel in :class:`PathPiece` and :class:`SegmentLine`.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
+from nao_arena.geometry._kernel.bundles import Motion
 from nao_arena.geometry._kernel.quartic import piece_minimum
 from nao_arena.geometry._kernel.robot_path import candidate_setup
 from nao_arena.geometry._kernel.sampled import RADIUS_CUT
@@ -50,6 +53,8 @@ from nao_arena.geometry.borrow import borrowed
 from nao_arena.jit import inner_kernel, kernel
 
 __all__ = [
+    "PathPiece",
+    "SegmentLine",
     "nearby_walls",
     "point_segment_dist2",
     "relevant_walls",
@@ -65,11 +70,37 @@ __all__ = [
 ]
 
 
+class PathPiece(NamedTuple):
+    """One piece of the robot's path (frame of :mod:`nao_arena.geometry`), its centre
+    d(s) = A s^2 + B s + C at the time s (s) since the piece's start: A = (ax, ay) m/s^2
+    (half the acceleration), B = (bx, by) m/s (the velocity at s = 0), C = (cx, cy) m (the
+    centre at s = 0)."""
+
+    ax: float
+    ay: float
+    bx: float
+    by: float
+    cx: float
+    cy: float
+
+
+class SegmentLine(NamedTuple):
+    """The segment [p, q] of a wall as the line scans take it (frame of
+    :mod:`nao_arena.geometry`): its start p = (px, py) m, u = q - p = (ux, uy) m and
+    ll = |q - p|^2 m^2 (> 0)."""
+
+    px: float
+    py: float
+    ux: float
+    uy: float
+    ll: float
+
+
 @inner_kernel(error_model="numpy")
-def _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out):
-    """Minimum squared distance (m^2) over t in [0, horizon] from the robot's centre (speed
-    already clamped, saturation time tau) to the segment [p, q] (:func:`wall_scan`)."""
-    wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, 0.0, np.bool_(False), buf, out)
+def _path_segment_dist2(motion, horizon, px, py, qx, qy, buf, out):
+    """Minimum squared distance (m^2) over t in [0, horizon] (s) from the robot's centre
+    (its :class:`~.bundles.Motion`) to the segment [p, q] (m) (:func:`wall_scan`)."""
+    wall_scan(motion, horizon, px, py, qx, qy, 0.0, np.bool_(False), buf, out)
     return out[0]
 
 
@@ -179,7 +210,8 @@ def segment_min_distance(
     buf = np.empty(3)
     out = np.empty(3)
     vx, vy, tau, bound = candidate_setup(vx, vy, ax, ay, v_max, horizon)
-    return math.sqrt(_path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out))
+    motion = Motion(vx, vy, ax, ay, tau, bound)
+    return math.sqrt(_path_segment_dist2(motion, horizon, px, py, qx, qy, buf, out))
 
 
 @inner_kernel(error_model="numpy")
@@ -210,6 +242,7 @@ def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf,
     v, a, walls = borrowed(v), borrowed(a), borrowed(walls)
     half_thickness, buf, out = borrowed(half_thickness), borrowed(buf), borrowed(out)
     vx, vy, tau, bound = candidate_setup(v[0], v[1], a[0], a[1], v_max, horizon)
+    motion = Motion(vx, vy, a[0], a[1], tau, bound)
     reach = bound * horizon  # the path stays within this distance of the origin (m)
     best = math.inf
     index = -1
@@ -223,9 +256,7 @@ def _fill_segments(v, a, v_max, walls, half_thickness, horizon, stop_below, buf,
             if lower - 1e-9 * (1.0 + abs(lower)) > best:
                 continue
         d = (
-            math.sqrt(
-                _path_segment_dist2(vx, vy, a[0], a[1], tau, horizon, px, py, qx, qy, buf, out)
-            )
+            math.sqrt(_path_segment_dist2(motion, horizon, px, py, qx, qy, buf, out))
             - half_thickness[w]
         )
         if d < best or index < 0:
@@ -274,12 +305,14 @@ def segments_admissible(
 
 
 @inner_kernel(error_model="numpy")
-def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
-    """(min(best, squared distance from d(s) to the segment's line), its s) when s lies in
-    [0, h] and the foot of d(s) within the segment (ll = |q - p|^2 > 0), else
-    (best, best_s)."""
+def _line_scan(s, h, piece, line, best, best_s):
+    """(min(best, squared distance (m^2) from d(s) (the :class:`PathPiece`) to the
+    segment's line), its s) when s lies in [0, h] (s) and the foot of d(s) within the
+    segment (the :class:`SegmentLine`), else (best, best_s)."""
     if not (0.0 <= s <= h) or not math.isfinite(s):
         return best, best_s
+    ax, ay, bx, by, cx, cy = piece
+    px, py, ux, uy, ll = line
     dx = (ax * s + bx) * s + cx - px
     dy = (ay * s + by) * s + cy - py
     along = dx * ux + dy * uy
@@ -293,8 +326,11 @@ def _line_scan(s, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s):
 
 
 @inner_kernel(error_model="numpy")
-def _foot_within(s, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
-    """Whether the foot of d(s) on the segment's line lies within [p, q]."""
+def _foot_within(s, piece, line):
+    """Whether the foot of d(s) (the :class:`PathPiece`) on the segment's line lies within
+    the segment (the :class:`SegmentLine`)."""
+    ax, ay, bx, by, cx, cy = piece
+    px, py, ux, uy, ll = line
     dx = (ax * s + bx) * s + cx - px
     dy = (ay * s + by) * s + cy - py
     along = dx * ux + dy * uy
@@ -331,10 +367,11 @@ def _roots_within(qa, qb, qc, h):
 
 
 @inner_kernel(error_model="numpy")
-def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, out):
-    """Over s in [0, h] of d(s) = A s^2 + B s + C and the segment [p, q]: out = (minimum
-    squared distance (m^2), its s, the first s with distance <= r (inf: none; computed when
-    want_first))."""
+def _piece_scan(piece, h, px, py, qx, qy, r, want_first, buf, out):
+    """Over s in [0, h] (s) of d(s) = A s^2 + B s + C (the :class:`PathPiece`) and the
+    segment [p, q] (m): out = (minimum squared distance (m^2), its s, the first s with
+    distance <= r (m) (inf: none; computed when want_first))."""
+    ax, ay, bx, by, cx, cy = piece
     piece_minimum(ax, ay, bx, by, cx - px, cy - py, h, r * r, want_first, buf)
     best = buf[0]
     best_s = buf[1]
@@ -352,44 +389,35 @@ def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, o
         ea = ax * uy - ay * ux
         eb = bx * uy - by * ux
         ec = (cx - px) * uy - (cy - py) * ux
-        best, best_s = _line_scan(0.0, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s)
+        line = SegmentLine(px, py, ux, uy, ll)
+        best, best_s = _line_scan(0.0, h, piece, line, best, best_s)
         if math.isfinite(h):
-            best, best_s = _line_scan(
-                h, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
-            )
+            best, best_s = _line_scan(h, h, piece, line, best, best_s)
         if ea == 0.0:
             if eb != 0.0:
-                best, best_s = _line_scan(
-                    -ec / eb, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
-                )
+                best, best_s = _line_scan(-ec / eb, h, piece, line, best, best_s)
         else:
             disc = eb * eb - 4.0 * ea * ec
             if disc >= 0.0:
                 sq = math.sqrt(disc)
                 qq = -0.5 * (eb + sq) if eb >= 0.0 else -0.5 * (eb - sq)
-                best, best_s = _line_scan(
-                    qq / ea, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
-                )
+                best, best_s = _line_scan(qq / ea, h, piece, line, best, best_s)
                 if qq != 0.0:
-                    best, best_s = _line_scan(
-                        ec / qq, h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
-                    )
-            best, best_s = _line_scan(
-                -eb / (2.0 * ea), h, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll, best, best_s
-            )
+                    best, best_s = _line_scan(ec / qq, h, piece, line, best, best_s)
+            best, best_s = _line_scan(-eb / (2.0 * ea), h, piece, line, best, best_s)
         if best_s > h:
             best_s = h
         if want_first:
             # e(s)^2 = r^2 ll where the foot is within the segment: e = -r sqrt(ll) and
             # e = +r sqrt(ll); at s = 0 already within r
             rl = r * math.sqrt(ll)
-            if ec * ec <= rl * rl and _foot_within(0.0, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
+            if ec * ec <= rl * rl and _foot_within(0.0, piece, line):
                 first = 0.0
             for sign in (-1.0, 1.0):
                 s1, s2 = _roots_within(ea, eb, ec - sign * rl, min(h, first))
-                if s1 < first and _foot_within(s1, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
+                if s1 < first and _foot_within(s1, piece, line):
                     first = s1
-                elif s2 < first and _foot_within(s2, ax, ay, bx, by, cx, cy, px, py, ux, uy, ll):
+                elif s2 < first and _foot_within(s2, piece, line):
                     first = s2
     out[0] = best
     out[1] = best_s
@@ -397,14 +425,17 @@ def _piece_scan(ax, ay, bx, by, cx, cy, h, px, py, qx, qy, r, want_first, buf, o
 
 
 @inner_kernel(error_model="numpy")
-def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, out):
-    """The robot's path (speed already clamped, saturation time tau s, see
-    :func:`~nao_arena.geometry._kernel.robot_path.candidate_setup`) against the static
-    segment [p, q] (m, robot-relative) over t in [0, horizon] (s): out = (minimum squared
-    distance (m^2), its time (s), the first time the distance is <= r (s; inf: never, or
-    not computed unless want_first))."""
+def wall_scan(motion, horizon, px, py, qx, qy, r, want_first, buf, out):
+    """The robot's path (its :class:`~.bundles.Motion`: speed already clamped, saturation
+    time tau s, see :func:`~nao_arena.geometry._kernel.robot_path.candidate_setup`; its
+    bound is not used) against the static segment [p, q] (m, robot-relative) over t in
+    [0, horizon] (s): out = (minimum squared distance (m^2), its time (s), the first time
+    the distance is <= r (m) (s; inf: never, or not computed unless want_first))."""
+    vx, vy, ax, ay, tau, _ = motion
     h1 = min(tau, horizon)
-    _piece_scan(0.5 * ax, 0.5 * ay, vx, vy, 0.0, 0.0, h1, px, py, qx, qy, r, want_first, buf, out)
+    _piece_scan(
+        PathPiece(0.5 * ax, 0.5 * ay, vx, vy, 0.0, 0.0), h1, px, py, qx, qy, r, want_first, buf, out
+    )
     if tau < horizon:
         best = out[0]
         best_t = out[1]
@@ -415,12 +446,7 @@ def wall_scan(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, r, want_first, buf, 
             cx = vx * tau + 0.5 * ax * tau * tau
             cy = vy * tau + 0.5 * ay * tau * tau
             _piece_scan(
-                0.0,
-                0.0,
-                wx,
-                wy,
-                cx,
-                cy,
+                PathPiece(0.0, 0.0, wx, wy, cx, cy),
                 horizon - tau,
                 px,
                 py,
@@ -452,25 +478,24 @@ def _out_of_reach(px, py, qx, qy, travel, reach):
 
 
 @inner_kernel(error_model="numpy")
-def segment_within(vx, vy, ax, ay, tau, travel, horizon, px, py, qx, qy, reach, buf, out):
-    """Whether the robot's path (speed clamped, saturation time tau s; it stays within
-    ``travel`` m of the origin) comes closer than ``reach`` (m) to the segment [p, q] (m,
+def segment_within(motion, travel, horizon, px, py, qx, qy, reach, buf, out):
+    """Whether the robot's path (its :class:`~.bundles.Motion`; it stays within ``travel``
+    m of the origin) comes closer than ``reach`` (m) to the segment [p, q] (m,
     robot-relative) within ``horizon`` (s)."""
     if _out_of_reach(px, py, qx, qy, travel, reach):
         return False
-    return (
-        _path_segment_dist2(vx, vy, ax, ay, tau, horizon, px, py, qx, qy, buf, out) < reach * reach
-    )
+    return _path_segment_dist2(motion, horizon, px, py, qx, qy, buf, out) < reach * reach
 
 
 @inner_kernel(error_model="numpy")
-def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, first, buf, out):
-    """The index of a wall (walls (W, 2, 2) m, robot-relative; radii wall_r (W,) m) that the
-    robot's path (speed clamped, saturation time tau s, speed bound ``bound`` m/s) comes
-    closer to than wall_r + margin (m) within ``horizon`` (s), or -1 when none does.
-    Wall ``first`` (if a valid index) is tested first."""
-    W = walls.shape[0]
-    travel = bound * horizon
+def wall_violation(motion, horizon, walls, margin, first, buf, out):
+    """The index of a wall (the :class:`~.bundles.Walls`: ends (W, 2, 2) m, robot-relative;
+    radii (W,) m) that the robot's path (its :class:`~.bundles.Motion`) comes closer to
+    than radius + margin (m) within ``horizon`` (s), or -1 when none does. Wall ``first``
+    (if a valid index) is tested first."""
+    ends, wall_r = walls
+    W = ends.shape[0]
+    travel = motion.bound * horizon
     for i in range(W):
         if i == 0 and 0 <= first < W:
             w = first
@@ -479,17 +504,13 @@ def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, f
         else:
             w = i
         if segment_within(
-            vx,
-            vy,
-            ax,
-            ay,
-            tau,
+            motion,
             travel,
             horizon,
-            walls[w, 0, 0],
-            walls[w, 0, 1],
-            walls[w, 1, 0],
-            walls[w, 1, 1],
+            ends[w, 0, 0],
+            ends[w, 0, 1],
+            ends[w, 1, 0],
+            ends[w, 1, 1],
             wall_r[w] + margin,
             buf,
             out,
@@ -499,24 +520,22 @@ def wall_violation(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, margin, f
 
 
 @inner_kernel(error_model="numpy")
-def wall_first_contact(vx, vy, ax, ay, tau, bound, horizon, walls, wall_r, t_stop, buf, out):
-    """The earliest first contact (s) of the robot's path (as :func:`wall_violation`) with
-    any wall (distance <= wall_r), if before t_stop (s); else inf."""
-    travel = bound * horizon
+def wall_first_contact(motion, horizon, walls, t_stop, buf, out):
+    """The earliest first contact (s) of the robot's path (its :class:`~.bundles.Motion`, as
+    :func:`wall_violation`) with any wall (:class:`~.bundles.Walls`; distance <= its
+    radius), if before t_stop (s); else inf."""
+    ends, wall_r = walls
+    travel = motion.bound * horizon
     best = math.inf
-    for w in range(walls.shape[0]):
-        px = walls[w, 0, 0]
-        py = walls[w, 0, 1]
-        qx = walls[w, 1, 0]
-        qy = walls[w, 1, 1]
+    for w in range(ends.shape[0]):
+        px = ends[w, 0, 0]
+        py = ends[w, 0, 1]
+        qx = ends[w, 1, 0]
+        qy = ends[w, 1, 1]
         if _out_of_reach(px, py, qx, qy, travel, wall_r[w]):
             continue
         wall_scan(
-            vx,
-            vy,
-            ax,
-            ay,
-            tau,
+            motion,
             min(horizon, t_stop, best),
             px,
             py,
