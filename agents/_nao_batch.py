@@ -278,7 +278,7 @@ def settle_members(
 ):  # pragma: no cover
     """The decisions of the members m (rows of the agents' table ``table``,
     :class:`~nao_arena.agents._nao_bundles.AgentTable`; they share the predictions
-    ``paths``, :class:`~nao_arena.agents._nao_bundles.Predictions`, and see the obstacles
+    ``paths``, :class:`~nao_arena.agents._nao_bundles.GroupPaths`, and see the obstacles
     of the member CSR lists ``lists``,
     :class:`~nao_arena.agents._nao_bundles.ObstacleLists`, with every body's radius
     nb_radius (B,) m, as :func:`~nao_arena.agents._nao_decide.decide_batch` reads them).

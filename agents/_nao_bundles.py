@@ -24,7 +24,7 @@ __all__ = [
     "DecidingRobots",
     "ObstacleLists",
     "OwnInputs",
-    "Predictions",
+    "GroupPaths",
     "RobotRows",
     "SelectionSettings",
 ]
@@ -76,7 +76,7 @@ class RobotRows(NamedTuple):
     traffic_near: NDArray[np.bool_]
 
 
-class Predictions(NamedTuple):
+class GroupPaths(NamedTuple):
     """The time grid and what a group's predictor made of it, shared by the group's
     members: times (T,) s (from 0, increasing), pred (B, T, 2) m: each body's predicted
     centre at each time; excursion (B,) m and finite (B,) bool: per body the largest

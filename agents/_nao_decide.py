@@ -47,8 +47,8 @@ from nao_arena.motion import braking, onto_disc, project_onto_disc
 from ._nao_bundles import (
     DecidingRobots,
     Decisions,
+    GroupPaths,
     ObstacleLists,
-    Predictions,
     SelectionSettings,
 )
 from ._nao_columns import (
@@ -98,7 +98,7 @@ def decide_batch(paths, lists, nb_radius, rows, robots, repair, current, desired
     and the walls wall_index[wall_start[k]:wall_start[k + 1]] of wall_seg ((M, 2, 2) m,
     world frame; radii wall_half (m) + grow[k], cut as
     :func:`~nao_arena.geometry._kernel.segment.nearby_walls` cuts them) (``paths``:
-    :class:`~nao_arena.agents._nao_bundles.Predictions`, with the excursions of
+    :class:`~nao_arena.agents._nao_bundles.GroupPaths`, with the excursions of
     ``pred``; ``lists``: :class:`~nao_arena.agents._nao_bundles.ObstacleLists`;
     nb_radius (B,) m: every body's radius); ``robots``
     (:class:`~nao_arena.agents._nao_bundles.DecidingRobots`): position pos[k] (m),
@@ -247,7 +247,7 @@ def ring_radii_rows(
 
 
 def decide(
-    paths: Predictions,
+    paths: GroupPaths,
     lists: ObstacleLists,
     nb_radius: NDArray[np.float64],
     rows: NDArray[np.int64],
@@ -272,7 +272,7 @@ def decide(
         np.zeros(n, dtype=np.int64),
     )
     decide_batch(
-        Predictions(f(paths.times, dtype=np.float64), paths.pred, paths.excursion, paths.finite),
+        GroupPaths(f(paths.times, dtype=np.float64), paths.pred, paths.excursion, paths.finite),
         lists,
         f(nb_radius),
         rows,

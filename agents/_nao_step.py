@@ -35,9 +35,9 @@ from ._nao_batch import desired_rows, own_rows
 from ._nao_bundles import (
     DecidingRobots,
     Decisions,
+    GroupPaths,
     ObstacleLists,
     OwnInputs,
-    Predictions,
     RobotRows,
 )
 from ._nao_columns import (
@@ -75,11 +75,11 @@ class GroupView(NamedTuple):
     lists: ObstacleLists | None
 
     @property
-    def paths(self) -> Predictions:
+    def paths(self) -> GroupPaths:
         """The group's time grid (contiguous) and predictions with their excursions, as
-        the compiled calls take them (:class:`~nao_arena.agents._nao_bundles.Predictions`)."""
+        the compiled calls take them (:class:`~nao_arena.agents._nao_bundles.GroupPaths`)."""
         times = np.ascontiguousarray(self.agent.times, dtype=np.float64)
-        return Predictions(times, self.pred, self.excursions[0], self.excursions[1])
+        return GroupPaths(times, self.pred, self.excursions[0], self.excursions[1])
 
 
 def traffic_mask(kinds: NDArray[np.str_], memo: StepMemo) -> NDArray[np.bool_] | None:

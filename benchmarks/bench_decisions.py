@@ -36,7 +36,7 @@ from bench_crowds import warm_up
 from numpy.typing import NDArray
 
 import nao_arena.agents.nao as nao_module
-from nao_arena.agents._nao_bundles import DecidingRobots, Decisions, ObstacleLists, Predictions
+from nao_arena.agents._nao_bundles import DecidingRobots, Decisions, GroupPaths, ObstacleLists
 from nao_arena.agents._nao_columns import MARGIN, young_adjustments
 from nao_arena.agents._nao_decide import decide_batch
 from nao_arena.arena import Arena, ArenaOptions
@@ -74,7 +74,7 @@ def _decide_call(
     grow = r + table.opt[m, MARGIN]
     k = len(m)
     return (
-        Predictions(*(x.copy() for x in paths)),
+        GroupPaths(*(x.copy() for x in paths)),
         ObstacleLists(*(x.copy() for x in lists)),
         nb_radius.copy(),
         todo,

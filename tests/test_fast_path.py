@@ -28,7 +28,7 @@ from reference.kernels_reference import (
 from reference.predictors_reference import turn_rate_numpy
 from reference.selection_reference import CandidateTester, bundles, nearest_by_disks, search
 
-from nao_arena.agents._nao_bundles import DecidingRobots, ObstacleLists, Predictions
+from nao_arena.agents._nao_bundles import DecidingRobots, GroupPaths, ObstacleLists
 from nao_arena.agents._nao_columns import StepMemo
 from nao_arena.agents._nao_decide import (
     ADJUSTED,
@@ -1175,7 +1175,7 @@ def test_decide_leaves_non_finite_robots_to_the_caller():
     if bad_body is not None:
         pred[bad_body, 3, 0] = np.inf
     kind, _, _ = decide(
-        Predictions(times, pred, *path_excursions(pred)),
+        GroupPaths(times, pred, *path_excursions(pred)),
         ObstacleLists(start, index, wall_c, wall_r, wall_start, wall_index),
         nb_all.radii,
         np.arange(n),

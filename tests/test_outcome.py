@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nao_arena.agents._nao_bundles import DecidingRobots, ObstacleLists, Predictions
+from nao_arena.agents._nao_bundles import DecidingRobots, GroupPaths, ObstacleLists
 from nao_arena.agents._nao_decide import decide
 from nao_arena.geometry import AccelLimits, Outcome, PiecewisePath, select_acceleration
 from nao_arena.geometry._kernel.bundles import Paths, SearchSettings, Walls
@@ -74,7 +74,7 @@ def test_batched_decision_uses_the_selections_codes() -> None:
         np.zeros((1, 2)), np.array([[1.0, 0.0]]), np.array([0.3]), np.array([2.0]), np.array([1.5])
     )
     kind, accel, _ = decide(
-        Predictions(times, pred, *path_excursions(pred)),
+        GroupPaths(times, pred, *path_excursions(pred)),
         lists,
         np.array([0.3]),
         np.array([0]),
