@@ -1,7 +1,8 @@
 """What the compiled baselines (``orca``, ``cbf``) share around their kernels: arrays as
 the kernels take them (contiguous, typed) and bundled by what they describe
-(:class:`BodyArrays`, :class:`NeighbourLists`, :class:`RobotTargets`,
-:class:`WallSegments`), the robots' mask
+(:class:`BodyArrays`, :class:`RobotTargets`; the neighbour lists and walls in the
+geometry's bundles :class:`~nao_arena.geometry.kernels.IndexLists` and
+:class:`~nao_arena.geometry.kernels.WorldWalls`), the robots' mask
 memoised for the arena's kinds array, the agents' option tables memoised per group of
 agents, and the dispatch of a batch between the kernel and subclasses with an ``act`` of
 their own."""
@@ -14,14 +15,13 @@ from typing import Any, Generic, NamedTuple, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.geometry.kernels import IndexLists, WorldWalls
 from nao_arena.sensing import SensingBatch
 
 __all__ = [
     "BodyArrays",
-    "NeighbourLists",
     "OptionTables",
     "RobotTargets",
-    "WallSegments",
     "act_rows",
     "body_arrays",
     "f64",
@@ -58,21 +58,6 @@ class BodyArrays(NamedTuple):
     v_max: NDArray[np.float64]
 
 
-class WallSegments(NamedTuple):
-    """Walls as the kernels take them: segments (W, 2, 2) m, half-thicknesses (W,) m."""
-
-    segments: NDArray[np.float64]
-    half_thickness: NDArray[np.float64]
-
-
-class NeighbourLists(NamedTuple):
-    """The robots' neighbours, CSR: robot k's are the body indices
-    ``bodies[start[k]:start[k + 1]]``."""
-
-    start: NDArray[np.int64]
-    bodies: NDArray[np.int64]
-
-
 class RobotTargets(NamedTuple):
     """The robots (R, robot order): their bodies (R,) (body indices) and the points they
     head for, targets (R, 2) m where has_target (R,)."""
@@ -94,14 +79,15 @@ def body_arrays(batch: SensingBatch, reactive: NDArray[np.bool_] | None = None) 
     )
 
 
-def wall_segments(batch: SensingBatch) -> WallSegments:
-    """The walls of ``batch`` as :class:`WallSegments`."""
-    return WallSegments(f64(batch.walls).reshape(-1, 2, 2), f64(batch.wall_radius))
+def wall_segments(batch: SensingBatch) -> WorldWalls:
+    """The walls of ``batch`` as :class:`~nao_arena.geometry.kernels.WorldWalls`."""
+    return WorldWalls(f64(batch.walls).reshape(-1, 2, 2), f64(batch.wall_radius))
 
 
-def neighbour_lists(batch: SensingBatch) -> NeighbourLists:
-    """The neighbour lists of ``batch`` as :class:`NeighbourLists`."""
-    return NeighbourLists(i64(batch.nb_start), i64(batch.nb_index))
+def neighbour_lists(batch: SensingBatch) -> IndexLists:
+    """The neighbour lists of ``batch`` (robot k's neighbours are the bodies
+    ``indices[start[k]:start[k + 1]]``) as :class:`~nao_arena.geometry.kernels.IndexLists`."""
+    return IndexLists(i64(batch.nb_start), i64(batch.nb_index))
 
 
 _LAST_KINDS: list[Any] = [None, None]

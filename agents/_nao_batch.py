@@ -183,7 +183,7 @@ def prepare_rows(inputs, wall_segments, dt, table):  # pragma: no cover
     turn[i]: the detour turns once more, its angle for the caller to draw) and the goal
     seeking toward the goals (:func:`desired_rows`), valid where ``direct``: every goal
     is finite and, for the robots that ``navigate``, in sight past the walls
-    (``wall_segments``, :class:`~nao_arena.agents._kernel_inputs.WallSegments`: (W, 2, 2)
+    (``wall_segments``, :class:`~nao_arena.geometry.kernels.WorldWalls`: (W, 2, 2)
     m of half-thickness (W,) m) (:func:`~nao_arena.navigation.segment_clear` at the
     robot's radius; their AROUND is then cleared, as
     :func:`~nao_arena.navigation.route_targets` clears it); else the caller finds the
@@ -376,7 +376,7 @@ def yield_rows(
     rows of the agents' table ``table`` (:class:`~nao_arena.agents._nao_bundles.AgentTable`)
     that re-plan with stopping plans (STOPPING and REPLAN) and decided this step (not
     ``failed``): a robot whose plan would meet another's, or a wall (``wall_segments``,
-    :class:`~nao_arena.agents._kernel_inputs.WallSegments`: (W, 2, 2) m of
+    :class:`~nao_arena.geometry.kernels.WorldWalls`: (W, 2, 2) m of
     half-thickness (W,) m), at the sum of the radii plus margin (m), brakes instead; it
     commits that braking acceleration as a selection of status YIELDED, into the table
     and ``out`` (n, 2) m/s^2. ``own`` (:class:`~nao_arena.agents._nao_bundles.RobotRows`,

@@ -235,8 +235,8 @@ def _robot_rows(
     whose surface is within ``reach`` m, in order; ``drop``: leave out rows that cannot
     bind (c >= a_max). ``sensed``: :class:`~nao_arena.agents._kernel_inputs.BodyArrays`;
     accelerations (N, 2) m/s^2; ``neighbours``:
-    :class:`~nao_arena.agents._kernel_inputs.NeighbourLists`; ``walls``:
-    :class:`~nao_arena.agents._kernel_inputs.WallSegments`; ``settings``:
+    :class:`~nao_arena.geometry.kernels.IndexLists`; ``walls``:
+    :class:`~nao_arena.geometry.kernels.WorldWalls`; ``settings``:
     :class:`_RowSettings`. Returns (number of rows, whether any is a contact row)."""
     reactive, positions, velocities, radii, a_max, _ = sensed
     nb_start, nb_index = neighbours
@@ -478,8 +478,8 @@ def cbf_accelerations(
     Bodies (N): ``sensed`` (:class:`~nao_arena.agents._kernel_inputs.BodyArrays`), their
     accelerations (N, 2) m/s^2. Robots (R): ``robots``
     (:class:`~nao_arena.agents._kernel_inputs.RobotTargets`), their ``neighbours``
-    (:class:`~nao_arena.agents._kernel_inputs.NeighbourLists`). ``walls``:
-    :class:`~nao_arena.agents._kernel_inputs.WallSegments`. Per row: options (rows, 7):
+    (:class:`~nao_arena.geometry.kernels.IndexLists`). ``walls``:
+    :class:`~nao_arena.geometry.kernels.WorldWalls`. Per row: options (rows, 7):
     gamma (s/m^2), margin (m), v_pref (m/s; used where has_v_pref), time_constant (s),
     sensing_range (m; walls), braking (fraction of a_max), detour (rad); reciprocal
     (rows,).
@@ -528,7 +528,7 @@ def cbf_accelerations(
     goal_seeking_kernel(tg, pos, vel, am, cap, straight, tau, _BRAKING, APPROACH_GAIN, has, nominal)
     detour = Headings(offset, cos_off, sin_off)
     goal_seeking_kernel(tg, pos, vel, am, cap, detour, tau, _BRAKING, APPROACH_GAIN, has, turned)
-    most += walls.segments.shape[0]
+    most += walls.ends.shape[0]
     rows_a = np.empty((most, 2))
     rows_c = np.empty(most)
     lifted = np.empty(most)

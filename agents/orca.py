@@ -37,6 +37,7 @@ from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from nao_arena.agent import PanelAgent
+from nao_arena.geometry.kernels import IndexLists
 from nao_arena.imperfection import subset
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import limit_norm
@@ -45,7 +46,6 @@ from nao_arena.sensing import Neighbours, Observation, SensingBatch
 
 from ._kernel_inputs import (
     BodyArrays,
-    NeighbourLists,
     OptionTables,
     RobotTargets,
     act_rows,
@@ -300,7 +300,7 @@ def orca_accelerations(
     Bodies (N): ``sensed`` (:class:`~nao_arena.agents._kernel_inputs.BodyArrays`; the
     reactive ones take half of the avoidance). Robots (R): ``robots``
     (:class:`~nao_arena.agents._kernel_inputs.RobotTargets`: the goals), their
-    ``neighbours`` (:class:`~nao_arena.agents._kernel_inputs.NeighbourLists`). Per row:
+    ``neighbours`` (:class:`~nao_arena.geometry.kernels.IndexLists`). Per row:
     the wall discs of its set (:class:`WallDiscs`), options (rows, 5): horizon (s), margin (m),
     v_pref (m/s; used where has_v_pref), time_constant (s), sensing_range (m) (wall
     discs within it count), limit: how many of the nearest obstacles count (< 0: all).
@@ -557,7 +557,7 @@ class ORCAAgent:
             _f64(np.full(m + 1, obs.v_max)),
         )
         robot = RobotTargets(np.zeros(1, dtype=np.int64), goals, np.array([target is not None]))
-        neighbours = NeighbourLists(
+        neighbours = IndexLists(
             np.array([0, m], dtype=np.int64), np.arange(1, m + 1, dtype=np.int64)
         )
         acc = orca_accelerations(

@@ -19,7 +19,7 @@ from nao_arena.predictors import get_predictor
 from nao_arena.sensing import Neighbours
 from nao_arena.world import World, WorldState
 
-__all__ = ["RobotRows", "nao_block", "observation_bounds", "observation_rows"]
+__all__ = ["ObservedRows", "nao_block", "observation_bounds", "observation_rows"]
 
 _BOUND_SLACK = 1e-6
 """Relative widening of the observation bounds that rounding could otherwise cross."""
@@ -150,7 +150,7 @@ def nao_block(
     return np.clip(out, -opts.nao_clip, opts.nao_clip)
 
 
-class RobotRows(NamedTuple):
+class ObservedRows(NamedTuple):
     """What :func:`observation_rows` reads besides the bodies' sensed state (world
     frame; m rows, N bodies): per row, bodies (m,) int64 the row's body index, goals
     (m, 2) m its goal and prev_cmd (m, 2) m/s^2 its last command; per body, is_traffic
@@ -171,7 +171,7 @@ def observation_rows(
     v: NDArray[np.float64],
     acc: NDArray[np.float64],
     rad: NDArray[np.float64],
-    rows: RobotRows,
+    rows: ObservedRows,
     time_left: float,
     nb_start: NDArray[np.int64],
     nb_index: NDArray[np.int64],
@@ -180,7 +180,7 @@ def observation_rows(
     present: NDArray[np.bool_],
 ) -> None:
     """Fill the own and neighbour blocks of ``out`` (m, D, zeroed) for the rows' robots
-    (:class:`RobotRows`; the bodies' positions p (N, 2) m, velocities v (N, 2) m/s,
+    (:class:`ObservedRows`; the bodies' positions p (N, 2) m, velocities v (N, 2) m/s,
     accelerations acc (N, 2) m/s^2 and radii rad (N,) m; time_left s) with the first K =
     idx.shape[1] neighbours of each in the lists ``nb_index[nb_start[i]:nb_start[i + 1]]``
     (:func:`~nao_arena.sensing.neighbour_lists`: nearest first; the robot itself, listed

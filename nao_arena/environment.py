@@ -149,7 +149,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from nao_arena.arena import Arena, StepResult
 from nao_arena.env_actions import actions_array
-from nao_arena.env_observations import RobotRows, nao_block, observation_bounds, observation_rows
+from nao_arena.env_observations import ObservedRows, nao_block, observation_bounds, observation_rows
 from nao_arena.env_options import (
     NEIGHBOUR_FEATURES,
     OWN_FEATURES,
@@ -409,7 +409,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         self._a_max = self.arena.world.a_max[self._bodies]
         self._prev_cmd = np.zeros((len(self._controlled), 2))
         # observation_rows' bundle for every row and the truth, built once per episode
-        self._robot_rows = RobotRows(
+        self._observed_rows = ObservedRows(
             self._bodies,
             self._goals,
             self._prev_cmd,
@@ -713,9 +713,9 @@ class NaoArenaParallelEnv(ParallelEnv):
         sensed = state
         if self.arena.senses_the_truth:
             p, v, acc, rad = state.positions, state.velocities, state.accelerations, state.radii
-            robot_rows = self._robot_rows
+            observed_rows = self._observed_rows
             if not everyone:
-                robot_rows = robot_rows._replace(
+                observed_rows = observed_rows._replace(
                     bodies=bodies, goals=self._goals[rows], prev_cmd=self._prev_cmd[rows]
                 )
             # the sensing's neighbour search, with the env's distances (math.hypot)
@@ -727,7 +727,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             bodies = np.asarray(batch.bodies, dtype=np.int64)[robots]
             p, v, acc, rad = batch.positions, batch.velocities, batch.accelerations, batch.radii
             of_row = batch.body_of(np.arange(len(rad)))
-            robot_rows = RobotRows(
+            observed_rows = ObservedRows(
                 bodies,
                 self._goals if everyone else self._goals[rows],
                 self._prev_cmd if everyone else self._prev_cmd[rows],
@@ -755,7 +755,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             v,
             acc,
             rad,
-            robot_rows,
+            observed_rows,
             max(self._time_limit - state.time, 0.0),
             nb_start,
             nb_index,

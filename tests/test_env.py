@@ -381,7 +381,7 @@ def test_neighbour_kernel_matches_sorting(seed):
     """The env's neighbour rows come from the sensing's search (neighbour_lists with
     math.hypot distances): the K nearest within range, ties by index, never the robot
     itself (also with an infinite range, where the search lists it last)."""
-    from nao_arena.env_observations import RobotRows, observation_rows
+    from nao_arena.env_observations import ObservedRows, observation_rows
     from nao_arena.environment import OWN_FEATURES
 
     rng = np.random.default_rng(seed)
@@ -408,7 +408,7 @@ def test_neighbour_kernel_matches_sorting(seed):
         v,
         acc,
         rad,
-        RobotRows(bodies, goals, cmd, kinds, a_max, v_max),
+        ObservedRows(bodies, goals, cmd, kinds, a_max, v_max),
         7.5,
         start,
         index,

@@ -25,9 +25,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference import orca_reference as ref  # tests/reference (tests/ is on sys.path)
 
-from nao_arena.agents._kernel_inputs import BodyArrays, NeighbourLists, RobotTargets
+from nao_arena.agents._kernel_inputs import BodyArrays, RobotTargets
 from nao_arena.agents.orca import ORCAAgent, WallDiscs, _dot, orca_accelerations
 from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.geometry.kernels import IndexLists
 from nao_arena.maps import load_map
 from nao_arena.sensing import Neighbours, Observation, SensingBatch
 
@@ -488,7 +489,7 @@ def test_the_kernel_handles_no_rows_and_no_obstacles():
             np.ones(1),
         ),
         RobotTargets(np.zeros(1, dtype=np.int64), np.zeros((1, 2)), np.ones(1, dtype=np.bool_)),
-        NeighbourLists(np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)),
+        IndexLists(np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)),
         np.zeros(0, dtype=np.int64),
         WallDiscs(
             np.zeros((0, 2)), np.zeros(0), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
