@@ -219,7 +219,9 @@ class NAOAgent:
     predictor_name = GridAttribute()
     predict = GridAttribute()
 
-    def __init__(
+    # the agent's options, keyword-only: each is named at every call (maps pass them by
+    # name), so none can be given in another's place
+    def __init__(  # noqa: PLR0913
         self,
         *,
         horizon: float = 3.0,
@@ -708,7 +710,7 @@ class AOAgent(NAOAgent):
     """The same selection with constant-acceleration predictions (the AO); it takes
     every option of :class:`NAOAgent` except the predictor."""
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 - keyword-only options, as NAOAgent's
         self,
         *,
         horizon: float = 3.0,
