@@ -8,12 +8,14 @@ import os
 import subprocess
 import sys
 import textwrap
+from typing import NamedTuple
 
 import numpy as np
 import pytest
 from numba import njit
+from numba.core.errors import TypingError
 
-from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.borrow import borrowed, borrowed_fields
 
 
 @njit(cache=False)
@@ -31,6 +33,49 @@ def test_borrowed_view_is_the_same_array() -> None:
         assert got == (arr.shape[0], arr.shape[1], arr.strides[0], arr.strides[1], arr[1, 0])
         assert arr[0, 1] == -7.0
         assert sys.getrefcount(arr) == before
+
+
+class _Bundle(NamedTuple):
+    grid: np.ndarray
+    scale: float
+    index: np.ndarray
+    flag: bool
+
+
+class _Nested(NamedTuple):
+    inner: tuple[np.ndarray, np.ndarray]
+    scale: float
+
+
+@njit(cache=False)
+def _write_through_fields(bundle, value):
+    view = borrowed_fields(bundle)
+    view.grid[0, 1] = value
+    view.index[-1] = 7
+    return view.grid[1, 0] * view.scale, view.grid.strides[0], view.index.shape[0], view.flag
+
+
+def test_borrowed_fields_are_the_same_arrays_and_numbers() -> None:
+    grid = np.arange(24.0).reshape(4, 6)[::2, 1:5]
+    index = np.zeros(5, dtype=np.int64)
+    bundle = _Bundle(grid, 0.5, index, True)
+    counts = sys.getrefcount(grid), sys.getrefcount(index)
+    got = _write_through_fields(bundle, -7.0)
+    assert got == (grid[1, 0] * 0.5, grid.strides[0], 5, True)
+    assert grid[0, 1] == -7.0 and index[-1] == 7
+    assert (sys.getrefcount(grid), sys.getrefcount(index)) == counts
+
+
+def test_borrowed_fields_refuses_a_field_it_cannot_borrow() -> None:
+    """A nested tuple of arrays would come back without its reference: refused at
+    compile time."""
+
+    @njit(cache=False)
+    def borrow_nested(bundle):
+        return borrowed_fields(bundle).scale
+
+    with pytest.raises(TypingError):
+        borrow_nested(_Nested((np.zeros(2), np.zeros(3)), 1.0))
 
 
 @pytest.mark.installed

@@ -18,6 +18,11 @@ the memory alive. Rules, which the kernels follow:
 
 Scratch arrays a function allocates for its hot loop are therefore allocated
 by a thin wrapper and passed to the loop as arguments.
+
+:func:`borrowed_fields` does the same for every array of a named bundle (see
+:mod:`nao_arena.geometry._kernel.bundles`; its other fields are numbers): the bundle
+comes back with each array field borrowed and its numbers as they were, under the
+same rules.
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["borrowed"]
+__all__ = ["borrowed", "borrowed_fields"]
 
 
 if TYPE_CHECKING:
@@ -37,6 +42,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     _ArrayT = TypeVar("_ArrayT", bound=np.ndarray)
+    _BundleT = TypeVar("_BundleT", bound=tuple)
 
     # numba's stubs type an intrinsic's call with its typing function's signature
     # (typingctx first) and as never returning; compiled code calls it like this:
@@ -45,7 +51,21 @@ if TYPE_CHECKING:
         """``arr`` (a numba array) as a view without reference counting (see the module)."""
         ...
 
+    def borrowed_fields(bundle: _BundleT, /) -> _BundleT:
+        """``bundle`` (a named tuple) with each array field borrowed (see the module)."""
+        ...
+
 else:
+
+    def _borrow(context, builder, array_type, value):
+        """The codegen of a borrowed view of ``value`` (an array of ``array_type``)."""
+        src = context.make_array(array_type)(context, builder, value=value)
+        view = context.make_array(array_type)(context, builder)
+        for field in ("nitems", "itemsize", "data", "shape", "strides"):
+            setattr(view, field, getattr(src, field))
+        view.meminfo = cgutils.get_null_value(view.meminfo.type)
+        view.parent = cgutils.get_null_value(view.parent.type)
+        return view._getvalue()
 
     @intrinsic
     def borrowed(typingctx, arr):
@@ -55,12 +75,28 @@ else:
         sig = arr(arr)
 
         def codegen(context, builder, sig, args):
-            src = context.make_array(sig.args[0])(context, builder, value=args[0])
-            view = context.make_array(sig.return_type)(context, builder)
-            for field in ("nitems", "itemsize", "data", "shape", "strides"):
-                setattr(view, field, getattr(src, field))
-            view.meminfo = cgutils.get_null_value(view.meminfo.type)
-            view.parent = cgutils.get_null_value(view.parent.type)
-            return view._getvalue()
+            return _borrow(context, builder, sig.args[0], args[0])
+
+        return sig, codegen
+
+    @intrinsic
+    def borrowed_fields(typingctx, bundle):
+        """``bundle`` (a named tuple) with each array field borrowed (see the module).
+        Its other fields must be numbers or booleans: a field that numba counts
+        references to (a nested tuple of arrays, a typed dict) would be handed back
+        without its reference."""
+        if not isinstance(bundle, types.BaseNamedTuple) or not all(
+            isinstance(t, (types.Array, types.Number, types.Boolean)) for t in bundle
+        ):
+            return None
+        sig = bundle(bundle)
+
+        def codegen(context, builder, sig, args):
+            out = args[0]
+            for i, field_type in enumerate(sig.args[0]):
+                if isinstance(field_type, types.Array):
+                    value = builder.extract_value(out, i)
+                    out = builder.insert_value(out, _borrow(context, builder, field_type, value), i)
+            return out
 
         return sig, codegen

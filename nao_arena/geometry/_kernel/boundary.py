@@ -15,10 +15,10 @@ import math
 
 import numpy as np
 
-from nao_arena.geometry._kernel.bundles import Motion, Obstacles, Scratch, Walls
+from nao_arena.geometry._kernel.bundles import Motion, Scratch
 from nao_arena.geometry._kernel.exact import candidate_setup, piece_within, scan_obstacle
 from nao_arena.geometry._kernel.segment import wall_violation
-from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.borrow import borrowed, borrowed_fields
 from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
 
@@ -92,17 +92,9 @@ def _bisect_disc(bx, by, gx, gy, tol, limits, obstacles, walls, margin, scratch,
     stops the search as soon as b is that far from its start: every point left on the
     segment is farther (the caller then discards the result). Borrows the bundles'
     arrays."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
-    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
+    scratch = borrowed_fields(scratch)
     gap = math.hypot(gx - bx, gy - by)
     ox = bx
     oy = by
@@ -150,16 +142,8 @@ def _sliver_push(x, y, ux, uy, tol, limits, obstacles, walls, margin, scratch):
     4 tol, ... below a_max / 4; the first admissible push is bisected back onto the
     boundary within tol. Returns (found, x, y, candidates tested). Borrows the bundles'
     arrays."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
     hint = borrowed(scratch.hint)
     scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), hint)
     count = 0
@@ -221,17 +205,9 @@ def slide_disc(a_d, best, tol, limits, obstacles, walls, margin):
 def _slide(a_d, best, tol, limits, obstacles, walls, margin, scratch):
     """:func:`slide_disc` with its scratch arrays given (the bundles' arrays borrowed
     here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
-    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
+    scratch = borrowed_fields(scratch)
     a_max = limits.a_max
     ax = a_d[0]
     ay = a_d[1]

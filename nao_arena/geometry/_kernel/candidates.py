@@ -21,9 +21,9 @@ from nao_arena.geometry._kernel.boundary import (
     outward_normal,
     slide_disc,
 )
-from nao_arena.geometry._kernel.bundles import Obstacles, OutsideSearch, Scratch, Walls
+from nao_arena.geometry._kernel.bundles import OutsideSearch, Scratch
 from nao_arena.geometry._kernel.outside import _WORDS, outside_advance, outside_setup
-from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.borrow import borrowed, borrowed_fields
 from nao_arena.jit import inner_kernel
 from nao_arena.motion import onto_disc
 
@@ -63,17 +63,9 @@ def _try_candidates(
 ):
     """:func:`try_candidates_disc` with its scratch arrays given (the arrays borrowed
     here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
-    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
+    scratch = borrowed_fields(scratch)
     cands, a_d, disks = borrowed(cands), borrowed(a_d), borrowed(disks)
     count = 0
     for i in range(start, cands.shape[0]):
@@ -161,17 +153,9 @@ def ring_search_disc(a_d, radii, unit, tol, limits, obstacles, walls, margin):
 def _ring_search(a_d, radii, unit, tol, limits, obstacles, walls, margin, scratch, cand):
     """:func:`ring_search_disc` with its scratch arrays given (the arrays borrowed
     here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
-    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
+    scratch = borrowed_fields(scratch)
     a_d, radii, unit = borrowed(a_d), borrowed(radii), borrowed(unit)
     cand = borrowed(cand)
     a_max = limits.a_max
@@ -244,17 +228,9 @@ def _ball_search(
 ):
     """:func:`_try_ball_disc` after :func:`outside_setup`, with its scratch arrays given
     (the arrays borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
-    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
+    scratch = borrowed_fields(scratch)
     a_d, disks = borrowed(a_d), borrowed(disks)
     out, lower, order, scale, cand, starts, ends, cover = search
     out, lower, order, cand = borrowed(out), borrowed(lower), borrowed(order), borrowed(cand)

@@ -19,11 +19,11 @@ import math
 
 import numpy as np
 
-from nao_arena.geometry._kernel.bundles import Motion, Walls
+from nao_arena.geometry._kernel.bundles import Motion
 from nao_arena.geometry._kernel.quartic import end_dist2, piece_minimum
 from nao_arena.geometry._kernel.robot_path import candidate_setup, robot_state
 from nao_arena.geometry._kernel.segment import wall_first_contact, wall_scan, wall_violation
-from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.borrow import borrowed_fields
 from nao_arena.jit import inner_kernel, kernel
 
 
@@ -254,7 +254,7 @@ def admissible_kernel(cand_v, cand_a, v_max, obstacles, walls, margin, out_ok):
     borrowed here.
     """
     seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    walls = borrowed_fields(walls)
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)
@@ -345,7 +345,7 @@ def latest_contact_kernel(cand_v, cand_a, v_max, obstacles, walls, out_first):
     arrays are borrowed here.
     """
     seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    walls = borrowed_fields(walls)
     K = cand_a.shape[0]
     N = seg_c.shape[0]
     buf = np.empty(3)

@@ -34,7 +34,7 @@ from nao_arena.geometry._kernel.disks import (
 )
 from nao_arena.geometry._kernel.relevance import relevant_subset
 from nao_arena.geometry._kernel.segment import relevant_walls
-from nao_arena.geometry.borrow import borrowed
+from nao_arena.geometry.borrow import borrowed, borrowed_fields
 from nao_arena.geometry.outcome import Outcome
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.motion import onto_disc
@@ -71,16 +71,8 @@ def repair_relevant(prev, want, a_max, steps, unit, v, v_max, obstacles, walls):
     """:func:`repair_disc` for obstacles that are all relevant (as :func:`relevant_subset`
     keeps them, margin 0): the :class:`~.bundles.Obstacles`, with their
     :func:`piece_sweep`, and the :class:`~.bundles.Walls` (their arrays borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
     K = steps.shape[0] * unit.shape[0]
     cand = np.empty((K, 2))
     dist = np.empty(K)
@@ -109,17 +101,9 @@ def repair_relevant(prev, want, a_max, steps, unit, v, v_max, obstacles, walls):
 def _first_admissible(cand, order, limits, obstacles, walls, margin, scratch):
     """The first admissible row of ``cand`` (K, 2) m/s^2 in ``order``: (found, x, y,
     candidates tested); scratch arrays given (the arrays borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
-    scratch = Scratch(borrowed(scratch.buf), borrowed(scratch.res), borrowed(scratch.hint))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
+    scratch = borrowed_fields(scratch)
     cand, order = borrowed(cand), borrowed(order)
     count = 0
     for o in range(order.shape[0]):
@@ -165,16 +149,8 @@ def select_relevant(a_d, v, a_max, v_max, obstacles, walls, margin, settings):
     keeps them for this margin): the :class:`~.bundles.Obstacles`, with their
     :func:`piece_sweep`, and the :class:`~.bundles.Walls` (their arrays, and the
     settings', borrowed here)."""
-    seg_t, seg_c, seg_w, seg_b, radius, sweep = obstacles
-    obstacles = Obstacles(
-        borrowed(seg_t),
-        borrowed(seg_c),
-        borrowed(seg_w),
-        borrowed(seg_b),
-        borrowed(radius),
-        borrowed(sweep),
-    )
-    walls = Walls(borrowed(walls.ends), borrowed(walls.radius))
+    obstacles = borrowed_fields(obstacles)
+    walls = borrowed_fields(walls)
     tol, ring_radii, unit_rings, max_disks, n_sub, per_second, thin = settings
     ring_radii, unit_rings = borrowed(ring_radii), borrowed(unit_rings)
     seg_t, c, w, b, r, _ = obstacles
