@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba.core.errors import TypingError
 from reference.kernels_reference import (
     bisect_ref,
     disk_samples_ref,
@@ -676,6 +677,47 @@ def test_pruned_admissibility_matches_the_exact_clearance(seed):
             assert bool(ok[0]) is expect, (i, margin, least)
         checked += 1
     assert checked >= 5
+
+
+def test_bundles_given_in_each_others_place_do_not_compile():
+    """The point of the named bundles: the walls given where the neighbour lists go (and
+    the other way round) is a typing error, where the flat argument list it replaced
+    (two int64 arrays beside two float64 ones) left some swaps to run."""
+    (
+        times,
+        pred,
+        nb_all,
+        start,
+        index,
+        wall_c,
+        wall_r,
+        wall_start,
+        wall_index,
+        acc,
+        v_max,
+        margin,
+    ) = _batch_scene(0)
+    n = len(nb_all)
+    pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
+    paths = Predictions(times, pred, rad, *path_excursions(pred))
+    robots = Robots(pos, vel, v_max, rad, margin)
+    neighbours, walls = IndexLists(start, index), WorldWalls(wall_c, wall_r)
+    out = np.full(n, 7, dtype=np.int64)
+    sampled_admissible_batch(
+        paths, neighbours, walls, IndexLists(wall_start, wall_index), np.arange(n), robots, acc, out
+    )
+    assert set(out.tolist()) <= {0, 1}
+    with pytest.raises(TypingError):
+        sampled_admissible_batch(
+            paths,
+            walls,
+            neighbours,
+            IndexLists(wall_start, wall_index),
+            np.arange(n),
+            robots,
+            acc,
+            out,
+        )
 
 
 def test_batched_admissibility_flags_non_finite_paths():
