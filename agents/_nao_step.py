@@ -31,6 +31,7 @@ from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.sensing import SensingBatch, is_frozen
 
+from ._kernel_inputs import wall_segments
 from ._nao_batch import desired_rows, own_rows
 from ._nao_bundles import (
     DecidingRobots,
@@ -160,8 +161,7 @@ def obstacle_lists(
         np.ascontiguousarray(rows[m], dtype=np.int64),
     )
     wall_start = np.zeros(len(m) + 1, dtype=np.int64)
-    walls = np.ascontiguousarray(batch.walls, dtype=np.float64).reshape(-1, 2, 2)
-    half = np.ascontiguousarray(batch.wall_radius, dtype=np.float64)
+    walls, half = wall_segments(batch)
     if not len(walls):
         return ObstacleLists(
             nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64)
