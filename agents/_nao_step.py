@@ -31,7 +31,6 @@ from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.sensing import SensingBatch, is_frozen
 
-from ._kernel_inputs import wall_segments
 from ._nao_batch import desired_rows, own_rows
 from ._nao_bundles import (
     DecidingRobots,
@@ -132,15 +131,19 @@ def group_view(
     rows_a: NDArray[np.int64],
     own: RobotRows,
     pred: NDArray[np.float64],
+    walls: WorldWalls,
 ) -> GroupView:
     """The :class:`GroupView` of the agents of rows m (ag0's predictor and time grid),
-    given the predictions ``pred`` of every body. Each member keeps what it saw
-    (:meth:`~nao_arena.agents.nao.NAOAgent.last_obstacles`)."""
+    given the predictions ``pred`` of every body and the batch's ``walls``
+    (:func:`~nao_arena.agents._kernel_inputs.wall_segments`). Each member keeps what it
+    saw (:meth:`~nao_arena.agents.nao.NAOAgent.last_obstacles`)."""
     excursions = path_excursions(pred)
-    cols.whole[m, SEEN] = len(cols.seen)
-    cols.whole[m, ROW] = rows_a[m]
+    # m: distinct rows in order, so every row when there are as many
+    rows_m = slice(None) if len(m) == len(cols.whole) else m
+    cols.whole[rows_m, SEEN] = len(cols.seen)
+    cols.whole[rows_m, ROW] = rows_a[rows_m]
     cols.seen.append((batch, pred, excursions))
-    lists = obstacle_lists(m, cols, batch, rows_a, own) if ag0._regular_grid() else None
+    lists = obstacle_lists(m, cols, batch, rows_a, own, walls) if ag0._regular_grid() else None
     return GroupView(m, ag0, pred, excursions, lists)
 
 
@@ -150,18 +153,19 @@ def obstacle_lists(
     batch: SensingBatch,
     rows: NDArray[np.int64],
     own: RobotRows,
+    world_walls: WorldWalls,
 ) -> ObstacleLists:
     """The obstacles each member (rows m of the agents' table) sees, as CSR lists
     (members' order): neighbours (nb_start, nb_index: body indices), then the walls in
     its range (wall_seg (W, 2, 2) m and wall_half (W,) m: every wall's ends and
-    half-thickness; wall_start, wall_index)."""
+    half-thickness, ``world_walls``; wall_start, wall_index)."""
     nb_start, nb_index = member_lists(
         np.ascontiguousarray(batch.nb_start, dtype=np.int64),
         np.ascontiguousarray(batch.nb_index, dtype=np.int64),
         np.ascontiguousarray(rows[m], dtype=np.int64),
     )
     wall_start = np.zeros(len(m) + 1, dtype=np.int64)
-    walls, half = wall_segments(batch)
+    walls, half = world_walls
     if not len(walls):
         return ObstacleLists(
             nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64)

@@ -502,7 +502,9 @@ class NAOAgent:
         cols.seen = []
         for m in cols.grid_groups(agents):
             ag0 = agents[int(m[0])]
-            view = group_view(m, ag0, cols, batch, rows_a, own, predictions(ag0, batch))
+            view = group_view(
+                m, ag0, cols, batch, rows_a, own, predictions(ag0, batch), wall_segments(batch)
+            )
             # the keep test with the desired accelerations as the ones to keep
             every = np.ones(len(m), dtype=bool)
             keep = keep_current(view, cols, batch.radii, own, want, want, every)
@@ -640,7 +642,7 @@ def _act_rows(
             for i in m.tolist():
                 errors[i] = exc
             continue
-        view = group_view(m, ag0, cols, batch, rows_a, own, pred)
+        view = group_view(m, ag0, cols, batch, rows_a, own, pred, walls)
         if view.lists is None:
             # an irregular time grid: the keep test's first part only, the rest below
             status = keep_current(view, cols, batch.radii, own, current, desired, cols.holds(m))

@@ -65,7 +65,7 @@ import os
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol, cast
+from typing import Any, NamedTuple, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -263,6 +263,18 @@ def _end_if_forked(pid: int) -> None:
         os._exit(0)
 
 
+class AgentPlan(NamedTuple):
+    """Which robots' agents act together (:meth:`Arena._dispatch`): ``classes``, each
+    robot's agent class (robot order), the plan's key; ``batched``: per class with an
+    ``act_batch``, its robots (robot order); ``single``: the robots that act one by one;
+    ``bodies``: per class of ``batched``, its robots' body indices."""
+
+    classes: list[type]
+    batched: dict[type[BatchAgent], list[int]]
+    single: list[int]
+    bodies: dict[type[BatchAgent], NDArray[np.intp]]
+
+
 class Arena:
     """One map's world, agents, traffic and statistics. Call :meth:`reset` first."""
 
@@ -293,6 +305,8 @@ class Arena:
         )
         self._bodies = read_only(np.array(self.robot_ids, dtype=np.int64))
         self._replayed_rows = np.flatnonzero(self.world.replayed)
+        # the bodies no agent of the arena drives (traffic, replayed people): no shared plan
+        self._undriven = np.setdiff1d(np.arange(self.world.n), self._bodies)
         self._radii = read_only(self.world.radii)
         self._a_max = read_only(self.world.a_max)
         self._v_max = read_only(self.world.v_max)
@@ -345,7 +359,7 @@ class Arena:
         self.state: WorldState | None = None
         self.commanded = np.zeros((self.world.n, 2))
         self._kinds: NDArray[np.str_] | None = None
-        self._plan: tuple[list[type], dict[type[BatchAgent], list[int]], list[int]] | None = None
+        self._plan: AgentPlan | None = None
         self._trajectory = hashlib.sha256()
         self.recorder: StepRecorder | None = None
 
@@ -534,8 +548,9 @@ class Arena:
         # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands:
         # handed over by the world after a step, NaN for the bodies agents do not drive
         if self._stepped_plans is not None:
-            plans = np.full((self.world.n, 2), np.nan)
-            plans[self._bodies] = self._stepped_plans[self._bodies]
+            plans = self._stepped_plans.copy()
+            if len(self._undriven):
+                plans[self._undriven] = np.nan
         else:
             plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)
         if self._kinds is None:
@@ -722,7 +737,7 @@ class Arena:
             assert batch is not None
             accs, faults_of = self._act_batch(cls, batch, list(rows))
             _end_if_forked(pid)
-            commanded[self.robot_ids[rows]] = accs
+            commanded[self._bodies_of(cls, rows)] = accs
             found.update(faults_of)
         for k in sorted(found):
             fault = found[k]
@@ -829,7 +844,7 @@ class Arena:
         """Robots whose agents act together (per class with an ``act_batch``, robot
         order) and the others; worked out again only when the agents change."""
         key = [type(a) for a in self.agents]
-        if self._plan is None or self._plan[0] != key:
+        if self._plan is None or self._plan.classes != key:
             batched: dict[type[BatchAgent], list[int]] = {}
             single: list[int] = []
             for k, cls in enumerate(key):
@@ -838,8 +853,17 @@ class Arena:
                     batched.setdefault(cast("type[BatchAgent]", cls), []).append(k)
                 else:
                     single.append(k)
-            self._plan = (key, batched, single)
-        return self._plan[1], self._plan[2]
+            bodies = {cls: self.robot_ids[rows] for cls, rows in batched.items()}
+            self._plan = AgentPlan(key, batched, single, bodies)
+        return self._plan.batched, self._plan.single
+
+    def _bodies_of(self, cls: type[BatchAgent], rows: list[int]) -> NDArray[np.intp]:
+        """The bodies of the robots ``rows`` (robot order) of class ``cls``: the plan's
+        array when they are all of its robots of that class."""
+        plan = self._plan
+        if plan is not None and plan.batched.get(cls) is rows:
+            return plan.bodies[cls]
+        return self.robot_ids[rows]
 
     def _act_batch(
         self, cls: type[BatchAgent], batch: SensingBatch, rows: list[int]

@@ -161,6 +161,20 @@ def is_frozen(array: NDArray) -> bool:
     return isinstance(base, bytes)
 
 
+_LAST_KINDS: list[object] = [None, ()]
+
+
+def kinds_tuple(kinds: NDArray[np.str_]) -> tuple[str, ...]:
+    """``tuple(kinds)``, memoised for the last frozen kinds array (see :func:`read_only`;
+    the arena's, which every step's batch shares: its memory cannot change)."""
+    if _LAST_KINDS[0] is kinds:
+        return _LAST_KINDS[1]  # type: ignore[return-value]
+    as_tuple = tuple(kinds)
+    if is_frozen(kinds):
+        _LAST_KINDS[0], _LAST_KINDS[1] = kinds, as_tuple
+    return as_tuple
+
+
 class ReadOnlyRoutes(tuple):
     """Routes (M, 2) m (or None) of the robots, each read-only (made by :meth:`of`)."""
 
@@ -347,7 +361,7 @@ class SensingBatch:
         if everyone is None:
             everyone = Neighbours(
                 ids=self.body_of(np.arange(len(self.positions), dtype=np.int64)),
-                kinds=tuple(self.kinds),
+                kinds=kinds_tuple(self.kinds),
                 positions=self.positions,
                 velocities=self.velocities,
                 accelerations=self.accelerations,

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.agents._kernel_inputs import wall_segments
 from nao_arena.agents._nao_columns import (
     CUR_X,
     CUR_Y,
@@ -106,7 +107,7 @@ def act_rows_reference(
             for i in m.tolist():
                 errors[i] = exc
             continue
-        view = group_view(m, ag0, cols, batch, rows_a, own, pred)
+        view = group_view(m, ag0, cols, batch, rows_a, own, pred, wall_segments(batch))
         holds = cols.holds(m)
         status = keep_current(view, cols, batch.radii, own, current, desired, holds)
         decided = (
