@@ -130,18 +130,23 @@ def _scatter(
     max_tries: int,
     avoid: NDArray[np.float64] | None = None,
     avoid_dist: float = 0.0,
+    min_reach: float = 0.0,
 ) -> NDArray[np.float64]:
-    """n points uniform in [lo, hi] at least min_dist apart (and avoid_dist from avoid[k])."""
+    """n points uniform in [lo, hi] (m) at least min_dist (m) apart, and avoid_dist (m)
+    from avoid[k]; with ``min_reach`` (m), only points from which some point of the
+    region is at least that far (a start that a goal ``min_reach`` away can follow)."""
     pts = np.empty((n, 2))
     k = tries = 0
     while k < n:
         if tries >= max_tries:
-            raise ValueError(
-                f"cannot place {n} robots within {max_tries} tries; "
-                "expected a larger region, fewer robots or a smaller min_gap"
-            )
+            advice = "a larger region, fewer robots or a smaller min_gap"
+            if avoid is not None:
+                advice += " or min_travel"
+            raise ValueError(f"cannot place {n} robots within {max_tries} tries; expected {advice}")
         tries += 1
         p = lo + (hi - lo) * rng.random(2)
+        if min_reach > 0.0 and math.hypot(*np.maximum(p - lo, hi - p)) < min_reach:
+            continue  # no goal of the region is min_reach away from this start
         if k and np.min(np.sum((pts[:k] - p) ** 2, axis=1)) < min_dist**2:
             continue
         if avoid is not None and np.sum((avoid[k] - p) ** 2) < avoid_dist**2:
@@ -149,6 +154,10 @@ def _scatter(
         pts[k] = p
         k += 1
     return pts
+
+
+#: how many times the ``crowd`` builder draws new starts when their goals do not fit
+CROWD_ATTEMPTS = 10
 
 
 @register_layout("crowd", CrowdArgs)
@@ -164,9 +173,26 @@ def crowd(args: CrowdArgs, ctx: LayoutContext) -> Placement:
     if np.any(hi <= lo):
         raise ValueError(f"expected a non-empty region, got {_pt(lo)}..{_pt(hi)}")
     d = 2 * ctx.radius + args.min_gap
-    starts = _scatter(ctx.rng, args.n, lo, hi, d, args.max_tries)
-    goals = _scatter(ctx.rng, args.n, lo, hi, d, args.max_tries, starts, args.min_travel)
-    return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]
+    if math.hypot(*(hi - lo)) < args.min_travel:
+        raise ValueError(
+            f"expected min_travel at most the region's diagonal ({math.hypot(*(hi - lo)):g} m), "
+            f"got {args.min_travel:g}"
+        )
+    attempts = 0
+    while True:
+        # starts only where a goal min_travel away fits in the region (a start near the
+        # middle of a small region has none: its goal would never be found)
+        starts = _scatter(ctx.rng, args.n, lo, hi, d, args.max_tries, min_reach=args.min_travel)
+        attempts += 1
+        try:
+            goals = _scatter(ctx.rng, args.n, lo, hi, d, args.max_tries, starts, args.min_travel)
+        except ValueError:
+            # the goals the starts left room for were taken: new starts (the seeds that
+            # place at the first attempt draw what they always drew)
+            if attempts == CROWD_ATTEMPTS:
+                raise
+            continue
+        return [(_pt(s), _pt(g)) for s, g in zip(starts, goals, strict=True)]
 
 
 class StreamArgs(StrictModel):
