@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import IndexLists, WorldWalls
-from nao_arena.sensing import SensingBatch
+from nao_arena.sensing import LastArrayMemo, SensingBatch
 
 __all__ = [
     "BodyArrays",
@@ -90,15 +90,15 @@ def neighbour_lists(batch: SensingBatch) -> IndexLists:
     return IndexLists(i64(batch.nb_start), i64(batch.nb_index))
 
 
-_LAST_KINDS: list[Any] = [None, None]
+_ROBOT_MASKS: LastArrayMemo[NDArray[np.bool_]] = LastArrayMemo(
+    lambda kinds: np.asarray(kinds) == "robot"
+)
 
 
 def robot_mask(kinds: NDArray[np.str_]) -> NDArray[np.bool_]:
-    """Which bodies are robots (they reciprocate), memoised for the last kinds array (the
-    arena's: every step's batch shares it)."""
-    if _LAST_KINDS[0] is not kinds:
-        _LAST_KINDS[0], _LAST_KINDS[1] = kinds, np.asarray(kinds) == "robot"
-    return _LAST_KINDS[1]
+    """Which bodies are robots (they reciprocate), remembered for the arena's kinds array
+    (every step's batch shares it)."""
+    return _ROBOT_MASKS(kinds)
 
 
 class OptionTables(Generic[T]):

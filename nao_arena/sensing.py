@@ -11,8 +11,9 @@ directly; :meth:`SensingBatch.observation` gives one robot's
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +21,10 @@ from numpy.typing import NDArray
 from nao_arena.communication import Heard
 from nao_arena.neighbours import in_range_lists
 
+T = TypeVar("T")
+
 __all__ = [
+    "LastArrayMemo",
     "Neighbours",
     "Observation",
     "ReadOnlyRoutes",
@@ -28,6 +32,7 @@ __all__ = [
     "neighbour_lists",
     "neighbours_in_range",
     "is_frozen",
+    "kinds_tuple",
     "read_only",
 ]
 
@@ -161,18 +166,30 @@ def is_frozen(array: NDArray) -> bool:
     return isinstance(base, bytes)
 
 
-_LAST_KINDS: list[object] = [None, ()]
+class LastArrayMemo(Generic[T]):
+    """``derive(array)``, remembered for the last frozen array it was given (by identity;
+    see :func:`read_only`: its memory cannot change). Made for what agents derive from
+    the arena's kinds array, which every step's batch shares: worked out once per arena.
+    Threads may share it: the remembered pair is replaced whole."""
+
+    __slots__ = ("_derive", "_last")
+
+    def __init__(self, derive: Callable[[NDArray[Any]], T]) -> None:
+        self._derive = derive
+        self._last: tuple[NDArray[Any], T] | None = None
+
+    def __call__(self, array: NDArray[Any]) -> T:
+        last = self._last
+        if last is not None and last[0] is array:
+            return last[1]
+        value = self._derive(array)
+        if is_frozen(array):
+            self._last = (array, value)
+        return value
 
 
-def kinds_tuple(kinds: NDArray[np.str_]) -> tuple[str, ...]:
-    """``tuple(kinds)``, memoised for the last frozen kinds array (see :func:`read_only`;
-    the arena's, which every step's batch shares: its memory cannot change)."""
-    if _LAST_KINDS[0] is kinds:
-        return _LAST_KINDS[1]  # type: ignore[return-value]
-    as_tuple = tuple(kinds)
-    if is_frozen(kinds):
-        _LAST_KINDS[0], _LAST_KINDS[1] = kinds, as_tuple
-    return as_tuple
+kinds_tuple: LastArrayMemo[tuple[str, ...]] = LastArrayMemo(tuple)
+"""``tuple(kinds)`` of a batch's kinds array, remembered for the arena's."""
 
 
 class ReadOnlyRoutes(tuple):

@@ -19,6 +19,7 @@ from nao_arena.agent import AgentError
 from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.cli import main
 from nao_arena.maps import load_map
+from nao_arena.sensing import LastArrayMemo, read_only
 from nao_arena.trials import EpisodeTask, TrialConfig, compute_episode
 from nao_arena.watchdog import EpisodeTimeout, budget_available, wall_clock_budget
 
@@ -117,6 +118,42 @@ def test_observations_and_batch_are_read_only():
         batch.goals = np.zeros((4, 2))  # type: ignore[misc]
     with pytest.raises(dataclasses.FrozenInstanceError):
         obs.goal = np.zeros(2)  # type: ignore[misc]
+
+
+def test_what_agents_derive_from_kinds_is_remembered_for_frozen_arrays_only():
+    calls: list[int] = []
+    memo = LastArrayMemo(lambda kinds: calls.append(1) or tuple(kinds))
+    frozen = read_only(np.array(["robot", "traffic"]))
+    assert memo(frozen) == ("robot", "traffic") and memo(frozen) == ("robot", "traffic")
+    assert len(calls) == 1
+    writable = np.array(["robot", "robot"], dtype="<U7")
+    assert memo(writable) == ("robot", "robot")
+    writable[1] = "traffic"
+    assert memo(writable) == ("robot", "traffic") and len(calls) == 3
+    # an arena's batches share its kinds array, so its tuple is worked out once
+    arena = Arena(swap(), ArenaOptions(agent="goal"))
+    arena.reset(0)
+    first = arena.sensing().everyone().kinds
+    arena.step()
+    assert arena.sensing().everyone().kinds is first
+    # threads that share a memo get what their own array gives
+    other = read_only(np.array(["traffic"]))
+    wrong: list[object] = []
+
+    def ask(kinds: np.ndarray, expected: tuple[str, ...]) -> None:
+        for _ in range(2000):
+            if memo(kinds) != expected:
+                wrong.append(kinds)
+
+    threads = [
+        threading.Thread(target=ask, args=(frozen, ("robot", "traffic"))),
+        threading.Thread(target=ask, args=(other, ("traffic",))),
+    ]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not wrong
 
 
 def test_an_agent_cannot_fake_its_results_through_what_it_senses(tmp_path):
