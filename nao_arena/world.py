@@ -4,7 +4,9 @@ This is the only module that imports pymunk. Bodies are the map's robots
 and traffic vehicles in map order (:meth:`nao_arena.maps.MapSpec.bodies`);
 walls are static segments (capsules) and convex polygons. Contacts between
 bodies and with walls are resolved by pymunk with the map's elasticity and
-friction. Bodies do not rotate (infinite moment of inertia).
+friction, except a recorded person's: a replayed recording cannot react, so
+its contacts are counted (by the statistics) but not resolved, and it passes
+through what it meets. Bodies do not rotate (infinite moment of inertia).
 
 Control and the speed limit
 ---------------------------
@@ -82,6 +84,11 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+_TOUCHES_NOTHING = pymunk.ShapeFilter(mask=0)
+"""The collision filter of a recorded person's shape: a recording cannot react, so its
+contacts are counted (the statistics' own check) but not resolved; a body it walks
+into is not shoved aside at the recording's speed, as by an infinite mass."""
 
 
 @dataclass(frozen=True)
@@ -577,6 +584,8 @@ class World:
             shape: pymunk.Shape = pymunk.Circle(body, b.radius)
             shape.elasticity = phys.elasticity
             shape.friction = phys.friction
+            if b.replayed:
+                shape.filter = _TOUCHES_NOTHING
             space.add(body, shape)
             pm_bodies.append(body)
         static = space.static_body

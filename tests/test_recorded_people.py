@@ -1,6 +1,7 @@
 """Recorded people as traffic (``traffic: [{type: recorded, ...}]``): replayed at every
 control step as the recording says, absent before they appear and after they leave,
-pushed by nothing, their own contacts not counted; checked against the recording read
+pushed by nothing and pushing nothing (their contacts counted, not resolved), their
+own contacts among themselves not counted; checked against the recording read
 independently (:mod:`nao_arena.pedestrians`) and, where ../shared is present, on the real
 ETH and UCY recordings."""
 
@@ -90,20 +91,23 @@ def test_people_appear_and_leave_at_whole_control_periods(tracks):
     assert seen == expected.tolist()
 
 
-def test_a_robot_cannot_push_a_recorded_person(tracks):
-    # the robot holds its place on the people's way; they walk through it
+def test_recorded_people_and_robots_meet_without_pushing(tracks):
+    """The robot holds its place on the people's way: they walk through it, the contacts
+    are counted, and neither moves the other (a recording cannot react, and it does not
+    shove what it meets as an infinite mass would)."""
     robots = [{"name": "r", "start": [0.0, 0.1], "goal": [0.0, 0.1], "agent": "goal"}]
-    pushed = Arena(map_from_dict(_map(str(tracks), robots=robots)))
+    met = Arena(map_from_dict(_map(str(tracks), robots=robots)))
     alone = Arena(map_from_dict(_map(str(tracks))))
-    pushed.reset(0)
+    met.reset(0)
     alone.reset(0)
     touched = 0
     for _ in range(39):
-        a, b = pushed.step(), alone.step()
+        a, b = met.step(), alone.step()
         touched += len(a.contacts)
         np.testing.assert_array_equal(a.state.positions[1:], b.state.positions[1:])
+        np.testing.assert_array_equal(a.state.positions[0], [0.0, 0.1])
+        np.testing.assert_array_equal(a.state.velocities[0], [0.0, 0.0])
     assert touched >= 1
-    assert np.abs(pushed.state.positions[0] - [0.0, 0.1]).max() > 0.1  # the robot was pushed
 
 
 def test_contacts_among_recorded_people_are_not_counted(tracks):
@@ -222,6 +226,62 @@ def test_a_person_appearing_on_a_moving_robot_is_not_the_robots_doing(tmp_path):
     (contact,) = [c for c in summary.contacts if "person" in (c.kind_a, c.kind_b)]
     assert contact.began_overlapping and contact.speed_a > 0.4
     assert (robot.person_contacts, robot.caused_person_contacts) == (1, 0)
+
+
+def _standing_tracks(folder: Path, where: tuple[float, float], until: int) -> Path:
+    """At 10 fps: person 7 stands at ``where`` (m) from frame 0 to ``until``; person 8
+    walks far away for 10 s (the recording's span)."""
+    rows = [(f, 7, *where) for f in range(0, until + 1)]
+    rows += [(f, 8, 5.0, -5.0 + 0.05 * f) for f in range(0, 101)]
+    path = folder / "standing.txt"
+    path.write_text("\n".join(f"{f} {i} {x} {y}" for f, i, x, y in rows) + "\n")
+    return path
+
+
+def _start_time(data: dict, seed: int) -> float:
+    return map_from_dict(data, rng=np.random.default_rng(seed)).recorded[0].time_offset
+
+
+def test_no_robot_starts_on_a_recorded_person(tmp_path):
+    """Person 7 stands on the robot's start for the first 2 s of the recording: a start
+    time that has them in the scene for the first control period (0.1 s) is drawn again;
+    a first draw without them is kept as it was."""
+    robots = [{"name": "r", "start": [0.0, 0.0], "goal": [0.0, 0.0], "agent": "goal"}]
+    data = _map(str(_standing_tracks(tmp_path, (0.0, 0.0), 20)), robots=robots, time_jitter=4.0)
+    redrawn = 0
+    for seed in range(12):
+        first = float(np.random.default_rng(seed).uniform(0.0, 4.0))
+        start = _start_time(data, seed)
+        assert start > 1.9
+        if first > 1.9:
+            assert start == first
+        else:
+            redrawn += 1
+    assert redrawn > 0
+    # without a time_jitter the start time is the map's, whoever stands there
+    fixed = _map(str(_standing_tracks(tmp_path, (0.0, 0.0), 20)), robots=robots)
+    assert _start_time(fixed, 0) == 0.0
+
+
+def test_start_clearance_keeps_recorded_people_away_from_the_robots_starts(tmp_path):
+    robots = [
+        {"name": "r", "start": [0.0, 0.0], "goal": [0.0, 0.0], "agent": "goal", "radius": 0.3}
+    ]
+    # person 7 stands 1.2 m from the robot's start: 0.6 m between the two discs
+    path = _standing_tracks(tmp_path, (1.2, 0.0), 20)
+    near = [s for s in range(12) if float(np.random.default_rng(s).uniform(0.0, 4.0)) <= 1.9]
+    for seed in near:
+        assert _start_time(_map(str(path), robots=robots, time_jitter=4.0), seed) <= 1.9
+        kept = _map(str(path), robots=robots, time_jitter=4.0, start_clearance=1.0)
+        assert _start_time(kept, seed) > 1.9
+    assert near
+
+
+def test_a_start_that_no_draw_clears_is_a_one_line_map_error(tmp_path):
+    robots = [{"name": "r", "start": [0.0, 0.0], "goal": [0.0, 0.0], "agent": "goal"}]
+    data = _map(str(_standing_tracks(tmp_path, (0.0, 0.0), 100)), robots=robots, time_jitter=4.0)
+    with pytest.raises(MapError, match=r"traffic\[0\]\.start_clearance: expected a start time"):
+        map_from_dict(data)
 
 
 def test_the_known_path_oracle_reads_the_recording(tracks):

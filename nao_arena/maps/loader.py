@@ -430,8 +430,9 @@ def map_from_dict(
         for _, g in lanes
     ]
     # the recorded people's start times are drawn after the lanes' phases
+    starts = [(r.start, r.radius) for r in robots]
     recorded = [
-        _replayed(file, g, grp, mf, rng)
+        _replayed_clear_of(file, g, grp, mf, rng, starts)
         for g, grp in enumerate(mf.traffic)
         if isinstance(grp, RecordedPeople)
     ]
@@ -553,6 +554,54 @@ def _replayed(
     return ReplayedPeople(**group.model_dump(), people=people, entry=entry).model_copy(
         update={"file": str(path)}
     )
+
+
+START_DRAWS = 100
+"""How many start times a recorded entry with a time_jitter draws, at most, to find one at
+which its people keep their ``start_clearance`` from every robot's start."""
+
+
+def _replayed_clear_of(
+    file: str,
+    entry: int,
+    group: RecordedPeople,
+    mf: MapFile,
+    rng: np.random.Generator,
+    starts: list[tuple[tuple[float, float], float]],
+) -> ReplayedPeople:
+    """:func:`_replayed`, its start time drawn again (with a time_jitter) while one of its
+    people in the scene in the first control period is within ``start_clearance`` m
+    (surface to surface) of a robot's start (``starts``: centre m and radius m each). A
+    map whose first draw is clear draws what it always drew."""
+    for _ in range(START_DRAWS):
+        people = _replayed(file, entry, group, mf, rng)
+        if group.time_jitter <= 0 or _clear_at_start(people, starts, float(mf.physics.dt)):
+            return people
+    raise field_error(
+        file,
+        f"traffic[{entry}].start_clearance",
+        f"expected a start time at which no recorded person is within {group.start_clearance:g} m "
+        f"of a robot's start; none in {START_DRAWS} draws",
+    )
+
+
+def _clear_at_start(
+    people: ReplayedPeople, starts: list[tuple[tuple[float, float], float]], dt: float
+) -> bool:
+    """Whether every one of ``people`` in the scene in the first control period (annotated
+    through [0, dt] s, as the replay places them) keeps its ``start_clearance`` (m) from
+    each robot's start."""
+    rec = people.recording()
+    at_start, _ = rec.states(0.0)
+    at_end, _ = rec.states(dt)
+    here = np.isfinite(at_start).all(axis=1) & np.isfinite(at_end).all(axis=1)
+    rows = [p for p in people.people if here[p]]
+    for (x, y), radius in starts:
+        reach = radius + people.radius + people.start_clearance
+        for p in rows:
+            if math.hypot(at_start[p, 0] - x, at_start[p, 1] - y) < reach:
+                return False
+    return True
 
 
 def _people_in(rec: Any, dt: float, end: float) -> list[int]:

@@ -339,7 +339,10 @@ class RecordedPeople(StrictModel):
     the ``fps`` of its frame numbers, ``time_offset`` (s, the recording's time at which
     the episode starts), ``time_jitter`` (s: the offset is moved by a uniform draw in
     [0, time_jitter) from the map's seeded generator), the people's ``radius`` (m),
-    ``name`` (prefix of their names)."""
+    ``name`` (prefix of their names). With a time_jitter, the draw is made again while
+    one of the people in the scene at the episode's start is within ``start_clearance``
+    (m, surface to surface; 0: overlapping) of a robot's start: no robot starts on, or
+    that close to, a recorded person."""
 
     type: Literal["recorded"]
     file: str
@@ -347,6 +350,7 @@ class RecordedPeople(StrictModel):
     fps: Pos = 15.0
     time_offset: NonNeg = 0.0
     time_jitter: NonNeg = 0.0
+    start_clearance: NonNeg = 0.0
     radius: Pos = 0.3
     name: str | None = None
 
