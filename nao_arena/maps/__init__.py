@@ -120,15 +120,19 @@ Top level
     numbers, default 15), ``time_offset`` (s, default 0: the recording's time at which
     the episode starts), ``time_jitter`` (s, default 0: the offset moved by a uniform
     draw in [0, time_jitter) from the map's seeded Generator, after the lanes' phases),
-    ``radius`` (m, default 0.3), ``name`` (prefix of the people's names, default
-    "person", then the recording's id). Each person present for at least one whole
-    control period is a body of kind ``person`` that the recording moves (a pymunk
+    ``start_clearance`` (m, default 0: with a time_jitter, the draw is made again while a
+    person in the scene at the start is within this distance, surface to surface, of a
+    robot's start), ``radius`` (m, default 0.3), ``name`` (prefix of the people's names,
+    default "person", then the recording's id). Each person present for at least one
+    whole control period is a body of kind ``person`` that the recording moves (a pymunk
     kinematic body): at every control step at its recorded centre (interpolated
     linearly between annotations), in between along the chord to the next one; it is
     in the scene for the control periods it is annotated through, and waits far
-    outside the bounds (out of sensing range) before and after. Robots cannot push
-    it; its contacts with other recorded people and with walls are not counted. The
-    ``known_path`` predictor (the oracle) reads its true future from the recording.
+    outside the bounds (out of sensing range) before and after. A recording cannot
+    react, so its contacts are counted but not resolved: it pushes nothing and nothing
+    pushes it (the two pass through each other); its contacts with other recorded
+    people and with walls are not counted. The ``known_path`` predictor (the oracle)
+    reads its true future from the recording.
 ``physics``: ``dt`` (control period, s, default 0.1), ``substeps`` (1..1000,
     default 10), ``elasticity`` (0..1, default 0.2), ``friction`` (>= 0,
     default 0), ``collision_slop`` (m of tolerated overlap, default 0.005),
