@@ -231,9 +231,10 @@ def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | N
     """Instantiate the agent ``ref`` (a reference, or the class it names) for ``robot``.
 
     The robot's predictor and the map's ``agent_options`` for it are passed
-    where the constructor takes them (and, when the map names the agent they are for,
-    ``agent_options_for``, only to that agent); ``options`` (from the caller) are
-    passed as given and take precedence.
+    where the constructor takes them (by name, or all of them to a constructor with
+    ``**kwargs``; and, when the map names the agent they are for, ``agent_options_for``,
+    only to that agent); ``options`` (from the caller) are passed as given and take
+    precedence.
     """
     cls = load_agent(ref) if isinstance(ref, str) else check_agent_class(ref.__name__, ref)
     params: Mapping[str, inspect.Parameter]
@@ -241,9 +242,12 @@ def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | N
         params = inspect.signature(cls).parameters
     except (TypeError, ValueError):
         params = {}
+    takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
     meant = robot.agent_options_for is None or load_agent(robot.agent_options_for) is cls
-    kwargs = {k: v for k, v in robot.agent_options.items() if k in params} if meant else {}
-    if "predictor" in params:
+    kwargs = (
+        {k: v for k, v in robot.agent_options.items() if takes_any or k in params} if meant else {}
+    )
+    if takes_any or "predictor" in params:
         kwargs["predictor"] = robot.predictor
     kwargs.update(options or {})
     return cls(**kwargs)

@@ -53,6 +53,23 @@ def test_map_agent_options_reach_only_the_agent_they_are_for():
     assert make_agent("orca", everyone).horizon == 1.5
 
 
+def test_a_constructor_with_kwargs_gets_the_predictor_and_the_map_options():
+    """A subclass that forwards ``**kwargs`` gets what the map gives the robot: its
+    predictor and options (not its base class's defaults)."""
+    from nao_arena.agents.nao import NAOAgent
+
+    class Forwarding(NAOAgent):
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+
+    spec = load_map("dense_swap_perturbed", n=4, predictor="constant_velocity")
+    robot = spec.robots[0].model_copy(update={"agent_options_for": None})
+    agent = make_agent(Forwarding, robot)
+    assert agent.predictor_name == "constant_velocity" and agent.horizon == 1.5
+    # the map's options for another agent stay with it
+    assert make_agent(Forwarding, spec.robots[0]).horizon == 3.0
+
+
 def test_agent_from_file_and_module(tmp_path, monkeypatch):
     src = textwrap.dedent(
         """
