@@ -56,20 +56,6 @@ NO, YES, UNSURE = 0, 1, 2
 """Answers of :func:`_below`."""
 
 
-class Candidate(NamedTuple):
-    """A grid acceleration's path as :func:`~nao_arena.geometry._kernel.exact.scan_obstacle`
-    takes it (robot frame, the robot at the origin at t = 0): the velocity vx, vy (m/s,
-    clamped to v_max) and acceleration ax, ay (m/s^2), kept until tau (s), and the bound
-    (m/s) on its speed (:func:`~nao_arena.geometry.kernels.candidate_setup`)."""
-
-    vx: float
-    vy: float
-    ax: float
-    ay: float
-    tau: float
-    bound: float
-
-
 class Neighbours(NamedTuple):
     """The neighbours' paths (robot-relative), piece by piece: seg_t (S + 1,) s the pieces'
     ends, seg_c, seg_w, seg_b (N, S, 2) m, m/s, m/s^2 each piece's start, velocity and
@@ -240,8 +226,9 @@ def wall_clearances(
 @inner_kernel(error_model="numpy")
 def _below(cand, paths, n, r, level, buf, out):
     """Whether neighbour n's exact clearance (radius r m; paths :class:`Neighbours`) is
-    below ``level`` (m) for the candidate (:class:`Candidate`): :data:`YES`, :data:`NO`,
-    or :data:`UNSURE` where it may lie within :data:`BAND` of level. out[0] then holds a
+    below ``level`` (m) for the candidate ``cand``
+    (:class:`~nao_arena.geometry.kernels.Motion`): :data:`YES`, :data:`NO`, or
+    :data:`UNSURE` where it may lie within :data:`BAND` of level. out[0] then holds a
     squared distance (m^2) the path reaches (NO: unset)."""
     vx, vy, ax, ay, tau, bound = cand.vx, cand.vy, cand.ax, cand.ay, cand.tau, cand.bound
     seg_t, seg_c, seg_w, seg_b = paths.seg_t, paths.seg_c, paths.seg_w, paths.seg_b
@@ -297,7 +284,8 @@ def _below(cand, paths, n, r, level, buf, out):
 @inner_kernel(error_model="numpy")
 def _exact(cand, paths, n, r, buf, out):
     """Neighbour n's exact clearance (m; radius r m, paths :class:`Neighbours`) for the
-    candidate (:class:`Candidate`), as :func:`clearance_kernel` computes it."""
+    candidate ``cand`` (:class:`~nao_arena.geometry.kernels.Motion`), as
+    :func:`clearance_kernel` computes it."""
     vx, vy, ax, ay, tau, bound = cand.vx, cand.vy, cand.ax, cand.ay, cand.tau, cand.bound
     seg_t, seg_c, seg_w, seg_b = paths.seg_t, paths.seg_c, paths.seg_w, paths.seg_b
     sweep = paths.sweep
@@ -392,7 +380,7 @@ def _fill_labels(grid, v, v_max, paths, radius, walls, grown, boxes, scratch, la
         ax = grid[k, 0]
         ay = grid[k, 1]
         vx, vy, tau, bound = candidate_setup(v[0], v[1], ax, ay, v_max, horizon)
-        c_k = Candidate(vx, vy, ax, ay, tau, bound)
+        c_k = Motion(vx, vy, ax, ay, tau, bound)
         m = 0
         for n in range(N):
             s = UNSURE
