@@ -299,7 +299,7 @@ def _summary(
     def who(p: Party) -> str:
         if p.kind == "robot":
             return f"{p.name} ({p.agent})"
-        return p.name if p.kind == "wall" else f"{p.name} (traffic)"
+        return p.name if p.kind == "wall" else f"{p.name} ({p.kind})"
 
     sentences = [
         f"Contact {number} of {len(log.contact_steps)} at t = {ev.time:.2f} s: {who(a)} and "
@@ -504,14 +504,18 @@ def _draw_others(
         if i not in parties and win.holds(log.positions[rows, i], float(radii[i]))
     ]
     span = f"t = {log.time[win.first]:.1f} .. {log.time[win.last]:.1f} s"
+    kinds = log.state(0).kinds
+    people = [i for i in near if i not in robots and kinds[i] == "person"]
     for kind, group in (
         ("other robots", [i for i in near if i in robots]),
-        ("traffic", [i for i in near if i not in robots]),
+        ("people", people),
+        ("traffic", [i for i in near if i not in robots and i not in people]),
     ):
         for n, i in enumerate(group):
             colour = to_unit(_body_colour(log, i, controlled))
             label = f"{kind} nearby ({len(group)}): paths, {span}" if n == 0 else None
-            ax.plot(*log.positions[rows, i].T, "-", color=colour, lw=1.0, alpha=0.6, label=label)
+            seen = _on_map(log, log.positions[rows, i])
+            ax.plot(*seen.T, "-", color=colour, lw=1.0, alpha=0.6, label=label)
             at = _position_at(log, i, win.t_contact)
             ax.add_patch(
                 Circle(
@@ -538,8 +542,8 @@ def _draw_party(
 
     colour, edge = to_unit(fill), to_unit(outline_colour(fill))
     before = win.before
-    came = log.positions[win.first : before + 1, p.body]
-    path = log.positions[before : win.last + 1, p.body]
+    came = _on_map(log, log.positions[win.first : before + 1, p.body])
+    path = _on_map(log, log.positions[before : win.last + 1, p.body])
     back = log.time[before] - log.time[win.first]
     ax.plot(
         *came.T, "-", color=colour, lw=1.0, alpha=0.5, label=f"{p.name}: the {back:.1f} s before"
@@ -593,9 +597,25 @@ def _contact_point(log: EpisodeLog, ev: ContactEvent) -> NDArray[np.float64]:
     return hit
 
 
+OFF_MAP = 10.0
+"""How far (m) outside the map's bounds a logged position counts as off the map: where a
+recorded person waits before appearing and after leaving (far outside the bounds)."""
+
+
+def _on_map(log: EpisodeLog, points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``points`` (n, 2) m with NaN rows where a body was off the map (:data:`OFF_MAP`):
+    lines break there and boxes leave them out."""
+    bounds = log.spec.bounds
+    lo = np.asarray(bounds.min, dtype=float) - OFF_MAP
+    hi = np.asarray(bounds.max, dtype=float) + OFF_MAP
+    out = np.array(points, dtype=float)
+    out[~np.all((out >= lo) & (out <= hi), axis=1)] = np.nan
+    return out
+
+
 def _square(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """A square box (lo, hi) m around points (n, 2) m with a margin."""
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    """A square box (lo, hi) m around points (n, 2) m with a margin (NaN rows left out)."""
+    lo, hi = np.nanmin(points, axis=0), np.nanmax(points, axis=0)
     pad = 0.15 * float(max(hi - lo)) + 0.5
     mid = 0.5 * (lo + hi)
     half = 0.5 * float(max(hi - lo)) + pad
@@ -617,7 +637,7 @@ def _draw_paths(
     last = min(log.n_steps - 1, before + int(round(horizon / log.dt)))
     first = max(0, before - int(round(LOOK_BACK / log.dt)))
     hit = _contact_point(log, ev)
-    shown = [log.positions[first : last + 1, p.body] for p in bodies] + [hit[None]]
+    shown = [_on_map(log, log.positions[first : last + 1, p.body]) for p in bodies] + [hit[None]]
     shown += [p.predicted_other for p in bodies if p.predicted_other is not None]
     lo, hi = _square(np.concatenate(shown))
     win = _Window(first, before, last, ev.time, lo, hi)

@@ -283,3 +283,41 @@ def test_the_picture_draws_the_traffic_near_the_contact_in_the_viewer_colours(ca
     assert robot.neighbour == j
     predicted = lines["outer_5 as west_east predicted it (constant_velocity)"]
     assert _same_colour(predicted.get_color(), _unit(colours.PALETTE[j % len(colours.PALETTE)]))
+
+
+def test_a_person_who_appears_is_drawn_on_the_map_and_named_a_person(tmp_path):
+    """A recorded person appears at t = 1 s beside a robot creeping away and walks into it:
+    before it appears it waits far off the map, which the picture neither draws nor
+    boxes; the text and legend call it a person, not traffic."""
+    path = tmp_path / "appear.txt"
+    rows = [(f, 9, 0.6 - 0.06 * (f - 10), 0.0) for f in range(10, 40)]
+    rows += [(f, 8, -2.0 + 0.05 * f, 1.0) for f in range(0, 40)]  # a person passing by
+    path.write_text("\n".join(f"{f} {i} {x} {y}" for f, i, x, y in rows) + "\n")
+    spec = map_from_dict(
+        {
+            "name": "appear",
+            "bounds": {"min": [-6, -6], "max": [6, 6]},
+            "robots": [
+                {
+                    "name": "r",
+                    "start": [-0.5, 0.0],
+                    "goal": [-0.5, -5.0],
+                    "agent": "goal",
+                    "v_max": 0.1,
+                }
+            ],
+            "traffic": [{"type": "recorded", "file": str(path), "format": "xy", "fps": 10.0}],
+            "episode": {"time_limit": 4.0},
+        }
+    )
+    summary, log = record(spec, 0, tmp_path)
+    number = next(k for k, c in enumerate(summary.contacts, start=1) if c.kind_b == "person")
+    expl = explain_contact(log, number)
+    assert " (person) touched" in expl.text and "(traffic)" not in expl.text
+    ax = _left_axes(log, expl)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert -16 < x0 < x1 < 16 and -16 < y0 < y1 < 16  # not stretched to the waiting place
+    for line in ax.get_lines():
+        xy = np.asarray(line.get_xydata(), dtype=float)
+        assert np.all(np.abs(xy[np.isfinite(xy).all(axis=1)]) < 16), line.get_label()
+    assert any(t.startswith("people nearby (1)") for t in _legend_texts(ax))
