@@ -31,7 +31,7 @@ from nao_arena.geometry.kernels import (
     WorldWalls,
     sampled_admissible_batch,
 )
-from nao_arena.jit import kernel
+from nao_arena.jit import inner_kernel, kernel
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import Group, Knowledge, commit_plans_kernel
 
@@ -272,6 +272,23 @@ def prepare_rows(inputs, wall_segments, dt, table):  # pragma: no cover
     )
 
 
+@inner_kernel
+def rows_with(status, code):  # pragma: no cover
+    """The indices (int64, ascending) of the entries of ``status`` equal to ``code``:
+    ``np.flatnonzero(status == code)`` as a loop (numba's own is compiled anew, uncached,
+    in every process)."""
+    count = 0
+    for j in range(status.shape[0]):
+        count += status[j] == code
+    out = np.empty(count, dtype=np.int64)
+    q = 0
+    for j in range(status.shape[0]):
+        if status[j] == code:
+            out[q] = j
+            q += 1
+    return out
+
+
 @kernel
 def settle_members(
     m, paths, lists, nb_radius, own, current, desired, dt, settings, table, out
@@ -326,7 +343,7 @@ def settle_members(
     settled = np.zeros(k, dtype=np.bool_)
     some = keep_candidates(m, current, desired, a_max, whole, opt, holds, status)
     if some:
-        todo = np.flatnonzero(status == KEEP_UNTESTED)
+        todo = rows_with(status, np.int64(KEEP_UNTESTED))
         res = np.full(k, -1, dtype=np.int64)
         sampled_admissible_batch(
             Predictions(times, pred, nb_radius, excursion, finite_path),
@@ -345,7 +362,7 @@ def settle_members(
     kind = np.full(k, UNDECIDED, dtype=np.int64)
     accel = np.zeros((k, 2))
     tested = np.zeros(k, dtype=np.int64)
-    todo = np.flatnonzero(status == DECIDE)
+    todo = rows_with(status, np.int64(DECIDE))
     if todo.shape[0]:
         grow = r + margin
         decide_batch(
@@ -394,7 +411,12 @@ def yield_rows(
         count += take[i]
     if count == 0:
         return
-    g = np.flatnonzero(take)
+    g = np.empty(count, dtype=np.int64)
+    q = 0
+    for i in range(n):
+        if take[i]:
+            g[q] = i
+            q += 1
     every = count == n
     brake = np.zeros(count, dtype=np.bool_)
     braking = np.zeros((count, 2))

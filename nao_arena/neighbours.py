@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.jit import inner_kernel, kernel
-from nao_arena.sorting import median, stable_order
+from nao_arena.sorting import median, sort_in_place, stable_order
 
 __all__ = [
     "around",
@@ -144,7 +144,7 @@ def around(
                 j -= 1
             near[j] = x
     else:
-        near[:c_n].sort()
+        sort_in_place(near, c_n)
     return c_n
 
 

@@ -4,8 +4,9 @@ numba compiles its own ``np.argsort`` and ``np.median`` in every process that ca
 them, and never caches them (about a second each per process, and the compile-ahead
 processes each pay it). These are ordinary cached kernels instead, with numpy's
 results: :func:`stable_argsort` is ``np.argsort(keys, kind="stable")`` (NaN last, ties in
-their input order; :func:`stable_order` the same into arrays the caller gives) and
-:func:`median` is ``np.median`` of finite values.
+their input order; :func:`stable_order` the same into arrays the caller gives),
+:func:`median` is ``np.median`` of finite values and :func:`sort_in_place` is
+``values[:n].sort()`` of integers (numba's own ``sort`` is another uncached quicksort).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from nao_arena.jit import inner_kernel
 
-__all__ = ["median", "stable_argsort", "stable_order"]
+__all__ = ["median", "sort_in_place", "stable_argsort", "stable_order"]
 
 _RUN = 16
 """Runs of this many keys are sorted by insertion, then merged pairwise."""
@@ -88,3 +89,30 @@ def median(values, n):
     if n & 1:
         return values[order[half]]
     return (values[order[half - 1]] + values[order[half]]) / 2
+
+
+@inner_kernel
+def _sift_down(values, root, end):
+    """Restore the max-heap of values[:end] below ``root`` (heapsort's step)."""
+    while True:
+        child = 2 * root + 1
+        if child >= end:
+            return
+        if child + 1 < end and values[child] < values[child + 1]:
+            child += 1
+        if not values[root] < values[child]:
+            return
+        values[root], values[child] = values[child], values[root]
+        root = child
+
+
+@inner_kernel
+def sort_in_place(values, n):
+    """Sort the integers values[:n] ascending in place (``values[:n].sort()``; integers
+    that are equal cannot be told apart, so any correct order is numpy's), by heapsort:
+    no allocation, n log n steps."""
+    for root in range(n // 2 - 1, -1, -1):
+        _sift_down(values, root, n)
+    for end in range(n - 1, 0, -1):
+        values[0], values[end] = values[end], values[0]
+        _sift_down(values, np.int64(0), end)

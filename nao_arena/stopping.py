@@ -461,6 +461,22 @@ def _tube_conflicts(
     return False
 
 
+@inner_kernel
+def _largest(values: FloatArray) -> float:
+    """``np.max(values)``: the largest of values (n >= 1), NaN if any is NaN (a loop:
+    numba's ``np.max`` links a ``take`` of its own into the caller)."""
+    if values.shape[0] == 0:
+        raise ValueError("zero-size array to reduction operation maximum which has no identity")
+    top = values[0]
+    for i in range(1, values.shape[0]):
+        x = values[i]
+        if x != x:
+            return x
+        if x > top:
+            top = x
+    return top
+
+
 @inner_kernel(error_model="numpy")
 def _near_pairs(
     pos: FloatArray, ext: FloatArray, radius: FloatArray, margin: float
@@ -472,7 +488,7 @@ def _near_pairs(
     n = pos.shape[0]
     x0, y0, x1, y1 = extent(pos)
     # bounds |radius_i + radius_j + margin + ext_i + ext_j| (radii and extents >= 0)
-    widest = 2.0 * (np.max(ext) + np.max(radius)) + abs(margin)
+    widest = 2.0 * (_largest(ext) + _largest(radius)) + abs(margin)
     h, gx, gy = range_grid(widest, n, x0, y0, x1, y1)
     cell, cell_start, members = grid(pos, x0, y0, h, gx, gy)
     near = np.empty(n, dtype=np.int64)

@@ -431,6 +431,15 @@ def _write_velocities_kernel(chip: _Chipmunk, rows: NDArray[np.intp], v: FloatAr
     _each_body(chip.each_body, chip.space, chip.set_body, chip.data[substeps + _WRITE_VELOCITIES])
 
 
+@inner_kernel
+def _put_rows(path: FloatArray, j: int, points: FloatArray) -> None:
+    """path[j] = points (N, 2) m, element by element (a slice assignment would compile
+    numba's shape-mismatch message, with its string formatting, into the caller)."""
+    for i in range(points.shape[0]):
+        path[j, i, 0] = points[i, 0]
+        path[j, i, 1] = points[i, 1]
+
+
 @kernel
 def _direct_period(
     chip: _Chipmunk,
@@ -471,13 +480,13 @@ def _direct_period(
         return False, path, pos, vel, acc, applied
     if over:
         _write_velocities_kernel(chip, bodies.rows, v)
-    path[0] = start
+    _put_rows(path, np.int64(0), start)  # not the literal 0 (see nao_arena.geometry._kernel)
     _substeps(chip, bodies.rows, bodies.dt / substeps, path)
     rows_in_space = (chip.floats.shape[0] - 4) // 4
     state = chip.floats[: 4 * rows_in_space].reshape((rows_in_space, 4))
     if _finish_period(state, bodies.rows, bodies.v_max, v_start, bodies.dt, pos, vel, acc):
         _write_velocities_kernel(chip, bodies.rows, vel)
-    path[substeps] = pos
+    _put_rows(path, substeps, pos)
     return True, path, pos, vel, acc, applied
 
 

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from reference.nao_batch_reference import act_rows_reference
 
 from nao_arena.agents import _nao_columns as columns
-from nao_arena.agents._nao_batch import desired_rows, own_rows
+from nao_arena.agents._nao_batch import desired_rows, own_rows, rows_with
 from nao_arena.agents._nao_bundles import OwnInputs
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.agents.nao import NAOAgent
@@ -245,3 +245,12 @@ def test_own_rows_gathers_each_robots_state_and_traffic_flag(seed, n, cars):
     assert got[6].tolist() == near
     assert got[7] == bool(np.isfinite(goals[rows]).all())
     assert not math.isnan(float(got[2].sum()))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 4), max_size=30), st.integers(0, 4))
+def test_rows_with_is_flatnonzero(status, code):
+    a = np.array(status, dtype=np.int64)
+    np.testing.assert_array_equal(
+        rows_with(a, np.int64(code)), np.flatnonzero(a == code).astype(np.int64)
+    )

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from nao_arena.sorting import median, stable_argsort
+from nao_arena.sorting import median, sort_in_place, stable_argsort
 
 # few distinct values, so that ties are common; NaN, infinities and signed zeros among them
 KEYS = hnp.arrays(
@@ -45,3 +45,17 @@ def test_median_is_numpys_bit_for_bit(values, spare):
     got = median(padded, n)
     assert np.float64(got).tobytes() == np.float64(np.median(values)).tobytes()
     np.testing.assert_array_equal(padded, before)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    hnp.arrays(np.int64, st.integers(0, 150), elements=st.integers(-5, 5) | st.integers(-(2**63), 2**63 - 1)),
+    st.integers(0, 150),
+)
+def test_sort_in_place_is_numpys_sort(values, n):
+    n = min(n, len(values))
+    mine = values.copy()
+    sort_in_place(mine, n)
+    expected = values.copy()
+    expected[:n].sort()
+    np.testing.assert_array_equal(mine, expected)

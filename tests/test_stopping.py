@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nao_arena.maps import MapSpec, map_from_dict
-from nao_arena.stopping import commit_plans, plan_clearance, stopping_plan
+from nao_arena.stopping import _largest, commit_plans, plan_clearance, stopping_plan
 from nao_arena.world import World
 
 DT, SUBSTEPS, A_MAX, V_MAX, RADIUS = 0.1, 10, 2.0, 1.5, 0.5
@@ -333,3 +333,22 @@ def test_a_yield_is_recorded_in_the_episode_log(tmp_path) -> None:
     log = read_log(write_log(arena.recorder.finish(), tmp_path / "swap.parquet"))
     statuses = {log.status_of(step, robot) for step in range(1, log.n_steps) for robot in range(30)}
     assert "yielded" in statuses
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.sampled_from([math.nan, -math.inf, math.inf, -0.0, 0.0, 0.5, 1.0, 2.5, 1e300]),
+        min_size=1,
+        max_size=20,
+    )
+)
+def test_largest_is_the_compiled_np_max(values):
+    # numba's np.max, which _near_pairs used: NaN if any, else the first of the largest
+    # (so -0.0 before 0.0, as Python's max; numpy itself may return either zero)
+    got = _largest(np.array(values))
+    if any(math.isnan(v) for v in values):
+        assert math.isnan(got)
+    else:
+        expected = max(values)
+        assert got == expected and math.copysign(1.0, got) == math.copysign(1.0, expected)
