@@ -16,6 +16,10 @@ first-class function values and ``cfunc`` need.
   in this process only and never cached, so the two versions never meet in the
   cache. No production path calls an inner kernel from Python (a test runs every
   built-in agent on every shipped map and checks that no twin was made).
+
+Both make a :class:`Kernel` dispatcher (or its :class:`InnerKernel`), under which a
+large callee's code is shared by its callers rather than copied into each of them
+(:mod:`nao_arena.shared_code`).
 """
 
 from __future__ import annotations
@@ -27,14 +31,17 @@ from typing import Any, TypeVar, overload
 from numba import config, njit
 from numba.core.registry import CPUDispatcher
 
-__all__ = ["InnerKernel", "inner_kernel", "kernel", "twins_made"]
+from nao_arena import shared_code
+
+__all__ = ["InnerKernel", "Kernel", "inner_kernel", "kernel", "twins_made"]
 
 LOG = logging.getLogger("nao_arena.kernels")
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-_OPTIONS = {"cache": True, "no_cfunc_wrapper": True}
-"""Options of every compiled function of the package (see the module)."""
+_TARGET_OPTIONS = {"no_cfunc_wrapper": True}
+"""numba's options of every compiled function of the package (see the module); every
+one is cached (``cache=True``)."""
 
 _TWINS: dict[str, Any] = {}
 
@@ -47,7 +54,34 @@ def twins_made() -> list[str]:
     return sorted(_TWINS)
 
 
-class InnerKernel(CPUDispatcher):
+shared_code.install()
+
+
+class Kernel(CPUDispatcher):
+    """The numba dispatcher of every compiled function of the package (:func:`kernel`).
+    While it compiles or loads a version, its large callees are shared rather than
+    copied into it; it marks the code of each version as the package's (which its own
+    callers may share) and keeps it in :class:`~nao_arena.shared_code.KernelCache`, whose
+    entries with a shared callee that cannot be loaded are misses
+    (:mod:`nao_arena.shared_code`)."""
+
+    def compile(self, sig: Any) -> Any:
+        token = shared_code.compiling_kernels.set(True)
+        try:
+            return super().compile(sig)
+        finally:
+            shared_code.compiling_kernels.reset(token)
+
+    def enable_caching(self) -> None:
+        self._cache = shared_code.KernelCache(self.py_func)
+
+    def add_overload(self, cres: Any) -> None:
+        super().add_overload(cres)
+        if not cres.objectmode:
+            shared_code.tag(cres, self.py_func)
+
+
+class InnerKernel(Kernel):
     """A numba dispatcher compiled without a Python wrapper (:func:`inner_kernel`)."""
 
     twin_options: dict[str, Any]
@@ -62,6 +96,13 @@ class InnerKernel(CPUDispatcher):
         return twin(*args, **kwargs)
 
 
+def _dispatcher(cls: type[Kernel], py_func: Any, targetoptions: dict[str, Any]) -> Any:
+    """A cached dispatcher of class ``cls`` (as ``njit(cache=True, ...)`` makes one)."""
+    dispatcher = cls(py_func=py_func, targetoptions=targetoptions)
+    dispatcher.enable_caching()
+    return dispatcher
+
+
 @overload
 def kernel(func: F) -> F: ...
 @overload
@@ -69,7 +110,13 @@ def kernel(**options: Any) -> Callable[[F], F]: ...
 def kernel(func: Any = None, **options: Any) -> Any:
     """Compile ``func`` (see the module), called from Python; ``options``: numba's
     (``error_model``, ...). Use as ``@kernel`` or ``@kernel(error_model="numpy")``."""
-    decorate = _njit(**_OPTIONS, **options)
+
+    def decorate(py_func: Any) -> Any:
+        # NUMBA_DISABLE_JIT=1: the plain Python function, as numba's njit gives
+        if getattr(config, "DISABLE_JIT", False):
+            return py_func
+        return _dispatcher(Kernel, py_func, {"nopython": True, **_TARGET_OPTIONS, **options})
+
     return decorate if func is None else decorate(func)
 
 
@@ -87,13 +134,12 @@ def inner_kernel(func: Any = None, **options: Any) -> Any:
             return py_func
         targetoptions = {
             "nopython": True,
-            "no_cfunc_wrapper": True,
+            **_TARGET_OPTIONS,
             "no_cpython_wrapper": True,
             **options,
         }
-        dispatcher = InnerKernel(py_func=py_func, targetoptions=targetoptions)
+        dispatcher = _dispatcher(InnerKernel, py_func, targetoptions)
         dispatcher.twin_options = dict(options)
-        dispatcher.enable_caching()
         return dispatcher
 
     return decorate if func is None else decorate(func)

@@ -63,6 +63,7 @@ __all__ = [
     "load_manifest",
     "map_part",
     "missing_kernels",
+    "parse_type",
     "parts_for_agents",
     "preload",
     "record_manifest",
@@ -309,7 +310,7 @@ def type_name(numba_type: Any) -> str:
     repr names a Python class without its module (a named tuple such as
     :class:`nao_arena.stopping.Knowledge`, an ``IntEnum``), which are written as
     ``named_tuple("module:Class", (fields ...))`` and ``int_enum("module:Class",
-    dtype)``. :func:`_numba_type` reads every such text back."""
+    dtype)``. :func:`parse_type` reads every such text back."""
     from numba.core import types
 
     if isinstance(numba_type, types.BaseNamedTuple):
@@ -334,7 +335,8 @@ def _import_class(path: str) -> Any:
     return found
 
 
-def _numba_type(text: str) -> Any:
+@functools.cache
+def parse_type(text: str) -> Any:
     """The numba type whose :func:`type_name` is ``text`` (the texts the manifest holds:
     arrays, tuples, named tuples, IntEnums and scalars)."""
     # Literal[int](0), Literal[bool](True): the type of a constant argument
@@ -372,7 +374,7 @@ def _dispatcher(kernel: Kernel) -> Any:
 
 
 def _signature(kernel: Kernel) -> tuple[Any, ...]:
-    return tuple(_numba_type(a) for a in kernel.args)
+    return tuple(parse_type(a) for a in kernel.args)
 
 
 def _cache_holds(kernel: Kernel) -> bool:
@@ -598,6 +600,7 @@ def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
 
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import load_map
+    from nao_arena.shared_code import shared_callees
 
     own: dict[str, float] = {}
     stack: list[list[Any]] = []
@@ -630,7 +633,8 @@ def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
     by_library = {id(cres.library): key for key, (_, _, cres) in loaded.items()}
     out: dict[str, Any] = {}
     for key, (_, sig, cres) in loaded.items():
-        linked = getattr(cres.library, "_linking_libraries", ())
+        # what it calls: the callees linked into its code, and those it shares
+        linked = [*getattr(cres.library, "_linking_libraries", ()), *shared_callees(cres.library)]
         calls = sorted({by_library[id(lib)] for lib in linked if id(lib) in by_library} - {key})
         mod, _, rest = key.partition(":")
         out[key] = {
@@ -724,7 +728,7 @@ def record_manifest(
 def _nameable(args: Iterable[str]) -> bool:
     """Whether every type name of ``args`` (:func:`type_name`) reads back as that type."""
     try:
-        return all(type_name(_numba_type(a)) == a for a in args)
+        return all(type_name(parse_type(a)) == a for a in args)
     except Exception:
         return False
 

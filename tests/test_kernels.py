@@ -77,13 +77,13 @@ def test_a_compile_does_not_count_against_the_budget():
 def test_the_shipped_manifest_names_real_kernels_and_types():
     manifest = load_manifest()
     assert manifest.numba and len(manifest.kernels) > 50
-    from nao_arena.kernels import _dispatcher, _numba_type
+    from nao_arena.kernels import _dispatcher, parse_type
 
     for key, kernel in manifest.kernels.items():
         assert key == kernel.key
         assert isinstance(_dispatcher(kernel), numba.core.dispatcher.Dispatcher), key
         for text in kernel.args:
-            assert type_name(_numba_type(text)) == text
+            assert type_name(parse_type(text)) == text
         assert set(kernel.calls) <= set(manifest.kernels), key
         assert kernel.parts and set(kernel.parts) <= set(RECORD_PARTS), key
     nao = manifest.for_parts(["nao"])
@@ -99,13 +99,13 @@ def test_named_tuples_and_int_enums_have_names_that_read_back():
     from numba import typeof
 
     from nao_arena.geometry.outcome import Outcome
-    from nao_arena.kernels import _nameable, _numba_type
+    from nao_arena.kernels import _nameable, parse_type
     from nao_arena.stopping import no_knowledge
 
     for value in (no_knowledge(), Outcome.DESIRED):
         numba_type = typeof(value)
         text = type_name(numba_type)
-        assert _numba_type(text) == numba_type and _nameable([text])
+        assert parse_type(text) == numba_type and _nameable([text])
         assert ":" in text  # the class's module is named
     keys = load_manifest().kernels
     assert any(k.startswith("nao_arena.stopping:commit_plans_kernel(") for k in keys)

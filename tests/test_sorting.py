@@ -49,7 +49,11 @@ def test_median_is_numpys_bit_for_bit(values, spare):
 
 @settings(max_examples=300, deadline=None)
 @given(
-    hnp.arrays(np.int64, st.integers(0, 150), elements=st.integers(-5, 5) | st.integers(-(2**63), 2**63 - 1)),
+    hnp.arrays(
+        np.int64,
+        st.integers(0, 150),
+        elements=st.integers(-5, 5) | st.integers(-(2**63), 2**63 - 1),
+    ),
     st.integers(0, 150),
 )
 def test_sort_in_place_is_numpys_sort(values, n):
