@@ -31,7 +31,7 @@ from typing import Any, TypeVar, overload
 from numba import config, njit
 from numba.core.registry import CPUDispatcher
 
-from nao_arena import shared_code
+import nao_arena.shared_code as shared_code
 
 __all__ = ["InnerKernel", "Kernel", "inner_kernel", "kernel", "twins_made"]
 

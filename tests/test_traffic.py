@@ -210,26 +210,29 @@ def test_traffic_does_not_import_maps() -> None:
     """maps builds lanes from traffic; traffic reads a map only through TrafficMap, so the
     two modules do not import each other (not even for type checking): of nao_arena,
     traffic imports only the motion rules (the world's clip), which import only the
-    compile decorators (nao_arena.jit), which import none of it."""
+    compile decorators (nao_arena.jit), which import only the shared callees' rule
+    (nao_arena.shared_code), which imports none of it when it is imported (the manifest's
+    type names, inside the functions that run when a kernel compiles or loads)."""
     import ast
     import inspect
     from types import ModuleType
 
     import nao_arena.jit as jit_module
     import nao_arena.motion as motion_module
+    import nao_arena.shared_code as shared_code_module
     import nao_arena.traffic as traffic_module
 
-    def imports(module: ModuleType) -> set[str]:
+    def imports(module: ModuleType, top_level: bool = False) -> set[str]:
         tree = ast.parse(inspect.getsource(module))
-        found = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
-        found |= {
-            a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names
-        }
+        nodes = tree.body if top_level else list(ast.walk(tree))
+        found = {node.module for node in nodes if isinstance(node, ast.ImportFrom)}
+        found |= {a.name for node in nodes if isinstance(node, ast.Import) for a in node.names}
         return {m for m in found if m and m.startswith("nao_arena")}
 
     assert imports(traffic_module) <= {"nao_arena.motion"}
     assert imports(motion_module) <= {"nao_arena.jit"}
-    assert not imports(jit_module)
+    assert imports(jit_module) == {"nao_arena.shared_code"}
+    assert not imports(shared_code_module, top_level=True)
 
 
 def test_lane_traffic_from_any_traffic_map() -> None:
