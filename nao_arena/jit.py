@@ -96,7 +96,7 @@ class InnerKernel(Kernel):
         return twin(*args, **kwargs)
 
 
-def _dispatcher(cls: type[Kernel], py_func: Any, targetoptions: dict[str, Any]) -> Any:
+def _cached_dispatcher(cls: type[Kernel], py_func: Any, targetoptions: dict[str, Any]) -> Any:
     """A cached dispatcher of class ``cls`` (as ``njit(cache=True, ...)`` makes one)."""
     dispatcher = cls(py_func=py_func, targetoptions=targetoptions)
     dispatcher.enable_caching()
@@ -115,7 +115,7 @@ def kernel(func: Any = None, **options: Any) -> Any:
         # NUMBA_DISABLE_JIT=1: the plain Python function, as numba's njit gives
         if getattr(config, "DISABLE_JIT", False):
             return py_func
-        return _dispatcher(Kernel, py_func, {"nopython": True, **_TARGET_OPTIONS, **options})
+        return _cached_dispatcher(Kernel, py_func, {"nopython": True, **_TARGET_OPTIONS, **options})
 
     return decorate if func is None else decorate(func)
 
@@ -138,7 +138,7 @@ def inner_kernel(func: Any = None, **options: Any) -> Any:
             "no_cpython_wrapper": True,
             **options,
         }
-        dispatcher = _dispatcher(InnerKernel, py_func, targetoptions)
+        dispatcher = _cached_dispatcher(InnerKernel, py_func, targetoptions)
         dispatcher.twin_options = dict(options)
         return dispatcher
 
