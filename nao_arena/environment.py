@@ -167,6 +167,7 @@ from nao_arena.env_step import (
     period_rewards,
     settle_finished,
 )
+from nao_arena.kernels import ensure_env_compiled
 from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.neighbours import in_range_lists
 from nao_arena.world import WorldState, clip_accelerations
@@ -215,6 +216,7 @@ class NaoArenaParallelEnv(ParallelEnv):
         self.render_mode = render_mode
         spec = self._load(self.map_params)
         self._declared = frozenset(spec.parameters)
+        ensure_env_compiled(map)  # what its first steps call, on every core
         self._install(spec)
         # the robots under test (people, after them, keep their own agents)
         robot_names = [r.name or f"robot{i}" for i, r in enumerate(spec.robots[: spec.n_robots])]

@@ -15,8 +15,8 @@ fair and as short as two or more cores allow:
   which one now; DEBUG for each kernel). The command line shows these on stderr.
 - The manifest (``kernels.json`` beside this module): the kernels that episodes of the
   shipped maps compile, per *part* (``core``: every episode; one part per built-in
-  agent; ``render``), with the kernels each one calls, its measured compile time and
-  the shipped maps whose recorded episodes call it.
+  agent; ``render``; ``env``: what the envs add), with the kernels each one calls, its
+  measured compile time and the shipped maps whose recorded episodes call it.
   :func:`record_manifest` writes it (``python -m nao_arena.kernels record``); a test
   checks that it lists every kernel those episodes use.
 - :func:`compile_ahead`: compiles the kernels of some parts in several processes, each
@@ -24,7 +24,8 @@ fair and as short as two or more cores allow:
   first. ``nao-arena compile`` runs it for every part; ``nao-arena run`` and ``trial``
   run it for the parts they need when the cache lacks some of them, before any budget
   starts (``run`` of a shipped map: only what that map's recorded episodes call,
-  :func:`map_part`).
+  :func:`map_part`), and so does the first env of a map in a process
+  (:func:`ensure_env_compiled`).
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ __all__ = [
     "Manifest",
     "compile_ahead",
     "ensure_compiled",
+    "ensure_env_compiled",
     "compile_count",
     "compile_seconds",
     "load_manifest",
@@ -80,6 +82,10 @@ MANIFEST_FILE = "kernels.json"
 
 CORE = "core"
 """The part every episode compiles (world, statistics, sensing, traffic, predictors)."""
+
+ENV = "env"
+"""The part the envs compile (:mod:`nao_arena.environment`: observations, rewards, the
+agents of the robots they do not control), beyond ``core``."""
 
 MAP_PART = "map:"
 """The prefix of a part that narrows the others to one shipped map (:func:`map_part`)."""
@@ -566,6 +572,39 @@ def ensure_compiled(
     return compile_ahead(parts, jobs, on_done=on_done)
 
 
+def ensure_env_compiled(map_source: object) -> None:
+    """Before an env of ``map_source`` (a shipped map's name or a map file) first runs in
+    this process: :func:`ensure_compiled` for ``core`` and ``env`` (of a shipped map, only
+    what its recorded episodes call, :func:`map_part`), so that the kernels an env's first
+    steps call compile in every core, not one by one in this process. Once per process
+    and map. Not in a daemonic process (it cannot start the compile processes: the
+    workers of Stable-Baselines3's ``SubprocVecEnv``, for one); any failure leaves the
+    kernels to compile when they are called."""
+    from multiprocessing import current_process
+
+    from nao_arena.maps import available_maps
+
+    key = str(map_source)
+    with _ENV_LOCK:
+        if key in _ENV_ENSURED:
+            return
+        _ENV_ENSURED.add(key)
+    if current_process().daemon:
+        return
+    parts = [CORE, ENV]
+    if isinstance(map_source, str) and map_source in available_maps():
+        parts.append(map_part(map_source))
+    try:
+        ensure_compiled(parts)
+    except Exception as exc:  # noqa: BLE001 - the kernels compile when called instead
+        LOG.debug("could not compile the env's kernels ahead (%s)", exc)
+
+
+_ENV_ENSURED: set[str] = set()
+"""The maps :func:`ensure_env_compiled` has seen in this process."""
+_ENV_LOCK = threading.Lock()
+
+
 # --------------------------------------------------------------------------- recording
 
 
@@ -592,15 +631,15 @@ def _loaded_kernels() -> dict[str, tuple[Any, Any, Any]]:
 def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
     """In a process of its own, with the part's cache (empty for the part's first map):
     run ``steps`` steps of map ``name`` with the agent ``part`` (``core``: the ``goal``
-    agent; ``render``: a few frames to a GIF), and return the kernels compiled or loaded,
-    each with what it calls (when compiled here) and its own compile time."""
+    agent; ``render``: a few frames to a GIF; ``env``: the env of the map, with random
+    actions), and return the kernels compiled or loaded, each with what it calls (when
+    compiled here) and its own compile time."""
     import tempfile
 
     from numba.core import event
 
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import load_map
-    from nao_arena.shared_code import shared_callees
 
     own: dict[str, float] = {}
     stack: list[list[Any]] = []
@@ -619,6 +658,9 @@ def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
                 stack[-1][2] += spent
 
     event.register("numba:compile", Timer())
+    if part == ENV:
+        _env_episode(name, steps)
+        return _kernels_loaded_here(own)
     agent = "goal" if part in (CORE, "render") else part
     arena = Arena(load_map(name), ArenaOptions(agent=agent))
     if part == "render":
@@ -629,6 +671,34 @@ def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
             record_episode(arena, os.path.join(folder, "x.gif"), max_steps=steps)
     else:
         arena.run(0, max_steps=steps)
+    return _kernels_loaded_here(own)
+
+
+def _env_episode(name: str, steps: int) -> None:
+    """``steps`` steps of the env of map ``name`` (its default options) with random
+    actions (seeded); a map the env does not take is left out."""
+    import numpy as np
+
+    from nao_arena.environment import NaoArenaParallelEnv
+
+    try:
+        env = NaoArenaParallelEnv(name)
+    except ValueError as exc:  # e.g. a map with no robot to control
+        LOG.debug("no env for %s: %s", name, exc)
+        return
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        env.step({a: rng.uniform(-1.0, 1.0, 2) for a in env.agents})
+
+
+def _kernels_loaded_here(own: Mapping[str, float]) -> dict[str, Any]:
+    """The kernels compiled or loaded in this process, each with what it calls (when
+    compiled here) and ``own[key]``, its own compile time (s)."""
+    from nao_arena.shared_code import shared_callees
+
     loaded = _loaded_kernels()
     by_library = {id(cres.library): key for key, (_, _, cres) in loaded.items()}
     out: dict[str, Any] = {}
@@ -658,6 +728,7 @@ RECORD_PARTS = (
     "lane",
     "social_force",
     "render",
+    ENV,
 )
 """The parts :func:`record_manifest` records."""
 
@@ -734,8 +805,10 @@ def _nameable(args: Iterable[str]) -> bool:
 
 
 def _use_cache(folder: str) -> None:
-    """Worker initializer: numba caches into ``folder``."""
+    """Worker initializer: numba caches into ``folder``, and what the worker's episode
+    calls compiles there, in the worker (an env would compile ahead in other processes)."""
     os.environ["NUMBA_CACHE_DIR"] = folder
+    os.environ["NAO_ARENA_COMPILE_AHEAD"] = "0"
     import numba
 
     numba.config.reload_config()

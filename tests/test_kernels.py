@@ -305,3 +305,65 @@ def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
     assert json.loads(out.stdout.splitlines()[-2]) == []
     missing = used - set(load_manifest().kernels)
     assert not missing, f"not in the manifest (python -m nao_arena.kernels record): {missing}"
+
+
+def test_an_env_compiles_ahead_once_per_map_and_never_in_a_daemonic_process(monkeypatch):
+    import multiprocessing
+
+    import nao_arena.kernels as kernels
+
+    asked: list[list[str]] = []
+    monkeypatch.setattr(kernels, "ensure_compiled", lambda parts, *a, **k: asked.append(parts))
+    monkeypatch.setattr(kernels, "_ENV_ENSURED", set())
+    kernels.ensure_env_compiled("circle_swap")
+    kernels.ensure_env_compiled("circle_swap")
+    kernels.ensure_env_compiled("my_maps/x.yaml")
+    assert asked == [[CORE, "env", map_part("circle_swap")], [CORE, "env"]]
+
+    class Daemon:
+        daemon = True
+
+    real_process = multiprocessing.current_process
+    monkeypatch.setattr(multiprocessing, "current_process", lambda: Daemon())
+    kernels.ensure_env_compiled("crossing")  # e.g. a SubprocVecEnv worker: no children
+    assert len(asked) == 2
+    monkeypatch.setattr(multiprocessing, "current_process", real_process)
+
+    def fails(parts, *a, **k):
+        raise OSError("no processes here")
+
+    monkeypatch.setattr(kernels, "ensure_compiled", fails)
+    kernels.ensure_env_compiled("doorway")  # a failure leaves the kernels to compile later
+
+
+@pytest.mark.slow
+@pytest.mark.installed
+def test_a_new_env_compiles_its_first_steps_kernels_ahead(tmp_path):
+    """With an empty cache, creating an env compiles ahead (on every core) what its first
+    steps call: then its reset and first step compile next to nothing in the process."""
+    probe = textwrap.dedent("""
+        import json
+        import nao_arena, nao_arena.kernels as kernels
+        asked = []
+        real = kernels.compile_ahead
+        def watched(parts, *args, **kwargs):
+            asked.append(list(parts))
+            return real(parts, *args, **kwargs)
+        kernels.compile_ahead = watched
+        env = nao_arena.parallel_env("circle_swap")
+        ahead = kernels.compile_count()
+        env.reset(seed=0)
+        for i, agent in enumerate(env.agents):
+            env.action_space(agent).seed(i)
+        env.step({a: env.action_space(a).sample() for a in env.agents})
+        print(json.dumps([asked, ahead, kernels.compile_count()]))
+    """)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("NAO_ARENA_COMPILE_AHEAD", None)
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    asked, ahead, after = json.loads(out.stdout)
+    assert asked == [[CORE, "env", map_part("circle_swap")]]
+    assert ahead == 0 and after <= 2, (ahead, after)
