@@ -574,12 +574,15 @@ def ensure_compiled(
 
 def ensure_env_compiled(map_source: object) -> None:
     """Before an env of ``map_source`` (a shipped map's name or a map file) first runs in
-    this process: :func:`ensure_compiled` for ``core`` and ``env`` (of a shipped map, only
-    what its recorded episodes call, :func:`map_part`), so that the kernels an env's first
-    steps call compile in every core, not one by one in this process. Once per process
-    and map. Not in a daemonic process (it cannot start the compile processes: the
-    workers of Stable-Baselines3's ``SubprocVecEnv``, for one); any failure leaves the
-    kernels to compile when they are called."""
+    this process: when the cache lacks some of the kernels of ``core`` and ``env`` (of a
+    shipped map, only what its recorded episodes call, :func:`map_part`) and
+    :func:`ahead_enabled`, compile them ahead in every core, not one by one in this
+    process. Once per process and map. The compile runs in a Python process of its own
+    (:func:`_compile_in_subprocess`), so that the processes it starts never import the
+    script that made the env, whether or not it guards its code with ``if __name__ ==
+    "__main__"``. Not in a daemonic process (the workers of Stable-Baselines3's
+    ``SubprocVecEnv``, for one: each would compile the same kernels at once); any failure
+    leaves the kernels to compile when they are called."""
     from multiprocessing import current_process
 
     from nao_arena.maps import available_maps
@@ -589,15 +592,34 @@ def ensure_env_compiled(map_source: object) -> None:
         if key in _ENV_ENSURED:
             return
         _ENV_ENSURED.add(key)
-    if current_process().daemon:
+    if current_process().daemon or not ahead_enabled():
         return
     parts = [CORE, ENV]
     if isinstance(map_source, str) and map_source in available_maps():
         parts.append(map_part(map_source))
     try:
-        ensure_compiled(parts)
+        missing = missing_kernels(parts)
+        if missing:
+            LOG.info("compiling the env's kernels ahead in %d processes ...", os.cpu_count() or 1)
+            _compile_in_subprocess(parts)
     except Exception as exc:  # noqa: BLE001 - the kernels compile when called instead
         LOG.debug("could not compile the env's kernels ahead (%s)", exc)
+
+
+def _compile_in_subprocess(parts: Sequence[str]) -> None:
+    """:func:`compile_ahead` of ``parts`` in a new Python process (``python -c``: no
+    script of the caller's to import again), waiting for it; its output is discarded."""
+    import subprocess
+    import sys
+
+    code = "import sys; from nao_arena.kernels import compile_ahead; compile_ahead(sys.argv[1:])"
+    subprocess.run(
+        [sys.executable, "-c", code, *parts],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        check=False,
+    )
 
 
 _ENV_ENSURED: set[str] = set()

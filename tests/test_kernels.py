@@ -313,8 +313,10 @@ def test_an_env_compiles_ahead_once_per_map_and_never_in_a_daemonic_process(monk
     import nao_arena.kernels as kernels
 
     asked: list[list[str]] = []
-    monkeypatch.setattr(kernels, "ensure_compiled", lambda parts, *a, **k: asked.append(parts))
+    monkeypatch.setattr(kernels, "missing_kernels", lambda parts: ["some"])
+    monkeypatch.setattr(kernels, "_compile_in_subprocess", lambda parts: asked.append(parts))
     monkeypatch.setattr(kernels, "_ENV_ENSURED", set())
+    monkeypatch.delenv("NAO_ARENA_COMPILE_AHEAD", raising=False)
     kernels.ensure_env_compiled("circle_swap")
     kernels.ensure_env_compiled("circle_swap")
     kernels.ensure_env_compiled("my_maps/x.yaml")
@@ -325,45 +327,52 @@ def test_an_env_compiles_ahead_once_per_map_and_never_in_a_daemonic_process(monk
 
     real_process = multiprocessing.current_process
     monkeypatch.setattr(multiprocessing, "current_process", lambda: Daemon())
-    kernels.ensure_env_compiled("crossing")  # e.g. a SubprocVecEnv worker: no children
+    kernels.ensure_env_compiled("crossing")  # e.g. a SubprocVecEnv worker
     assert len(asked) == 2
     monkeypatch.setattr(multiprocessing, "current_process", real_process)
+    monkeypatch.setenv("NAO_ARENA_COMPILE_AHEAD", "0")
+    kernels.ensure_env_compiled("corridor")  # turned off
+    monkeypatch.delenv("NAO_ARENA_COMPILE_AHEAD")
+    monkeypatch.setattr(kernels, "missing_kernels", lambda parts: [])
+    kernels.ensure_env_compiled("intersection")  # nothing missing
+    assert len(asked) == 2
 
-    def fails(parts, *a, **k):
+    def fails(parts):
         raise OSError("no processes here")
 
-    monkeypatch.setattr(kernels, "ensure_compiled", fails)
+    monkeypatch.setattr(kernels, "missing_kernels", lambda parts: ["some"])
+    monkeypatch.setattr(kernels, "_compile_in_subprocess", fails)
     kernels.ensure_env_compiled("doorway")  # a failure leaves the kernels to compile later
 
 
 @pytest.mark.slow
 @pytest.mark.installed
 def test_a_new_env_compiles_its_first_steps_kernels_ahead(tmp_path):
-    """With an empty cache, creating an env compiles ahead (on every core) what its first
-    steps call: then its reset and first step compile next to nothing in the process."""
-    probe = textwrap.dedent("""
-        import json
-        import nao_arena, nao_arena.kernels as kernels
-        asked = []
-        real = kernels.compile_ahead
-        def watched(parts, *args, **kwargs):
-            asked.append(list(parts))
-            return real(parts, *args, **kwargs)
-        kernels.compile_ahead = watched
-        env = nao_arena.parallel_env("circle_swap")
-        ahead = kernels.compile_count()
-        env.reset(seed=0)
-        for i, agent in enumerate(env.agents):
-            env.action_space(agent).seed(i)
-        env.step({a: env.action_space(a).sample() for a in env.agents})
-        print(json.dumps([asked, ahead, kernels.compile_count()]))
-    """)
+    """With an empty cache, a script that makes an env (with no ``__main__`` guard) has
+    what its first steps call compiled ahead in other processes, which do not run the
+    script again: its reset and first step compile next to nothing in its process."""
+    (tmp_path / "script.py").write_text(
+        textwrap.dedent("""
+            import json
+            import nao_arena, nao_arena.kernels as kernels
+            print("script runs", flush=True)
+            env = nao_arena.parallel_env("circle_swap")
+            ahead = kernels.compile_count()
+            left = kernels.missing_kernels(["core", "env", "map:circle_swap"])
+            env.reset(seed=0)
+            for i, agent in enumerate(env.agents):
+                env.action_space(agent).seed(i)
+            env.step({a: env.action_space(a).sample() for a in env.agents})
+            print(json.dumps([ahead, left, kernels.compile_count()]))
+        """)
+    )
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     env.pop("NAO_ARENA_COMPILE_AHEAD", None)
     out = subprocess.run(
-        [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True
+        [sys.executable, "script.py"], cwd=tmp_path, env=env, capture_output=True, text=True
     )
     assert out.returncode == 0, out.stderr[-2000:]
-    asked, ahead, after = json.loads(out.stdout)
-    assert asked == [[CORE, "env", map_part("circle_swap")]]
-    assert ahead == 0 and after <= 2, (ahead, after)
+    lines = out.stdout.strip().splitlines()
+    assert lines[0] == "script runs" and len(lines) == 2  # the script ran once
+    ahead, left, after = json.loads(lines[1])
+    assert ahead == 0 and left == [] and after <= 2, (ahead, left, after)
