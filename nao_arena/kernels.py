@@ -410,7 +410,9 @@ def ahead_enabled() -> bool:
 
 def missing_kernels(parts: Iterable[str], manifest: Manifest | None = None) -> list[str]:
     """The keys of the kernels of ``parts`` that the cache lacks. Only the kernels that no
-    other one calls are looked up (one calls' machine code holds its callees')."""
+    other one calls are looked up: a caller's cached code holds its linked callees' and
+    loads its shared callees (:mod:`nao_arena.shared_code`); one whose shared callee has
+    left the cache is compiled again when it is loaded."""
     manifest = load_manifest() if manifest is None else manifest
     kernels = manifest.for_parts(parts)
     called = {c for k in kernels.values() for c in k.calls}
@@ -422,8 +424,9 @@ def preload(parts: Iterable[str]) -> int:
     """Load the kernels of ``parts`` into this process now (from the cache, or compiled
     if the cache lacks them), so that the episodes that follow, and the processes forked
     from this one to run them (:mod:`nao_arena.isolation`), start warm. Only the kernels
-    that no other one calls are loaded (one's machine code holds its callees'); a stale
-    manifest entry is skipped (it compiles when called). Returns how many were loaded."""
+    that no other one calls are loaded (with the callees their code holds or shares); a
+    stale manifest entry is skipped (it compiles when called). Returns how many were
+    loaded."""
     kernels = load_manifest().for_parts(parts)
     called = {c for k in kernels.values() for c in k.calls}
     loaded = 0
