@@ -274,9 +274,9 @@ def prepare_rows(inputs, wall_segments, dt, table):  # pragma: no cover
 
 @inner_kernel
 def rows_with(status, code):  # pragma: no cover
-    """The indices (int64, ascending) of the entries of ``status`` equal to ``code``:
-    ``np.flatnonzero(status == code)`` as a loop (numba's own is compiled anew, uncached,
-    in every process)."""
+    """The indices (int64, ascending) of the entries of ``status`` equal to ``code`` (of
+    the same dtype: codes, or flags and True): ``np.flatnonzero(status == code)`` as a
+    loop (numba's own is compiled anew, uncached, in every process)."""
     count = 0
     for j in range(status.shape[0]):
         count += status[j] == code
@@ -411,12 +411,7 @@ def yield_rows(
         count += take[i]
     if count == 0:
         return
-    g = np.empty(count, dtype=np.int64)
-    q = 0
-    for i in range(n):
-        if take[i]:
-            g[q] = i
-            q += 1
+    g = rows_with(take, np.bool_(True))
     every = count == n
     brake = np.zeros(count, dtype=np.bool_)
     braking = np.zeros((count, 2))

@@ -254,3 +254,12 @@ def test_rows_with_is_flatnonzero(status, code):
     np.testing.assert_array_equal(
         rows_with(a, np.int64(code)), np.flatnonzero(a == code).astype(np.int64)
     )
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.booleans(), max_size=30))
+def test_rows_with_of_a_mask_is_flatnonzero(flags):
+    mask = np.array(flags, dtype=np.bool_)
+    np.testing.assert_array_equal(
+        rows_with(mask, np.bool_(True)), np.flatnonzero(mask).astype(np.int64)
+    )
