@@ -30,7 +30,7 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import supersuit as ss
@@ -215,7 +215,8 @@ class NaoVecEnv(VecEnv):
         flat = obs.reshape(self.num_envs, -1)
         if not self._scale:
             return flat
-        return (flat - self._low) / self._size * 1.0 + 0.0
+        scaled = (flat - self._low) / self._size * 1.0 + 0.0  # float32 throughout
+        return cast(NDArray[np.float32], scaled)
 
     def seed(self, seed: int | None = None) -> list[int | None]:
         self._next_seed = seed
@@ -224,7 +225,7 @@ class NaoVecEnv(VecEnv):
     def reset(self) -> NDArray[np.float32]:
         obs, _ = self.vector.reset(seed=self._next_seed)
         self._next_seed = None
-        self.reset_infos = [{} for _ in range(self.num_envs)]
+        self.reset_infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         return self._observations(obs)
 
     def step_async(self, actions: NDArray[np.float32]) -> None:
