@@ -74,15 +74,8 @@ def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False
     )
     if report is None:
         return
-    failed = f"; {len(report.failed)} left to compile when called" if report.failed else ""
-    print(
-        f"nao-arena: {report.kernels} kernels compiled or loaded in {report.seconds:.0f} s "
-        f"({report.cpu_seconds:.0f} s of CPU) "
-        f"with {report.jobs} process{'es' if report.jobs > 1 else ''} (cached for later "
-        f"runs){failed}",
-        file=sys.stderr,
-        flush=True,
-    )
+    cached = " (cached for later runs)" if report.compiled else ""
+    print(f"nao-arena: {report.summary(cached)}", file=sys.stderr, flush=True)
 
 
 def _parts(agents: Iterable[str], render: bool = False) -> list[str]:

@@ -461,6 +461,25 @@ class CompileReport:
     seconds: float
     cpu_seconds: float = 0.0
 
+    @property
+    def compiled(self) -> int:
+        """The kernels now in the cache: compiled or loaded, not failed."""
+        return self.kernels - len(self.failed)
+
+    def summary(self, note: str = "") -> str:
+        """One line: how many of the kernels are cached, in how long (then ``note``), and
+        what the others met (the first error: on a numba the package does not support,
+        every kernel fails alike)."""
+        line = (
+            f"{self.compiled} of {self.kernels} kernels compiled or loaded in "
+            f"{self.seconds:.0f} s ({self.cpu_seconds:.0f} s of CPU) with {self.jobs} "
+            f"process{'es' if self.jobs != 1 else ''}{note}"
+        )
+        if self.failed:
+            first = next(iter(self.failed.values())).splitlines()[0][:200]
+            line += f"; {len(self.failed)} left to compile when called (first error: {first})"
+        return line
+
 
 def _compile_one(module: str, name: str, args: tuple[str, ...]) -> tuple[float, str | None]:
     """In a worker process: compile one kernel version into the cache (its callees are

@@ -67,8 +67,4 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     report = ensure_compiled(RECORD_PARTS)
     if report is None:
         return
-    print(
-        f"\ncompiled {report.kernels} kernels ahead in {report.seconds:.0f} s "
-        f"with {report.jobs} processes",
-        file=sys.stderr,
-    )
+    print(f"\nahead of the tests: {report.summary()}", file=sys.stderr)

@@ -18,6 +18,7 @@ from nao_arena.agent import BUILTIN_AGENTS
 from nao_arena.kernels import (
     CORE,
     RECORD_PARTS,
+    CompileReport,
     Kernel,
     Manifest,
     compile_ahead,
@@ -376,3 +377,17 @@ def test_a_new_env_compiles_its_first_steps_kernels_ahead(tmp_path):
     assert lines[0] == "script runs" and len(lines) == 2  # the script ran once
     ahead, left, after = json.loads(lines[1])
     assert ahead == 0 and left == [] and after <= 2, (ahead, left, after)
+
+
+def test_the_compile_summary_counts_only_the_kernels_that_compiled() -> None:
+    """A compile in which kernels failed (as every one does on a numba the package does
+    not support) says how many of them are cached, and the first error."""
+    failed = {"m:f(int64)": "AttributeError: no _reload_init\nmore", "m:g(int64)": "Other"}
+    line = CompileReport(3, failed, 2, 4.2, 7.9).summary(" (cached)")
+    assert line == (
+        "1 of 3 kernels compiled or loaded in 4 s (8 s of CPU) with 2 processes (cached); "
+        "2 left to compile when called (first error: AttributeError: no _reload_init)"
+    )
+    assert CompileReport(2, {}, 1, 0.4).summary() == (
+        "2 of 2 kernels compiled or loaded in 0 s (0 s of CPU) with 1 process"
+    )
