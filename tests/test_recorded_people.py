@@ -277,6 +277,54 @@ def test_start_clearance_keeps_recorded_people_away_from_the_robots_starts(tmp_p
     assert near
 
 
+def _walking_in_tracks(folder: Path) -> Path:
+    """At 10 fps: person 7 walks along y = 0 from x = 3 m at -1 m/s for 6 s, through the
+    origin at 3 s (the recording's only person besides person 8, far away)."""
+    rows = [(f, 7, 3.0 - 0.1 * f, 0.0) for f in range(0, 61)]
+    rows += [(f, 8, 5.0, -5.0 + 0.05 * f) for f in range(0, 101)]
+    path = folder / "walking.txt"
+    path.write_text("\n".join(f"{f} {i} {x} {y}" for f, i, x, y in rows) + "\n")
+    return path
+
+
+def test_start_clearance_for_keeps_people_about_to_walk_into_a_start_away(tmp_path):
+    """Person 7 walks through the robot's start (the origin) 3 s into the recording. At a
+    start time of 2.5 s they are 0.5 m from it (0.1 m surface to surface), and clear of
+    it at the start itself with start_clearance 0; with start_clearance_for 1 s, every
+    start time at which they come within the clearance in the next second is drawn again."""
+    robots = [
+        {"name": "r", "start": [0.0, 0.0], "goal": [0.0, 0.0], "agent": "goal", "radius": 0.2}
+    ]
+    path = _walking_in_tracks(tmp_path)
+    reach = 0.2 + 0.3 + 0.5  # radii and the clearance (m): at x = 3 - t, in reach for t in (2, 4)
+    kept = redrawn = 0
+    for seed in range(40):
+        first = float(np.random.default_rng(seed).uniform(0.0, 6.0))
+        plain = _start_time(
+            _map(str(path), robots=robots, time_jitter=6.0, start_clearance=0.5), seed
+        )
+        ahead = _start_time(
+            _map(
+                str(path),
+                robots=robots,
+                time_jitter=6.0,
+                start_clearance=0.5,
+                start_clearance_for=1.0,
+            ),
+            seed,
+        )
+        # at the kept start time, the person stays out of reach for a second (or is gone)
+        assert min(abs(3.0 - ahead - 0.1 * k) for k in range(11)) >= reach - 1e-9
+        if 1.05 < first < 1.95:  # out of reach at the start, within reach in a second
+            assert plain == first
+            assert ahead != first
+            redrawn += 1
+        elif first < 0.95 or first > 4.05:  # out of reach for the whole second
+            assert ahead == plain == first
+            kept += 1
+    assert redrawn > 0 and kept > 0
+
+
 def test_a_start_that_no_draw_clears_is_a_one_line_map_error(tmp_path):
     robots = [{"name": "r", "start": [0.0, 0.0], "goal": [0.0, 0.0], "agent": "goal"}]
     data = _map(str(_standing_tracks(tmp_path, (0.0, 0.0), 100)), robots=robots, time_jitter=4.0)

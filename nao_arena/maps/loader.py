@@ -570,37 +570,43 @@ def _replayed_clear_of(
     starts: list[tuple[tuple[float, float], float]],
 ) -> ReplayedPeople:
     """:func:`_replayed`, its start time drawn again (with a time_jitter) while one of its
-    people in the scene in the first control period is within ``start_clearance`` m
-    (surface to surface) of a robot's start (``starts``: centre m and radius m each). A
-    map whose first draw is clear draws what it always drew."""
+    people in the scene is within ``start_clearance`` m (surface to surface) of a robot's
+    start (``starts``: centre m and radius m each) in the first control period or, with
+    ``start_clearance_for``, at any control step of that many seconds. A map whose first
+    draw is clear draws what it always drew."""
     for _ in range(START_DRAWS):
         people = _replayed(file, entry, group, mf, rng)
         if group.time_jitter <= 0 or _clear_at_start(people, starts, float(mf.physics.dt)):
             return people
+    within = f" for {group.start_clearance_for:g} s" if group.start_clearance_for > 0 else ""
     raise field_error(
         file,
         f"traffic[{entry}].start_clearance",
         f"expected a start time at which no recorded person is within {group.start_clearance:g} m "
-        f"of a robot's start; none in {START_DRAWS} draws",
+        f"of a robot's start{within}; none in {START_DRAWS} draws",
     )
 
 
 def _clear_at_start(
     people: ReplayedPeople, starts: list[tuple[tuple[float, float], float]], dt: float
 ) -> bool:
-    """Whether every one of ``people`` in the scene in the first control period (annotated
-    through [0, dt] s, as the replay places them) keeps its ``start_clearance`` (m) from
-    each robot's start."""
+    """Whether every one of ``people`` keeps its ``start_clearance`` (m) from each robot's
+    start at the control steps k dt (s) from 0 through ``start_clearance_for`` (s) at
+    which it is in the scene (annotated through [k dt, (k + 1) dt], as the replay places
+    it)."""
     rec = people.recording()
-    at_start, _ = rec.states(0.0)
-    at_end, _ = rec.states(dt)
-    here = np.isfinite(at_start).all(axis=1) & np.isfinite(at_end).all(axis=1)
-    rows = [p for p in people.people if here[p]]
-    for (x, y), radius in starts:
-        reach = radius + people.radius + people.start_clearance
-        for p in rows:
-            if math.hypot(at_start[p, 0] - x, at_start[p, 1] - y) < reach:
-                return False
+    steps = math.floor(people.start_clearance_for / dt + 1e-9)
+    rows = np.asarray(people.people, dtype=np.intp)
+    centres = np.array([xy for xy, _ in starts], dtype=np.float64).reshape(-1, 2)
+    reach = np.array([r for _, r in starts], dtype=np.float64) + people.radius
+    reach += people.start_clearance
+    later, _ = rec.states(0.0)
+    for k in range(steps + 1):
+        now, later = later, rec.states((k + 1) * dt)[0]
+        here = rows[np.isfinite(now[rows]).all(axis=1) & np.isfinite(later[rows]).all(axis=1)]
+        gaps = np.hypot(*(now[here, None, :] - centres[None, :, :]).transpose(2, 0, 1))
+        if np.any(gaps < reach[None, :]):
+            return False
     return True
 
 

@@ -342,7 +342,9 @@ class RecordedPeople(StrictModel):
     ``name`` (prefix of their names). With a time_jitter, the draw is made again while
     one of the people in the scene at the episode's start is within ``start_clearance``
     (m, surface to surface; 0: overlapping) of a robot's start: no robot starts on, or
-    that close to, a recorded person."""
+    that close to, a recorded person; with ``start_clearance_for`` (s, default 0: the
+    start only), nor has one come that close to a robot standing at its start within
+    that time (someone about to walk into a robot that has had no time to react)."""
 
     type: Literal["recorded"]
     file: str
@@ -351,6 +353,7 @@ class RecordedPeople(StrictModel):
     time_offset: NonNeg = 0.0
     time_jitter: NonNeg = 0.0
     start_clearance: NonNeg = 0.0
+    start_clearance_for: NonNeg = 0.0
     radius: Pos = 0.3
     name: str | None = None
 
