@@ -353,3 +353,14 @@ def test_the_known_path_oracle_reads_the_recording(tracks):
         # after its last annotation a person's known path stays where it left
         last = rec.positions[rec.offsets[k + 1] - 1]
         np.testing.assert_allclose(path[ended], np.broadcast_to(last, path[ended].shape))
+
+
+def test_start_clearance_for_is_bounded(tmp_path):
+    """Each draw checks every control step of start_clearance_for: a map cannot ask for
+    days of them (a hang), it gets a one-line error."""
+    path = _walking_in_tracks(tmp_path)
+    data = _map(str(path), time_jitter=6.0, start_clearance=0.5, start_clearance_for=61.0)
+    with pytest.raises(
+        MapError, match=r"traffic\[0\]\.start_clearance_for: expected a number <= 60"
+    ):
+        map_from_dict(data)

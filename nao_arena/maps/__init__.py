@@ -122,9 +122,10 @@ Top level
     draw in [0, time_jitter) from the map's seeded Generator, after the lanes' phases),
     ``start_clearance`` (m, default 0: with a time_jitter, the draw is made again while a
     person in the scene at the start is within this distance, surface to surface, of a
-    robot's start), ``start_clearance_for`` (s, default 0: the clearance holds at every
-    control step of this long, for a robot standing at its start), ``radius`` (m, default 0.3), ``name`` (prefix of the people's names,
-    default "person", then the recording's id). Each person present for at least one
+    robot's start), ``start_clearance_for`` (s, default 0, at most 60: the clearance
+    holds at every control step of this long, for a robot standing at its start),
+    ``radius`` (m, default 0.3), ``name`` (prefix of the people's names, default
+    "person", then the recording's id). Each person present for at least one
     whole control period is a body of kind ``person`` that the recording moves (a pymunk
     kinematic body): at every control step at its recorded centre (interpolated
     linearly between annotations), in between along the chord to the next one; it is

@@ -333,6 +333,11 @@ class TrafficGroup(StrictModel):
         )
 
 
+MAX_START_CLEARANCE_FOR = 60.0
+"""Longest ``start_clearance_for`` (s): each draw of a start time checks every control
+step of it."""
+
+
 class RecordedPeople(StrictModel):
     """People replayed from a recording (``traffic[]`` with ``type: recorded``; see
     :mod:`nao_arena.pedestrians`): ``file`` (relative to the map file), its ``format``,
@@ -353,7 +358,7 @@ class RecordedPeople(StrictModel):
     time_offset: NonNeg = 0.0
     time_jitter: NonNeg = 0.0
     start_clearance: NonNeg = 0.0
-    start_clearance_for: NonNeg = 0.0
+    start_clearance_for: Annotated[NonNeg, Field(le=MAX_START_CLEARANCE_FOR)] = 0.0
     radius: Pos = 0.3
     name: str | None = None
 
