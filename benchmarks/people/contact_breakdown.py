@@ -1,0 +1,135 @@
+"""Where a trial's crossings of people went wrong: the first contact with a person of each
+robot-episode that had one, sorted by what the robot and the person were doing.
+
+Reads a trial folder run with episode logs for the contacts (``nao-arena trial ... --log
+contacts``, or ``--log``) and prints, per map and agent, with the count beside every
+share:
+
+- crossings with a contact: robot-episodes with at least one contact with a person;
+- robot at rest: of them, those whose first touch found the robot standing (slower than
+  ``StatsConfig.moving_speed``, 0.05 m/s: a person walking into it);
+- robot-caused: the trial's ``caused_person_contacts`` column (robot-episodes with a
+  contact it caused, :func:`nao_arena.stats.people.robot_caused`);
+- seen late: those whose first touch was with a person who had been in the scene for
+  less than ``--seen-within`` s (default 1 s) before it; in brackets, how many of them
+  were robot-caused. A recorded person is in the scene where the log has them within
+  the map's bounds (widened by ``nao_arena.explain.OFF_MAP``); before appearing they
+  wait far outside. From rest, a robot at 2 m/s^2 needs 0.77 s to move 0.6 m (the sum
+  of the crossing maps' radii) sideways, and a control period (0.1 s) to see them.
+
+Run: ``python benchmarks/people/contact_breakdown.py RESULTS [--seen-within 1.0]``, with
+RESULTS the trial's ``--out`` folder. A folder without ``collisions.parquet``, or whose
+contacts have no log, is a one-line error (exit status 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from nao_arena.episode_log import read_log
+from nao_arena.explain import OFF_MAP
+from nao_arena.stats.records import StatsConfig
+
+
+@dataclass(frozen=True)
+class FirstTouch:
+    """The first contact with a person of one robot-episode."""
+
+    map: str
+    agent: str
+    at_rest: bool
+    caused: bool
+    seen_for: float  # s the person had been in the scene before the touch
+
+
+def seen_for(results: Path, log: str, person: int, time: float) -> float:
+    """How long (s) body ``person`` had been in the scene at ``time`` (s) in the episode
+    log ``log`` (relative to ``results``): from its first logged step within the bounds
+    (widened by OFF_MAP) up to ``time``."""
+    ep = read_log(results / log)
+    lo = np.asarray(ep.spec.bounds.min, dtype=float) - OFF_MAP
+    hi = np.asarray(ep.spec.bounds.max, dtype=float) + OFF_MAP
+    path = ep.positions[:, person]
+    inside = np.all((path >= lo) & (path <= hi), axis=1) & (ep.time <= time + 1e-9)
+    if not inside.any():
+        return 0.0
+    return float(time - ep.time[int(np.argmax(inside))])
+
+
+def first_touches(results: Path) -> list[FirstTouch]:
+    """The first contact with a person of each robot-episode of the trial in ``results``
+    that had one (robots are the contacts' ``a`` side)."""
+    episodes = pd.read_parquet(results / "episodes.parquet")
+    contacts = pd.read_parquet(results / "collisions.parquet")
+    contacts = contacts[(contacts.kind_a == "robot") & (contacts.kind_b == "person")]
+    keys = ["map", "agent", "episode", "name_a"]
+    first = contacts.sort_values([*keys, "time"]).groupby(keys, sort=False).head(1)
+    caused = episodes.set_index(["map", "agent", "episode", "robot"])["caused_person_contacts"]
+    moving = StatsConfig().moving_speed
+    out = []
+    for row in first.itertuples(index=False):
+        if not isinstance(row.log, str):
+            raise ValueError(
+                f"{results}: episode {row.episode} of {row.map} ({row.agent}) has no log: "
+                "run the trial with --log contacts"
+            )
+        out.append(
+            FirstTouch(
+                map=Path(str(row.map)).stem,
+                agent=str(row.agent),
+                at_rest=bool(row.speed_a < moving),
+                caused=bool(caused[(row.map, row.agent, row.episode, row.name_a)] > 0),
+                seen_for=seen_for(results, row.log, int(row.b), float(row.time)),
+            )
+        )
+    return out
+
+
+def table(touches: list[FirstTouch], within: float) -> str:
+    """The printed table: one row per map and agent, in the order met."""
+    rows = [
+        f"| map | agent | crossings with a contact | robot at rest | robot-caused | "
+        f"seen less than {within:g} s before (robot-caused) |",
+        "| --- | --- | ---: | ---: | ---: | ---: |",
+    ]
+    groups: dict[tuple[str, str], list[FirstTouch]] = {}
+    for t in touches:
+        groups.setdefault((t.map, t.agent), []).append(t)
+    for (map_name, agent), ts in groups.items():
+        late = [t for t in ts if t.seen_for < within]
+        rows.append(
+            f"| {map_name} | {agent} | {len(ts)} | {sum(t.at_rest for t in ts)} | "
+            f"{sum(t.caused for t in ts)} | {len(late)} ({sum(t.caused for t in late)}) |"
+        )
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("results", type=Path, help="the trial's --out folder")
+    parser.add_argument("--seen-within", type=float, default=1.0, metavar="S")
+    args = parser.parse_args(argv)
+    if not (math.isfinite(args.seen_within) and args.seen_within > 0):
+        print(f"--seen-within: expected a positive number of seconds, got {args.seen_within}")
+        return 2
+    if not (args.results / "collisions.parquet").is_file():
+        print(f"{args.results}: expected a trial folder with collisions.parquet")
+        return 2
+    try:
+        touches = first_touches(args.results)
+    except (ValueError, OSError) as exc:
+        print(str(exc).splitlines()[0])
+        return 2
+    print(table(touches, args.seen_within))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
