@@ -100,12 +100,14 @@ class BatchAgent(Agent, Protocol):
     def act_batch(cls, agents: Sequence[Any], batch: SensingBatch, rows: Sequence[int]) -> Any: ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PanelAgent:
     """What the viewer's acceleration panel shows of a robot's agent: its time grid (s)
     and predictor (None: turn-rate predictions over 3 s), safety margin (m), preferred
     speed (m/s; None: v_max), detour (rad; its goal direction is turned by it) and the
-    status of its last full selection (None: it reports none)."""
+    status of its last full selection (None: it reports none). Equal where every field
+    is, the time grids element by element (a dataclass's own comparison of an array
+    field raises from Python 3.13 on)."""
 
     times: NDArray[np.float64] | None = None
     predict: Predictor | None = None
@@ -113,6 +115,19 @@ class PanelAgent:
     v_pref: float | None = None
     detour: float = 0.0
     status: str | None = None
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PanelAgent):
+            return NotImplemented
+        if self.times is None or other.times is None:
+            if self.times is not other.times:
+                return False
+        elif not np.array_equal(self.times, other.times):
+            return False
+        mine = (self.predict, self.margin, self.v_pref, self.detour, self.status)
+        return mine == (other.predict, other.margin, other.v_pref, other.detour, other.status)
+
+    __hash__ = None  # type: ignore[assignment]  # equal by value, and an array is unhashable
 
 
 @runtime_checkable

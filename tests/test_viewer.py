@@ -359,3 +359,19 @@ def test_a_robots_label_is_never_cut_by_the_views_edge(centre):
     assert 0 <= x and x + 60 <= 1200 and 0 <= y and y + 14 <= 800
     if centre == (50, 50):  # room on the upper right: it goes there
         assert (x, y) == (50 + 8 + 5, 50 - 8 - 14)
+
+
+def test_panel_agents_compare_by_value() -> None:
+    """Two reports with equal time grids in distinct arrays are equal (a dataclass's own
+    comparison raised on them, and from Python 3.13 on even on the same array)."""
+    from nao_arena.agent import PanelAgent
+
+    grid = np.linspace(0.0, 3.0, 31)
+    a = PanelAgent(times=grid, margin=0.15, status="kept")
+    assert a == PanelAgent(times=grid.copy(), margin=0.15, status="kept")
+    assert a == PanelAgent(times=grid, margin=0.15, status="kept")
+    assert a != PanelAgent(times=grid + 1e-9, margin=0.15, status="kept")
+    assert a != PanelAgent(times=None, margin=0.15, status="kept")
+    assert a != PanelAgent(times=grid, margin=0.2, status="kept")
+    assert PanelAgent() == PanelAgent()
+    assert a != "kept"
