@@ -106,7 +106,12 @@ def test_the_breakdown_sorts_first_touches(tmp_path: Path) -> None:
     # the contacts begin 0.4 and 1.4 s after the people appear
     assert by_map["walk5"].seen_for == pytest.approx(0.4, abs=0.06)
     assert by_map["walk0"].seen_for == pytest.approx(1.4, abs=0.06)
-    printed = _script().table(touches, 1.0).splitlines()[2:]
+    pairs = _script().trial_pairs(out)
+    assert pairs == [("walk5", "stand"), ("walk0", "stand")]
+    assert _script().table(pairs, touches, 1.0).splitlines()[2:] == [
+        "| walk5 | stand | 1 | 1 | 0 | 1 (0) |",
+        "| walk0 | stand | 1 | 1 | 0 | 0 (0) |",
+    ]
     assert sorted(printed) == [
         "| walk0 | stand | 1 | 1 | 0 | 0 (0) |",
         "| walk5 | stand | 1 | 1 | 0 | 1 (0) |",
@@ -122,9 +127,14 @@ def test_the_table_counts_each_map_and_agent() -> None:
         touch("m", "nao", at_rest=False, caused=True, seen_for=3.0),
         touch("m", "orca", at_rest=False, caused=True, seen_for=2.0),
     ]
-    lines = script.table(touches, 1.0).splitlines()
+    pairs = [("m", "orca"), ("m", "nao"), ("m", "goal")]
+    lines = script.table(pairs, touches, 1.0).splitlines()
     assert lines[0].endswith("| seen less than 1 s before (robot-caused) |")
-    assert lines[2:] == ["| m | nao | 3 | 1 | 2 | 2 (1) |", "| m | orca | 1 | 0 | 1 | 0 (0) |"]
+    assert lines[2:] == [
+        "| m | orca | 1 | 0 | 1 | 0 (0) |",
+        "| m | nao | 3 | 1 | 2 | 2 (1) |",
+        "| m | goal | 0 | 0 | 0 | 0 (0) |",
+    ]
 
 
 def test_a_folder_without_a_trial_is_a_one_line_error(tmp_path: Path) -> None:

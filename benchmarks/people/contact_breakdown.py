@@ -2,8 +2,9 @@
 robot-episode that had one, sorted by what the robot and the person were doing.
 
 Reads a trial folder run with episode logs for the contacts (``nao-arena trial ... --log
-contacts``, or ``--log``) and prints, per map and agent, with the count beside every
-share:
+contacts``, or ``--log``) and prints a table of counts.
+
+One row per map and agent of the trial, in its order:
 
 - crossings with a contact: robot-episodes with at least one contact with a person;
 - robot at rest: of them, those whose first touch found the robot standing (slower than
@@ -92,17 +93,24 @@ def first_touches(results: Path) -> list[FirstTouch]:
     return out
 
 
-def table(touches: list[FirstTouch], within: float) -> str:
-    """The printed table: one row per map and agent, in the order met."""
+def trial_pairs(results: Path) -> list[tuple[str, str]]:
+    """The (map, agent) pairs of the trial in ``results``, in the order it ran them (map
+    by its file's stem)."""
+    episodes = pd.read_parquet(results / "episodes.parquet", columns=["map", "agent"])
+    pairs = episodes.drop_duplicates().itertuples(index=False)
+    return [(Path(str(m)).stem, str(a)) for m, a in pairs]
+
+
+def table(pairs: list[tuple[str, str]], touches: list[FirstTouch], within: float) -> str:
+    """The printed table: one row per (map, agent) pair of ``pairs``, in their order (a
+    pair without contacts has a row of zeros)."""
     rows = [
         f"| map | agent | crossings with a contact | robot at rest | robot-caused | "
         f"seen less than {within:g} s before (robot-caused) |",
         "| --- | --- | ---: | ---: | ---: | ---: |",
     ]
-    groups: dict[tuple[str, str], list[FirstTouch]] = {}
-    for t in touches:
-        groups.setdefault((t.map, t.agent), []).append(t)
-    for (map_name, agent), ts in groups.items():
+    for map_name, agent in pairs:
+        ts = [t for t in touches if (t.map, t.agent) == (map_name, agent)]
         late = [t for t in ts if t.seen_for < within]
         rows.append(
             f"| {map_name} | {agent} | {len(ts)} | {sum(t.at_rest for t in ts)} | "
@@ -127,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError) as exc:
         print(str(exc).splitlines()[0])
         return 2
-    print(table(touches, args.seen_within))
+    print(table(trial_pairs(args.results), touches, args.seen_within))
     return 0
 
 
