@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -188,8 +189,10 @@ def test_python_m_pytest_works_in_a_plain_checkout(tmp_path):
         check=False,
     )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
-    # the one test marked `installed` (it starts a Python process) skips, and says why
-    assert " passed, 1 skipped" in proc.stdout, proc.stdout[-3000:]
+    # the one test marked `installed` (it starts a Python process) skips, and says why;
+    # so does the one that reads pyproject.toml with tomllib, on Python 3.10
+    skips = 1 if sys.version_info >= (3, 11) else 2
+    assert f" passed, {skips} skipped" in proc.stdout, proc.stdout[-3000:]
     assert "test_borrow.py:" in proc.stdout and "needs nao_arena installed" in proc.stdout
 
 

@@ -30,9 +30,10 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-import pandas as pd
+import pyarrow.parquet as pq
 
 from nao_arena.episode_log import read_log
 from nao_arena.explain import OFF_MAP
@@ -64,30 +65,42 @@ def seen_for(results: Path, log: str, person: int, time: float) -> float:
     return float(time - ep.time[int(np.argmax(inside))])
 
 
+def _rows(path: Path, columns: list[str]) -> list[dict[str, Any]]:
+    """The rows of a trial's Parquet file, as dicts of the named columns."""
+    return pq.read_table(path, columns=columns).to_pylist()
+
+
 def first_touches(results: Path) -> list[FirstTouch]:
     """The first contact with a person of each robot-episode of the trial in ``results``
     that had one (robots are the contacts' ``a`` side)."""
-    episodes = pd.read_parquet(results / "episodes.parquet")
-    contacts = pd.read_parquet(results / "collisions.parquet")
-    contacts = contacts[(contacts.kind_a == "robot") & (contacts.kind_b == "person")]
-    keys = ["map", "agent", "episode", "name_a"]
-    first = contacts.sort_values([*keys, "time"]).groupby(keys, sort=False).head(1)
-    caused = episodes.set_index(["map", "agent", "episode", "robot"])["caused_person_contacts"]
+    episode_columns = ["map", "agent", "episode", "robot", "caused_person_contacts"]
+    caused = {
+        (r["map"], r["agent"], r["episode"], r["robot"]): r["caused_person_contacts"]
+        for r in _rows(results / "episodes.parquet", episode_columns)
+    }
+    contact_columns = ["map", "agent", "episode", "name_a", "kind_a", "kind_b", "b", "time"]
+    first: dict[tuple[Any, ...], dict[str, Any]] = {}
+    for c in _rows(results / "collisions.parquet", [*contact_columns, "speed_a", "log"]):
+        if c["kind_a"] != "robot" or c["kind_b"] != "person":
+            continue
+        key = (c["map"], c["agent"], c["episode"], c["name_a"])
+        if key not in first or c["time"] < first[key]["time"]:
+            first[key] = c
     moving = StatsConfig().moving_speed
     out = []
-    for row in first.itertuples(index=False):
-        if not isinstance(row.log, str):
+    for key, c in first.items():
+        if not isinstance(c["log"], str):
             raise ValueError(
-                f"{results}: episode {row.episode} of {row.map} ({row.agent}) has no log: "
+                f"{results}: episode {c['episode']} of {c['map']} ({c['agent']}) has no log: "
                 "run the trial with --log contacts"
             )
         out.append(
             FirstTouch(
-                map=Path(str(row.map)).stem,
-                agent=str(row.agent),
-                at_rest=bool(row.speed_a < moving),
-                caused=bool(caused[(row.map, row.agent, row.episode, row.name_a)] > 0),
-                seen_for=seen_for(results, row.log, int(row.b), float(row.time)),
+                map=Path(str(c["map"])).stem,
+                agent=str(c["agent"]),
+                at_rest=float(c["speed_a"]) < moving,
+                caused=(caused.get(key) or 0) > 0,
+                seen_for=seen_for(results, c["log"], int(c["b"]), float(c["time"])),
             )
         )
     return out
@@ -96,9 +109,11 @@ def first_touches(results: Path) -> list[FirstTouch]:
 def trial_pairs(results: Path) -> list[tuple[str, str]]:
     """The (map, agent) pairs of the trial in ``results``, in the order it ran them (map
     by its file's stem)."""
-    episodes = pd.read_parquet(results / "episodes.parquet", columns=["map", "agent"])
-    pairs = episodes.drop_duplicates().itertuples(index=False)
-    return [(Path(str(m)).stem, str(a)) for m, a in pairs]
+    pairs = [
+        (Path(str(r["map"])).stem, str(r["agent"]))
+        for r in _rows(results / "episodes.parquet", ["map", "agent"])
+    ]
+    return list(dict.fromkeys(pairs))
 
 
 def table(pairs: list[tuple[str, str]], touches: list[FirstTouch], within: float) -> str:
