@@ -44,6 +44,7 @@ __all__ = [
     "explain_contact",
     "explain_figure",
     "explain_picture",
+    "on_map",
     "write_explanation",
 ]
 
@@ -514,7 +515,7 @@ def _draw_others(
         for n, i in enumerate(group):
             colour = to_unit(_body_colour(log, i, controlled))
             label = f"{kind} nearby ({len(group)}): paths, {span}" if n == 0 else None
-            seen = _on_map(log, log.positions[rows, i])
+            seen = on_map(log, log.positions[rows, i])
             ax.plot(*seen.T, "-", color=colour, lw=1.0, alpha=0.6, label=label)
             at = _position_at(log, i, win.t_contact)
             ax.add_patch(
@@ -542,8 +543,8 @@ def _draw_party(
 
     colour, edge = to_unit(fill), to_unit(outline_colour(fill))
     before = win.before
-    came = _on_map(log, log.positions[win.first : before + 1, p.body])
-    path = _on_map(log, log.positions[before : win.last + 1, p.body])
+    came = on_map(log, log.positions[win.first : before + 1, p.body])
+    path = on_map(log, log.positions[before : win.last + 1, p.body])
     back = log.time[before] - log.time[win.first]
     ax.plot(
         *came.T, "-", color=colour, lw=1.0, alpha=0.5, label=f"{p.name}: the {back:.1f} s before"
@@ -602,7 +603,7 @@ OFF_MAP = 10.0
 recorded person waits before appearing and after leaving (far outside the bounds)."""
 
 
-def _on_map(log: EpisodeLog, points: NDArray[np.float64]) -> NDArray[np.float64]:
+def on_map(log: EpisodeLog, points: NDArray[np.float64]) -> NDArray[np.float64]:
     """``points`` (n, 2) m with NaN rows where a body was off the map (:data:`OFF_MAP`):
     lines break there and boxes leave them out."""
     bounds = log.spec.bounds
@@ -637,7 +638,7 @@ def _draw_paths(
     last = min(log.n_steps - 1, before + int(round(horizon / log.dt)))
     first = max(0, before - int(round(LOOK_BACK / log.dt)))
     hit = _contact_point(log, ev)
-    shown = [_on_map(log, log.positions[first : last + 1, p.body]) for p in bodies] + [hit[None]]
+    shown = [on_map(log, log.positions[first : last + 1, p.body]) for p in bodies] + [hit[None]]
     shown += [p.predicted_other for p in bodies if p.predicted_other is not None]
     lo, hi = _square(np.concatenate(shown))
     win = _Window(first, before, last, ev.time, lo, hi)

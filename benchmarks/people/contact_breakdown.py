@@ -13,10 +13,10 @@ One row per map and agent of the trial, in its order:
   contact it caused, :func:`nao_arena.stats.people.robot_caused`);
 - seen late: those whose first touch was with a person who had been in the scene for
   less than ``--seen-within`` s (default 1 s) before it; in brackets, how many of them
-  were robot-caused. A recorded person is in the scene where the log has them within
-  the map's bounds (widened by ``nao_arena.explain.OFF_MAP``); before appearing they
-  wait far outside. From rest, a robot at 2 m/s^2 needs 0.77 s to move 0.6 m (the sum
-  of the crossing maps' radii) sideways, and a control period (0.1 s) to see them.
+  were robot-caused. A recorded person is in the scene where the log has them on the
+  map (:func:`nao_arena.explain.on_map`); before appearing they wait far outside it.
+  From rest, a robot at 2 m/s^2 needs 0.77 s to move 0.6 m (the sum of the crossing
+  maps' radii) sideways, and a control period (0.1 s) to see them.
 
 Run: ``python benchmarks/people/contact_breakdown.py RESULTS [--seen-within 1.0]``, with
 RESULTS the trial's ``--out`` folder. A folder without ``collisions.parquet``, or whose
@@ -36,7 +36,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from nao_arena.episode_log import read_log
-from nao_arena.explain import OFF_MAP
+from nao_arena.explain import on_map
 from nao_arena.stats.records import StatsConfig
 
 
@@ -53,16 +53,13 @@ class FirstTouch:
 
 def seen_for(results: Path, log: str, person: int, time: float) -> float:
     """How long (s) body ``person`` had been in the scene at ``time`` (s) in the episode
-    log ``log`` (relative to ``results``): from its first logged step within the bounds
-    (widened by OFF_MAP) up to ``time``."""
+    log ``log`` (relative to ``results``): from its first logged step on the map
+    (:func:`nao_arena.explain.on_map`) up to ``time``."""
     ep = read_log(results / log)
-    lo = np.asarray(ep.spec.bounds.min, dtype=float) - OFF_MAP
-    hi = np.asarray(ep.spec.bounds.max, dtype=float) + OFF_MAP
-    path = ep.positions[:, person]
-    inside = np.all((path >= lo) & (path <= hi), axis=1) & (ep.time <= time + 1e-9)
-    if not inside.any():
+    here = ~np.isnan(on_map(ep, ep.positions[:, person])[:, 0]) & (ep.time <= time + 1e-9)
+    if not here.any():
         return 0.0
-    return float(time - ep.time[int(np.argmax(inside))])
+    return float(time - ep.time[int(np.argmax(here))])
 
 
 def _rows(path: Path, columns: list[str]) -> list[dict[str, Any]]:
