@@ -6,9 +6,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
-import math
 import sys
-import time
 from collections.abc import Iterable, Iterator
 
 from nao_arena._cli_common import _err, _split
@@ -34,48 +32,18 @@ def _compile_messages() -> Iterator[None]:
         LOG.setLevel(level)
 
 
-class _CompileProgress:
-    """``on_done`` of :func:`nao_arena.kernels.compile_ahead`: one line on stderr at
-    most every :data:`~nao_arena.kernels.PROGRESS_INTERVAL` s (and at the end): kernels
-    done of all, seconds so far."""
-
-    def __init__(self) -> None:
-        self.started = time.monotonic()
-        self.shown = -math.inf
-
-    def __call__(self, done: int, total: int, key: str) -> None:
-        now = time.monotonic()
-        from nao_arena.kernels import PROGRESS_INTERVAL
-
-        if done < total and now - self.shown < PROGRESS_INTERVAL:
-            return
-        self.shown = now
-        name = key.partition("(")[0]
-        print(
-            f"nao-arena: compiled {done}/{total} kernels in {now - self.started:.0f} s "
-            f"(last: {name})",
-            file=sys.stderr,
-            flush=True,
-        )
-
-
 def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False) -> None:
     """Compile the kernels of ``parts`` ahead of time in ``jobs`` processes (default:
-    every core) when the cache lacks some of them (``force``: look at each anyway),
-    with progress on stderr; nothing when they are cached or when the environment sets
-    ``NAO_ARENA_COMPILE_AHEAD=0``."""
+    every core) when the cache lacks some of them (``force``: look at each anyway);
+    nothing when they are cached or when the environment sets
+    ``NAO_ARENA_COMPILE_AHEAD=0``. The progress and the summary are logged
+    (:func:`nao_arena.kernels.compile_ahead`): on stderr within :func:`_compile_messages`."""
     from nao_arena.kernels import compile_ahead, ensure_compiled
 
-    progress = _CompileProgress()
-    report = (
-        compile_ahead(parts, jobs, on_done=progress)
-        if force
-        else ensure_compiled(parts, jobs, on_done=progress)
-    )
-    if report is None:
-        return
-    cached = " (cached for later runs)" if report.compiled else ""
-    print(f"nao-arena: {report.summary(cached)}", file=sys.stderr, flush=True)
+    if force:
+        compile_ahead(parts, jobs)
+    else:
+        ensure_compiled(parts, jobs)
 
 
 def _parts(agents: Iterable[str], render: bool = False) -> list[str]:

@@ -76,7 +76,7 @@ __all__ = [
 LOG = logging.getLogger("nao_arena.kernels")
 
 PROGRESS_INTERVAL = 5.0
-"""Seconds (s, wall clock) between two progress messages of lazy compiles."""
+"""Seconds (s, wall clock) between two progress messages of a compile (lazy or ahead)."""
 
 MANIFEST_FILE = "kernels.json"
 
@@ -522,8 +522,9 @@ def compile_ahead(
 ) -> CompileReport:
     """Compile the kernels of ``parts`` into the cache with ``jobs`` processes (default:
     every core), each kernel after the kernels it calls; ``on_done(done, total, key)``
-    after each. Kernels already cached are only loaded (milliseconds). Progress is also
-    logged on :data:`LOG`."""
+    after each. Kernels already cached are only loaded (milliseconds). Progress (at
+    most every :data:`PROGRESS_INTERVAL` s) and the summary
+    (:meth:`CompileReport.summary`) are logged on :data:`LOG` (INFO)."""
     manifest = load_manifest() if manifest is None else manifest
     kernels = manifest.for_parts(parts)
     jobs = max(1, jobs or os.cpu_count() or 1)
@@ -534,6 +535,7 @@ def compile_ahead(
     done = 0
     total = len(kernels)
     LOG.info("compiling %d kernels in %d processes ...", total, jobs)
+    progress = _AheadProgress(started)
     cpu = 0.0
     context = get_context("spawn")  # no state of this process's numba is shared
     try:
@@ -563,7 +565,9 @@ def compile_ahead(
                 except BrokenProcessPool as exc:  # a worker died: the rest compile when called
                     failed.update(dict.fromkeys([key, *waiting, *running.values()], str(exc)))
                     LOG.debug("a compile process died (%s)", exc)
-                    return CompileReport(total, failed, jobs, time.monotonic() - started, cpu)
+                    return _reported(
+                        CompileReport(total, failed, jobs, time.monotonic() - started, cpu)
+                    )
                 cpu += seconds
                 if error is not None:
                     failed[key] = error
@@ -576,9 +580,38 @@ def compile_ahead(
                 for w in waiting.values():
                     w.discard(key)
                 LOG.debug("[%d/%d] %s", done, total, key)
+                progress(done, total, key)
                 if on_done is not None:
                     on_done(done, total, key)
-    return CompileReport(total, failed, jobs, time.monotonic() - started, cpu)
+    return _reported(CompileReport(total, failed, jobs, time.monotonic() - started, cpu))
+
+
+class _AheadProgress:
+    """The progress of :func:`compile_ahead` on :data:`LOG` (INFO): kernels done of all
+    and seconds so far, at most every :data:`PROGRESS_INTERVAL` s (s, wall clock)."""
+
+    def __init__(self, started: float) -> None:
+        self.started = started
+        self.shown = started
+
+    def __call__(self, done: int, total: int, key: str) -> None:
+        now = time.monotonic()
+        if done == total or now - self.shown < PROGRESS_INTERVAL:
+            return  # the summary tells the end
+        self.shown = now
+        LOG.info(
+            "compiled %d/%d kernels in %.0f s (last: %s)",
+            done,
+            total,
+            now - self.started,
+            key.partition("(")[0],
+        )
+
+
+def _reported(report: CompileReport) -> CompileReport:
+    """``report``, its summary logged on :data:`LOG` (INFO)."""
+    LOG.info("%s", report.summary(" (cached for later runs)" if report.compiled else ""))
+    return report
 
 
 def ensure_compiled(
@@ -620,9 +653,8 @@ def ensure_env_compiled(map_source: object) -> None:
     if isinstance(map_source, str) and map_source in available_maps():
         parts.append(map_part(map_source))
     try:
-        missing = missing_kernels(parts)
-        if missing:
-            LOG.info("compiling the env's kernels ahead in %d processes ...", os.cpu_count() or 1)
+        if missing_kernels(parts):
+            LOG.info("compiling the kernels of an env of %s ahead ...", key)
             _compile_in_subprocess(parts)
     except Exception as exc:  # noqa: BLE001 - the kernels compile when called instead
         LOG.debug("could not compile the env's kernels ahead (%s)", exc)
@@ -630,18 +662,37 @@ def ensure_env_compiled(map_source: object) -> None:
 
 def _compile_in_subprocess(parts: Sequence[str]) -> None:
     """:func:`compile_ahead` of ``parts`` in a new Python process (``python -c``: no
-    script of the caller's to import again), waiting for it; its output is discarded."""
+    script of the caller's to import again), waiting for it. What it logs on
+    :data:`LOG` (progress, the summary) is logged again here, line by line as it comes;
+    the rest of its output is discarded."""
     import subprocess
     import sys
 
-    code = "import sys; from nao_arena.kernels import compile_ahead; compile_ahead(sys.argv[1:])"
-    subprocess.run(
-        [sys.executable, "-c", code, *parts],
+    with subprocess.Popen(
+        [sys.executable, "-c", _SUBPROCESS_CODE, *parts],
         stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
-        check=False,
-    )
+        text=True,
+        encoding="utf-8",
+        errors="replace",
+    ) as process:
+        assert process.stdout is not None
+        for line in process.stdout:
+            if line.strip():
+                LOG.info("%s", line.rstrip())
+
+
+_SUBPROCESS_CODE = """
+import logging, sys
+from nao_arena.kernels import LOG, compile_ahead
+LOG.addHandler(logging.StreamHandler(sys.stdout))
+LOG.setLevel(logging.INFO)
+LOG.propagate = False
+compile_ahead(sys.argv[1:])
+"""
+"""What :func:`_compile_in_subprocess` runs: :func:`compile_ahead` of the parts in its
+arguments, with :data:`LOG`'s messages on stdout, one per line."""
 
 
 _ENV_ENSURED: set[str] = set()

@@ -704,7 +704,7 @@ def test_run_and_trial_compile_ahead_what_they_need(capsys, monkeypatch, tmp_pat
 
     def compile_ahead(parts, jobs=None, on_done=None):
         calls.append(list(parts))
-        on_done(1, 1, "m:k(int64)")
+        kernels.LOG.info("compiled 1/1 kernels")
         return kernels.CompileReport(kernels=1, failed={}, jobs=2, seconds=0.5)
 
     monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)

@@ -4,8 +4,10 @@ wall-clock budget that leaves compiles out, the manifest, compiling ahead of tim
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -14,6 +16,7 @@ import time
 import numba
 import pytest
 
+import nao_arena.kernels as kernels
 from nao_arena.agent import BUILTIN_AGENTS
 from nao_arena.kernels import (
     CORE,
@@ -201,9 +204,10 @@ def test_parts_for_agents():
     assert set(BUILTIN_AGENTS) <= set(RECORD_PARTS)
 
 
-def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch):
+def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch, caplog):
     """Kernels compiled ahead in worker processes are in the cache; a fresh process then
-    loads them without compiling; the callee is compiled before its caller."""
+    loads them without compiling; the callee is compiled before its caller. The progress
+    and the summary are logged."""
     (tmp_path / "ahead_kernels.py").write_text(
         textwrap.dedent("""
         from numba import njit
@@ -223,14 +227,21 @@ def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch):
     manifest = Manifest(numba.__version__, {inner.key: inner, outer.key: outer})
     assert missing_kernels(["core"], manifest) == [outer.key]  # only what no kernel calls
     order = []
-    report = compile_ahead(
-        ["core"],
-        jobs=2,
-        manifest=manifest,
-        on_done=lambda done, total, key: order.append((done, total, key)),
-    )
+    monkeypatch.setattr(kernels, "PROGRESS_INTERVAL", 0.0)  # every kernel's progress
+    with caplog.at_level(logging.INFO, logger="nao_arena.kernels"):
+        report = compile_ahead(
+            ["core"],
+            jobs=2,
+            manifest=manifest,
+            on_done=lambda done, total, key: order.append((done, total, key)),
+        )
     assert report.kernels == 2 and not report.failed and report.jobs == 2
     assert order == [(1, 2, inner.key), (2, 2, outer.key)]
+    logged = [r.getMessage() for r in caplog.records]
+    assert logged[0] == "compiling 2 kernels in 2 processes ..."
+    assert logged[1].startswith("compiled 1/2 kernels in ")
+    assert logged[1].endswith(" s (last: ahead_kernels:inner)")
+    assert logged[2] == report.summary(" (cached for later runs)") and len(logged) == 3
     assert missing_kernels(["core"], manifest) == []
     probe = textwrap.dedent("""
         import sys
@@ -351,10 +362,12 @@ def test_an_env_compiles_ahead_once_per_map_and_never_in_a_daemonic_process(monk
 def test_a_new_env_compiles_its_first_steps_kernels_ahead(tmp_path):
     """With an empty cache, a script that makes an env (with no ``__main__`` guard) has
     what its first steps call compiled ahead in other processes, which do not run the
-    script again: its reset and first step compile next to nothing in its process."""
+    script again: its reset and first step compile next to nothing in its process. The
+    compile's messages reach the script's logging."""
     (tmp_path / "script.py").write_text(
         textwrap.dedent("""
-            import json
+            import json, logging
+            logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
             import nao_arena, nao_arena.kernels as kernels
             print("script runs", flush=True)
             env = nao_arena.parallel_env("circle_swap")
@@ -377,6 +390,22 @@ def test_a_new_env_compiles_its_first_steps_kernels_ahead(tmp_path):
     assert lines[0] == "script runs" and len(lines) == 2  # the script ran once
     ahead, left, after = json.loads(lines[1])
     assert ahead == 0 and left == [] and after <= 2, (ahead, left, after)
+    logged = [line for line in out.stderr.splitlines() if line.startswith("nao_arena.kernels")]
+    assert logged[:2] == [
+        "nao_arena.kernels: compiling the kernels of an env of circle_swap ahead ...",
+        f"nao_arena.kernels: compiling {ahead_total(logged)} kernels in "
+        f"{os.cpu_count()} processes ...",
+    ]
+    summary = re.compile(
+        r"nao_arena\.kernels: (\d+) of \1 kernels compiled or loaded in \d+ s "
+        r"\(\d+ s of CPU\) with \d+ process(es)? \(cached for later runs\)$"
+    )
+    assert summary.match(logged[-1]), logged
+
+
+def ahead_total(logged: list[str]) -> str:
+    """The count of kernels in the compile-ahead summary among ``logged``."""
+    return logged[-1].split(": ", 1)[1].split(" of ")[0]
 
 
 def test_the_compile_summary_counts_only_the_kernels_that_compiled() -> None:
