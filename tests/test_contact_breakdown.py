@@ -137,5 +137,17 @@ def test_a_folder_without_a_trial_is_a_one_line_error(tmp_path: Path) -> None:
     done = subprocess.run(
         [sys.executable, str(SCRIPT), str(tmp_path)], capture_output=True, text=True, check=False
     )
-    assert done.returncode == 2
-    assert done.stdout.strip() == f"{tmp_path}: expected a trial folder with collisions.parquet"
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr == (
+        f"contact_breakdown: error: {tmp_path}: expected a trial folder with collisions.parquet\n"
+    )
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), str(tmp_path), "--seen-within", "nan"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr == (
+        "contact_breakdown: error: --seen-within: expected a positive number of seconds, got nan\n"
+    )

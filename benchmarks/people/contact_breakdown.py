@@ -131,22 +131,26 @@ def table(pairs: list[tuple[str, str]], touches: list[FirstTouch], within: float
     return "\n".join(rows)
 
 
+def _error(message: str) -> int:
+    """One line on stderr, prefixed with the script's name; the exit status 2."""
+    print(f"contact_breakdown: error: {message}", file=sys.stderr)
+    return 2
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("results", type=Path, help="the trial's --out folder")
     parser.add_argument("--seen-within", type=float, default=1.0, metavar="S")
     args = parser.parse_args(argv)
     if not (math.isfinite(args.seen_within) and args.seen_within > 0):
-        print(f"--seen-within: expected a positive number of seconds, got {args.seen_within}")
-        return 2
+        seconds = args.seen_within
+        return _error(f"--seen-within: expected a positive number of seconds, got {seconds}")
     if not (args.results / "collisions.parquet").is_file():
-        print(f"{args.results}: expected a trial folder with collisions.parquet")
-        return 2
+        return _error(f"{args.results}: expected a trial folder with collisions.parquet")
     try:
         touches = first_touches(args.results)
     except (ValueError, OSError) as exc:
-        print(str(exc).splitlines()[0])
-        return 2
+        return _error(str(exc).splitlines()[0])
     print(table(trial_pairs(args.results), touches, args.seen_within))
     return 0
 
