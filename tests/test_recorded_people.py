@@ -213,6 +213,32 @@ def test_real_recordings_replay_and_a_robot_crosses_them(folder, fps):
     assert here.any()
 
 
+CROSSING_MAPS = Path(__file__).resolve().parents[1] / "benchmarks" / "people"
+
+
+@pytest.mark.parametrize(
+    ("name", "folder"),
+    [("eth_univ", "eth_univ"), ("eth_hotel", "eth_hotel"), ("ucy_zara01", "ucy_zara01")],
+)
+def test_the_crossing_maps_cross_where_the_recording_sees_people(name, folder):
+    """The robot of each shipped crossing map starts and ends inside the area the
+    recording annotates (its people's bounding box), at least a robot radius within it,
+    whatever the seed: outside it nobody is recorded, and people walk in out of nowhere."""
+    source = SHARED / folder / "obsmat.txt"
+    if not source.is_file():
+        pytest.skip(f"{source} is absent (the shared pedestrian data: see its README)")
+    fps = {"eth_univ": 15.0}.get(folder, 25.0)
+    positions = read_recording(source, "obsmat", fps=fps).positions
+    lo, hi = positions.min(axis=0), positions.max(axis=0)
+    for seed in range(60):
+        spec = load_map(str(CROSSING_MAPS / f"{name}.yaml"), seed=seed, robot_v_max=1.5)
+        (robot,) = spec.robots
+        assert robot.v_max == 1.5
+        for point in (robot.start, robot.goal):
+            assert np.all(np.asarray(point) >= lo + robot.radius), (seed, point, lo)
+            assert np.all(np.asarray(point) <= hi - robot.radius), (seed, point, hi)
+
+
 def test_a_person_appearing_on_a_moving_robot_is_not_the_robots_doing(tmp_path):
     # the robot drives along y = -5; a person appears right on it at t = 1 s
     path = tmp_path / "appear.txt"
