@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from nao_arena.geometry import (
     AccelLimits,
     PiecewisePath,
+    grown_with_time,
     repair_acceleration,
     select_acceleration,
 )
@@ -316,3 +317,46 @@ def undecided(
             )
         except Exception as exc:  # noqa: BLE001 - the agent's failure
             errors[i] = exc
+
+
+def robust(
+    agents: Sequence[NAOAgent],
+    live: NDArray[np.bool_],
+    errors: dict[int, Exception],
+    out: NDArray[np.float64],
+    own: RobotRows,
+    desired: NDArray[np.float64],
+    dt: float,
+) -> None:
+    """The live robots (``live``) whose agent has an ``uncertainty_growth`` (m/s) > 0,
+    after their decision of this step: the full selection toward desired[i] (m/s^2)
+    against this step's obstacles with the radii grown with prediction time
+    (:func:`~nao_arena.geometry.grown_with_time`). Where an acceleration is admissible
+    there, it replaces out[i] (m/s^2) and becomes the agent's current acceleration and
+    last selection; elsewhere the decision against the predictions themselves stands.
+    A robot whose step raises gets its exception in ``errors``."""
+    for i, ag in enumerate(agents):
+        if ag.uncertainty_growth <= 0.0 or not live[i] or i in errors:
+            continue
+        try:
+            path = ag.last_obstacles()
+            if path is None:
+                continue
+            a_max, v = float(own.a_max[i]), own.vel[i]
+            brake = np.array(braking(float(v[0]), float(v[1]), a_max, dt))
+            sel = select_acceleration(
+                desired[i],
+                v,
+                grown_with_time(path, ag.uncertainty_growth),
+                AccelLimits(a_max),
+                v_max=float(own.v_max[i]),
+                with_clearance=False,
+                fallback=brake,  # not taken: an infeasible result is dropped
+            )
+        except Exception as exc:  # noqa: BLE001 - the agent's failure
+            errors[i] = exc
+            continue
+        if sel.feasible:
+            out[i] = sel.accel
+            ag.current = np.array(sel.accel, dtype=np.float64)
+            ag.last_selection = sel

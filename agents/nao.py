@@ -184,7 +184,14 @@ class NAOAgent:
     would meet theirs, see :mod:`nao_arena.stopping`), switch_side_after (s),
     noise_sigmas (how many standard deviations of the sensing noise the stopping plans'
     tubes of robots it is not linked with grow by, see :mod:`nao_arena.stopping`;
-    fewer keeps robots moving, at a higher chance of a contact under noise).
+    fewer keeps robots moving, at a higher chance of a contact under noise),
+    uncertainty_growth (m/s; 0, the default: off): each step, first the selection
+    toward the desired acceleration against the predictions with every moving
+    obstacle's radius grown by this much per second of prediction
+    (:func:`nao_arena.geometry.grown_with_time`); where that finds an admissible
+    acceleration it is the command, elsewhere the decision against the predictions
+    themselves stands (for people whose predictions grow less certain the further
+    ahead they look, see docs/results/people.md).
 
     The default horizon is 3 s (four stopping times of the shipped robots, v_max / a_max
     = 0.75 s; a car of the roundabout stops from 6 m/s in 2 s); the two-lane road sets
@@ -240,6 +247,7 @@ class NAOAgent:
         stopping_plans: bool = True,
         switch_side_after: float = 20.0,
         noise_sigmas: float = NOISE_SIGMAS,
+        uncertainty_growth: float = 0.0,
     ) -> None:
         if infeasible not in ("auto", "latest_contact", "brake"):
             raise ValueError(
@@ -265,6 +273,11 @@ class NAOAgent:
                 f"(inf: never), got {switch_side_after!r}"
             )
         self.noise_sigmas = float(noise_sigmas)
+        self.uncertainty_growth = float(uncertainty_growth)
+        if not (math.isfinite(self.uncertainty_growth) and self.uncertainty_growth >= 0.0):
+            raise ValueError(
+                f"uncertainty_growth: expected a number >= 0 (m/s), got {uncertainty_growth!r}"
+            )
         if not (math.isfinite(self.noise_sigmas) and self.noise_sigmas >= 0.0):
             raise ValueError(f"noise_sigmas: expected a number >= 0, got {noise_sigmas!r}")
         if not (math.isfinite(self.goal_zone) and self.goal_zone >= 0.0):
@@ -666,6 +679,7 @@ def _act_rows(
             per_robot.undecided(
                 agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
+    per_robot.robust(agents, live, errors, out, own, desired, float(batch.dt))
     failed = np.zeros(len(rows_a), dtype=np.bool_)
     if errors:
         failed[list(errors)] = True

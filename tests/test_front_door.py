@@ -50,6 +50,7 @@ API = [
     "available_maps",
     "bao_boundary",
     "env",
+    "grown_with_time",
     "load_map",
     "nao_boundary",
     "nao_clearance",

@@ -21,7 +21,10 @@ acceleration), not just at the sample times.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Literal, overload
 
 import numpy as np
@@ -35,6 +38,7 @@ __all__ = [
     "PiecewisePath",
     "ao_clearance",
     "ao_path",
+    "grown_with_time",
     "nao_clearance",
     "nao_query",
     "path_clearance",
@@ -207,6 +211,52 @@ def sampled_path(times: ArrayLike, centers: ArrayLike, radius: ArrayLike) -> Pie
         velocity=np.ascontiguousarray(w),
         acceleration=np.zeros_like(w),
         radius=_radius_array(radius, n),
+    )
+
+
+UNCERTAINTY_WINDOWS = (1.0, 2.0)
+"""The prediction times (s) at which :func:`grown_with_time` steps the radii up."""
+
+_ABSENT = 1.0e4
+"""Where (m, robot-relative) a copy of an obstacle waits outside its window."""
+
+
+def grown_with_time(
+    path: PiecewisePath, growth: float, windows: Sequence[float] = UNCERTAINTY_WINDOWS
+) -> PiecewisePath:
+    """``path`` with the moving obstacles' radii grown with prediction time: a prediction
+    is less certain the further ahead it looks. The horizon is cut at ``windows`` (s,
+    increasing) into [0, w1), [w1, w2), ..., [wk, end); each obstacle becomes one copy
+    per window that holds a piece's start, present on those pieces only (elsewhere
+    standing 10 km away) with its radius grown by ``growth`` (m/s) times the latest end
+    (s) of those pieces (an unbounded last piece counts as ending 1 s after its start).
+    An acceleration admissible against the result keeps each obstacle, at every time t,
+    at least its radius plus ``growth`` times the end of t's window away. Walls are
+    unchanged; ``growth`` 0 returns ``path`` itself."""
+    if not (math.isfinite(growth) and growth >= 0.0):
+        raise ValueError(f"growth: expected a number >= 0 (m/s), got {growth!r}")
+    if growth == 0.0 or path.c.shape[0] == 0:
+        return path
+    starts, ends = path.t[:-1], path.t[1:]
+    ends = np.where(np.isfinite(ends), ends, starts + 1.0)
+    cs, vs, accs, radii = [], [], [], []
+    for lo, hi in pairwise([0.0, *windows, math.inf]):
+        inside = (starts >= lo) & (starts < hi)
+        if not inside.any():
+            continue
+        cs.append(np.where(inside[None, :, None], path.c, _ABSENT))
+        vs.append(np.where(inside[None, :, None], path.velocity, 0.0))
+        accs.append(np.where(inside[None, :, None], path.acceleration, 0.0))
+        radii.append(path.radius + growth * float(ends[inside].max()))
+    f = np.ascontiguousarray
+    return PiecewisePath(
+        path.t,
+        f(np.concatenate(cs)),
+        f(np.concatenate(vs)),
+        f(np.concatenate(accs)),
+        f(np.concatenate(radii)),
+        path.walls,
+        path.wall_radius,
     )
 
 
