@@ -330,8 +330,11 @@ def robust(
 ) -> None:
     """The live robots (``live``) whose agent has an ``uncertainty_growth`` (m/s) > 0,
     after their decision of this step: the full selection toward desired[i] (m/s^2)
-    against this step's obstacles with the radii grown with prediction time
-    (:func:`~nao_arena.geometry.grown_with_time`). Where an acceleration is admissible
+    against this step's obstacles (those the plain selection tests: within reach of
+    their plain radii, a neighbour already inside its radius capped at its distance)
+    with the radii grown with prediction time
+    (:func:`~nao_arena.geometry.grown_with_time`; a grown neighbour that already
+    overlaps the robot leaves nothing admissible). Where an acceleration is admissible
     there, it replaces out[i] (m/s^2) and becomes the agent's current acceleration and
     last selection; elsewhere the decision against the predictions themselves stands.
     A robot whose step raises gets its exception in ``errors``."""
