@@ -8,7 +8,9 @@ import math
 
 import numpy as np
 import pytest
+from forward_sim import Polyline, Robot
 from hypothesis import given, settings
+from strategies import floats, vec
 
 from nao_arena.agents._nao_per_robot import admissible
 from nao_arena.agents.nao import NAOAgent
@@ -16,8 +18,6 @@ from nao_arena.arena import Arena
 from nao_arena.geometry import grown_with_time, sampled_path
 from nao_arena.geometry.clearance import UNCERTAINTY_WINDOWS
 from nao_arena.maps import map_from_dict
-from tests.forward_sim import Polyline, Robot
-from tests.strategies import floats, vec
 
 HORIZON = 3.0
 TIMES = np.linspace(0.0, HORIZON, 31)
