@@ -542,7 +542,7 @@ def compile_ahead(
         pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
     except (OSError, ValueError) as exc:  # no processes here: compile when called
         LOG.debug("cannot start processes (%s): kernels compile when first called", exc)
-        return CompileReport(len(kernels), dict.fromkeys(kernels, str(exc)), 0, 0.0)
+        return _reported(CompileReport(len(kernels), dict.fromkeys(kernels, str(exc)), 0, 0.0))
     with pool:
         running: dict[Future[tuple[float, str | None]], str] = {}
         while waiting or running:

@@ -261,6 +261,24 @@ def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch, capl
     assert out.stdout.strip() == "[]"
 
 
+def test_a_compile_ahead_without_processes_says_so(monkeypatch, caplog):
+    """Where no process can start, every kernel is left to compile when called, and the
+    summary logged says so with the reason."""
+
+    def no_pool(*args, **kwargs):
+        raise OSError("no processes here")
+
+    monkeypatch.setattr(kernels, "ProcessPoolExecutor", no_pool)
+    k = Kernel("m", "f", ("float64",), (), ("core",), 0.1)
+    with caplog.at_level(logging.INFO, logger="nao_arena.kernels"):
+        report = compile_ahead(["core"], jobs=2, manifest=Manifest("", {k.key: k}))
+    assert report.compiled == 0 and list(report.failed) == [k.key]
+    assert [r.getMessage() for r in caplog.records][-1] == (
+        "0 of 1 kernels compiled or loaded in 0 s (0 s of CPU) with 0 processes; "
+        "1 left to compile when called (first error: no processes here)"
+    )
+
+
 def test_a_stale_manifest_entry_is_reported_not_raised(tmp_path, monkeypatch):
     (tmp_path / "stale_kernels.py").write_text(
         "from numba import njit\n\n@njit(cache=True)\ndef f(x):\n    return x + 1\n"
