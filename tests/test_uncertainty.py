@@ -5,6 +5,7 @@ agent's ``uncertainty_growth`` option that selects against them first."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,10 +15,10 @@ from strategies import floats, vec
 
 from nao_arena.agents._nao_per_robot import admissible
 from nao_arena.agents.nao import NAOAgent
-from nao_arena.arena import Arena
+from nao_arena.arena import Arena, ArenaOptions
 from nao_arena.geometry import grown_with_time, sampled_path
 from nao_arena.geometry.clearance import UNCERTAINTY_WINDOWS
-from nao_arena.maps import map_from_dict
+from nao_arena.maps import load_map, map_from_dict
 
 HORIZON = 3.0
 TIMES = np.linspace(0.0, HORIZON, 31)
@@ -145,3 +146,25 @@ def test_a_nao_robot_unsure_of_its_predictions_keeps_more_room():
         assert robot.reached_goal and robot.person_contacts == 0
     plain, unsure = (summaries[g].robots[0].min_person_distance for g in (0.0, 0.3))
     assert 0.15 - 1e-3 <= plain < 0.3 and unsure >= 0.15 + 0.3, (plain, unsure)
+
+
+def test_nao_robots_unsure_of_each_other_still_never_touch():
+    """The selection against grown radii comes before the stopping-plan rule among the
+    robots of a batch, which still decides: ten NAO robots swapping places on a circle
+    with uncertainty_growth 0.3 m/s all arrive without a contact."""
+    options = ArenaOptions(agent="nao", agent_options={"uncertainty_growth": 0.3})
+    summary = Arena(load_map("circle_swap"), options).run(0)
+    assert len(summary.robots) == 10 and all(r.reached_goal for r in summary.robots)
+    assert summary.contacts == []
+
+
+def test_the_crossing_maps_pass_the_nao_options_on():
+    for name in ("eth_univ", "eth_hotel", "ucy_zara01"):
+        path = Path(__file__).resolve().parents[1] / "benchmarks" / "people" / f"{name}.yaml"
+        spec = load_map(str(path), uncertainty_growth=0.3, infeasible="latest_contact")
+        (robot,) = spec.robots
+        assert robot.agent_options == {
+            "margin": 0.15,
+            "infeasible": "latest_contact",
+            "uncertainty_growth": 0.3,
+        }
