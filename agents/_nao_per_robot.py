@@ -326,7 +326,6 @@ def robust(
     out: NDArray[np.float64],
     own: RobotRows,
     desired: NDArray[np.float64],
-    dt: float,
 ) -> None:
     """The live robots (``live``) whose agent has an ``uncertainty_growth`` (m/s) > 0,
     after their decision of this step: the full selection toward desired[i] (m/s^2)
@@ -345,16 +344,16 @@ def robust(
             path = ag.last_obstacles()
             if path is None:
                 continue
-            a_max, v = float(own.a_max[i]), own.vel[i]
-            brake = np.array(braking(float(v[0]), float(v[1]), a_max, dt))
             sel = select_acceleration(
                 desired[i],
-                v,
+                own.vel[i],
                 grown_with_time(path, ag.uncertainty_growth),
-                AccelLimits(a_max),
+                AccelLimits(float(own.a_max[i])),
                 v_max=float(own.v_max[i]),
                 with_clearance=False,
-                fallback=brake,  # not taken: an infeasible result is dropped
+                # any fallback spares the search for the latest contact: an infeasible
+                # result is dropped
+                fallback=np.zeros(2),
             )
         except Exception as exc:  # noqa: BLE001 - the agent's failure
             errors[i] = exc

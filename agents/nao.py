@@ -679,7 +679,7 @@ def _act_rows(
             per_robot.undecided(
                 agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
-    per_robot.robust(agents, live, errors, out, own, desired, float(batch.dt))
+    per_robot.robust(agents, live, errors, out, own, desired)
     failed = np.zeros(len(rows_a), dtype=np.bool_)
     if errors:
         failed[list(errors)] = True

@@ -20,6 +20,8 @@ from nao_arena.pedestrians import read_recording
 from nao_arena.world import World
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pedestrians"
+REAL_RECORDINGS = [("eth_univ", 15.0), ("eth_hotel", 25.0), ("ucy_zara01", 25.0)]
+"""The shared recordings' folders and their frames per second."""
 
 # frame id x y at 10 fps: person 1 walks +x from t = 0 to 4 s; person 2 appears at 1 s
 # and leaves at 2.5 s; person 3 walks -x along y = 0.2 (towards person 1), 0 .. 4 s
@@ -177,9 +179,7 @@ def test_a_longer_time_limit_replays_the_people_it_reaches(tracks):
     assert with_time_limit(spec, 4.0).n_recorded == 3
 
 
-@pytest.mark.parametrize(
-    ("folder", "fps"), [("eth_univ", 15.0), ("eth_hotel", 25.0), ("ucy_zara01", 25.0)]
-)
+@pytest.mark.parametrize(("folder", "fps"), REAL_RECORDINGS)
 def test_real_recordings_replay_and_a_robot_crosses_them(folder, fps):
     source = SHARED / folder / "obsmat.txt"
     if not source.is_file():
@@ -216,22 +216,18 @@ def test_real_recordings_replay_and_a_robot_crosses_them(folder, fps):
 CROSSING_MAPS = Path(__file__).resolve().parents[1] / "benchmarks" / "people"
 
 
-@pytest.mark.parametrize(
-    ("name", "folder"),
-    [("eth_univ", "eth_univ"), ("eth_hotel", "eth_hotel"), ("ucy_zara01", "ucy_zara01")],
-)
-def test_the_crossing_maps_cross_where_the_recording_sees_people(name, folder):
+@pytest.mark.parametrize(("folder", "fps"), REAL_RECORDINGS)
+def test_the_crossing_maps_cross_where_the_recording_sees_people(folder, fps):
     """The robot of each shipped crossing map starts and ends inside the area the
     recording annotates (its people's bounding box), at least a robot radius within it,
     whatever the seed: outside it nobody is recorded, and people walk in out of nowhere."""
     source = SHARED / folder / "obsmat.txt"
     if not source.is_file():
         pytest.skip(f"{source} is absent (the shared pedestrian data: see its README)")
-    fps = {"eth_univ": 15.0}.get(folder, 25.0)
     positions = read_recording(source, "obsmat", fps=fps).positions
     lo, hi = positions.min(axis=0), positions.max(axis=0)
     for seed in range(60):
-        spec = load_map(str(CROSSING_MAPS / f"{name}.yaml"), seed=seed, robot_v_max=1.5)
+        spec = load_map(str(CROSSING_MAPS / f"{folder}.yaml"), seed=seed, robot_v_max=1.5)
         (robot,) = spec.robots
         assert robot.v_max == 1.5
         for point in (robot.start, robot.goal):
