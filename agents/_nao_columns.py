@@ -66,7 +66,7 @@ N_OPT = 8
 #: three are :class:`~nao_arena.geometry.outcome.Outcome` DESIRED, ADJUSTED, INFEASIBLE)
 SELECTION_LABELS: tuple[str, ...] = ("desired", "adjusted", "infeasible", "yielded")
 #: the ``infeasible`` options, by their codes in the FALLBACK column
-FALLBACKS: tuple[str, ...] = ("auto", "brake", "latest_contact")
+FALLBACKS: tuple[str, ...] = ("auto", "brake", "latest_contact", "stop_in_time")
 AUTO, BRAKE = 0, 1
 NO_SELECTION = -1
 ADJUSTED_SELECTION = 1

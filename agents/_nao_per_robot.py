@@ -6,7 +6,8 @@ increase (the obstacle paths are then built by
 :func:`~nao_arena.obstacles.obstacle_paths`), non-finite velocities or predicted
 paths (the error reaches the caller), and, where nothing is admissible and the
 ``infeasible`` fallback is not braking, the search for the acceleration that postpones
-contact longest. For those robots the agent's obstacle paths are built here one robot at
+contact longest (and, with ``"stop_in_time"``, the test whether braking would stop the
+robot before any contact). For those robots the agent's obstacle paths are built here one robot at
 a time and the keep test, repair and selection run on them
 (:func:`~nao_arena.geometry.repair_acceleration`,
 :func:`~nao_arena.geometry.select_acceleration`), committed into the agent's row of its
@@ -27,6 +28,7 @@ from nao_arena.geometry import (
     AccelLimits,
     PiecewisePath,
     grown_with_time,
+    path_clearance,
     repair_acceleration,
     select_acceleration,
 )
@@ -62,15 +64,35 @@ def brakes_when_infeasible(agent: NAOAgent, traffic: bool) -> bool:
     return agent.infeasible == "brake" or (agent.infeasible == "auto" and not traffic)
 
 
+def stops_before_contact(velocity: NDArray[np.float64], a_max: float, path: PiecewisePath) -> bool:
+    """Whether braking at a_max (m/s^2) from ``velocity`` (m/s) brings the robot to rest
+    before it touches any obstacle of ``path`` (robot-relative, radii grown): the first
+    contact (:func:`~nao_arena.geometry.path_clearance`) of that constant deceleration
+    comes no earlier than the stop, |velocity| / a_max (s). A robot at rest stops at once."""
+    speed = math.hypot(float(velocity[0]), float(velocity[1]))
+    if speed == 0.0 or path.n_obstacles == 0:
+        return True
+    decel = -np.asarray(velocity, dtype=np.float64) / speed * a_max
+    first = path_clearance(decel, velocity, path).time_of_first_contact
+    return bool(np.min(first) >= speed / a_max)
+
+
 def fallback(
-    agent: NAOAgent, velocity: NDArray[np.float64], a_max: float, dt: float, traffic: bool
+    agent: NAOAgent,
+    velocity: NDArray[np.float64],
+    a_max: float,
+    dt: float,
+    traffic: bool,
+    path: PiecewisePath,
 ) -> NDArray[np.float64] | None:
-    """The acceleration (m/s^2) taken when nothing is admissible: braking towards
-    standing still within one step dt (s) from ``velocity`` (m/s)
+    """The acceleration (m/s^2) taken when nothing is admissible against ``path``:
+    braking towards standing still within one step dt (s) from ``velocity`` (m/s)
     (:func:`nao_arena.motion.braking`), or None: the one that postpones contact longest
     (see ``infeasible``; :func:`~nao_arena.agents._nao_decide.apply_braking` does the
-    same for many robots)."""
-    if brakes_when_infeasible(agent, traffic):
+    same for many robots). ``"stop_in_time"`` brakes where braking stops the robot
+    before any contact with ``path`` (:func:`stops_before_contact`)."""
+    in_time = agent.infeasible == "stop_in_time" and stops_before_contact(velocity, a_max, path)
+    if in_time or brakes_when_infeasible(agent, traffic):
         vx, vy = float(velocity[0]), float(velocity[1])
         return np.array(braking(vx, vy, float(a_max), float(dt)))
     return None
@@ -211,7 +233,7 @@ def select(
         AccelLimits(a_max),
         v_max=v_max,
         with_clearance=False,
-        fallback=fallback(agent, velocity, a_max, dt, traffic),
+        fallback=fallback(agent, velocity, a_max, dt, traffic, path),
     )
     return commit(agent, sel)
 

@@ -20,7 +20,10 @@ margin; walls as exact static segments), and
    (they avoid a robot that stands still; in a crowd whose predictions keep
    changing, stopping is what keeps contacts rare) and takes the acceleration
    that postpones contact longest when traffic is among them (traffic does
-   not stop for it); ``"brake"`` and ``"latest_contact"`` force either.
+   not stop for it); ``"brake"`` and ``"latest_contact"`` force either;
+   ``"stop_in_time"`` brakes where braking brings the robot to rest before
+   any predicted contact (a contact then finds it standing) and postpones
+   contact longest elsewhere.
 
 4. last, the robots of one batch that re-plan commit to *stopping plans*
    together (``stopping_plans``, :mod:`nao_arena.stopping`): each one's
@@ -177,11 +180,12 @@ _KIND_STATUS: dict[int, str] = {  # looked up by the compiled kinds (int)
 class NAOAgent:
     """NAO avoidance. Options (keyword-only): horizon (s), samples (per horizon; None:
     one every 0.1 s), predictor name, margin (m), keep_band (m/s^2), v_pref (m/s),
-    sensing_range (m), detour_after (s), replan, reselect_after (s), infeasible ("auto", "brake" or
-    "latest_contact"), goal_zone (m), navigate (heads around walls that stand between
-    the robot and its goal, see :mod:`nao_arena.navigation`), stopping_plans (commits
-    to stopping plans with the other robots of its batch and brakes where its choice
-    would meet theirs, see :mod:`nao_arena.stopping`), switch_side_after (s),
+    sensing_range (m), detour_after (s), replan, reselect_after (s), infeasible ("auto",
+    "brake", "latest_contact" or "stop_in_time"), goal_zone (m), navigate (heads around
+    walls that stand between the robot and its goal, see :mod:`nao_arena.navigation`),
+    stopping_plans (commits to stopping plans with the other robots of its batch and
+    brakes where its choice would meet theirs, see :mod:`nao_arena.stopping`),
+    switch_side_after (s),
     noise_sigmas (how many standard deviations of the sensing noise the stopping plans'
     tubes of robots it is not linked with grow by, see :mod:`nao_arena.stopping`;
     fewer keeps robots moving, at a higher chance of a contact under noise),
@@ -249,9 +253,10 @@ class NAOAgent:
         noise_sigmas: float = NOISE_SIGMAS,
         uncertainty_growth: float = 0.0,
     ) -> None:
-        if infeasible not in ("auto", "latest_contact", "brake"):
+        if infeasible not in col.FALLBACKS:
             raise ValueError(
-                f"infeasible: expected 'auto', 'latest_contact' or 'brake', got {infeasible!r}"
+                f"infeasible: expected one of {', '.join(map(repr, col.FALLBACKS))}, "
+                f"got {infeasible!r}"
             )
         self._cols = AgentColumns(1)
         self._row = 0

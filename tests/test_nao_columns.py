@@ -256,7 +256,7 @@ def test_compiled_braking_fallback_is_the_agents_own_bit_for_bit(seed, n):
     traffic = rng.random(n) < 0.3  # per robot (row of the table)
     for i in m.tolist():
         group[i].infeasible = twins[i].infeasible = str(
-            rng.choice(["brake", "auto", "latest_contact"])
+            rng.choice(["brake", "auto", "latest_contact", "stop_in_time"])
         )
     # speeds from standing still to far beyond the limits; a_max down to subnormal
     vel = rng.normal(size=(n, 2)) * rng.choice([0.0, 1e-300, 1.0, 1e300], size=(n, 1))

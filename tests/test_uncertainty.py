@@ -158,13 +158,19 @@ def test_nao_robots_unsure_of_each_other_still_never_touch():
     assert summary.contacts == []
 
 
-def test_the_crossing_maps_pass_the_nao_options_on():
-    for name in ("eth_univ", "eth_hotel", "ucy_zara01"):
-        path = Path(__file__).resolve().parents[1] / "benchmarks" / "people" / f"{name}.yaml"
-        spec = load_map(str(path), uncertainty_growth=0.3, infeasible="latest_contact")
-        (robot,) = spec.robots
-        assert robot.agent_options == {
-            "margin": 0.15,
-            "infeasible": "latest_contact",
-            "uncertainty_growth": 0.3,
-        }
+PEOPLE_MAPS = [
+    str(Path(__file__).resolve().parents[1] / "benchmarks" / "people" / f"{name}.yaml")
+    for name in ("eth_univ", "eth_hotel", "ucy_zara01")
+]
+
+
+@pytest.mark.parametrize("source", PEOPLE_MAPS)
+def test_the_crossing_maps_pass_the_nao_options_on(source):
+    spec = load_map(source, uncertainty_growth=0.3, infeasible="stop_in_time")
+    (robot,) = spec.robots
+    assert robot.agent_options == {
+        "margin": 0.15,
+        "infeasible": "stop_in_time",
+        "uncertainty_growth": 0.3,
+    }
+    assert robot.agent_options_for == "nao"  # another agent keeps its own options

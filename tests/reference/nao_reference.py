@@ -10,9 +10,10 @@ from numpy.typing import NDArray
 
 from nao_arena.agents._nao_columns import CUR_X, CUR_Y, detour_row
 from nao_arena.agents._nao_decide import ADJUSTED, DESIRED, INFEASIBLE, REPAIRED
-from nao_arena.agents._nao_per_robot import fallback
+from nao_arena.agents._nao_per_robot import brakes_when_infeasible
 from nao_arena.agents.nao import NAOAgent
 from nao_arena.geometry import AccelLimits
+from nao_arena.motion import braking
 
 
 def take_decision(
@@ -39,12 +40,11 @@ def take_decision(
     if kd == DESIRED or kd == ADJUSTED:
         cols.commit(r, accel[j], kd, int(tested[j]))
         return accel[j].copy()
-    if kd == INFEASIBLE:
-        brake = fallback(ag, velocity, a_max, dt, traffic)
-        if brake is not None:
-            chosen = AccelLimits(a_max).project(brake)
-            cols.commit(r, chosen, INFEASIBLE, int(tested[j]))
-            return np.array(chosen, dtype=np.float64)
+    if kd == INFEASIBLE and brakes_when_infeasible(ag, traffic):
+        brake = np.array(braking(float(velocity[0]), float(velocity[1]), a_max, dt))
+        chosen = AccelLimits(a_max).project(brake)
+        cols.commit(r, chosen, INFEASIBLE, int(tested[j]))
+        return np.array(chosen, dtype=np.float64)
     return None
 
 

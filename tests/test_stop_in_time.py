@@ -1,0 +1,107 @@
+"""The NAO agent's ``infeasible="stop_in_time"`` fallback: where nothing is admissible, brake
+when braking brings the robot to rest before any predicted contact (a contact then finds it
+standing), else postpone contact longest. The stop test is checked by forward simulation
+of the braking robot and of a turning walker, not by the geometry itself."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from forward_sim import Encounter, Polyline, Robot
+from hypothesis import given, settings
+from strategies import floats, vec
+from test_nao_agent import agent, head_on, observation
+
+from nao_arena.agents._nao_per_robot import stops_before_contact
+from nao_arena.geometry import sampled_path
+
+HORIZON = 3.0
+TIMES = np.linspace(0.0, HORIZON, 31)
+A_MAX = 2.0
+RADIUS = 0.75  # combined radius (m): two 0.3 m discs and a 0.15 m margin
+
+
+def _turning_centers(start, velocity, turn_rate):
+    """(T, 2) centres (m) at :data:`TIMES` of a walker turning at ``turn_rate`` rad/s."""
+    heading = math.atan2(velocity[1], velocity[0])
+    speed = float(np.hypot(*velocity))
+    out = [np.asarray(start, dtype=float)]
+    for dt in np.diff(TIMES):
+        q = heading + turn_rate * (len(out) - 1) * dt
+        out.append(out[-1] + speed * dt * np.array([math.cos(q), math.sin(q)]))
+    return np.array(out)
+
+
+@settings(max_examples=500, deadline=None)
+@given(
+    v=vec(1.5),
+    velocity=vec(1.8),
+    turn=floats(-0.8, 0.8),
+    side=floats(-math.pi, math.pi),
+    gap=floats(-0.3, 0.3),
+    when=floats(0.0, 2.0),
+)
+def test_the_stop_test_agrees_with_forward_simulation(v, velocity, turn, side, gap, when):
+    """Whether braking at a_max from v comes to rest (at |v| / a_max) before the walker
+    first comes within the combined radius: the forward simulation's first contact of
+    the braking robot (its motion up to the stop is that of the constant deceleration).
+    At ``when`` x the stop time (s) the walker is ``gap`` (m) outside the combined radius
+    of where the robot comes to rest, on the side ``side`` (rad): close calls on either
+    side of the stop."""
+    speed = float(np.hypot(*v))
+    stop = speed / A_MAX
+    rest = v * stop / 2  # where braking brings the robot to rest
+    there = rest + (RADIUS + gap) * np.array([math.cos(side), math.sin(side)])
+    centers = _turning_centers(there - velocity * when * stop, velocity, turn)
+    decel = -v / speed * A_MAX if speed > 0 else np.zeros(2)
+    sim = Encounter(Robot.make(v, decel), Polyline.make(TIMES, centers), RADIUS).simulate()
+    closest = float(np.min(sim.distance[sim.grid <= stop])) - RADIUS  # until the stop
+    if abs(sim.time_of_first_contact - stop) < 1e-6 or abs(closest) < 1e-9:
+        return  # touching as it stops, or grazing: either answer is right
+    expected = speed == 0.0 or sim.time_of_first_contact >= stop
+    assert stops_before_contact(v, A_MAX, sampled_path(TIMES, centers, RADIUS)) == expected
+
+
+def test_at_rest_or_alone_a_robot_stops_at_once():
+    far = sampled_path(TIMES, np.full((TIMES.size, 2), 50.0), RADIUS)
+    assert stops_before_contact(np.zeros(2), A_MAX, far)
+    assert stops_before_contact(np.array([1.5, 0.0]), A_MAX, far)
+    # walking straight at a robot at rest: it is at rest when touched
+    towards = sampled_path(TIMES, np.array([[1.5 - 1.0 * t, 0.0] for t in TIMES]), RADIUS)
+    assert stops_before_contact(np.zeros(2), A_MAX, towards)
+
+
+def _closing_person() -> object:
+    """A robot at 0.3 m/s, a person 1.2 m ahead walking at it at 1.5 m/s: nothing is
+    admissible (the robot cannot get 0.75 m sideways before the person passes, nor outrun
+    them), but braking stops it in 0.15 s, 0.02 m on, long before the person arrives."""
+    return observation(vel=(0.3, 0.0), nb_pos=(1.2, 0.0), nb_vel=(-1.5, 0.0), kind="person")
+
+
+def test_stop_in_time_brakes_where_braking_comes_to_rest_before_contact():
+    stopping = agent(infeasible="stop_in_time")
+    a = stopping.act(_closing_person())
+    assert stopping.last_selection.status == "infeasible"
+    np.testing.assert_allclose(a, [-A_MAX, 0.0])  # -v/|v| min(a_max, |v| / dt)
+    dodging = agent(infeasible="latest_contact")
+    b = dodging.act(_closing_person())
+    assert dodging.last_selection.status == "infeasible"
+    assert not np.allclose(b, a)  # postponing contact keeps the robot moving
+
+
+def test_stop_in_time_postpones_contact_where_braking_comes_too_late():
+    """A neighbour 0.1 m away closing at 3 m/s: braking from 1.5 m/s takes 0.75 s, too
+    long; the robot postpones contact as ``latest_contact`` does, bit for bit."""
+    stopping = agent(infeasible="stop_in_time")
+    dodging = agent(infeasible="latest_contact")
+    for kind in ("robot", "person", "traffic"):
+        np.testing.assert_array_equal(
+            stopping.act(head_on(kind)), dodging.act(head_on(kind)), err_msg=kind
+        )
+
+
+def test_an_unknown_fallback_is_one_clear_error():
+    with pytest.raises(ValueError, match="infeasible: expected one of 'auto', 'brake', "):
+        agent(infeasible="stop")
