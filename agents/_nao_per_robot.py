@@ -6,9 +6,9 @@ increase (the obstacle paths are then built by
 :func:`~nao_arena.obstacles.obstacle_paths`), non-finite velocities or predicted
 paths (the error reaches the caller), and, where nothing is admissible and the
 ``infeasible`` fallback is not braking, the search for the acceleration that postpones
-contact longest (and, with ``"stop_in_time"``, the test whether braking would stop the
-robot before any contact). For those robots the agent's obstacle paths are built here one robot at
-a time and the keep test, repair and selection run on them
+contact longest (with ``"stop_in_time"``, first the test whether braking stops the robot
+before any contact). For those robots the agent's obstacle paths are built here one
+robot at a time and the keep test, repair and selection run on them
 (:func:`~nao_arena.geometry.repair_acceleration`,
 :func:`~nao_arena.geometry.select_acceleration`), committed into the agent's row of its
 table as the compiled calls commit theirs. Obstacle paths are robot-relative (m),
