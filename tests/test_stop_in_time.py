@@ -6,6 +6,7 @@ of the braking robot and of a turning walker, not by the geometry itself."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +16,9 @@ from strategies import floats, vec
 from test_nao_agent import agent, head_on, observation
 
 from nao_arena.agents._nao_per_robot import stops_before_contact
+from nao_arena.arena import Arena
 from nao_arena.geometry import sampled_path
+from nao_arena.maps import map_from_dict
 
 HORIZON = 3.0
 TIMES = np.linspace(0.0, HORIZON, 31)
@@ -105,3 +108,49 @@ def test_stop_in_time_postpones_contact_where_braking_comes_too_late():
 def test_an_unknown_fallback_is_one_clear_error():
     with pytest.raises(ValueError, match="infeasible: expected one of 'auto', 'brake', "):
         agent(infeasible="stop")
+
+
+def _pop_in(folder: Path, ahead: float, mode: str) -> dict:
+    """A nao robot (v_max 1.5 m/s) drives +x from (-4, 0) m; at 2 s a recorded person
+    appears ``ahead`` m in front of it, walking -x at 1.5 m/s: too close to get out of
+    the way."""
+    x0 = -4.0 + 1.5 * (2.0 - 1.5 / 4.0)  # the robot at 2 s, full speed from 0.75 s
+    rows = [(f, 9, x0 + ahead - 1.5 * (f - 20) / 10, 0.0) for f in range(20, 61)]
+    path = folder / f"pop_in_{ahead}.txt"
+    path.write_text("\n".join(f"{f} {i} {x} {y}" for f, i, x, y in rows) + "\n")
+    robot = {
+        "name": "r",
+        "start": [-4.0, 0.0],
+        "goal": [7.0, 0.0],
+        "agent": "nao",
+        "v_max": 1.5,
+        "predictor": "constant_velocity",
+        "agent_options": {"infeasible": mode},
+    }
+    return {
+        "name": "pop_in",
+        "bounds": {"min": [-8, -8], "max": [8, 8]},
+        "robots": [robot],
+        "traffic": [{"type": "recorded", "file": str(path), "format": "xy", "fps": 10.0}],
+        "episode": {"time_limit": 6.0},
+    }
+
+
+def _person_contacts(data: dict) -> tuple[int, list[tuple[float, float]]]:
+    """(robot-caused contacts, (time s, robot speed m/s) of each contact with the person)."""
+    summary = Arena(map_from_dict(data)).run(0)
+    (robot,) = summary.robots
+    touches = [(c.time, c.speed_a) for c in summary.contacts if c.kind_b == "person"]
+    return robot.caused_person_contacts, touches
+
+
+def test_a_person_appearing_ahead_finds_the_robot_standing_if_it_can_stop(tmp_path):
+    """2.4 m ahead: braking stops the robot before the person arrives, who then walks
+    into it standing (not the robot's doing); postponing contact keeps it moving into
+    the touch. 1.6 m ahead: braking comes too late, and both do the same, bit for bit."""
+    caused, touches = _person_contacts(_pop_in(tmp_path, 2.4, "stop_in_time"))
+    assert caused == 0 and touches and touches[0][1] < 0.05
+    caused, touches = _person_contacts(_pop_in(tmp_path, 2.4, "latest_contact"))
+    assert caused == 1 and touches[0][1] > 0.05
+    late = [_person_contacts(_pop_in(tmp_path, 1.6, m)) for m in ("stop_in_time", "latest_contact")]
+    assert late[0] == late[1] and late[0][0] == 1
