@@ -316,3 +316,19 @@ def screened_min_distance(
             res = simulate(v, a, path, near, v_max=v_max)
             out[k] = min(out[k], res.clearance + near)
     return out
+
+
+def turning_walker(
+    times: ArrayLike, start: ArrayLike, velocity: ArrayLike, turn_rate: float
+) -> FloatArray:
+    """(T, 2) centres (m) at ``times`` (T,) s of a walker that starts at ``start`` (m)
+    with ``velocity`` (m/s) and keeps its speed while its heading turns at ``turn_rate``
+    (rad/s), stepping straight between the times."""
+    v = np.asarray(velocity, dtype=np.float64)
+    heading = math.atan2(v[1], v[0])
+    speed = float(np.hypot(*v))
+    out = [np.asarray(start, dtype=np.float64)]
+    for dt in np.diff(np.asarray(times, dtype=np.float64)):
+        q = heading + turn_rate * (len(out) - 1) * dt
+        out.append(out[-1] + speed * dt * np.array([math.cos(q), math.sin(q)]))
+    return np.array(out)

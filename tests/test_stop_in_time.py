@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from forward_sim import Encounter, Polyline, Robot
+from forward_sim import Encounter, Polyline, Robot, turning_walker
 from hypothesis import given, settings
 from strategies import floats, vec
 from test_nao_agent import agent, head_on, observation
@@ -24,17 +24,6 @@ HORIZON = 3.0
 TIMES = np.linspace(0.0, HORIZON, 31)
 A_MAX = 2.0
 RADIUS = 0.75  # combined radius (m): two 0.3 m discs and a 0.15 m margin
-
-
-def _turning_centers(start, velocity, turn_rate):
-    """(T, 2) centres (m) at :data:`TIMES` of a walker turning at ``turn_rate`` rad/s."""
-    heading = math.atan2(velocity[1], velocity[0])
-    speed = float(np.hypot(*velocity))
-    out = [np.asarray(start, dtype=float)]
-    for dt in np.diff(TIMES):
-        q = heading + turn_rate * (len(out) - 1) * dt
-        out.append(out[-1] + speed * dt * np.array([math.cos(q), math.sin(q)]))
-    return np.array(out)
 
 
 @settings(max_examples=500, deadline=None)
@@ -57,7 +46,7 @@ def test_the_stop_test_agrees_with_forward_simulation(v, velocity, turn, side, g
     stop = speed / A_MAX
     rest = v * stop / 2  # where braking brings the robot to rest
     there = rest + (RADIUS + gap) * np.array([math.cos(side), math.sin(side)])
-    centers = _turning_centers(there - velocity * when * stop, velocity, turn)
+    centers = turning_walker(TIMES, there - velocity * when * stop, velocity, turn)
     decel = -v / speed * A_MAX if speed > 0 else np.zeros(2)
     sim = Encounter(Robot.make(v, decel), Polyline.make(TIMES, centers), RADIUS).simulate()
     closest = float(np.min(sim.distance[sim.grid <= stop])) - RADIUS  # until the stop

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from forward_sim import Polyline, Robot
+from forward_sim import Polyline, Robot, turning_walker
 from hypothesis import given, settings
 from strategies import floats, vec
 
@@ -34,17 +34,6 @@ def _window_end(t: float) -> float:
     return HORIZON
 
 
-def _turning_centers(start, velocity, turn_rate):
-    """(T, 2) centres (m) at :data:`TIMES` of a walker turning at ``turn_rate`` rad/s."""
-    heading = math.atan2(velocity[1], velocity[0])
-    speed = float(np.hypot(*velocity))
-    out = [np.asarray(start, dtype=float)]
-    for dt in np.diff(TIMES):
-        q = heading + turn_rate * (len(out) - 1) * dt
-        out.append(out[-1] + speed * dt * np.array([math.cos(q), math.sin(q)]))
-    return np.array(out)
-
-
 @settings(max_examples=150, deadline=None)
 @given(
     start=vec(4.0),
@@ -61,7 +50,7 @@ def test_an_admissible_acceleration_keeps_each_window_grown_distance(
     radius plus growth x the end of the window away at every time, by forward
     simulation of the robot and of the walker."""
     radius = 0.75
-    centers = _turning_centers(start, velocity, turn)
+    centers = turning_walker(TIMES, start, velocity, turn)
     grown = grown_with_time(sampled_path(TIMES, centers, radius), growth)
     if not admissible(np.asarray(accel), np.asarray(v), A_MAX, math.inf, grown):
         return
