@@ -106,7 +106,7 @@ from nao_arena.sensing import (
 )
 from nao_arena.stats import ContactEvent, EpisodeStats, EpisodeSummary, StatsConfig
 from nao_arena.traffic import LaneTraffic
-from nao_arena.world import World, WorldState, applied_plans
+from nao_arena.world import PeriodArrays, World, WorldState, applied_plans
 
 watch_compiles()  # the kernels' compiles are timed and logged (logger nao_arena.kernels)
 
@@ -789,6 +789,42 @@ class Arena:
             assert batch is not None and actions is not None
             self.recorder.step(self, batch, result, actions)
         return result
+
+    def adopt_period(
+        self,
+        period: PeriodArrays,
+        commanded: NDArray[np.float64],
+        events: tuple[NDArray[np.int64], NDArray[np.float64]],
+        n_prox: int,
+        deadlocked: bool,
+    ) -> StepResult:
+        """Take a control period that ran in a batch (:mod:`nao_arena.vector_step`: every
+        robot replaced, a plain world): the world's ``period`` with the commands
+        ``commanded`` (N, 2) m/s^2, the statistics' event rows and values ``events``,
+        proximity count ``n_prox`` and liveness result ``deadlocked``. What :meth:`step`
+        keeps of its own; returns its result."""
+        assert self.stats is not None, "call reset() first"
+        t = self.world.time
+        self.world.adopt_period(period, commanded)
+        self.commanded = commanded
+        self._stepped_plans = self.world.applied_accelerations
+        world = self.world
+        state = WorldState(
+            world.time,
+            period.positions,
+            period.velocities,
+            period.accelerations,
+            world.radii,
+            world.names,
+            world.kinds,
+        )
+        self.state = state
+        self._hash_state(state)
+        codes, values = events
+        contacts = self.stats.adopt_step(
+            t, codes, values, period.path, period.velocities, n_prox, deadlocked
+        )
+        return StepResult(state.time, state, commanded, contacts, [])
 
     def _imperfect(self, batch: SensingBatch) -> SensingBatch:
         """``batch`` as the robots' sensors deliver it: each neighbour missed with the

@@ -170,6 +170,7 @@ from nao_arena.env_step import (
 from nao_arena.kernels import ensure_env_compiled
 from nao_arena.maps import MapSpec, load_map, with_time_limit
 from nao_arena.neighbours import in_range_lists
+from nao_arena.stats.records import ContactEvent
 from nao_arena.world import WorldState, clip_accelerations
 
 _EventDicts = dict[int, list[dict[str, Any]]]
@@ -186,6 +187,17 @@ __all__ = [
     "observation_layout",
     "parallel_env",
 ]
+
+
+def _events_by_body(contacts: Sequence[ContactEvent]) -> _EventDicts:
+    """The contacts of a step as event dicts by body: each under its first body, and
+    under its second unless that is a wall."""
+    events: _EventDicts = {}
+    for ev in contacts:
+        events.setdefault(ev.a, []).append(ev.to_dict())
+        if ev.kind_b != "wall":
+            events.setdefault(ev.b, []).append(ev.to_dict())
+    return events
 
 
 class NaoArenaParallelEnv(ParallelEnv):
@@ -590,11 +602,7 @@ class NaoArenaParallelEnv(ParallelEnv):
             self._reward_weights,
             reward,
         )
-        events: dict[int, list[dict[str, Any]]] = {}
-        for ev in res.contacts:
-            events.setdefault(ev.a, []).append(ev.to_dict())
-            if ev.kind_b != "wall":
-                events.setdefault(ev.b, []).append(ev.to_dict())
+        events = _events_by_body(res.contacts)
         n_col = np.array([len(events.get(int(b), ())) for b in bodies]) if events else None
         if n_col is not None:
             reward = reward - w.collision * n_col
@@ -606,6 +614,18 @@ class NaoArenaParallelEnv(ParallelEnv):
             terminated |= n_col > 0
         time_up = res.time >= self._time_limit - 1e-9
         return _Period(live_rows, rows, reward, terminated, time_up, events, faults, res)
+
+    def adopt_period(self, result: StepResult, all_alive: bool, ended: bool) -> None:
+        """Take a control period of every agent that ran in a batch
+        (:mod:`nao_arena.vector_step`; the arena's ``result``): what :meth:`step_arrays`
+        keeps of its own, but the arrays it returns (the batch wrote them), given
+        whether every agent is still unfinished and whether the episode ended."""
+        self.last_result = result
+        self._all_alive = all_alive
+        if ended:
+            self.agents = []
+        events = _events_by_body(result.contacts)
+        self._set_events(self.possible_agents, self._body_list, events, {})
 
     def _counts(
         self, events: dict[int, list[dict[str, Any]]], bodies: NDArray[np.int64]

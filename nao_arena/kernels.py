@@ -87,6 +87,10 @@ ENV = "env"
 """The part the envs compile (:mod:`nao_arena.environment`: observations, rewards, the
 agents of the robots they do not control), beyond ``core``."""
 
+VECTOR = "vector"
+"""The part the vector env compiles (:mod:`nao_arena.vector_step`), beyond ``core`` and
+``env``."""
+
 MAP_PART = "map:"
 """The prefix of a part that narrows the others to one shipped map (:func:`map_part`)."""
 
@@ -316,7 +320,8 @@ def type_name(numba_type: Any) -> str:
     repr names a Python class without its module (a named tuple such as
     :class:`nao_arena.stopping.Knowledge`, an ``IntEnum``), which are written as
     ``named_tuple("module:Class", (fields ...))`` and ``int_enum("module:Class",
-    dtype)``. :func:`parse_type` reads every such text back."""
+    dtype)``, and a typed list of them, ``ListType(item)``. :func:`parse_type` reads
+    every such text back."""
     from numba.core import types
 
     if isinstance(numba_type, types.BaseNamedTuple):
@@ -324,6 +329,8 @@ def type_name(numba_type: Any) -> str:
         fields = ", ".join(type_name(t) for t in named.types)
         comma = "," if len(named.types) == 1 else ""
         return f'named_tuple("{_class_path(named.instance_class)}", ({fields}{comma}))'
+    if isinstance(numba_type, types.ListType):
+        return f"ListType({type_name(numba_type.item_type)})"
     if isinstance(numba_type, types.IntEnumMember):
         return f'int_enum("{_class_path(numba_type.instance_class)}", {numba_type.dtype!r})'
     return repr(numba_type)
@@ -627,10 +634,11 @@ def ensure_compiled(
     return compile_ahead(parts, jobs, on_done=on_done)
 
 
-def ensure_env_compiled(map_source: object) -> None:
+def ensure_env_compiled(map_source: object, vector: bool = False) -> None:
     """Before an env of ``map_source`` (a shipped map's name or a map file) first runs in
-    this process: when the cache lacks some of the kernels of ``core`` and ``env`` (of a
-    shipped map, only what its recorded episodes call, :func:`map_part`) and
+    this process: when the cache lacks some of the kernels of ``core`` and ``env``, and
+    of ``vector`` for a vector env (of a shipped map, only what its recorded episodes
+    call, :func:`map_part`) and
     :func:`ahead_enabled`, compile them ahead in every core, not one by one in this
     process. Once per process and map. The compile runs in a Python process of its own
     (:func:`_compile_in_subprocess`), so that the processes it starts never import the
@@ -642,14 +650,14 @@ def ensure_env_compiled(map_source: object) -> None:
 
     from nao_arena.maps import available_maps
 
-    key = str(map_source)
+    key = f"{map_source}, vector" if vector else str(map_source)
     with _ENV_LOCK:
         if key in _ENV_ENSURED:
             return
         _ENV_ENSURED.add(key)
     if current_process().daemon or not ahead_enabled():
         return
-    parts = [CORE, ENV]
+    parts = [CORE, ENV, *([VECTOR] if vector else [])]
     if isinstance(map_source, str) and map_source in available_maps():
         parts.append(map_part(map_source))
     try:
@@ -753,8 +761,8 @@ def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
                 stack[-1][2] += spent
 
     event.register("numba:compile", Timer())
-    if part == ENV:
-        _env_episode(name, steps)
+    if part in (ENV, VECTOR):
+        _env_episode(name, steps, vector=part == VECTOR)
         return _kernels_loaded_here(own)
     agent = "goal" if part in (CORE, "render") else part
     arena = Arena(load_map(name), ArenaOptions(agent=agent))
@@ -769,20 +777,28 @@ def _record_map(part: str, name: str, steps: int) -> dict[str, Any]:
     return _kernels_loaded_here(own)
 
 
-def _env_episode(name: str, steps: int) -> None:
+def _env_episode(name: str, steps: int, vector: bool = False) -> None:
     """``steps`` steps of the env of map ``name`` (its default options) with random
-    actions (seeded); a map the env does not take is left out."""
+    actions (seeded), or (``vector``) of a vector env of two copies of it; a map the env
+    does not take is left out."""
     import numpy as np
 
     from nao_arena.environment import NaoArenaParallelEnv
+    from nao_arena.vector import VectorEnv
 
     try:
-        env = NaoArenaParallelEnv(name)
+        env = NaoArenaParallelEnv(name, keep_finished=vector)
     except ValueError as exc:  # e.g. a map with no robot to control
         LOG.debug("no env for %s: %s", name, exc)
         return
-    env.reset(seed=0)
     rng = np.random.default_rng(0)
+    if vector:
+        vec = VectorEnv.of_envs([env, NaoArenaParallelEnv(name, keep_finished=True)], seed=0)
+        vec.reset()
+        for _ in range(steps):
+            vec.step(rng.uniform(-1.0, 1.0, vec.action_space.shape))
+        return
+    env.reset(seed=0)
     for _ in range(steps):
         if not env.agents:
             break
@@ -824,6 +840,7 @@ RECORD_PARTS = (
     "social_force",
     "render",
     ENV,
+    VECTOR,
 )
 """The parts :func:`record_manifest` records."""
 

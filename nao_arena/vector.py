@@ -36,8 +36,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.environment import NaoArenaParallelEnv
 from nao_arena.envs import load
+from nao_arena.kernels import ensure_env_compiled
+from nao_arena.vector_step import (
+    CopyOutputs,
+    CopyState,
+    batched_now,
+    copy_arrays,
+    copy_list,
+    set_copy,
+    step_copies,
+)
+from nao_arena.world import PeriodArrays
 
 __all__ = ["VectorEnv"]
+
+_INFOS = ("reached", "collisions", "faults", "finished", "time")
+"""The step's infos (K, R) (``time``: (K,))."""
+_ROWS = ("observations", "rewards", "terminated", "truncated", *_INFOS)
+"""What a copy's own step (:class:`~nao_arena.env_step.StepArrays`) gives row by row."""
 
 
 class VectorEnv:
@@ -56,10 +72,24 @@ class VectorEnv:
             raise ValueError(f"num_envs: expected a positive integer, got {num_envs}")
         if env_kwargs.get("keep_finished") is False:
             raise ValueError("keep_finished: a vector env keeps every agent until the end")
-        make = load(env_id).parallel_env
-        self.envs: list[NaoArenaParallelEnv] = [
-            make(**{**env_kwargs, "keep_finished": True}) for _ in range(int(num_envs))
-        ]
+        module = load(env_id)
+        ensure_env_compiled(module.MAP, vector=True)
+        make = module.parallel_env
+        envs = [make(**{**env_kwargs, "keep_finished": True}) for _ in range(int(num_envs))]
+        self._setup(env_id, envs, seed)
+
+    @classmethod
+    def of_envs(cls, envs: list[NaoArenaParallelEnv], seed: int | None = None) -> VectorEnv:
+        """A vector env of the given envs (each with ``keep_finished``, all of one map and
+        options), named after the first's map."""
+        if not envs or not all(env.options.keep_finished for env in envs):
+            raise ValueError("envs: expected envs with keep_finished=True")
+        vec = cls.__new__(cls)
+        vec._setup(str(envs[0].map_source), envs, seed)
+        return vec
+
+    def _setup(self, env_id: str, envs: list[NaoArenaParallelEnv], seed: int | None) -> None:
+        self.envs = envs
         first = self.envs[0]
         self.env_id = env_id
         self.num_envs = len(self.envs)
@@ -78,6 +108,17 @@ class VectorEnv:
         self.action_space = spaces.Box(-1.0, 1.0, shape=(*shape, 2), dtype=np.float32)
         self._seed = seed
         self._started = False
+        self._copies: Any = None
+        """The typed list of the copies' :class:`~nao_arena.vector_step.CopyArrays`, or
+        None when no copy's steps are batched."""
+        self._batchable: list[bool] = []
+        """Per copy: whether its steps can be batched in this episode (its entry of
+        ``_copies`` is its own)."""
+        self._start = np.empty(0)
+        self._v_start = np.empty(0)
+        self._counters = CopyState(
+            np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool)
+        )
 
     def reset(
         self, seed: int | None = None, options: Mapping[str, Any] | None = None
@@ -92,6 +133,7 @@ class VectorEnv:
         for k, env in enumerate(self.envs):
             first, _ = env.reset(seed=None if seed is None else int(seed) + k)
             obs[k] = [first[a] for a in self.agents]
+        self._batch_copies()
         zeros = np.zeros((self.num_envs, self.num_agents), dtype=np.int64)
         infos = {
             "reached": zeros.astype(bool),
@@ -101,6 +143,47 @@ class VectorEnv:
             "time": np.zeros(self.num_envs),
         }
         return obs, infos
+
+    def _batch_copies(self) -> None:
+        """The typed list of the copies' arrays and the batch's own state, after a reset
+        of every copy (:mod:`nao_arena.vector_step`)."""
+        arrays = [copy_arrays(env) for env in self.envs]
+        self._batchable = [a is not None for a in arrays]
+        first = next((a for a in arrays if a is not None), None)
+        if first is None:
+            self._copies = None
+            return
+        copies = copy_list(first, len(arrays))
+        for k, a in enumerate(arrays):
+            if a is not None and k:
+                set_copy(copies, k, a)
+        self._copies = copies
+        n = self.envs[0].arena.world.n
+        self._start = np.empty((self.num_envs, n, 2))
+        self._v_start = np.empty((self.num_envs, n, 2))
+        k_envs = self.num_envs
+        self._counters = CopyState(
+            np.empty(k_envs, np.int64),
+            np.empty(k_envs, np.int64),
+            np.empty(k_envs, np.int64),
+            np.empty(k_envs, bool),
+        )
+        for k in range(k_envs):
+            self._sync(k)
+
+    def _sync(self, k: int) -> None:
+        """The batch's state of copy k read from its objects (after a step of its own or
+        a reset)."""
+        world = self.envs[k].arena.world
+        stats = self.envs[k].arena.stats
+        assert stats is not None  # reset() made it
+        self._start[k] = world._pos
+        self._v_start[k] = world._vel
+        c = self._counters
+        c.world_steps[k] = world._steps
+        c.stats_steps[k] = stats.steps
+        c.n_prox[k] = stats._n_prox
+        c.has_prev[k] = stats._has_prev
 
     def step(
         self, actions: ArrayLike
@@ -123,48 +206,111 @@ class VectorEnv:
         if not np.isfinite(cmd).all():
             raise ValueError("actions: expected finite numbers, got NaN or inf")
         cmd = np.clip(cmd, -1.0, 1.0)
-        k_envs, r = self.num_envs, self.num_agents
-        obs = np.empty(self.observation_space.shape, dtype=np.float32)
-        rewards = np.empty((k_envs, r))
-        terminated = np.empty((k_envs, r), dtype=bool)
-        truncated = np.empty((k_envs, r), dtype=bool)
-        reached = np.empty((k_envs, r), dtype=bool)
-        collisions = np.empty((k_envs, r), dtype=np.int64)
-        faults = np.empty((k_envs, r), dtype=np.int64)
-        finished = np.empty((k_envs, r), dtype=bool)
-        times = np.empty(k_envs)
-        ended: list[int] = []
+        out = self._outputs()
+        batched: list[int] = []
+        own: list[int] = []
         for k, env in enumerate(self.envs):
-            out = env._step_clipped(cmd[k])
-            obs[k] = out.observations
-            rewards[k] = out.rewards
-            terminated[k] = out.terminated
-            truncated[k] = out.truncated
-            reached[k] = out.reached
-            collisions[k] = out.collisions
-            faults[k] = out.faults
-            finished[k] = out.finished
-            times[k] = out.time
-            if not env.agents:
-                ended.append(k)
-        infos: dict[str, Any] = {
-            "reached": reached,
-            "collisions": collisions,
-            "faults": faults,
-            "finished": finished,
-            "time": times,
-        }
+            (batched if self._batchable[k] and batched_now(env) else own).append(k)
+        if batched:
+            self._step_batched(batched, cmd, out)
+        for k in own:
+            arrays = self.envs[k]._step_clipped(cmd[k])
+            for name in _ROWS:
+                getattr(out, name)[k] = getattr(arrays, name)
+            if self._batchable[k]:
+                self._sync(k)
+        obs = out.observations
+        ended = [k for k, env in enumerate(self.envs) if not env.agents]
+        infos: dict[str, Any] = {name: getattr(out, name) for name in _INFOS}
         if ended:
             final = np.zeros_like(obs)
-            mask = np.zeros(k_envs, dtype=bool)
+            mask = np.zeros(self.num_envs, dtype=bool)
             for k in ended:
                 final[k] = obs[k]
                 mask[k] = True
                 first, _ = self.envs[k].reset()
                 obs[k] = [first[a] for a in self.agents]
+                if self._copies is not None:
+                    fresh = copy_arrays(self.envs[k])
+                    self._batchable[k] = fresh is not None
+                    if fresh is not None:
+                        set_copy(self._copies, k, fresh)
+                        self._sync(k)
             infos["final_obs"] = final
             infos["_final_obs"] = mask
-        return obs, rewards, terminated, truncated, infos
+        return obs, out.rewards, out.terminated, out.truncated, infos
+
+    def _outputs(self) -> CopyOutputs:
+        """New arrays for a step's results (:class:`~nao_arena.vector_step.CopyOutputs`)."""
+        k_envs, r = self.num_envs, self.num_agents
+        n = self.envs[0].arena.world.n
+        substeps = self.envs[0].arena.world.substeps
+        flags = np.zeros((3, k_envs), dtype=bool)
+        events = np.zeros((2, k_envs), dtype=np.int64)
+        path = np.empty((k_envs, substeps + 1, n, 2))
+        path_read_only = path.view()
+        path_read_only.setflags(write=False)
+        return CopyOutputs(
+            commanded=np.empty((k_envs, n, 2)),
+            period=PeriodArrays(
+                path,
+                np.empty((k_envs, n, 2)),
+                np.empty((k_envs, n, 2)),
+                np.empty((k_envs, n, 2)),
+                np.empty((k_envs, n, 2)),
+            ),
+            path_read_only=path_read_only,
+            observations=np.empty(self.observation_space.shape, dtype=np.float32),
+            rewards=np.empty((k_envs, r)),
+            terminated=np.empty((k_envs, r), dtype=bool),
+            truncated=np.empty((k_envs, r), dtype=bool),
+            reached=np.empty((k_envs, r), dtype=bool),
+            collisions=np.empty((k_envs, r), dtype=np.int64),
+            faults=np.empty((k_envs, r), dtype=np.int64),
+            finished=np.empty((k_envs, r), dtype=bool),
+            time=np.empty(k_envs),
+            ended=flags[0],
+            all_alive=flags[1],
+            deadlocked=flags[2],
+            event_start=events[0],
+            event_count=events[1],
+        )
+
+    def _step_batched(self, batched: list[int], cmd: NDArray[np.float64], out: CopyOutputs) -> None:
+        """The period of the copies ``batched`` in one compiled call
+        (:func:`~nao_arena.vector_step.step_copies`) with the clipped actions ``cmd``
+        (K, R, 2): their rows of ``out`` written, then each copy's objects brought up to
+        date."""
+        which = np.array(batched, dtype=np.int64)
+        codes, values = step_copies(
+            self._copies, which, cmd, self._start, self._v_start, self._counters, out
+        )
+        period = out.period
+        period.path.setflags(write=False)
+        period.applied.setflags(write=False)
+        n_prox = self._counters.n_prox
+        for k in batched:
+            first = out.event_start[k]
+            if first < 0:  # pragma: no cover - the actions were checked finite
+                raise ValueError("actions: expected finite numbers")
+            last = first + out.event_count[k]
+            env = self.envs[k]
+            result = env.arena.adopt_period(
+                PeriodArrays(
+                    period.path[k],
+                    period.positions[k],
+                    period.velocities[k],
+                    period.accelerations[k],
+                    period.applied[k],
+                ),
+                out.commanded[k],
+                (codes[first:last], values[first:last]),
+                int(n_prox[k]),
+                bool(out.deadlocked[k]),
+            )
+            env.adopt_period(result, bool(out.all_alive[k]), bool(out.ended[k]))
+        self._start[which] = period.positions[which]
+        self._v_start[which] = period.velocities[which]
 
     def close(self) -> None:
         """Close every copy."""

@@ -396,6 +396,19 @@ class _Chipmunk(NamedTuple):
     floats: FloatArray
 
 
+class PeriodArrays(NamedTuple):
+    """What one control period of a world produces (:func:`period_into` writes it):
+    the substep centres path (S + 1, N, 2) m, rows 0 and S the start and the end; the
+    end positions (N, 2) m, velocities (N, 2) m/s and mean accelerations (N, 2) m/s^2;
+    the applied accelerations (N, 2) m/s^2 (:attr:`World.applied_accelerations`)."""
+
+    path: FloatArray
+    positions: FloatArray
+    velocities: FloatArray
+    accelerations: FloatArray
+    applied: FloatArray
+
+
 @inner_kernel
 def _substeps(chip: _Chipmunk, rows: NDArray[np.intp], h: float, path: FloatArray) -> None:
     """One period's physics substeps of ``h`` s, in chipmunk directly: before substep j,
@@ -440,30 +453,25 @@ def _put_rows(path: FloatArray, j: int, points: FloatArray) -> None:
         path[j, i, 1] = points[i, 1]
 
 
-@kernel
-def _direct_period(
+@inner_kernel
+def period_into(
     chip: _Chipmunk,
     bodies: _Bodies,
     accels: FloatArray,
     start: FloatArray,
     v_start: FloatArray,
-) -> tuple[bool, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    out: PeriodArrays,
+) -> bool:
     """One control period straight in chipmunk (:meth:`World.step` once pymunk is idle):
     :func:`_plan_period`, the start velocities written when some was scaled,
     :func:`_substeps`, :func:`_finish_period` and the end velocities written when
     some was scaled. ``accels`` (N, 2) m/s^2 the commands; ``start`` (N, 2) m and
-    ``v_start`` (N, 2) m/s the bodies at the period's start. Returns (all commands
-    finite; nothing is stepped otherwise), the substep centres (S + 1, N, 2) m, the end
-    positions (N, 2) m, velocities (N, 2) m/s, mean accelerations (N, 2) m/s^2 and the
-    applied accelerations (N, 2) m/s^2."""
+    ``v_start`` (N, 2) m/s the bodies at the period's start; the results go into
+    ``out`` (:class:`PeriodArrays`). Returns whether every command is finite (nothing
+    is stepped otherwise)."""
     n = accels.shape[0]
     substeps = chip.forces.shape[0]
     v = np.empty((n, 2))
-    applied = np.empty((n, 2))
-    path = np.empty((substeps + 1, n, 2))
-    pos = np.empty((n, 2))
-    vel = np.empty((n, 2))
-    acc = np.empty((n, 2))
     finite, over = _plan_period(
         accels,
         v_start,
@@ -474,20 +482,46 @@ def _direct_period(
         bodies.rows,
         chip.forces,
         v,
-        applied,
+        out.applied,
     )
     if not finite:
-        return False, path, pos, vel, acc, applied
+        return False
     if over:
         _write_velocities_kernel(chip, bodies.rows, v)
-    _put_rows(path, np.int64(0), start)  # not the literal 0 (see nao_arena.geometry._kernel)
-    _substeps(chip, bodies.rows, bodies.dt / substeps, path)
+    _put_rows(out.path, np.int64(0), start)  # not the literal 0 (nao_arena.geometry._kernel)
+    _substeps(chip, bodies.rows, bodies.dt / substeps, out.path)
     rows_in_space = (chip.floats.shape[0] - 4) // 4
     state = chip.floats[: 4 * rows_in_space].reshape((rows_in_space, 4))
-    if _finish_period(state, bodies.rows, bodies.v_max, v_start, bodies.dt, pos, vel, acc):
+    pos, vel = out.positions, out.velocities
+    if _finish_period(
+        state, bodies.rows, bodies.v_max, v_start, bodies.dt, pos, vel, out.accelerations
+    ):
         _write_velocities_kernel(chip, bodies.rows, vel)
-    _put_rows(path, substeps, pos)
-    return True, path, pos, vel, acc, applied
+    _put_rows(out.path, substeps, pos)
+    return True
+
+
+@kernel
+def _direct_period(
+    chip: _Chipmunk,
+    bodies: _Bodies,
+    accels: FloatArray,
+    start: FloatArray,
+    v_start: FloatArray,
+) -> tuple[bool, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """:func:`period_into` into new arrays: returns (all commands finite), the substep
+    centres (S + 1, N, 2) m, the end positions (N, 2) m, velocities (N, 2) m/s, mean
+    accelerations (N, 2) m/s^2 and the applied accelerations (N, 2) m/s^2."""
+    n = accels.shape[0]
+    out = PeriodArrays(
+        np.empty((chip.forces.shape[0] + 1, n, 2)),
+        np.empty((n, 2)),
+        np.empty((n, 2)),
+        np.empty((n, 2)),
+        np.empty((n, 2)),
+    )
+    finite = period_into(chip, bodies, accels, start, v_start, out)
+    return finite, out.path, out.positions, out.velocities, out.accelerations, out.applied
 
 
 #: pymunk's own bookkeeping around a step, as this pymunk version names it (checked
@@ -765,6 +799,19 @@ class World:
         if len(self._replayed_rows):
             self._replay()
         return self.state()
+
+    def adopt_period(self, period: PeriodArrays, accels: FloatArray) -> None:
+        """Take a control period that :func:`period_into` ran on this world's space in a
+        batch (:mod:`nao_arena.vector_step`) with the commands ``accels`` (N, 2) m/s^2:
+        what :meth:`step` keeps of its own (the arrays are kept, not copied; nothing
+        writes into them)."""
+        self._record(accels)
+        self._prev_positions = self._pos
+        self._pos, self._vel, self._acc = period.positions, period.velocities, period.accelerations
+        self._path = period.path
+        self._applied = period.applied
+        self._steps += 1
+        self.time = self._steps * self.dt
 
     def _period_through_pymunk(
         self, a: FloatArray

@@ -419,10 +419,10 @@ class ReferenceStats:
         active = s.is_robot & ~s.reached
         step = p1 - p0
         s.path_length += np.where(active, np.hypot(step[:, 0], step[:, 1]), 0.0)
-        if s._a_prev is not None:
+        if s._has_prev:
             da = acc - s._a_prev
             s.adjustments += active & (np.hypot(da[:, 0], da[:, 1]) > cfg.adjustment_threshold)
-        s._a_prev = acc.copy()
+        s._a_prev, s._has_prev = acc.copy(), True
         new_goal = goal & active
         s.time_to_goal[new_goal] = t + dt
         s.reached |= new_goal

@@ -25,6 +25,7 @@ import pytest
 from bitwise import same  # tests/bitwise.py
 from numpy.typing import NDArray
 
+import nao_arena.vector as vector_module
 from nao_arena.environment import OWN_FEATURES, NaoArenaParallelEnv
 from nao_arena.envs import load
 from nao_arena.vector import VectorEnv
@@ -167,9 +168,11 @@ def lockstep(
     seed: int,
     steps: int,
     copies: int = 3,
+    check: Callable[[VectorEnv, Reference], None] | None = None,
 ) -> Iterator[tuple[Step, dict[str, Any], Step]]:
     """The vector env and the :class:`Reference`, stepped together with the policy's
-    actions on the reference's observations: (vector step, its raw infos, reference step)."""
+    actions on the reference's observations: (vector step, its raw infos, reference step);
+    ``check(vec, ref)`` after every step."""
     vec = VectorEnv(env_id, copies, seed=seed, **env_kwargs)
     ref = Reference(env_id, copies, seed, **env_kwargs)
     obs, infos = vec.reset()
@@ -182,6 +185,8 @@ def lockstep(
         actions = policy(ref.obs, rng)
         got, raw = vector_step(vec, actions)
         want = ref.step(actions)
+        if check is not None:
+            check(vec, ref)
         yield got, raw, want
     vec.close()
 
@@ -228,18 +233,29 @@ def max_steps(case: Case) -> int:
 
 
 @pytest.mark.parametrize("name", list(CASES))
-def test_vector_env_equals_separate_envs_bit_for_bit(name: str) -> None:
+def test_vector_env_equals_separate_envs_bit_for_bit(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """K=3 copies equal 3 plain envs stepped through the dict API (seeds s + k, then
     unseeded resets), to the bit: observations, the final observations of every episode
     that ends, rewards, terminated, truncated and the infos, over more than two episodes'
-    worth of steps; with finished robots held (``after_done="hold"``) or driven by their
-    own agents, and in an imperfect world (sensing noise and dropout)."""
+    worth of steps, and every copy's own state after every step (:func:`assert_same_copies`);
+    with finished robots held (``after_done="hold"``) or driven by their own agents, and
+    in an imperfect world (sensing noise and dropout). The plain scenes' copies step in
+    the compiled batch while every robot is unfinished (and on their own after), the
+    imperfect world's never."""
     case = CASES[name]
     endings = np.zeros(3, dtype=np.int64)
     contacts = finished_before_end = 0
     seen: list[tuple[Step, Step]] = []
+    batched = count_batched(monkeypatch)
     for got, _, want in lockstep(
-        case.env_id, case.env_kwargs, case.policy, seed=11, steps=2 * max_steps(case) + 3
+        case.env_id,
+        case.env_kwargs,
+        case.policy,
+        seed=11,
+        steps=2 * max_steps(case) + 3,
+        check=assert_same_copies,
     ):
         assert_same_step(got, want)
         seen.append((got, want))
@@ -253,6 +269,50 @@ def test_vector_env_equals_separate_envs_bit_for_bit(name: str) -> None:
         assert contacts > 0
     if case.finishers:
         assert finished_before_end > 0
+    if name == "imperfect_world":
+        assert batched == {"calls": 0, "copies": 0, "events": 0}
+    else:
+        assert batched["copies"] > 100, batched
+    if name == "circle_swap":
+        assert batched["events"] > 0  # contacts began, ended or deepened in the batch
+
+
+def count_batched(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
+    """Counts, from now on, the compiled batch's calls, the copies they stepped and the
+    contact event rows they returned (:func:`nao_arena.vector_step.step_copies`)."""
+    counts = {"calls": 0, "copies": 0, "events": 0}
+    step_copies = vector_module.step_copies
+
+    def counted(copies: Any, which: NDArray[np.int64], *args: Any) -> Any:
+        codes, values = step_copies(copies, which, *args)
+        counts["calls"] += 1
+        counts["copies"] += len(which)
+        counts["events"] += len(codes)
+        return codes, values
+
+    monkeypatch.setattr(vector_module, "step_copies", counted)
+    return counts
+
+
+def assert_same_copies(vec: VectorEnv, ref: Reference) -> None:
+    """Every copy's own objects equal the reference env's: the episode summary (the
+    statistics, contact events and trajectory hash), the world's state, last period,
+    commands and time, the env's agents, events and last result."""
+    for env, want in zip(vec.envs, ref.envs, strict=True):
+        assert env.arena.summary().to_dict() == want.arena.summary().to_dict()
+        world, other = env.arena.world, want.arena.world
+        for name in ("positions", "velocities", "previous_positions", "substep_positions"):
+            assert same(getattr(world, name), getattr(other, name)), name
+        assert same(world.applied_accelerations, other.applied_accelerations)
+        assert same(world.commands, other.commands)
+        assert world.time == other.time
+        assert env.agents == want.agents
+        assert env.events == want.events
+        assert (env.last_result is None) == (want.last_result is None)
+        if env.last_result is not None and want.last_result is not None:
+            assert same(env.last_result.commanded, want.last_result.commanded)
+            assert same(env.last_result.state.accelerations, want.last_result.state.accelerations)
+            assert env.last_result.contacts == want.last_result.contacts
 
 
 def test_auto_reset_replaces_exactly_the_copies_that_ended() -> None:

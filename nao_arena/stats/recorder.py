@@ -36,7 +36,8 @@ __all__ = ["EpisodeStats"]
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-_NO_GOALS = np.zeros((0, 2))  # no goals: only the arrival bookkeeping
+NO_GOALS = np.zeros((0, 2))
+"""The liveness goals (0, 2) m of statistics without goals: only the arrival bookkeeping."""
 
 
 def _c_array(x: ArrayLike, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
@@ -136,7 +137,8 @@ class EpisodeStats:
         self.time_to_goal = np.full(n, np.nan)
         self.path_length = np.zeros(n)
         self.adjustments = np.zeros(n, dtype=np.int64)
-        self._a_prev: FloatArray | None = None
+        self._a_prev = np.empty((n, 2))  # the last step's commands (after the first)
+        self._has_prev = False
         cfg = self.config
         self._cfg = np.array(
             [
@@ -244,10 +246,6 @@ class EpisodeStats:
         acc = _c_array(commanded_accels, np.float64, (n, 2))
         goal = _c_array(goal_reached, np.bool_, (n,))
         t = float(t)
-        has_prev = self._a_prev is not None
-        if not has_prev:
-            self._a_prev = np.empty((n, 2))
-        assert self._a_prev is not None  # set just above when it was not
         codes, vals, self._n_prox = step_kernel(
             t,
             self.dt,
@@ -255,22 +253,54 @@ class EpisodeStats:
             v1,
             acc,
             self._a_prev,
-            has_prev,
+            self._has_prev,
             goal,
             self._n_prox,
             self._depth,
             self._arrays,
         )
-        started: list[ContactEvent] = []
-        if len(codes):
-            self._apply_events(t, codes.tolist(), vals.tolist(), path, started)
+        started = self._events(t, codes, vals, path)
         self._v_prev = v1.copy()
         if self._people is not None:
             self._people.update(path)
         self._liveness(t, path[-1], goal)
         self.steps += 1
         self.time = t + self.dt
-        started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
+        return started
+
+    def adopt_step(
+        self,
+        t: float,
+        codes: NDArray[np.int64],
+        vals: FloatArray,
+        path: FloatArray,
+        velocities_after: FloatArray,
+        n_prox: int,
+        deadlocked: bool,
+    ) -> list[ContactEvent]:
+        """Take a control step [t, t + dt] whose kernels (``step_kernel`` with the event
+        rows ``codes`` and values ``vals`` and the new proximity count ``n_prox``,
+        ``liveness_kernel`` with its result ``deadlocked``) ran in a batch
+        (:mod:`nao_arena.vector_step`): the rest of :meth:`update`, for a scene without
+        people. Returns the contacts that started in it."""
+        self._n_prox = n_prox
+        started = self._events(t, codes, vals, path)
+        self._v_prev = velocities_after
+        self._deadlock(t, deadlocked)
+        self.steps += 1
+        self.time = t + self.dt
+        return started
+
+    def _events(
+        self, t: float, codes: NDArray[np.int64], vals: FloatArray, path: FloatArray
+    ) -> list[ContactEvent]:
+        """The kernel's event rows of the step [t, t + dt] applied (the last command is
+        now kept); the contacts that started, in time order."""
+        self._has_prev = True
+        started: list[ContactEvent] = []
+        if len(codes):
+            self._apply_events(t, codes.tolist(), vals.tolist(), path, started)
+            started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
         return started
 
     def _liveness(self, t: float, p1: FloatArray, goal: NDArray[np.bool_]) -> None:
@@ -280,7 +310,7 @@ class EpisodeStats:
         deadlocked = liveness_kernel(
             self.dt,
             np.ascontiguousarray(p1, dtype=np.float64),
-            _NO_GOALS if self._goals is None else self._goals,
+            NO_GOALS if self._goals is None else self._goals,
             goal,
             self.is_robot,
             self.reached,
@@ -291,7 +321,12 @@ class EpisodeStats:
             self.time_away,
             self.stuck_time,
         )
-        if deadlocked:  # every robot away from its goal is stuck
+        self._deadlock(t, deadlocked)
+
+    def _deadlock(self, t: float, deadlocked: bool) -> None:
+        """The deadlock time of the step that ends at t + dt, when every robot away from
+        its goal is stuck in it (``deadlocked``)."""
+        if deadlocked:
             self.deadlock_duration += self.dt
             if math.isnan(self.deadlock_time):
                 self.deadlock_time = t + self.dt

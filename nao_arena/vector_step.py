@@ -1,0 +1,466 @@
+"""The control period of many env copies in one compiled call (the vector env).
+
+A copy is *batched* in a period when the env's own step would run nothing but compiled
+code for it: every robot is the env's and acts (none has finished), the world is
+plain (no recorded people, no traffic, no sensing or actuation imperfection, no
+episode log, no NAO features in the observations) and pymunk is idle
+(:func:`batchable`). :func:`step_copies` then runs, for every batched copy, the very
+kernels of the env's step, in the env's order:
+
+- the commands: the actions (in [-1, 1]) times the robots' a_max, into the world's
+  command rows (:meth:`nao_arena.arena.Arena.step_robots`);
+- the world's period in chipmunk (:func:`nao_arena.world.period_into`);
+- the goal test (:func:`nao_arena.arena.within_goal`), the statistics
+  (:func:`nao_arena.stats.kernel.step_kernel`, :func:`~nao_arena.stats.kernel.liveness_kernel`);
+- the rewards (:func:`nao_arena.env_step.period_rewards`, then the contact term),
+  the agents that finish (:func:`nao_arena.env_step.settle_finished`) and the
+  observations (:func:`nao_arena.neighbours.in_range_lists`,
+  :func:`nao_arena.env_observations.observation_rows`,
+  :func:`nao_arena.env_step.clipped_float32`).
+
+What is Python in the env's step (the contact events as objects, the trajectory hash,
+the objects' bookkeeping) is done after the call, copy by copy, by the objects
+themselves; the results are those of the env's step, bit for bit (tested against K
+separate envs).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
+
+import numpy as np
+from numba.typed import List
+from numpy.typing import NDArray
+
+from nao_arena.arena import within_goal
+from nao_arena.env_observations import ObservedRows, observation_rows
+from nao_arena.env_step import clipped_float32, period_rewards, settle_finished
+from nao_arena.jit import inner_kernel, kernel
+from nao_arena.neighbours import in_range_lists
+from nao_arena.stats.kernel import EV_START, EpisodeArrays, liveness_kernel, step_kernel
+from nao_arena.stats.recorder import NO_GOALS
+from nao_arena.world import (
+    _DIRECT_STEP,
+    PeriodArrays,
+    _Bodies,
+    _Chipmunk,
+    _pymunk_is_idle,
+    period_into,
+)
+
+if TYPE_CHECKING:
+    from nao_arena.environment import NaoArenaParallelEnv
+
+__all__ = [
+    "CopyArrays",
+    "CopyOutputs",
+    "CopyState",
+    "batched_now",
+    "copy_arrays",
+    "copy_list",
+    "set_copy",
+    "step_copies",
+]
+
+FloatArray = NDArray[np.float64]
+
+_TRUE = cast(bool, np.bool_(True))
+"""True as the compiled callees get it from Python (a literal True would compile
+another version of each; the slice assignments are element by element for the same
+reason as :func:`nao_arena.world._put_rows`)."""
+
+
+class CopyArrays(NamedTuple):
+    """What the compiled period reads and updates of one env copy, built after each of
+    its resets (:func:`copy_arrays`): the very
+    arrays of the world, the statistics and the env, updated in place. N bodies, R
+    agents (every robot, robot order), D observation entries."""
+
+    chip: _Chipmunk
+    """The world's chipmunk space and buffers."""
+    bodies: _Bodies
+    """The world's per-body limits, masses and batch rows."""
+    radii: FloatArray
+    """(N,) m."""
+    robot_ids: NDArray[np.intp]
+    """(R,) the body of each robot."""
+    goals: FloatArray
+    """(R, 2) m the robots' goals."""
+    goal_tolerance: float
+    """m."""
+    a_prev: FloatArray
+    """(N, 2) m/s^2 the statistics' last commands."""
+    depth: Any
+    """The statistics' open contact depths (a numba typed dict)."""
+    episode: EpisodeArrays
+    """The statistics' per-pair and per-body state."""
+    liveness_goals: FloatArray
+    """(N, 2) m the goals by body for the liveness metrics, or (0, 2): not tracked."""
+    is_robot: NDArray[np.bool_]
+    """(N,)"""
+    goal_dist: FloatArray
+    """(window, N) m the ring of goal distances."""
+    stuck_progress: float
+    """m."""
+    at_goal: NDArray[np.bool_]
+    """(N,)"""
+    time_away: FloatArray
+    """(N,) s."""
+    stuck_time: FloatArray
+    """(N,) s."""
+    agent_bodies: NDArray[np.int64]
+    """(R,) the body of each agent."""
+    agent_a_max: FloatArray
+    """(R,) m/s^2."""
+    agent_goals: FloatArray
+    """(R, 2) m."""
+    prev_cmd: FloatArray
+    """(R, 2) m/s^2 the agents' last clipped commands."""
+    goal_distance: FloatArray
+    """(R,) m the agents' distances to their goals at the period's start."""
+    alive: NDArray[np.bool_]
+    """(R,) the agents that have not finished."""
+    all_rows: NDArray[np.intp]
+    """(R,) 0 .. R - 1."""
+    reward_weights: FloatArray
+    """(4,) progress, accel_change, step, goal."""
+    observed: ObservedRows
+    """The observation's bundle of every agent."""
+    obs_low: FloatArray
+    """(D,) the observation's bounds."""
+    obs_high: FloatArray
+    """(D,)"""
+    dt: float
+    """The control period (s)."""
+    window: int
+    """The stuck window (steps)."""
+    collision_weight: float
+    """The reward's weight of a contact."""
+    terminate_on_collision: bool
+    """Whether a contact terminates an agent."""
+    time_limit: float
+    """s."""
+    sensing_range: float
+    """m."""
+    neighbours: int
+    """Neighbours per observation."""
+    finished_column: int
+    """The observation's ``finished`` entry."""
+
+
+class CopyState(NamedTuple):
+    """The copies' counters (K,) that the compiled period reads and advances: world
+    steps since the reset, statistics steps, open proximity episodes, whether the
+    statistics have a last command."""
+
+    world_steps: NDArray[np.int64]
+    stats_steps: NDArray[np.int64]
+    n_prox: NDArray[np.int64]
+    has_prev: NDArray[np.bool_]
+
+
+class CopyOutputs(NamedTuple):
+    """What the compiled period writes per copy k (K copies, N bodies, R agents, S
+    substeps, D observation entries): the world's commands (K, N, 2) m/s^2 and its
+    period (:class:`~nao_arena.world.PeriodArrays`, stacked), with a read-only view of
+    its path (the statistics read it as the world hands it out, read-only); the env's
+    step arrays (:class:`~nao_arena.env_step.StepArrays`, stacked; rows of copies not batched are
+    left as they are); per copy whether its episode ended, the number of contact
+    event rows of the statistics (``event_count[k]`` rows of the returned ``codes``
+    and ``values`` from ``event_start[k]``), whether every agent is still unfinished
+    and whether the copy is deadlocked."""
+
+    commanded: FloatArray
+    period: PeriodArrays
+    path_read_only: FloatArray
+    observations: NDArray[np.float32]
+    rewards: FloatArray
+    terminated: NDArray[np.bool_]
+    truncated: NDArray[np.bool_]
+    reached: NDArray[np.bool_]
+    collisions: NDArray[np.int64]
+    faults: NDArray[np.int64]
+    finished: NDArray[np.bool_]
+    time: FloatArray
+    ended: NDArray[np.bool_]
+    all_alive: NDArray[np.bool_]
+    deadlocked: NDArray[np.bool_]
+    event_start: NDArray[np.int64]
+    event_count: NDArray[np.int64]
+
+
+@kernel(error_model="numpy")
+def step_copies(
+    copies: Any,
+    which: NDArray[np.int64],
+    actions: FloatArray,
+    start: FloatArray,
+    v_start: FloatArray,
+    state: CopyState,
+    out: CopyOutputs,
+) -> tuple[NDArray[np.int64], FloatArray]:
+    """One control period of the copies ``which`` (batched; see the module docstring):
+    copies (a typed list of :class:`CopyArrays`), actions (K, R, 2) in [-1, 1], the
+    bodies' positions ``start`` (K, N, 2) m and velocities ``v_start`` (K, N, 2) m/s at
+    the period's start. Writes ``out`` and advances ``state``; returns the statistics'
+    event rows (code, a, b) and values of all these copies, copy after copy
+    (``out.event_start``). A copy with a non-finite command is not stepped (``out.ended``
+    is left False and its ``event_start`` entry is -1): the actions are checked before."""
+    n_codes = 0
+    codes_all = np.empty((0, 3), dtype=np.int64)
+    values_all = np.empty(0)
+    path_all = out.period.path
+    for w in range(which.shape[0]):
+        k = which[w]
+        c = copies[k]
+        commanded = out.commanded[k]
+        period = PeriodArrays(
+            path_all[k],
+            out.period.positions[k],
+            out.period.velocities[k],
+            out.period.accelerations[k],
+            out.period.applied[k],
+        )
+        r = c.agent_bodies.shape[0]
+        cmd = np.empty((r, 2))
+        for b in range(commanded.shape[0]):
+            commanded[b, 0] = 0.0
+            commanded[b, 1] = 0.0
+        for i in range(r):
+            for j in range(2):
+                cmd[i, j] = actions[k, i, j] * c.agent_a_max[i]
+                commanded[c.agent_bodies[i], j] = cmd[i, j]
+        if not period_into(c.chip, c.bodies, commanded, start[k], v_start[k], period):
+            out.event_start[k] = -1
+            continue
+        t = state.world_steps[k] * c.dt
+        state.world_steps[k] += 1
+        time = state.world_steps[k] * c.dt
+        pos, vel = period.positions, period.velocities
+        n = pos.shape[0]
+        at_goal = np.zeros(n, dtype=np.bool_)
+        within_goal(pos, c.robot_ids, c.goals, c.goal_tolerance, at_goal, _TRUE)
+        seen_path = out.path_read_only[k]
+        codes, values, n_prox = step_kernel(
+            t,
+            c.dt,
+            seen_path,
+            vel,
+            commanded,
+            c.a_prev,
+            state.has_prev[k],
+            at_goal,
+            state.n_prox[k],
+            c.depth,
+            c.episode,
+        )
+        state.has_prev[k] = True
+        state.n_prox[k] = n_prox
+        out.deadlocked[k] = liveness_kernel(
+            c.dt,
+            seen_path[seen_path.shape[0] - 1],
+            c.liveness_goals,
+            at_goal,
+            c.is_robot,
+            c.episode.reached,
+            c.goal_dist,
+            state.stats_steps[k] % c.window,
+            c.stuck_progress,
+            c.at_goal,
+            c.time_away,
+            c.stuck_time,
+        )
+        state.stats_steps[k] += 1
+        out.event_start[k] = n_codes
+        out.event_count[k] = codes.shape[0]
+        if codes.shape[0]:
+            codes_all = np.concatenate((codes_all, codes))
+            values_all = np.concatenate((values_all, values))
+            n_codes += codes.shape[0]
+        _env_period(c, cmd, pos, vel, period.accelerations, time, codes, out, k)
+    return codes_all, values_all
+
+
+@inner_kernel(error_model="numpy")
+def _env_period(
+    c: CopyArrays,
+    cmd: FloatArray,
+    pos: FloatArray,
+    vel: FloatArray,
+    acc: FloatArray,
+    time: float,
+    codes: NDArray[np.int64],
+    out: CopyOutputs,
+    k: int,
+) -> None:
+    """The env's part of a batched copy's period (every agent acting): rewards with the
+    contact term, the agents that finish, the observations; into row k of ``out``.
+    ``cmd`` (R, 2) m/s^2 the commands; the bodies' end state ``pos``, ``vel``, ``acc``;
+    ``time`` s at the period's end; ``codes`` the statistics' event rows."""
+    r = c.agent_bodies.shape[0]
+    reached = out.reached[k]
+    for i in range(r):
+        reached[i] = c.episode.reached[c.agent_bodies[i]]
+    reward = np.empty(r)
+    period_rewards(
+        pos,
+        c.agent_bodies,
+        c.all_rows,
+        cmd,
+        c.agent_goals,
+        c.agent_a_max,
+        c.prev_cmd,
+        c.goal_distance,
+        reached,
+        c.reward_weights,
+        reward,
+    )
+    # contacts that began: one per robot involved (a, and b unless it is a wall)
+    contacts = np.zeros(pos.shape[0], dtype=np.int64)
+    started = False
+    for e in range(codes.shape[0]):
+        code = codes[e, 0]
+        if code == EV_START or code == EV_START + 3:
+            started = True
+            contacts[codes[e, 1]] += 1
+            if code == EV_START:
+                contacts[codes[e, 2]] += 1
+    collisions = out.collisions[k]
+    terminated = np.empty(r, dtype=np.bool_)
+    for i in range(r):
+        collisions[i] = contacts[c.agent_bodies[i]]
+        terminated[i] = reached[i]
+        if started:
+            reward[i] = reward[i] - c.collision_weight * collisions[i]
+            if c.terminate_on_collision:
+                terminated[i] = terminated[i] or collisions[i] > 0
+    time_up = time >= c.time_limit - 1e-9
+    finished_before = np.empty(r, dtype=np.bool_)
+    finished = out.finished[k]
+    someone_left, _, all_alive = settle_finished(
+        c.alive, c.all_rows, terminated, reward, finished_before, finished, out.rewards[k]
+    )
+    end = time_up or not someone_left
+    # the observations of the end state (NaoArenaParallelEnv._observe, every agent)
+    d = c.obs_low.shape[0]
+    m = c.neighbours
+    obs = np.zeros((r, d))
+    idx = np.zeros((r, m), dtype=np.int64)
+    present = np.zeros((r, m), dtype=np.bool_)
+    nb_start, nb_index = in_range_lists(c.agent_bodies, pos, c.sensing_range, m, _TRUE)
+    observation_rows(
+        pos,
+        vel,
+        acc,
+        c.radii,
+        c.observed,
+        max(c.time_limit - time, 0.0),
+        nb_start,
+        nb_index,
+        obs,
+        idx,
+        present,
+    )
+    for i in range(r):
+        obs[i, c.finished_column] = 0.0 if c.alive[i] else 1.0
+    clipped = clipped_float32(obs, c.obs_low, c.obs_high)
+    for i in range(r):
+        for j in range(d):
+            out.observations[k, i, j] = clipped[i, j]
+    for i in range(r):
+        out.terminated[k, i] = finished[i] and end
+        out.truncated[k, i] = not finished[i] and end and time_up
+    if end:
+        for i in range(r):
+            c.alive[i] = False
+    out.faults[k, :] = 0
+    out.time[k] = time
+    out.ended[k] = end
+    out.all_alive[k] = all_alive and not end
+
+
+def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
+    """The :class:`CopyArrays` of an env after a reset, or None when its steps are never
+    batched: a robot that is not the env's, recorded people or traffic, a sensing or
+    actuation imperfection, an episode log, NAO features in the observations, a window
+    to draw, no ``keep_finished``, or a pymunk version whose step is not chipmunk's."""
+    arena, opts = env.arena, env.options
+    world, stats = arena.world, arena.stats
+    assert stats is not None, "call reset() first"
+    plain = (
+        _DIRECT_STEP
+        and opts.keep_finished
+        and env.render_mode != "human"
+        and env._cand is None
+        and len(env._controlled) == len(arena.robot_ids)
+        and arena.recorder is None
+        and arena.senses_the_truth
+        and not arena._sensing_draws
+        and arena.actuation_noise == 0.0
+        and arena.imperfections.lag == 0.0
+        and len(arena.traffic.indices) == 0
+        and not world.replayed.any()
+        and stats._people is None
+    )
+    if not plain:
+        return None
+    return CopyArrays(
+        chip=world._chip,
+        bodies=world._body_data,
+        radii=world.radii,
+        robot_ids=arena.robot_ids,
+        goals=arena.goals,
+        goal_tolerance=arena._goal_tolerance,
+        a_prev=stats._a_prev,
+        depth=stats._depth,
+        episode=stats._arrays,
+        liveness_goals=NO_GOALS if stats._goals is None else stats._goals,
+        is_robot=stats.is_robot,
+        goal_dist=stats._goal_dist,
+        stuck_progress=float(stats.config.stuck_progress),
+        at_goal=stats.at_goal,
+        time_away=stats.time_away,
+        stuck_time=stats.stuck_time,
+        agent_bodies=env._bodies,
+        agent_a_max=env._a_max,
+        agent_goals=env._goals,
+        prev_cmd=env._prev_cmd,
+        goal_distance=env._dist,
+        alive=env._alive,
+        all_rows=env._all_rows,
+        reward_weights=env._reward_weights,
+        observed=env._observed_rows,
+        obs_low=env._obs_low,
+        obs_high=env._obs_high,
+        dt=world.dt,
+        window=stats._window,
+        collision_weight=float(opts.rewards.collision),
+        terminate_on_collision=bool(opts.terminate_on_collision),
+        time_limit=env._time_limit,
+        sensing_range=env._sensing_range,
+        neighbours=env._k,
+        finished_column=env._finished_column,
+    )
+
+
+def batched_now(env: NaoArenaParallelEnv) -> bool:
+    """Whether this step of an env whose :func:`copy_arrays` are not None is batched:
+    every agent is unfinished and pymunk has nothing of its own to do."""
+    return env._all_alive and _pymunk_is_idle(env.arena.world._space)
+
+
+@kernel
+def copy_list(first: CopyArrays, size: int) -> Any:
+    """A typed list of ``size`` entries, each ``first``, for :func:`step_copies` (made
+    and filled by compiled code, whose versions are cached, rather than by the typed
+    list's own methods, which compile in every process)."""
+    copies = List()
+    for _ in range(size):
+        copies.append(first)
+    return copies
+
+
+@kernel
+def set_copy(copies: Any, k: int, arrays: CopyArrays) -> None:
+    """Entry k of the typed list ``copies`` (:func:`copy_list`) set to ``arrays``."""
+    copies[k] = arrays
