@@ -27,11 +27,13 @@ Construction, the first reset and ``--warmup`` steps (numba compiles on first us
 not timed, and the NAO agent's kernels are loaded first; the resets at the end of an
 episode (circle_swap_v0: every 400 steps, as random actions bring few robots to their
 goals) are timed, and so is the NAO agent of every robot that reached its goal (the
-env's default ``after_done="agent"`` drives a finished robot by its own agent). Every
+env's default ``after_done="agent"`` drives a finished robot by its own agent). The
+default ``--steps``, 400, is one such episode: every repeat times one reset of every
+copy, whichever repeat is the best (VMAS's envs are never reset). Every
 row gives the agent-steps it timed beside its rates, and its agent-steps/s against the
 bare row's and, when VMAS ran, the best VMAS row's.
 Run: ``python benchmarks/bench_vector_env.py [--copies 1 4 16 64] [--sb3-copies 16]
-[--vmas-envs 1 256] [--steps 300] [--repeats 3] [--warmup 20] [--json PATH]``
+[--vmas-envs 1 256] [--steps 400] [--repeats 3] [--warmup 20] [--json PATH]``
 (VMAS: ``pip install vmas``).
 """
 
@@ -191,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--vmas-envs", type=positive, nargs="+", default=[1, 256], help="N of the VMAS rows"
     )
-    parser.add_argument("--steps", type=positive, default=300, help="vector steps per repeat")
+    parser.add_argument("--steps", type=positive, default=400, help="vector steps per repeat")
     parser.add_argument("--repeats", type=positive, default=3)
     parser.add_argument("--warmup", type=non_negative, default=20, help="untimed steps")
     parser.add_argument("--seed", type=non_negative, default=0)

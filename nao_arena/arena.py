@@ -58,6 +58,7 @@ Recording: an arena whose ``recorder`` is set (a :class:`StepRecorder`, e.g.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import inspect
 import math
@@ -237,11 +238,7 @@ def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | N
     precedence.
     """
     cls = load_agent(ref) if isinstance(ref, str) else check_agent_class(ref.__name__, ref)
-    params: Mapping[str, inspect.Parameter]
-    try:
-        params = inspect.signature(cls).parameters
-    except (TypeError, ValueError):
-        params = {}
+    params = _constructor_parameters(cls)
     takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
     meant = robot.agent_options_for is None or load_agent(robot.agent_options_for) is cls
     kwargs = (
@@ -251,6 +248,16 @@ def make_agent(ref: str | type, robot: RobotSpec, options: Mapping[str, Any] | N
         kwargs["predictor"] = robot.predictor
     kwargs.update(options or {})
     return cls(**kwargs)
+
+
+@functools.cache
+def _constructor_parameters(cls: type) -> Mapping[str, inspect.Parameter]:
+    """The parameters of an agent class's constructor (none when Python cannot tell);
+    looked up once per class (every reset makes every robot's agent)."""
+    try:
+        return inspect.signature(cls).parameters
+    except (TypeError, ValueError):
+        return {}
 
 
 def _non_negative(name: str, value: float) -> float:
@@ -790,41 +797,29 @@ class Arena:
             self.recorder.step(self, batch, result, actions)
         return result
 
-    def adopt_period(
-        self,
-        period: PeriodArrays,
-        commanded: NDArray[np.float64],
-        events: tuple[NDArray[np.int64], NDArray[np.float64]],
-        n_prox: int,
-        deadlocked: bool,
-    ) -> StepResult:
-        """Take a control period that ran in a batch (:mod:`nao_arena.vector_step`: every
-        robot replaced, a plain world): the world's ``period`` with the commands
-        ``commanded`` (N, 2) m/s^2, the statistics' event rows and values ``events``,
-        proximity count ``n_prox`` and liveness result ``deadlocked``. What :meth:`step`
-        keeps of its own; returns its result."""
-        assert self.stats is not None, "call reset() first"
-        t = self.world.time
-        self.world.adopt_period(period, commanded)
-        self.commanded = commanded
-        self._stepped_plans = self.world.applied_accelerations
+    def adopt_periods(
+        self, commands: NDArray[np.float64], states: NDArray[np.float64], last: PeriodArrays
+    ) -> WorldState:
+        """Take control periods that ran in a batch (:mod:`nao_arena.vector_step`: every
+        robot replaced, a plain world): their commands (P, N, 2) m/s^2, the bodies'
+        positions and velocities after each, ``states`` (P, 2, N, 2), and the last one's
+        world results. What :meth:`step` keeps of its own in the world and here (the
+        statistics take theirs apart); returns the new state."""
         world = self.world
-        state = WorldState(
+        world.adopt_periods(commands, last)
+        self.commanded = commands[-1]
+        self._stepped_plans = world.applied_accelerations
+        self.state = WorldState(
             world.time,
-            period.positions,
-            period.velocities,
-            period.accelerations,
+            last.positions,
+            last.velocities,
+            last.accelerations,
             world.radii,
             world.names,
             world.kinds,
         )
-        self.state = state
-        self._hash_state(state)
-        codes, values = events
-        contacts = self.stats.adopt_step(
-            t, codes, values, period.path, period.velocities, n_prox, deadlocked
-        )
-        return StepResult(state.time, state, commanded, contacts, [])
+        self._trajectory.update(np.ascontiguousarray(states).data)  # _hash_state's bytes
+        return self.state
 
     def _imperfect(self, batch: SensingBatch) -> SensingBatch:
         """``batch`` as the robots' sensors deliver it: each neighbour missed with the

@@ -615,15 +615,13 @@ class NaoArenaParallelEnv(ParallelEnv):
         time_up = res.time >= self._time_limit - 1e-9
         return _Period(live_rows, rows, reward, terminated, time_up, events, faults, res)
 
-    def adopt_period(self, result: StepResult, all_alive: bool, ended: bool) -> None:
-        """Take a control period of every agent that ran in a batch
-        (:mod:`nao_arena.vector_step`; the arena's ``result``): what :meth:`step_arrays`
-        keeps of its own, but the arrays it returns (the batch wrote them), given
-        whether every agent is still unfinished and whether the episode ended."""
+    def adopt_period(self, result: StepResult, all_alive: bool) -> None:
+        """Take the last control period of every agent, which ran in a batch
+        (:mod:`nao_arena.vector_step`; the arena's ``result``), before which the episode
+        did not end: what :meth:`step_arrays` keeps of its own, but the arrays it
+        returns (the batch wrote them), given whether every agent is still unfinished."""
         self.last_result = result
         self._all_alive = all_alive
-        if ended:
-            self.agents = []
         events = _events_by_body(result.contacts)
         self._set_events(self.possible_agents, self._body_list, events, {})
 

@@ -37,15 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from nao_arena.environment import NaoArenaParallelEnv
 from nao_arena.envs import load
 from nao_arena.kernels import ensure_env_compiled
-from nao_arena.vector_step import (
-    CopyOutputs,
-    CopyState,
-    batched_now,
-    copy_arrays,
-    copy_list,
-    set_copy,
-    step_copies,
-)
+from nao_arena.vector_step import CopyBatch, CopyOutputs
 from nao_arena.world import PeriodArrays
 
 __all__ = ["VectorEnv"]
@@ -89,10 +81,10 @@ class VectorEnv:
         return vec
 
     def _setup(self, env_id: str, envs: list[NaoArenaParallelEnv], seed: int | None) -> None:
-        self.envs = envs
-        first = self.envs[0]
+        self._envs = envs
+        first = envs[0]
         self.env_id = env_id
-        self.num_envs = len(self.envs)
+        self.num_envs = len(envs)
         self.agents: list[str] = list(first.possible_agents)
         """The agents of each copy (R), in the order of every (K, R, ...) array."""
         self.num_agents = len(self.agents)
@@ -107,18 +99,14 @@ class VectorEnv:
         )
         self.action_space = spaces.Box(-1.0, 1.0, shape=(*shape, 2), dtype=np.float32)
         self._seed = seed
-        self._started = False
-        self._copies: Any = None
-        """The typed list of the copies' :class:`~nao_arena.vector_step.CopyArrays`, or
-        None when no copy's steps are batched."""
-        self._batchable: list[bool] = []
-        """Per copy: whether its steps can be batched in this episode (its entry of
-        ``_copies`` is its own)."""
-        self._start = np.empty(0)
-        self._v_start = np.empty(0)
-        self._counters = CopyState(
-            np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool)
-        )
+        self._batch: CopyBatch | None = None
+
+    @property
+    def envs(self) -> list[NaoArenaParallelEnv]:
+        """The copies (each an env of its own, its objects up to date when read)."""
+        if self._batch is not None:
+            self._batch.sync_all()
+        return self._envs
 
     def reset(
         self, seed: int | None = None, options: Mapping[str, Any] | None = None
@@ -126,14 +114,13 @@ class VectorEnv:
         """Start an episode in every copy: copy k with seed ``seed + k`` (``seed`` None:
         the constructor's seed, if any; else each copy draws its own). ``options`` is
         accepted for API compatibility and ignored."""
-        if seed is None and not self._started:
+        if seed is None and self._batch is None:
             seed = self._seed
-        self._started = True
         obs = np.empty(self.observation_space.shape, dtype=np.float32)
-        for k, env in enumerate(self.envs):
+        for k, env in enumerate(self._envs):
             first, _ = env.reset(seed=None if seed is None else int(seed) + k)
             obs[k] = [first[a] for a in self.agents]
-        self._batch_copies()
+        self._batch = CopyBatch(self._envs)
         zeros = np.zeros((self.num_envs, self.num_agents), dtype=np.int64)
         infos = {
             "reached": zeros.astype(bool),
@@ -143,47 +130,6 @@ class VectorEnv:
             "time": np.zeros(self.num_envs),
         }
         return obs, infos
-
-    def _batch_copies(self) -> None:
-        """The typed list of the copies' arrays and the batch's own state, after a reset
-        of every copy (:mod:`nao_arena.vector_step`)."""
-        arrays = [copy_arrays(env) for env in self.envs]
-        self._batchable = [a is not None for a in arrays]
-        first = next((a for a in arrays if a is not None), None)
-        if first is None:
-            self._copies = None
-            return
-        copies = copy_list(first, len(arrays))
-        for k, a in enumerate(arrays):
-            if a is not None and k:
-                set_copy(copies, k, a)
-        self._copies = copies
-        n = self.envs[0].arena.world.n
-        self._start = np.empty((self.num_envs, n, 2))
-        self._v_start = np.empty((self.num_envs, n, 2))
-        k_envs = self.num_envs
-        self._counters = CopyState(
-            np.empty(k_envs, np.int64),
-            np.empty(k_envs, np.int64),
-            np.empty(k_envs, np.int64),
-            np.empty(k_envs, bool),
-        )
-        for k in range(k_envs):
-            self._sync(k)
-
-    def _sync(self, k: int) -> None:
-        """The batch's state of copy k read from its objects (after a step of its own or
-        a reset)."""
-        world = self.envs[k].arena.world
-        stats = self.envs[k].arena.stats
-        assert stats is not None  # reset() made it
-        self._start[k] = world._pos
-        self._v_start[k] = world._vel
-        c = self._counters
-        c.world_steps[k] = world._steps
-        c.stats_steps[k] = stats.steps
-        c.n_prox[k] = stats._n_prox
-        c.has_prev[k] = stats._has_prev
 
     def step(
         self, actions: ArrayLike
@@ -197,7 +143,8 @@ class VectorEnv:
         """One control period of every copy with ``actions`` (K, R, 2): finite normalized
         accelerations, clipped to [-1, 1]. Returns observations, rewards, terminated,
         truncated and infos (see the module docstring)."""
-        if not self._started:
+        batch = self._batch
+        if batch is None:
             raise RuntimeError("call reset() before step()")
         shape = (self.num_envs, self.num_agents, 2)
         cmd = np.asarray(actions, dtype=np.float64)
@@ -207,51 +154,47 @@ class VectorEnv:
             raise ValueError("actions: expected finite numbers, got NaN or inf")
         cmd = np.clip(cmd, -1.0, 1.0)
         out = self._outputs()
-        batched: list[int] = []
-        own: list[int] = []
-        for k, env in enumerate(self.envs):
-            (batched if self._batchable[k] and batched_now(env) else own).append(k)
-        if batched:
-            self._step_batched(batched, cmd, out)
-        for k in own:
-            arrays = self.envs[k]._step_clipped(cmd[k])
+        batched = batch.runnable()
+        own = np.ones(self.num_envs, dtype=bool)
+        own[batched] = False
+        own_steps = np.flatnonzero(own).tolist()
+        for k in own_steps:  # before the batch replaces its last outputs
+            batch.sync(k)
+        ended = np.zeros(self.num_envs, dtype=bool)
+        if len(batched):
+            batch.step(batched, cmd, out)
+            ended[batched] = out.ended[batched]
+        for k in own_steps:
+            env = self._envs[k]
+            arrays = env._step_clipped(cmd[k])
             for name in _ROWS:
                 getattr(out, name)[k] = getattr(arrays, name)
-            if self._batchable[k]:
-                self._sync(k)
+            ended[k] = not env.agents
+            if batch.batchable[k]:
+                batch.load(k)
         obs = out.observations
-        ended = [k for k, env in enumerate(self.envs) if not env.agents]
         infos: dict[str, Any] = {name: getattr(out, name) for name in _INFOS}
-        if ended:
+        if ended.any():
             final = np.zeros_like(obs)
-            mask = np.zeros(self.num_envs, dtype=bool)
-            for k in ended:
-                final[k] = obs[k]
-                mask[k] = True
-                first, _ = self.envs[k].reset()
+            final[ended] = obs[ended]
+            for k in np.flatnonzero(ended).tolist():
+                first, _ = self._envs[k].reset()
                 obs[k] = [first[a] for a in self.agents]
-                if self._copies is not None:
-                    fresh = copy_arrays(self.envs[k])
-                    self._batchable[k] = fresh is not None
-                    if fresh is not None:
-                        set_copy(self._copies, k, fresh)
-                        self._sync(k)
+                batch.restart(k)
             infos["final_obs"] = final
-            infos["_final_obs"] = mask
+            infos["_final_obs"] = ended
         return obs, out.rewards, out.terminated, out.truncated, infos
 
     def _outputs(self) -> CopyOutputs:
         """New arrays for a step's results (:class:`~nao_arena.vector_step.CopyOutputs`)."""
         k_envs, r = self.num_envs, self.num_agents
-        n = self.envs[0].arena.world.n
-        substeps = self.envs[0].arena.world.substeps
-        flags = np.zeros((3, k_envs), dtype=bool)
-        events = np.zeros((2, k_envs), dtype=np.int64)
+        world = self._envs[0].arena.world
+        n, substeps = world.n, world.substeps
         path = np.empty((k_envs, substeps + 1, n, 2))
         path_read_only = path.view()
         path_read_only.setflags(write=False)
+        events = np.zeros((2, k_envs), dtype=np.int64)
         return CopyOutputs(
-            commanded=np.empty((k_envs, n, 2)),
             period=PeriodArrays(
                 path,
                 np.empty((k_envs, n, 2)),
@@ -269,52 +212,14 @@ class VectorEnv:
             faults=np.empty((k_envs, r), dtype=np.int64),
             finished=np.empty((k_envs, r), dtype=bool),
             time=np.empty(k_envs),
-            ended=flags[0],
-            all_alive=flags[1],
-            deadlocked=flags[2],
+            ended=np.zeros(k_envs, dtype=bool),
             event_start=events[0],
             event_count=events[1],
         )
 
-    def _step_batched(self, batched: list[int], cmd: NDArray[np.float64], out: CopyOutputs) -> None:
-        """The period of the copies ``batched`` in one compiled call
-        (:func:`~nao_arena.vector_step.step_copies`) with the clipped actions ``cmd``
-        (K, R, 2): their rows of ``out`` written, then each copy's objects brought up to
-        date."""
-        which = np.array(batched, dtype=np.int64)
-        codes, values = step_copies(
-            self._copies, which, cmd, self._start, self._v_start, self._counters, out
-        )
-        period = out.period
-        period.path.setflags(write=False)
-        period.applied.setflags(write=False)
-        n_prox = self._counters.n_prox
-        for k in batched:
-            first = out.event_start[k]
-            if first < 0:  # pragma: no cover - the actions were checked finite
-                raise ValueError("actions: expected finite numbers")
-            last = first + out.event_count[k]
-            env = self.envs[k]
-            result = env.arena.adopt_period(
-                PeriodArrays(
-                    period.path[k],
-                    period.positions[k],
-                    period.velocities[k],
-                    period.accelerations[k],
-                    period.applied[k],
-                ),
-                out.commanded[k],
-                (codes[first:last], values[first:last]),
-                int(n_prox[k]),
-                bool(out.deadlocked[k]),
-            )
-            env.adopt_period(result, bool(out.all_alive[k]), bool(out.ended[k]))
-        self._start[which] = period.positions[which]
-        self._v_start[which] = period.velocities[which]
-
     def close(self) -> None:
         """Close every copy."""
-        for env in self.envs:
+        for env in self._envs:
             env.close()
 
     def __repr__(self) -> str:

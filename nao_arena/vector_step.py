@@ -26,19 +26,23 @@ separate envs).
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
-from numba.typed import List
+from numba import typeof
+from numba.core import types
+from numba.typed import Dict, List
 from numpy.typing import NDArray
 
-from nao_arena.arena import within_goal
+from nao_arena.arena import StepResult, within_goal
 from nao_arena.env_observations import ObservedRows, observation_rows
 from nao_arena.env_step import clipped_float32, period_rewards, settle_finished
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.neighbours import in_range_lists
 from nao_arena.stats.kernel import EV_START, EpisodeArrays, liveness_kernel, step_kernel
-from nao_arena.stats.recorder import NO_GOALS
+from nao_arena.stats.recorder import NO_GOALS, StepCounts
+from nao_arena.stats.records import ContactEvent
 from nao_arena.world import (
     _DIRECT_STEP,
     PeriodArrays,
@@ -52,10 +56,12 @@ if TYPE_CHECKING:
     from nao_arena.environment import NaoArenaParallelEnv
 
 __all__ = [
+    "HISTORY",
     "CopyArrays",
+    "CopyBatch",
     "CopyOutputs",
     "CopyState",
-    "batched_now",
+    "History",
     "copy_arrays",
     "copy_list",
     "set_copy",
@@ -149,28 +155,43 @@ class CopyArrays(NamedTuple):
 
 
 class CopyState(NamedTuple):
-    """The copies' counters (K,) that the compiled period reads and advances: world
-    steps since the reset, statistics steps, open proximity episodes, whether the
-    statistics have a last command."""
+    """The copies' state (K,) beyond their arrays, which the compiled period reads and
+    advances: world steps since the reset, statistics steps, open proximity episodes,
+    whether the statistics have a last command, whether every agent is unfinished, the
+    deadlock duration (s) and its start (s, NaN: none yet), and the periods run since
+    the copy's objects last took them (:class:`History`)."""
 
     world_steps: NDArray[np.int64]
     stats_steps: NDArray[np.int64]
     n_prox: NDArray[np.int64]
     has_prev: NDArray[np.bool_]
+    all_alive: NDArray[np.bool_]
+    deadlock_duration: FloatArray
+    deadlock_time: FloatArray
+    pending: NDArray[np.int64]
+
+
+class History(NamedTuple):
+    """The periods each copy ran since its objects last took them (``pending`` of
+    :class:`CopyState`; T of them at most): the bodies' positions (m) and velocities
+    (m/s) after each, ``states`` (K, T, 2, N, 2) (per period the positions, then the
+    velocities: the bytes of the arena's trajectory hash, in its order), and the
+    commands (m/s^2) of each, ``commands`` (K, T, N, 2)."""
+
+    states: FloatArray
+    commands: FloatArray
 
 
 class CopyOutputs(NamedTuple):
     """What the compiled period writes per copy k (K copies, N bodies, R agents, S
-    substeps, D observation entries): the world's commands (K, N, 2) m/s^2 and its
-    period (:class:`~nao_arena.world.PeriodArrays`, stacked), with a read-only view of
+    substeps, D observation entries): the world's period
+    (:class:`~nao_arena.world.PeriodArrays`, stacked), with a read-only view of
     its path (the statistics read it as the world hands it out, read-only); the env's
     step arrays (:class:`~nao_arena.env_step.StepArrays`, stacked; rows of copies not batched are
-    left as they are); per copy whether its episode ended, the number of contact
+    left as they are); per copy whether its episode ended and the number of contact
     event rows of the statistics (``event_count[k]`` rows of the returned ``codes``
-    and ``values`` from ``event_start[k]``), whether every agent is still unfinished
-    and whether the copy is deadlocked."""
+    and ``values`` from ``event_start[k]``)."""
 
-    commanded: FloatArray
     period: PeriodArrays
     path_read_only: FloatArray
     observations: NDArray[np.float32]
@@ -183,8 +204,6 @@ class CopyOutputs(NamedTuple):
     finished: NDArray[np.bool_]
     time: FloatArray
     ended: NDArray[np.bool_]
-    all_alive: NDArray[np.bool_]
-    deadlocked: NDArray[np.bool_]
     event_start: NDArray[np.int64]
     event_count: NDArray[np.int64]
 
@@ -197,15 +216,17 @@ def step_copies(
     start: FloatArray,
     v_start: FloatArray,
     state: CopyState,
+    history: History,
     out: CopyOutputs,
 ) -> tuple[NDArray[np.int64], FloatArray]:
     """One control period of the copies ``which`` (batched; see the module docstring):
     copies (a typed list of :class:`CopyArrays`), actions (K, R, 2) in [-1, 1], the
     bodies' positions ``start`` (K, N, 2) m and velocities ``v_start`` (K, N, 2) m/s at
-    the period's start. Writes ``out`` and advances ``state``; returns the statistics'
-    event rows (code, a, b) and values of all these copies, copy after copy
-    (``out.event_start``). A copy with a non-finite command is not stepped (``out.ended``
-    is left False and its ``event_start`` entry is -1): the actions are checked before."""
+    the period's start (replaced by those at its end). Writes ``out``, advances
+    ``state`` and appends the period to ``history``; returns the statistics' event rows
+    (code, a, b) and values of all these copies, copy after copy (``out.event_start``).
+    A copy with a non-finite command is not stepped (its ``event_start`` entry is -1):
+    the actions are checked before."""
     n_codes = 0
     codes_all = np.empty((0, 3), dtype=np.int64)
     values_all = np.empty(0)
@@ -213,7 +234,8 @@ def step_copies(
     for w in range(which.shape[0]):
         k = which[w]
         c = copies[k]
-        commanded = out.commanded[k]
+        p = state.pending[k]
+        commanded = history.commands[k, p]
         period = PeriodArrays(
             path_all[k],
             out.period.positions[k],
@@ -238,6 +260,13 @@ def step_copies(
         time = state.world_steps[k] * c.dt
         pos, vel = period.positions, period.velocities
         n = pos.shape[0]
+        for b in range(n):
+            for j in range(2):
+                history.states[k, p, 0, b, j] = pos[b, j]
+                history.states[k, p, 1, b, j] = vel[b, j]
+                start[k, b, j] = pos[b, j]
+                v_start[k, b, j] = vel[b, j]
+        state.pending[k] = p + 1
         at_goal = np.zeros(n, dtype=np.bool_)
         within_goal(pos, c.robot_ids, c.goals, c.goal_tolerance, at_goal, _TRUE)
         seen_path = out.path_read_only[k]
@@ -256,7 +285,7 @@ def step_copies(
         )
         state.has_prev[k] = True
         state.n_prox[k] = n_prox
-        out.deadlocked[k] = liveness_kernel(
+        deadlocked = liveness_kernel(
             c.dt,
             seen_path[seen_path.shape[0] - 1],
             c.liveness_goals,
@@ -270,6 +299,10 @@ def step_copies(
             c.time_away,
             c.stuck_time,
         )
+        if deadlocked:  # EpisodeStats._deadlock's arithmetic
+            state.deadlock_duration[k] += c.dt
+            if math.isnan(state.deadlock_time[k]):
+                state.deadlock_time[k] = t + c.dt
         state.stats_steps[k] += 1
         out.event_start[k] = n_codes
         out.event_count[k] = codes.shape[0]
@@ -277,11 +310,13 @@ def step_copies(
             codes_all = np.concatenate((codes_all, codes))
             values_all = np.concatenate((values_all, values))
             n_codes += codes.shape[0]
-        _env_period(c, cmd, pos, vel, period.accelerations, time, codes, out, k)
+        state.all_alive[k] = _env_period(
+            c, cmd, pos, vel, period.accelerations, time, codes, out, k
+        )
     return codes_all, values_all
 
 
-@inner_kernel(error_model="numpy")
+@inner_kernel(error_model="numpy", inline="always")
 def _env_period(
     c: CopyArrays,
     cmd: FloatArray,
@@ -292,9 +327,10 @@ def _env_period(
     codes: NDArray[np.int64],
     out: CopyOutputs,
     k: int,
-) -> None:
+) -> bool:
     """The env's part of a batched copy's period (every agent acting): rewards with the
     contact term, the agents that finish, the observations; into row k of ``out``.
+    Returns whether every agent is still unfinished.
     ``cmd`` (R, 2) m/s^2 the commands; the bodies' end state ``pos``, ``vel``, ``acc``;
     ``time`` s at the period's end; ``codes`` the statistics' event rows."""
     r = c.agent_bodies.shape[0]
@@ -373,10 +409,11 @@ def _env_period(
     if end:
         for i in range(r):
             c.alive[i] = False
-    out.faults[k, :] = 0
+    for i in range(r):
+        out.faults[k, i] = 0
     out.time[k] = time
     out.ended[k] = end
-    out.all_alive[k] = all_alive and not end
+    return all_alive and not end
 
 
 def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
@@ -443,12 +480,6 @@ def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
     )
 
 
-def batched_now(env: NaoArenaParallelEnv) -> bool:
-    """Whether this step of an env whose :func:`copy_arrays` are not None is batched:
-    every agent is unfinished and pymunk has nothing of its own to do."""
-    return env._all_alive and _pymunk_is_idle(env.arena.world._space)
-
-
 @kernel
 def copy_list(first: CopyArrays, size: int) -> Any:
     """A typed list of ``size`` entries, each ``first``, for :func:`step_copies` (made
@@ -464,3 +495,196 @@ def copy_list(first: CopyArrays, size: int) -> Any:
 def set_copy(copies: Any, k: int, arrays: CopyArrays) -> None:
     """Entry k of the typed list ``copies`` (:func:`copy_list`) set to ``arrays``."""
     copies[k] = arrays
+
+
+def _layout(value: Any) -> Any:
+    """What numba's type of ``value`` (:class:`CopyArrays` and what it holds) depends on:
+    per array its dtype, dimensions, contiguity, alignment and whether it is writeable;
+    per named tuple its class and its fields'; per typed dict its type; per other value
+    its Python type."""
+    if isinstance(value, np.ndarray):
+        f = value.flags
+        return (value.dtype.str, value.ndim, f.c_contiguous, f.f_contiguous, f.aligned, f.writeable)
+    if isinstance(value, tuple):
+        return (type(value), *(_layout(v) for v in value))
+    if isinstance(value, Dict):
+        return value._dict_type
+    return type(value)
+
+
+HISTORY = 64
+"""The periods a copy runs in the batch before its objects take them (at the latest)."""
+
+
+class CopyBatch:
+    """The copies of a vector env stepped in the batch: their :class:`CopyArrays` (a
+    typed list), :class:`CopyState` and :class:`History`. A copy's own objects (its
+    world, arena, statistics and env) take the periods it ran here when they are read
+    (:meth:`sync`: before the copy takes a step of its own, when the vector env's
+    ``envs`` are read, and every :data:`HISTORY` periods); the contact events, objects
+    of the statistics, are made at the step they happen."""
+
+    def __init__(self, envs: list[NaoArenaParallelEnv]) -> None:
+        self.envs = envs
+        k_envs = len(envs)
+        n = envs[0].arena.world.n
+        self.copies: Any = None
+        """The typed list of the copies' arrays (None until a copy can be batched)."""
+        self.batchable = np.zeros(k_envs, dtype=bool)
+        """Per copy: whether its steps can be batched in this episode."""
+        self.idle = np.zeros(k_envs, dtype=bool)
+        """Per copy: pymunk had nothing of its own to do when the copy was last loaded."""
+        self.state = CopyState(
+            np.zeros(k_envs, np.int64),
+            np.zeros(k_envs, np.int64),
+            np.zeros(k_envs, np.int64),
+            np.zeros(k_envs, bool),
+            np.zeros(k_envs, bool),
+            np.zeros(k_envs),
+            np.zeros(k_envs),
+            np.zeros(k_envs, np.int64),
+        )
+        self.history = History(
+            np.empty((k_envs, HISTORY, 2, n, 2)), np.empty((k_envs, HISTORY, n, 2))
+        )
+        self.start = np.empty((k_envs, n, 2))
+        self.v_start = np.empty((k_envs, n, 2))
+        self.last: CopyOutputs | None = None
+        """The outputs of the last batched step (the last period of every copy with
+        periods pending)."""
+        self._setters: dict[tuple[Any, ...], Any] = {}
+        self._contacts: list[list[ContactEvent]] = [[] for _ in envs]
+        self._contacts_step = np.full(k_envs, -1, dtype=np.int64)
+        for k in range(k_envs):
+            self.restart(k)
+
+    def restart(self, k: int) -> None:
+        """Copy k after a reset of its env: its arrays (if it can be batched) and state."""
+        arrays = copy_arrays(self.envs[k])
+        self.batchable[k] = arrays is not None
+        if arrays is None:
+            return
+        if self.copies is None:
+            self.copies = copy_list(arrays, len(self.envs))
+        else:
+            self._set(k, arrays)
+        self.load(k)
+
+    def _set(self, k: int, arrays: CopyArrays) -> None:
+        """:func:`set_copy` of entry k, without numba's typing of the ~45 arrays of
+        ``arrays`` on every call (half a millisecond): the compiled version is called
+        directly when ``arrays`` has the layout (:func:`_layout`) of an entry set before,
+        whose numba type it then has."""
+        layout = _layout(arrays)
+        call = self._setters.get(layout)
+        if call is None:
+            set_copy(self.copies, k, arrays)
+            dispatcher: Any = set_copy
+            signature = (typeof(self.copies), types.int64, typeof(arrays))
+            self._setters[layout] = dispatcher.overloads[signature].entry_point
+        else:
+            call(self.copies, k, arrays)
+
+    def load(self, k: int) -> None:
+        """Copy k's state read from its objects (after a reset, or a step of its own)."""
+        env = self.envs[k]
+        world, stats = env.arena.world, env.arena.stats
+        assert stats is not None  # reset() made it
+        self.start[k] = world._pos
+        self.v_start[k] = world._vel
+        s = self.state
+        s.world_steps[k] = world._steps
+        s.stats_steps[k] = stats.steps
+        s.n_prox[k] = stats._n_prox
+        s.has_prev[k] = stats._has_prev
+        s.all_alive[k] = env._all_alive and bool(env.agents)
+        s.deadlock_duration[k] = stats.deadlock_duration
+        s.deadlock_time[k] = stats.deadlock_time
+        s.pending[k] = 0
+        self.idle[k] = _pymunk_is_idle(world._space)
+
+    def runnable(self) -> NDArray[np.intp]:
+        """The copies whose next step is batched (their objects synced first when their
+        history is full)."""
+        s = self.state
+        for k in np.flatnonzero(s.pending >= HISTORY).tolist():
+            self.sync(k)
+        return np.flatnonzero(self.batchable & self.idle & s.all_alive)
+
+    def step(self, which: NDArray[np.intp], actions: FloatArray, out: CopyOutputs) -> None:
+        """One period of the copies ``which`` (:func:`step_copies`) with the clipped
+        actions (K, R, 2) into their rows of ``out``; the contact events made."""
+        codes, values = step_copies(
+            self.copies,
+            which.astype(np.int64),
+            actions,
+            self.start,
+            self.v_start,
+            self.state,
+            self.history,
+            out,
+        )
+        out.period.path.setflags(write=False)
+        out.period.applied.setflags(write=False)
+        self.last = out
+        if not len(codes):
+            return
+        s = self.state
+        for k in np.flatnonzero(out.event_count).tolist():
+            first = int(out.event_start[k])
+            last = first + int(out.event_count[k])
+            stats = self.envs[k].arena.stats
+            assert stats is not None
+            p = int(s.pending[k])
+            if p >= 2:  # the velocities after the period before (the objects hold p == 1's)
+                stats._v_prev = self.history.states[k, p - 2, 1].copy()
+            steps = int(s.world_steps[k])
+            dt = self.envs[k].arena.world.dt
+            self._contacts[k] = stats._events(
+                (steps - 1) * dt, codes[first:last], values[first:last], out.period.path[k]
+            )
+            self._contacts_step[k] = steps
+
+    def sync(self, k: int) -> None:
+        """Copy k's objects take the periods it ran in the batch since they last did."""
+        p = int(self.state.pending[k])
+        if not p:
+            return
+        assert self.last is not None
+        env = self.envs[k]
+        arena = env.arena
+        assert arena.stats is not None
+        period = self.last.period
+        last = PeriodArrays(
+            period.path[k],
+            period.positions[k],
+            period.velocities[k],
+            period.accelerations[k],
+            period.applied[k],
+        )
+        commands = self.history.commands[k, :p]
+        state = arena.adopt_periods(commands, self.history.states[k, :p], last)
+        commanded = arena.commanded = commands[-1].copy()
+        s = self.state
+        steps = int(s.world_steps[k])
+        dt = arena.world.dt
+        arena.stats.adopt_steps(
+            StepCounts(
+                int(s.stats_steps[k]),
+                (steps - 1) * dt + dt,  # EpisodeStats.update's t + dt
+                int(s.n_prox[k]),
+                float(s.deadlock_duration[k]),
+                float(s.deadlock_time[k]),
+            ),
+            last.velocities,
+        )
+        contacts = self._contacts[k] if self._contacts_step[k] == steps else []
+        env.adopt_period(
+            StepResult(state.time, state, commanded, contacts, []), bool(s.all_alive[k])
+        )
+        s.pending[k] = 0
+
+    def sync_all(self) -> None:
+        """Every copy's objects up to date (:meth:`sync`)."""
+        for k in np.flatnonzero(self.state.pending).tolist():
+            self.sync(k)

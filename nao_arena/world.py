@@ -703,13 +703,15 @@ class World:
         self._io.write_velocities(self._space)
         self._vel = v
 
-    def _record(self, accels: FloatArray) -> None:
-        """Append one step's commands to the log (capacity doubled when full)."""
-        if self._steps == len(self._log):
-            grown = np.empty((max(16, 2 * len(self._log)), self.n, 2))
+    def _record(self, accels: FloatArray, steps: int = 1) -> None:
+        """Write the commands of the next ``steps`` steps, ``accels`` (N, 2) or (steps, N,
+        2), into the log (capacity doubled, at least, when full)."""
+        end = self._steps + steps
+        if end > len(self._log):
+            grown = np.empty((max(16, 2 * len(self._log), end), self.n, 2))
             grown[: self._steps] = self._log[: self._steps]
             self._log = grown
-        self._log[self._steps] = accels
+        self._log[self._steps : end] = accels
 
     # ------------------------------------------------------------------ public
 
@@ -800,17 +802,17 @@ class World:
             self._replay()
         return self.state()
 
-    def adopt_period(self, period: PeriodArrays, accels: FloatArray) -> None:
-        """Take a control period that :func:`period_into` ran on this world's space in a
-        batch (:mod:`nao_arena.vector_step`) with the commands ``accels`` (N, 2) m/s^2:
-        what :meth:`step` keeps of its own (the arrays are kept, not copied; nothing
-        writes into them)."""
-        self._record(accels)
-        self._prev_positions = self._pos
-        self._pos, self._vel, self._acc = period.positions, period.velocities, period.accelerations
-        self._path = period.path
-        self._applied = period.applied
-        self._steps += 1
+    def adopt_periods(self, commands: FloatArray, last: PeriodArrays) -> None:
+        """Take control periods that :func:`period_into` ran on this world's space in a
+        batch (:mod:`nao_arena.vector_step`): their commands (P, N, 2) m/s^2 and the last
+        one's results: what :meth:`step` keeps of its own (the arrays are kept, not
+        copied; nothing writes into them)."""
+        self._record(commands, len(commands))
+        self._steps += len(commands)
+        self._prev_positions = last.path[0]
+        self._pos, self._vel, self._acc = last.positions, last.velocities, last.accelerations
+        self._path = last.path
+        self._applied = last.applied
         self.time = self._steps * self.dt
 
     def _period_through_pymunk(

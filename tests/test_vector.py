@@ -25,7 +25,7 @@ import pytest
 from bitwise import same  # tests/bitwise.py
 from numpy.typing import NDArray
 
-import nao_arena.vector as vector_module
+import nao_arena.vector_step as batch_module
 from nao_arena.environment import OWN_FEATURES, NaoArenaParallelEnv
 from nao_arena.envs import load
 from nao_arena.vector import VectorEnv
@@ -232,9 +232,10 @@ def max_steps(case: Case) -> int:
     return int(par.max_steps)
 
 
+@pytest.mark.parametrize("check_every", [1, 7])
 @pytest.mark.parametrize("name", list(CASES))
 def test_vector_env_equals_separate_envs_bit_for_bit(
-    name: str, monkeypatch: pytest.MonkeyPatch
+    name: str, check_every: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """K=3 copies equal 3 plain envs stepped through the dict API (seeds s + k, then
     unseeded resets), to the bit: observations, the final observations of every episode
@@ -243,8 +244,13 @@ def test_vector_env_equals_separate_envs_bit_for_bit(
     with finished robots held (``after_done="hold"``) or driven by their own agents, and
     in an imperfect world (sensing noise and dropout). The plain scenes' copies step in
     the compiled batch while every robot is unfinished (and on their own after), the
-    imperfect world's never."""
+    imperfect world's never. The copies' objects are read (and so take what the batch
+    ran) after every step, or every 7th with room for 5 batched periods between (the
+    objects take up to 5 periods at once, and more often than they are read)."""
     case = CASES[name]
+    if check_every > 1:
+        monkeypatch.setattr(batch_module, "HISTORY", 5)
+    checks = iter(range(1, 10**9))
     endings = np.zeros(3, dtype=np.int64)
     contacts = finished_before_end = 0
     seen: list[tuple[Step, Step]] = []
@@ -255,7 +261,7 @@ def test_vector_env_equals_separate_envs_bit_for_bit(
         case.policy,
         seed=11,
         steps=2 * max_steps(case) + 3,
-        check=assert_same_copies,
+        check=lambda vec, ref: next(checks) % check_every or assert_same_copies(vec, ref),
     ):
         assert_same_step(got, want)
         seen.append((got, want))
@@ -281,7 +287,7 @@ def count_batched(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
     """Counts, from now on, the compiled batch's calls, the copies they stepped and the
     contact event rows they returned (:func:`nao_arena.vector_step.step_copies`)."""
     counts = {"calls": 0, "copies": 0, "events": 0}
-    step_copies = vector_module.step_copies
+    step_copies = batch_module.step_copies
 
     def counted(copies: Any, which: NDArray[np.int64], *args: Any) -> Any:
         codes, values = step_copies(copies, which, *args)
@@ -290,7 +296,7 @@ def count_batched(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
         counts["events"] += len(codes)
         return codes, values
 
-    monkeypatch.setattr(vector_module, "step_copies", counted)
+    monkeypatch.setattr(batch_module, "step_copies", counted)
     return counts
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,13 +31,25 @@ from nao_arena.stats.records import (
     StatsConfig,
 )
 
-__all__ = ["EpisodeStats"]
+__all__ = ["EpisodeStats", "StepCounts"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
 NO_GOALS = np.zeros((0, 2))
 """The liveness goals (0, 2) m of statistics without goals: only the arrival bookkeeping."""
+
+
+class StepCounts(NamedTuple):
+    """The counters of :class:`EpisodeStats` after some steps (:meth:`EpisodeStats.adopt_steps`):
+    steps, time (s) at the end of the last, open proximity episodes, deadlock duration
+    (s) and start (s, NaN: none)."""
+
+    steps: int
+    time: float
+    n_prox: int
+    deadlock_duration: float
+    deadlock_time: float
 
 
 def _c_array(x: ArrayLike, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
@@ -268,28 +280,18 @@ class EpisodeStats:
         self.time = t + self.dt
         return started
 
-    def adopt_step(
-        self,
-        t: float,
-        codes: NDArray[np.int64],
-        vals: FloatArray,
-        path: FloatArray,
-        velocities_after: FloatArray,
-        n_prox: int,
-        deadlocked: bool,
-    ) -> list[ContactEvent]:
-        """Take a control step [t, t + dt] whose kernels (``step_kernel`` with the event
-        rows ``codes`` and values ``vals`` and the new proximity count ``n_prox``,
-        ``liveness_kernel`` with its result ``deadlocked``) ran in a batch
-        (:mod:`nao_arena.vector_step`): the rest of :meth:`update`, for a scene without
-        people. Returns the contacts that started in it."""
-        self._n_prox = n_prox
-        started = self._events(t, codes, vals, path)
+    def adopt_steps(self, counts: StepCounts, velocities_after: FloatArray) -> None:
+        """Take control steps whose kernels ran in a batch (:mod:`nao_arena.vector_step`;
+        their contact events were applied one step at a time, :meth:`_events`): their
+        counters and the bodies' velocities (N, 2) m/s at the end of the last; a scene
+        without people."""
+        self.steps = counts.steps
+        self.time = counts.time
+        self._n_prox = counts.n_prox
+        self._has_prev = True
         self._v_prev = velocities_after
-        self._deadlock(t, deadlocked)
-        self.steps += 1
-        self.time = t + self.dt
-        return started
+        self.deadlock_duration = counts.deadlock_duration
+        self.deadlock_time = counts.deadlock_time
 
     def _events(
         self, t: float, codes: NDArray[np.int64], vals: FloatArray, path: FloatArray
