@@ -17,11 +17,13 @@ steps them all with one call:
   the episode that ended, for the copies that ``infos["_final_obs"]`` (K,) marks. The
   infos of the ending step (``reached``, ...) are those of the episode that ended.
 
-Every copy runs the env's own step (:meth:`~nao_arena.environment.NaoArenaParallelEnv.step_arrays`:
-the compiled physics period, contact statistics, rewards and observations), so the
-results are those of K separate envs stepped with the same actions, bit for bit; the
-vector env only saves the dicts and the per-agent bookkeeping. Stable-Baselines3 takes it
-through :class:`nao_arena.sb3.NaoVecEnv` (one SB3 entry per robot).
+The copies whose period no agent acts in (see :mod:`nao_arena.vector_step`) run it
+together in one compiled call; the others take the env's own step
+(:meth:`~nao_arena.environment.NaoArenaParallelEnv.step_arrays`). Both run the same
+kernels in the same order, so the results are those of K separate envs stepped with the
+same actions, bit for bit. A copy's objects (``envs[k]``) take the batched periods when
+they are read. Stable-Baselines3 takes the vector env through
+:class:`nao_arena.sb3.NaoVecEnv` (one SB3 entry per robot).
 """
 
 from __future__ import annotations
