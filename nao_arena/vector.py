@@ -74,10 +74,21 @@ class VectorEnv:
 
     @classmethod
     def of_envs(cls, envs: list[NaoArenaParallelEnv], seed: int | None = None) -> VectorEnv:
-        """A vector env of the given envs (each with ``keep_finished``, all of one map and
-        options), named after the first's map."""
-        if not envs or not all(env.options.keep_finished for env in envs):
+        """A vector env of the given envs, made alike (the same map, map parameters and
+        options, with ``keep_finished=True``), named after their map: an env of a map
+        file, or with options no versioned env has; ValueError otherwise."""
+        if not envs:
+            raise ValueError("envs: expected at least one env")
+        first = envs[0]
+        if not first.options.keep_finished:
             raise ValueError("envs: expected envs with keep_finished=True")
+        for env in envs[1:]:
+            if (env.map_source, env.map_params, env.options) != (
+                first.map_source,
+                first.map_params,
+                first.options,
+            ):
+                raise ValueError("envs: expected envs of the same map, map parameters and options")
         vec = cls.__new__(cls)
         vec._setup(str(envs[0].map_source), envs, seed)
         return vec

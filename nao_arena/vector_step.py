@@ -3,9 +3,9 @@
 A copy is *batched* in a period when the env's own step would run nothing but compiled
 code for it: every robot is the env's and acts (none has finished), the world is
 plain (no recorded people, no traffic, no sensing or actuation imperfection, no
-episode log, no NAO features in the observations) and pymunk is idle
-(:func:`batchable`). :func:`step_copies` then runs, for every batched copy, the very
-kernels of the env's step, in the env's order:
+episode log, no NAO features in the observations; :func:`copy_arrays`) and pymunk is
+idle (:meth:`CopyBatch.runnable`). :func:`step_copies` then runs, for every batched
+copy, the very kernels of the env's step, in the env's order:
 
 - the commands: the actions (in [-1, 1]) times the robots' a_max, into the world's
   command rows (:meth:`nao_arena.arena.Arena.step_robots`);
@@ -18,10 +18,11 @@ kernels of the env's step, in the env's order:
   :func:`nao_arena.env_observations.observation_rows`,
   :func:`nao_arena.env_step.clipped_float32`).
 
-What is Python in the env's step (the contact events as objects, the trajectory hash,
-the objects' bookkeeping) is done after the call, copy by copy, by the objects
-themselves; the results are those of the env's step, bit for bit (tested against K
-separate envs).
+What is Python in the env's step is done after the call by the objects themselves: the
+contact events (objects of the statistics) right away, for the copies that have some;
+the rest (the world's command log, the trajectory hash, the last period's state and
+result, the counters) when the copy's objects are next read (:class:`CopyBatch`). The
+results are those of the env's step, bit for bit (tested against K separate envs).
 """
 
 from __future__ import annotations

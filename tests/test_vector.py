@@ -468,6 +468,33 @@ def test_numpy_integer_num_envs_is_accepted() -> None:
     assert vec.reset()[0].shape == (2, 3, vec.single_observation_space.shape[0])
 
 
+def test_a_vector_env_of_envs_made_alike() -> None:
+    """``VectorEnv.of_envs``: envs of a map (not a versioned env) step as separate envs
+    do; envs not made alike are refused with one line."""
+    envs = [NaoArenaParallelEnv("crossing", keep_finished=True, time_limit=3.0) for _ in range(3)]
+    vec = VectorEnv.of_envs(envs, seed=2)
+    ref = [NaoArenaParallelEnv("crossing", keep_finished=True, time_limit=3.0) for _ in range(3)]
+    obs, _ = vec.reset()
+    want = np.stack([np.stack(list(r.reset(seed=2 + k)[0].values())) for k, r in enumerate(ref)])
+    assert same(obs, want) and vec.env_id == "crossing"
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        actions = rng.uniform(-1.0, 1.0, vec.action_space.shape)
+        got, rewards, *_ = vec.step(actions)
+        for k, r in enumerate(ref):
+            out = r.step({a: actions[k, i] for i, a in enumerate(r.agents)})
+            if not r.agents:
+                r.reset()
+            else:
+                assert same(got[k], np.stack(list(out[0].values())))
+                assert same(rewards[k], np.array(list(out[1].values())))
+    other = NaoArenaParallelEnv("crossing", keep_finished=True, time_limit=4.0)
+    with pytest.raises(ValueError, match="same map, map parameters and options"):
+        VectorEnv.of_envs([envs[0], other])
+    with pytest.raises(ValueError, match="keep_finished=True"):
+        VectorEnv.of_envs([NaoArenaParallelEnv("crossing")])
+
+
 def test_keep_finished_false_is_refused() -> None:
     with pytest.raises(ValueError, match="keep_finished"):
         VectorEnv("circle_swap_v0", 2, keep_finished=False, **SMALL)
