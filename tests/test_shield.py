@@ -427,7 +427,8 @@ def test_the_readme_example_runs():
     code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
     scope: dict = {}
     exec(code, scope)
-    assert scope["env"].agents == [] and scope["shield"].keys() == SHIELD_KEYS
+    assert scope["env"].agents == [] and scope["shields"]
+    assert all(info.keys() == SHIELD_KEYS for info in scope["shields"].values())
     assert scope["env"].statuses["kept"] > 0
 
 
