@@ -807,7 +807,7 @@ class Arena:
         statistics take theirs apart); returns the new state."""
         world = self.world
         world.adopt_periods(commands, last)
-        self.commanded = commands[-1]
+        self.commanded = commands[-1].copy()  # commands may be a reused buffer
         self._stepped_plans = world.applied_accelerations
         self.state = WorldState(
             world.time,

@@ -665,7 +665,7 @@ class CopyBatch:
         )
         commands = self.history.commands[k, :p]
         state = arena.adopt_periods(commands, self.history.states[k, :p], last)
-        commanded = arena.commanded = commands[-1].copy()
+        commanded = arena.commanded
         s = self.state
         steps = int(s.world_steps[k])
         dt = arena.world.dt
