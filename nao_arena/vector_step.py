@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, cast
 import numpy as np
 from numba import typeof
 from numba.core import types
-from numba.typed import Dict, List
+from numba.typed import List
 from numpy.typing import NDArray
 
 from nao_arena.arena import StepResult, within_goal
@@ -97,8 +97,6 @@ class CopyArrays(NamedTuple):
     """m."""
     a_prev: FloatArray
     """(N, 2) m/s^2 the statistics' last commands."""
-    depth: Any
-    """The statistics' open contact depths (a numba typed dict)."""
     episode: EpisodeArrays
     """The statistics' per-pair and per-body state."""
     liveness_goals: FloatArray
@@ -281,7 +279,6 @@ def step_copies(
             state.has_prev[k],
             at_goal,
             state.n_prox[k],
-            c.depth,
             c.episode,
         )
         state.has_prev[k] = True
@@ -450,7 +447,6 @@ def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
         goals=arena.goals,
         goal_tolerance=arena._goal_tolerance,
         a_prev=stats._a_prev,
-        depth=stats._depth,
         episode=stats._arrays,
         liveness_goals=NO_GOALS if stats._goals is None else stats._goals,
         is_robot=stats.is_robot,
@@ -501,15 +497,12 @@ def set_copy(copies: Any, k: int, arrays: CopyArrays) -> None:
 def _layout(value: Any) -> Any:
     """What numba's type of ``value`` (:class:`CopyArrays` and what it holds) depends on:
     per array its dtype, dimensions, contiguity, alignment and whether it is writeable;
-    per named tuple its class and its fields'; per typed dict its type; per other value
-    its Python type."""
+    per named tuple its class and its fields'; per other value its Python type."""
     if isinstance(value, np.ndarray):
         f = value.flags
         return (value.dtype.str, value.ndim, f.c_contiguous, f.f_contiguous, f.aligned, f.writeable)
     if isinstance(value, tuple):
         return (type(value), *(_layout(v) for v in value))
-    if isinstance(value, Dict):
-        return value._dict_type
     return type(value)
 
 

@@ -155,19 +155,21 @@ def test_aec_copy_mid_episode_continues_bit_for_bit(how):
 
 
 def test_copy_with_open_contacts_keeps_the_statistics():
-    # pushed together: contact episodes are open (the statistics' depth map is filled)
-    # when the copy is taken
+    # pushed together: contact episodes are open (with their depths) when the copy is taken
     e = parallel_env("crowd", n=12, lo=-3.0, hi=3.0, controlled="all")
     e.reset(seed=0)
     rng = np.random.default_rng(2)
     stats = e.arena.stats
     for _ in range(200):
         e.step(_random_actions(e, rng))
-        if len(stats._depth):
+        if stats._touch_bb.any():
             break
-    assert len(stats._depth)
+    assert stats._touch_bb.any()
     twin = copy.deepcopy(e)
-    assert dict(twin.arena.stats._depth) == dict(stats._depth)
+    twin_stats = twin.arena.stats
+    np.testing.assert_array_equal(twin_stats._touch_bb, stats._touch_bb)
+    np.testing.assert_array_equal(twin_stats._depth_bb, stats._depth_bb)
+    assert twin_stats._arrays.depth_bb is twin_stats._depth_bb  # the bundle shares them
     for _ in range(50):
         actions = _random_actions(e, rng)
         assert same(twin.step(actions), e.step(actions))

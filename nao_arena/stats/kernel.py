@@ -5,11 +5,9 @@ contact and proximity episode flags, for all pairs in one numba call per step.""
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
-from numba import types
-from numba.typed import Dict
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import point_segment_distance, segment_segment_distance
@@ -21,7 +19,6 @@ __all__ = [
     "EV_END",
     "EV_START",
     "EpisodeArrays",
-    "new_depth_map",
     "step_kernel",
     "sweep_pairs",
     "swept_distances",
@@ -57,12 +54,6 @@ def sweep_pairs(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntArray]:
 
 EV_DEEPER, EV_START, EV_END = 0, 1, 2  # + 3 for the wall family
 _MARGIN = 1.0 + 1e-9  # relative margin of squared-distance pre-tests before hypot
-
-
-@kernel
-def new_depth_map() -> Any:
-    """Deepest penetration (m) of each open contact episode, by pair key (see step_kernel)."""
-    return Dict.empty(key_type=types.int64, value_type=types.float64)
 
 
 @kernel
@@ -182,7 +173,9 @@ class EpisodeArrays(NamedTuple):
     the walls' segments; wall_radii (W,) m their half-thicknesses; wall_normals (W, 2)
     their unit normals. Kept between steps and updated in place: order (N + W,) intp
     the broad phase's order of the boxes at the previous step; the contact episode
-    flags touch_bb (N, N) bool (upper triangle) and touch_bw (N, W) bool; the proximity
+    flags touch_bb (N, N) bool (upper triangle) and touch_bw (N, W) bool, and each open
+    episode's deepest penetration so far depth_bb (N, N) m and depth_bw (N, W) m (read
+    where the flag is set); the proximity
     episode flags prox (N, N) bool and prox_contact (N, N) bool (whether the episode
     touched); per body (N,): path_length m and adjustments (int64 count) until the
     goal, reached (bool) and time_to_goal s, the least separation min_sep m and time to
@@ -199,6 +192,8 @@ class EpisodeArrays(NamedTuple):
     order: IntArray
     touch_bb: NDArray[np.bool_]
     touch_bw: NDArray[np.bool_]
+    depth_bb: FloatArray
+    depth_bw: FloatArray
     prox: NDArray[np.bool_]
     prox_contact: NDArray[np.bool_]
     path_length: FloatArray
@@ -221,7 +216,6 @@ def step_kernel(
     has_prev: bool,
     goal: NDArray[np.bool_],
     n_prox: int,
-    depth: Any,
     arrays: EpisodeArrays,
 ) -> tuple[NDArray[np.int64], FloatArray, int]:
     """One control step of EpisodeStats (see EpisodeStats.update); arrays updated in place.
@@ -230,8 +224,7 @@ def step_kernel(
     (N, 2) m/s the velocities at its end; acc (N, 2) m/s^2 the commanded accelerations,
     a_prev (N, 2) m/s^2 the previous step's (read if has_prev; overwritten with acc);
     goal (N,) bool whether each body is within its goal's tolerance at the end; n_prox:
-    the number of open proximity episodes; depth: the deepest penetration (m) of each
-    open contact episode (see new_depth_map); the bodies, walls and the state kept
+    the number of open proximity episodes; the bodies, walls and the state kept
     between steps (:class:`EpisodeArrays`). Returns the contact events
     as rows (code, a, b) with a value each (code EV_DEEPER: the new deepest penetration
     m; EV_START: the separation m; EV_END: unused; +3 for walls, b the wall index), in
@@ -241,6 +234,7 @@ def step_kernel(
     wall_lo, wall_hi, wall_segs = arrays.wall_lo, arrays.wall_hi, arrays.wall_segs
     wall_radii, wall_normals = arrays.wall_radii, arrays.wall_normals
     order, touch_bb, touch_bw = arrays.order, arrays.touch_bb, arrays.touch_bw
+    depth_bb, depth_bw = arrays.depth_bb, arrays.depth_bw
     prox, prox_contact = arrays.prox, arrays.prox_contact
     path_length, adjustments = arrays.path_length, arrays.adjustments
     reached, time_to_goal = arrays.reached, arrays.time_to_goal
@@ -467,7 +461,6 @@ def step_kernel(
     codes = np.empty((2 * (nb + nwc), 3), dtype=np.int64)
     vals = np.empty(2 * (nb + nwc))
     ne = 0
-    stride = n + nw  # pair key: i * stride + j (bodies), i * stride + n + w (walls)
     for fam in range(2):
         cnt = nb if fam == 0 else nwc
         ii = bi if fam == 0 else wi
@@ -475,22 +468,21 @@ def step_kernel(
         ss = bsep if fam == 0 else wsep
         ee = bend if fam == 0 else wend
         state = touch_bb if fam == 0 else touch_bw
+        depth = depth_bb if fam == 0 else depth_bw
         base = 3 * fam
         for q in range(cnt):  # open episodes that got deeper than ever
-            if state[ii[q], jj[q]] and ss[q] < 0.0:
-                key = ii[q] * stride + jj[q] + fam * n
-                if -ss[q] > depth[key]:
-                    depth[key] = -ss[q]
-                    codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + EV_DEEPER, ii[q], jj[q]
-                    vals[ne] = -ss[q]
-                    ne += 1
+            if state[ii[q], jj[q]] and ss[q] < 0.0 and -ss[q] > depth[ii[q], jj[q]]:
+                depth[ii[q], jj[q]] = -ss[q]
+                codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + EV_DEEPER, ii[q], jj[q]
+                vals[ne] = -ss[q]
+                ne += 1
         start = ne
         for q in range(cnt):  # new episodes
             if ss[q] < 0.0 and not state[ii[q], jj[q]]:
                 codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + EV_START, ii[q], jj[q]
                 vals[ne] = ss[q]
                 ne += 1
-                depth[ii[q] * stride + jj[q] + fam * n] = -ss[q]
+                depth[ii[q], jj[q]] = -ss[q]
         for q in range(cnt):  # ended episodes (a new one may end at once)
             live = state[ii[q], jj[q]] or ss[q] < 0.0
             if live and fam == 0:
@@ -499,7 +491,7 @@ def step_kernel(
                 codes[ne, 0], codes[ne, 1], codes[ne, 2] = base + EV_END, ii[q], jj[q]
                 vals[ne] = 0.0
                 ne += 1
-                depth.pop(ii[q] * stride + jj[q] + fam * n)
+                depth[ii[q], jj[q]] = 0.0
         for r in range(start, ne):
             if codes[r, 0] == base + EV_START:
                 state[codes[r, 1], codes[r, 2]] = True

@@ -17,7 +17,6 @@ from nao_arena.stats.kernel import (
     EV_START,
     EpisodeArrays,
     liveness_kernel,
-    new_depth_map,
     step_kernel,
     swept_distances,
     swept_wall_distances,
@@ -135,8 +134,9 @@ class EpisodeStats:
         # pair state: body-body (upper triangle used) and body-wall
         self._touch_bb = np.zeros((n, n), dtype=bool)
         self._touch_bw = np.zeros((n, self.n_walls), dtype=bool)
+        self._depth_bb = np.zeros((n, n))
+        self._depth_bw = np.zeros((n, self.n_walls))
         self._open_events: dict[tuple[int, int, bool], ContactEvent] = {}
-        self._depth = new_depth_map()
         self._prox = np.zeros((n, n), dtype=bool)
         self._prox_contact = np.zeros((n, n), dtype=bool)
         self._n_prox = 0
@@ -191,6 +191,8 @@ class EpisodeStats:
             self._order,
             self._touch_bb,
             self._touch_bw,
+            self._depth_bb,
+            self._depth_bw,
             self._prox,
             self._prox_contact,
             self.path_length,
@@ -201,23 +203,6 @@ class EpisodeStats:
             self.min_ttc,
             self.near_misses,
         )
-
-    def __getstate__(self) -> dict[str, Any]:
-        """The attributes, the depth map (a numba typed dict) as a plain dict, without
-        the kernel's bundle (built again from the attributes)."""
-        state = self.__dict__.copy()
-        state["_depth"] = dict(self._depth)
-        del state["_arrays"]
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        """Restore the attributes; the depth map is refilled in its insertion order."""
-        self.__dict__.update(state)
-        depth = new_depth_map()
-        for key, value in state["_depth"].items():
-            depth[key] = value
-        self._depth = depth
-        self._bundle()
 
     # ------------------------------------------------------------------ update
 
@@ -268,7 +253,6 @@ class EpisodeStats:
             self._has_prev,
             goal,
             self._n_prox,
-            self._depth,
             self._arrays,
         )
         started = self._events(t, codes, vals, path)
