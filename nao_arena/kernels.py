@@ -31,6 +31,7 @@ fair and as short as two or more cores allow:
 from __future__ import annotations
 
 import functools
+import gc
 import json
 import logging
 import os
@@ -497,7 +498,19 @@ def _compile_one(module: str, name: str, args: tuple[str, ...]) -> tuple[float, 
         _dispatcher(kernel).compile(_signature(kernel))
     except Exception as exc:  # a stale manifest entry: the kernel compiles when called
         return time.process_time() - started, f"{type(exc).__name__}: {exc}"
+    finally:
+        _settle_garbage()
     return time.process_time() - started, None
+
+
+def _settle_garbage() -> None:
+    """In a worker process, after each kernel: collect the garbage of that compile, then
+    freeze what is left (numba's types, templates and compiled code, which live as long
+    as the process). Python's full collections then no longer walk that growing heap
+    again and again: without this they took about a tenth of the worker's CPU time, and
+    memory stays where it was (each collection sees only one kernel's objects)."""
+    gc.collect()
+    gc.freeze()
 
 
 def _chain_seconds(kernels: Mapping[str, Kernel]) -> dict[str, float]:
