@@ -503,6 +503,14 @@ def _compile_one(module: str, name: str, args: tuple[str, ...]) -> tuple[float, 
     return time.process_time() - started, None
 
 
+def _plain_error_messages() -> None:
+    """Worker initializer, before numba is imported there: numba's typing error messages
+    without colours. numba writes one for every overload that does not match while it
+    types a call (some 45,000 in a NAO run's compile) and, with colorama installed,
+    colours each through colorama's stream wrappers: 4 to 5 % of the compile."""
+    os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
+
+
 def _settle_garbage() -> None:
     """In a worker process, after each kernel: collect the garbage of that compile, then
     freeze what is left (numba's types, templates and compiled code, which live as long
@@ -559,7 +567,9 @@ def compile_ahead(
     cpu = 0.0
     context = get_context("spawn")  # no state of this process's numba is shared
     try:
-        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
+        pool = ProcessPoolExecutor(
+            max_workers=jobs, mp_context=context, initializer=_plain_error_messages
+        )
     except (OSError, ValueError) as exc:  # no processes here: compile when called
         LOG.debug("cannot start processes (%s): kernels compile when first called", exc)
         return _reported(CompileReport(len(kernels), dict.fromkeys(kernels, str(exc)), 0, 0.0))

@@ -294,6 +294,21 @@ def test_a_stale_manifest_entry_is_reported_not_raised(tmp_path, monkeypatch):
     assert missing_kernels(["core"], Manifest("", {gone.key: gone})) == []
 
 
+def test_a_compile_error_is_reported_without_terminal_colours(tmp_path, monkeypatch):
+    """With colorama installed numba styles its typing errors with terminal escapes (and
+    pays for it on every overload that does not match); the compile workers turn that
+    off, so a failed kernel's reason reads as plain text."""
+    pytest.importorskip("colorama")
+    (tmp_path / "typo_kernels.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef h(x):\n    return x + 'a'\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    bad = Kernel("typo_kernels", "h", ("float64",), (), ("core",), 0.1)
+    report = compile_ahead(["core"], jobs=1, manifest=Manifest("", {bad.key: bad}))
+    reason = report.failed[bad.key]
+    assert reason.startswith("TypingError") and "\x1b[" not in reason
+
+
 @pytest.mark.slow
 @pytest.mark.installed
 def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
