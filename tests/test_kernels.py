@@ -309,6 +309,43 @@ def test_a_compile_error_is_reported_without_terminal_colours(tmp_path, monkeypa
     assert reason.startswith("TypingError") and "\x1b[" not in reason
 
 
+def test_the_workers_quick_flags_answer_as_numba_does():
+    """The compile workers' faster flag comparisons (``_quick_flags``) give numba's own
+    values, hashes and equalities: 400 pairs of random flags, with options set to other
+    values, set to their defaults (equal to unset ones) or left unset. In a process of
+    its own: the change is to numba's class."""
+    probe = textwrap.dedent("""
+        import random
+        from numba.core.compiler import Flags
+        from nao_arena import kernels
+
+        rng = random.Random(0)
+        bools = [k for k, o in Flags.options.items() if o.type is bool]
+
+        def flags():
+            f = Flags()
+            for name in rng.sample(bools, rng.randint(0, 4)):
+                setattr(f, name, rng.random() < 0.5)  # the default, or not
+            if rng.random() < 0.5:
+                f.error_model = rng.choice(["python", "numpy"])
+            return f
+
+        pairs = [(flags(), flags()) for _ in range(400)]
+        pairs += [(a, Flags(a)) for a, _ in pairs[:50]]
+        before = [(a.values(), b.values(), hash(a), hash(b), a == b, a != b) for a, b in pairs]
+        kernels._quick_flags()
+        after = [(a.values(), b.values(), hash(a), hash(b), a == b, a != b) for a, b in pairs]
+        assert after == before
+        assert [list(a.values()) for a, _ in pairs] == [list(v) for v, *_ in before]
+        assert Flags.values.__module__ == "nao_arena.kernels"  # the patch is in place
+        print(sum(eq for *_, eq, _ in before), "equal pairs")
+    """)
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    equal = int(out.stdout.split()[0])
+    assert 50 <= equal < 450  # both outcomes were compared
+
+
 @pytest.mark.slow
 @pytest.mark.installed
 def test_the_manifest_lists_every_kernel_of_the_shipped_maps(tmp_path):
