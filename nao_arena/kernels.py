@@ -524,9 +524,11 @@ def _quick_flags() -> None:
     dicts through one property call per option: 200,000 comparisons, 2 s of a NAO run's
     compile. Here the value dicts are built straight from the stored values, and two
     flags of one class whose stored values are equal are equal at once. The results are
-    numba's: the same values, the same hash, the same equality. Left as it is where
-    numba's ``TargetConfig`` is not laid out as expected."""
+    numba's: the same values, the same hash, the same equality, checked on a few flags
+    before the change is kept (numba's own stay where they differ, or where numba's
+    ``TargetConfig`` is not laid out as expected)."""
     from numba.core import targetconfig
+    from numba.core.compiler import Flags
 
     config: Any = targetconfig.TargetConfig
     if not ("_values" in getattr(config, "__slots__", ()) and hasattr(config, "values")):
@@ -546,9 +548,21 @@ def _quick_flags() -> None:
     def flags_hash(self: Any) -> int:
         return hash(tuple(sorted(self.options)))  # numba's: sorted(self.values()) is the names
 
-    config.values = values
-    config.__eq__ = equal
-    config.__hash__ = flags_hash
+    samples: list[Any] = [Flags(), Flags(), Flags()]
+    samples[1].error_model = "numpy"
+    samples[1].no_cpython_wrapper = True
+    samples[2].no_cpython_wrapper = False  # set to its default: equal to the first
+
+    def answers() -> list[Any]:
+        return [(list(f.values().items()), hash(f)) for f in samples] + [
+            a == b for a in samples for b in samples
+        ]
+
+    numba_answers = answers()
+    numba_own = config.values, config.__eq__, config.__hash__
+    config.values, config.__eq__, config.__hash__ = values, equal, flags_hash
+    if answers() != numba_answers:
+        config.values, config.__eq__, config.__hash__ = numba_own
 
 
 def _settle_garbage() -> None:

@@ -344,6 +344,22 @@ def test_the_workers_quick_flags_answer_as_numba_does():
     assert out.returncode == 0, out.stderr
     equal = int(out.stdout.split()[0])
     assert 50 <= equal < 450  # both outcomes were compared
+    # a numba whose flags answer otherwise (here: a hash of the values) keeps its own
+    other = textwrap.dedent("""
+        from numba.core import targetconfig
+        from numba.core.compiler import Flags
+        from nao_arena import kernels
+
+        def other_hash(self):
+            return hash(repr(self.values()))
+
+        targetconfig.TargetConfig.__hash__ = other_hash
+        kernels._quick_flags()
+        assert targetconfig.TargetConfig.__hash__ is other_hash
+        assert Flags.values.__module__ != "nao_arena.kernels"
+    """)
+    out = subprocess.run([sys.executable, "-c", other], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
 
 
 @pytest.mark.slow
