@@ -310,6 +310,8 @@ def assert_same_copies(vec: VectorEnv, ref: Reference) -> None:
         for name in ("positions", "velocities", "previous_positions", "substep_positions"):
             assert same(getattr(world, name), getattr(other, name)), name
         assert same(world.applied_accelerations, other.applied_accelerations)
+        for array in (world.substep_positions, world.applied_accelerations):
+            assert not array.flags.writeable  # handed out read-only, as a stepped world's
         assert same(world.commands, other.commands)
         assert world.time == other.time
         assert env.agents == want.agents
