@@ -790,7 +790,14 @@ class World:
             self._record(a)
         else:
             path, pos, vel, acc, applied = self._period_through_pymunk(a)
-        self._take(PeriodArrays(path, pos, vel, acc, applied), 1)
+        self._prev_positions = self._pos
+        self._pos, self._vel, self._acc = pos, vel, acc
+        path.setflags(write=False)
+        self._path = path
+        applied.setflags(write=False)
+        self._applied = applied
+        self._steps += 1
+        self.time = self._steps * self.dt
         if len(self._replayed_rows):
             self._replay()
         return self.state()
@@ -801,19 +808,11 @@ class World:
         one's results: what :meth:`step` keeps of its own (the arrays are kept, not
         copied; nothing writes into them)."""
         self._record(commands, len(commands))
-        self._take(last, len(commands))
-
-    def _take(self, last: PeriodArrays, periods: int) -> None:
-        """The world ``periods`` control periods on, ``last`` the last one's results (kept,
-        not copied; its path and applied accelerations made read-only: the world hands
-        them out)."""
+        self._steps += len(commands)
         self._prev_positions = last.path[0]
         self._pos, self._vel, self._acc = last.positions, last.velocities, last.accelerations
-        last.path.setflags(write=False)
         self._path = last.path
-        last.applied.setflags(write=False)
         self._applied = last.applied
-        self._steps += periods
         self.time = self._steps * self.dt
 
     def _period_through_pymunk(
