@@ -91,7 +91,7 @@ class VectorEnv:
                 raise ValueError("envs: expected envs of the same map, map parameters and options")
         ensure_env_compiled(first.map_source, vector=True)  # the batch's kernels, ahead
         vec = cls.__new__(cls)
-        vec._setup(str(envs[0].map_source), envs, seed)
+        vec._setup(str(first.map_source), envs, seed)
         return vec
 
     def _setup(self, env_id: str, envs: list[NaoArenaParallelEnv], seed: int | None) -> None:
