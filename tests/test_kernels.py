@@ -309,6 +309,32 @@ def test_a_compile_error_is_reported_without_terminal_colours(tmp_path, monkeypa
     assert reason.startswith("TypingError") and "\x1b[" not in reason
 
 
+def test_a_worker_settles_each_kernels_garbage(tmp_path):
+    """After each kernel a compile worker has collected that compile's garbage and frozen
+    what is left, whether the kernel compiled or failed (in a process of its own, as a
+    worker is: freezing is process-wide)."""
+    (tmp_path / "settle_kernels.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef f(x):\n    return 2.0 * x\n"
+    )
+    probe = textwrap.dedent("""
+        import gc
+        from nao_arena import kernels
+
+        for name in ("f", "gone"):
+            gc.unfreeze()
+            seconds, error = kernels._compile_one("settle_kernels", name, ("float64",))
+            assert (error is None) == (name == "f"), error
+            assert gc.get_freeze_count() > 1000 and gc.get_count()[2] == 0
+        print("settled")
+    """)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, capture_output=True, text=True, env=env
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "settled"
+
+
 def test_the_workers_quick_flags_answer_as_numba_does():
     """The compile workers' faster flag comparisons (``_quick_flags``) give numba's own
     values, hashes and equalities: 400 pairs of random flags, with options set to other
