@@ -704,9 +704,20 @@ def ensure_compiled(
     """:func:`compile_ahead` for ``parts`` when the cache lacks some of their kernels and
     :func:`ahead_enabled`; None (nothing done) otherwise."""
     parts = list(parts)
-    if not ahead_enabled() or not missing_kernels(parts):
+    if not ahead_enabled() or not _missing_after_install(parts):
         return None
     return compile_ahead(parts, jobs, on_done=on_done)
+
+
+def _missing_after_install(parts: Sequence[str]) -> list[str]:
+    """:func:`missing_kernels` of ``parts``, after the shipped precompiled kernels the
+    cache lacked were written into it (:func:`nao_arena.precompiled.install`)."""
+    from nao_arena import precompiled
+
+    missing = missing_kernels(parts)
+    if missing and precompiled.install(load_manifest().for_parts(parts)).written:
+        missing = missing_kernels(parts)
+    return missing
 
 
 def ensure_env_compiled(map_source: object, vector: bool = False) -> None:
@@ -736,7 +747,7 @@ def ensure_env_compiled(map_source: object, vector: bool = False) -> None:
     if isinstance(map_source, str) and map_source in available_maps():
         parts.append(map_part(map_source))
     try:
-        if missing_kernels(parts):
+        if _missing_after_install(parts):
             LOG.info("compiling the kernels of an env of %s ahead ...", key)
             _compile_in_subprocess(parts)
     except Exception as exc:  # noqa: BLE001 - the kernels compile when called instead

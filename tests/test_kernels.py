@@ -492,7 +492,8 @@ def test_a_new_env_compiles_its_first_steps_kernels_ahead(tmp_path):
             print(json.dumps([ahead, left, kernels.compile_count()]))
         """)
     )
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    # the kernels compile, not loaded from the shipped ones (tests/test_precompiled.py)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "NAO_ARENA_PRECOMPILED": "0"}
     env.pop("NAO_ARENA_COMPILE_AHEAD", None)
     out = subprocess.run(
         [sys.executable, "script.py"], cwd=tmp_path, env=env, capture_output=True, text=True

@@ -1,0 +1,384 @@
+"""Kernels compiled ahead of time and shipped with the package: a first run loads them
+into numba's cache instead of compiling them.
+
+What is shipped
+    numba's cache entries (the machine code and what numba needs to load it) of every
+    kernel of the manifest (:mod:`nao_arena.kernels`), compiled for the generic CPU of
+    the architecture (``NUMBA_CPU_NAME=generic``: no instruction beyond the
+    architecture's baseline, so the code runs on every CPU of it), one zip file per
+    Python version, numba version and platform: ``nao_arena/precompiled_kernels/<tag>.zip``
+    (:func:`bundle_tag`). A zip holds ``index.json`` (the tag, the digest of the sources
+    it was compiled from, and per entry the kernel, its argument types and numba's hash
+    of its bytecode) and one data file per entry, as numba wrote it. No compiler is
+    needed to install the package: the files are data.
+
+When they are used
+    Before the kernels of a run, a trial or an env are compiled ahead
+    (:func:`nao_arena.kernels.ensure_compiled`), the entries the cache lacks are
+    written into numba's cache (:func:`install`), as this process's numba would have
+    written them (its index key names this machine's CPU, which runs the generic
+    code; its stamp is the installed source file's). Only a zip built from exactly
+    these sources is used (:func:`source_digest`, every module of the package): a
+    kernel's code holds its callees' code and the constants it read, so one changed
+    module can make any entry stale. With another Python, numba or platform, changed
+    sources, or ``NAO_ARENA_PRECOMPILED=0``, nothing is written and the kernels compile
+    as before. Results are the same either way: the generic code computes the same
+    bits (no fast-math anywhere; the golden trajectories run on it).
+
+How they are made
+    ``python -m nao_arena.precompiled build`` (:func:`build`): every kernel of the
+    manifest compiled ahead in a new, empty cache in a process of its own, for the
+    generic CPU, then packed. Run it with each Python version shipped, after any
+    change of the package's modules (a test fails while a shipped zip is stale).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import logging
+import os
+import platform
+import sys
+import tempfile
+import zipfile
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "FORMAT",
+    "SHIPPED_PYTHONS",
+    "BundleInfo",
+    "InstallReport",
+    "build",
+    "bundle_path",
+    "bundle_tag",
+    "enabled",
+    "install",
+    "read_info",
+    "source_digest",
+]
+
+LOG = logging.getLogger("nao_arena.kernels")
+
+FORMAT = 1
+"""The layout of a zip's ``index.json`` this module reads and writes."""
+
+BUNDLE_FOLDER = Path(__file__).with_name("precompiled_kernels")
+"""Where the zips are shipped (package data)."""
+
+INDEX = "index.json"
+
+SHIPPED_PYTHONS = ("cpython-311", "cpython-313")
+"""The Python versions (``sys.implementation.cache_tag``) whose zips are shipped, for
+x86-64 Linux: those CI runs the tests with."""
+
+_PACKAGE_ROOT = Path(__file__).resolve().parent
+
+
+def enabled() -> bool:
+    """Whether shipped kernels are installed: yes unless the environment sets
+    ``NAO_ARENA_PRECOMPILED=0`` (then every kernel the cache lacks is compiled)."""
+    return os.environ.get("NAO_ARENA_PRECOMPILED", "1").strip() != "0"
+
+
+def bundle_tag() -> str:
+    """The Python version, numba version and platform a zip is for, e.g.
+    ``cpython-311-numba0.68.1-linux-x86_64``."""
+    import numba
+
+    machine = platform.machine().lower() or "unknown"
+    return f"{sys.implementation.cache_tag}-numba{numba.__version__}-{sys.platform}-{machine}"
+
+
+def bundle_path(folder: Path | None = None) -> Path:
+    """The zip for this interpreter in ``folder`` (default: the shipped ones); it may
+    not exist."""
+    return (BUNDLE_FOLDER if folder is None else folder) / f"{bundle_tag()}.zip"
+
+
+def _source_files() -> list[tuple[str, Path]]:
+    """(name, path) of every Python module of the package, its agents included, by a
+    name that does not depend on where the package lies (a checkout or site-packages,
+    where ``agents`` is a folder of the package)."""
+    import nao_arena.agents as agents
+
+    files: list[tuple[str, Path]] = []
+    agents_root = Path(agents.__file__).resolve().parent
+    roots = [("nao_arena", _PACKAGE_ROOT), ("nao_arena.agents", agents_root)]
+    for prefix, root in roots:
+        for path in root.rglob("*.py"):
+            relative = path.relative_to(root)
+            if "__pycache__" in relative.parts:
+                continue
+            if prefix == "nao_arena" and path.is_relative_to(agents_root):
+                continue  # counted under nao_arena.agents
+            files.append((f"{prefix}/{relative.as_posix()}", path))
+    return sorted(files)
+
+
+def source_digest() -> str:
+    """SHA-256 of the package's modules (names and bytes): what a zip must have been
+    built from to be used."""
+    digest = hashlib.sha256()
+    for name, path in _source_files():
+        data = path.read_bytes()
+        digest.update(f"{name}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One cached kernel version in a zip: the kernel (``module.name``), its argument
+    types (:func:`nao_arena.kernels.type_name` texts), numba's hashes of its bytecode
+    and closure (part of numba's index key) and the zip member holding numba's data."""
+
+    module: str
+    name: str
+    args: tuple[str, ...]
+    code: tuple[str, str]
+    data: str
+
+    @property
+    def key(self) -> str:
+        """The manifest key of the kernel version."""
+        from nao_arena.kernels import kernel_key
+
+        return kernel_key(self.module, self.name, self.args)
+
+
+@dataclass(frozen=True)
+class BundleInfo:
+    """What a zip's ``index.json`` says: its format, tag (:func:`bundle_tag`), source
+    digest (:func:`source_digest`) and entries."""
+
+    format: int
+    tag: str
+    digest: str
+    entries: tuple[Entry, ...]
+
+
+def read_info(archive: zipfile.ZipFile) -> BundleInfo:
+    """The index of an open zip; ValueError if it is not one this module wrote."""
+    try:
+        raw = json.loads(archive.read(INDEX))
+        entries = tuple(
+            Entry(e["module"], e["name"], tuple(e["args"]), tuple(e["code"]), e["data"])
+            for e in raw["entries"]
+        )
+        return BundleInfo(int(raw["format"]), str(raw["tag"]), str(raw["digest"]), entries)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"not a kernel bundle index ({exc})") from exc
+
+
+# --------------------------------------------------------------------------- installing
+
+
+@dataclass(frozen=True)
+class InstallReport:
+    """What :func:`install` did: entries written into the cache, entries the cache held
+    already, and entries left (their kernel is gone or changed), with the reason no entry
+    was written when the zip was not used (else empty)."""
+
+    written: int = 0
+    held: int = 0
+    skipped: int = 0
+    unused: str = ""
+
+
+def install(keys: Iterable[str] | None = None, folder: Path | None = None) -> InstallReport:
+    """Write the shipped entries of the kernel versions ``keys`` (manifest keys; default:
+    every entry) that the cache lacks into numba's cache. Nothing when
+    :func:`enabled` is false, no zip is shipped for this interpreter, or the zip was
+    built from other sources; an unreadable zip or entry is left alone (logged at
+    DEBUG): those kernels compile as they would without it."""
+    if not enabled():
+        return InstallReport(unused="NAO_ARENA_PRECOMPILED=0")
+    path = bundle_path(folder)
+    if not path.is_file():
+        return InstallReport(unused=f"no {path.name} shipped")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            info = read_info(archive)
+            if info.format != FORMAT or info.tag != bundle_tag():
+                return _unused(f"{path.name} is of format {info.format}, tag {info.tag}")
+            if info.digest != source_digest():
+                return _unused(f"{path.name} was built from other sources")
+            wanted = None if keys is None else set(keys)
+            report = _install_entries(archive, info.entries, wanted)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        return _unused(f"{path.name} is unreadable ({exc})")
+    if report.written:
+        LOG.info("loaded %d precompiled kernels into the cache", report.written)
+    return report
+
+
+def _unused(reason: str) -> InstallReport:
+    LOG.debug("precompiled kernels not used: %s", reason)
+    return InstallReport(unused=reason)
+
+
+def _install_entries(
+    archive: zipfile.ZipFile, entries: Sequence[Entry], wanted: set[str] | None
+) -> InstallReport:
+    written = held = skipped = 0
+    for entry in entries:
+        if wanted is not None and entry.key not in wanted:
+            continue
+        try:
+            outcome = _install_entry(archive, entry)
+        except Exception as exc:  # noqa: BLE001 - that kernel compiles when needed
+            LOG.debug("precompiled %s not installed (%r)", entry.key, exc)
+            outcome = "skipped"
+        written += outcome == "written"
+        held += outcome == "held"
+        skipped += outcome == "skipped"
+    return InstallReport(written, held, skipped)
+
+
+def _install_entry(archive: zipfile.ZipFile, entry: Entry) -> str:
+    """Write one entry into numba's cache: ``written``, ``held`` (the cache has it) or
+    ``skipped`` (the kernel is gone, changed, or not cached by numba)."""
+    from nao_arena.kernels import parse_type
+
+    dispatcher: Any = getattr(import_module(entry.module), entry.name, None)
+    cache: Any = getattr(dispatcher, "_cache", None)
+    cache_file: Any = getattr(cache, "_cache_file", None)
+    if cache_file is None:
+        return "skipped"
+    signature = tuple(parse_type(a) for a in entry.args)
+    key = cache._index_key(signature, dispatcher.targetctx.codegen())
+    if tuple(key[2]) != entry.code:
+        return "skipped"  # another bytecode: the source changed
+    overloads = cache_file._load_index()
+    if key in overloads:
+        return "held"
+    data = archive.read(entry.data)
+    used = set(overloads.values())
+    name = next(n for i in itertools.count(1) if (n := cache_file._data_name(i)) not in used)
+    with cache_file._open_for_write(cache_file._data_path(name)) as out:
+        out.write(data)
+    overloads[key] = name
+    cache_file._save_index(overloads)
+    return "written"
+
+
+# --------------------------------------------------------------------------- building
+
+
+def build(out: Path, parts: Sequence[str] | None = None, jobs: int | None = None) -> Path:
+    """Compile the kernels of ``parts`` (default: every recorded part) for the generic
+    CPU in a new, empty cache, in a Python process of its own, and pack them into
+    ``out/<tag>.zip`` (written atomically). Returns its path."""
+    import subprocess
+
+    from nao_arena.kernels import RECORD_PARTS
+
+    parts = list(RECORD_PARTS if parts is None else parts)
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="nao_arena_bundle_") as cache:
+        env = dict(os.environ)
+        env.update(
+            NUMBA_CPU_NAME="generic",
+            NUMBA_CACHE_DIR=cache,
+            NAO_ARENA_PRECOMPILED="0",
+            NAO_ARENA_COMPILE_AHEAD="1",
+        )
+        env.pop("NUMBA_CPU_FEATURES", None)  # generic: the baseline features
+        command = [sys.executable, "-m", "nao_arena.precompiled", "_pack", str(out)]
+        command += [*parts, *(["--jobs", str(jobs)] if jobs else [])]
+        subprocess.run(command, env=env, check=True)
+    return bundle_path(out)
+
+
+def _pack(out: Path, parts: Sequence[str], jobs: int | None) -> Path:
+    """In the process :func:`build` starts: compile ``parts`` ahead, then write the zip."""
+    from numba.core import config
+
+    from nao_arena.kernels import compile_ahead, load_manifest
+
+    target: Any = config
+    if str(target.CPU_NAME).lower() != "generic" or target.CPU_FEATURES != "":
+        raise RuntimeError("the kernels are packed only when compiled for the generic CPU")
+    report = compile_ahead(parts, jobs)
+    if report.failed:
+        raise RuntimeError(f"{len(report.failed)} kernels failed to compile: {report.summary()}")
+    kernels = load_manifest().for_parts(parts)
+    entries, members = _entries(kernels.values())
+    info = {
+        "format": FORMAT,
+        "tag": bundle_tag(),
+        "digest": source_digest(),
+        "entries": [
+            {
+                "module": e.module,
+                "name": e.name,
+                "args": list(e.args),
+                "code": list(e.code),
+                "data": e.data,
+            }
+            for e in entries
+        ],
+    }
+    path = bundle_path(out)
+    temporary = path.with_name(f".{path.name}.tmp")
+    with zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as archive:
+        archive.writestr(INDEX, json.dumps(info, indent=0, sort_keys=True))
+        for member, data in sorted(members.items()):
+            archive.writestr(member, data)
+    os.replace(temporary, path)
+    LOG.info("wrote %s: %d entries", path, len(entries))
+    return path
+
+
+def _entries(kernels: Iterable[Any]) -> tuple[list[Entry], Mapping[str, bytes]]:
+    """The cache entries of ``kernels`` (manifest :class:`~nao_arena.kernels.Kernel`),
+    with the data of each under its member name."""
+    from nao_arena.kernels import parse_type
+
+    entries: list[Entry] = []
+    members: dict[str, bytes] = {}
+    for kernel in sorted(kernels, key=lambda k: k.key):
+        dispatcher = getattr(import_module(kernel.module), kernel.name)
+        cache = dispatcher._cache
+        signature = tuple(parse_type(a) for a in kernel.args)
+        key = cache._index_key(signature, dispatcher.targetctx.codegen())
+        name = cache._cache_file._load_index().get(key)
+        if name is None:
+            raise RuntimeError(f"{kernel.key} is not in the cache after compiling")
+        member = f"data/{len(members):04d}.nbc"
+        members[member] = Path(cache._cache_file._data_path(name)).read_bytes()
+        code = (str(key[2][0]), str(key[2][1]))
+        entries.append(Entry(kernel.module, kernel.name, tuple(kernel.args), code, member))
+    return entries, members
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m nao_arena.precompiled build [--out FOLDER] [--jobs N] [PART ...]``:
+    write this interpreter's zip (default: into the shipped folder)."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m nao_arena.precompiled")
+    parser.add_argument("command", choices=["build", "_pack"])
+    parser.add_argument("out", nargs="?", default=str(BUNDLE_FOLDER))
+    parser.add_argument("parts", nargs="*")
+    parser.add_argument("--jobs", type=int, default=None)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    parts = args.parts or None
+    if args.command == "_pack":
+        from nao_arena.kernels import RECORD_PARTS
+
+        _pack(Path(args.out), list(parts or RECORD_PARTS), args.jobs)
+    else:
+        print(build(Path(args.out), parts, args.jobs))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
