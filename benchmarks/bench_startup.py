@@ -9,11 +9,15 @@ Workloads, each run as a fresh child process:
   ``reset(seed=0)`` and one ``step`` with random actions from the action spaces;
 - ``gif``: ``nao-arena run crossing --render gif --out DIR/x.gif --max-steps 20``.
 
-Cold: ``NUMBA_CACHE_DIR`` points to a fresh, empty folder of that workload only, so
-every ``cache=True`` kernel it needs is compiled (and written there). Warm: the same
-command again with the same folder, so the kernels are loaded from it. Only the numba
-cache is cold: Python's bytecode and the operating system's file cache are warm in both.
-Every run gets its own output folder (``trial`` would otherwise resume its results).
+Cold: ``NUMBA_CACHE_DIR`` points to a fresh, empty folder of that workload and kernel
+source only. With the kernel source ``shipped`` (what a first run does), the
+precompiled kernels shipped for this Python (:mod:`nao_arena.precompiled`) are written
+into it and whatever they lack is compiled; with ``compiled``
+(``NAO_ARENA_PRECOMPILED=0``: a Python, numba or platform without shipped kernels, or
+changed sources), every kernel the workload needs is compiled. Warm: the same command
+again with the same folder, so the kernels are loaded from it. Only the numba cache is
+cold: Python's bytecode and the operating system's file cache are warm in both. Every
+run gets its own output folder (``trial`` would otherwise resume its results).
 
 Per run, of the child and the descendants it waited for: wall time (s, from starting
 the child to reaping it), CPU time (s, user + system, from ``os.wait4``) and peak
@@ -27,7 +31,8 @@ workload wrote (files, MB) and the cache files a warm run added (should be 0: el
 it compiled again, e.g. because a source file changed while the benchmark ran).
 A child that fails (non-zero exit status) has its stderr tail printed; the benchmark
 then goes on with the other workloads and exits with status 1.
-Run: ``python benchmarks/bench_startup.py [--only run,env] [--repeat-warm 3]``.
+Run: ``python benchmarks/bench_startup.py [--only run,env] [--kernels shipped,compiled]
+[--repeat-warm 3]``.
 """
 
 from __future__ import annotations
@@ -113,10 +118,19 @@ def tail(path: Path, lines: int = 20) -> str:
     return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
 
 
-def measure(argv: list[str], cache_dir: Path, run_dir: Path) -> Measurement:
-    """Run ``argv`` in ``run_dir`` with ``NUMBA_CACHE_DIR=cache_dir``; its costs."""
+KERNEL_SOURCES = {"shipped": "1", "compiled": "0"}
+"""Kernel source -> the value of ``NAO_ARENA_PRECOMPILED`` the children get."""
+
+
+def measure(argv: list[str], cache_dir: Path, run_dir: Path, source: str) -> Measurement:
+    """Run ``argv`` in ``run_dir`` with ``NUMBA_CACHE_DIR=cache_dir`` and the kernel
+    source ``source`` (:data:`KERNEL_SOURCES`); its costs."""
     run_dir.mkdir(parents=True)
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache_dir)}
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(cache_dir),
+        "NAO_ARENA_PRECOMPILED": KERNEL_SOURCES[source],
+    }
     out_path, err_path = run_dir / "stdout.txt", run_dir / "stderr.txt"
     with out_path.open("wb") as out, err_path.open("wb") as err:
         start = time.perf_counter()
@@ -146,6 +160,8 @@ class Result:
     """A workload's cold run, its warm runs and what its numba cache holds."""
 
     name: str
+    source: str
+    """Where its cold run's kernels came from (:data:`KERNEL_SOURCES`)."""
     cold: Measurement
     warm: list[Measurement]
     cache_after_cold: tuple[int, float]
@@ -173,21 +189,24 @@ def report_failure(name: str, label: str, m: Measurement, argv: list[str]) -> No
     )
 
 
-def bench(workload: Workload, root: Path, repeat_warm: int) -> Result:
-    """Cold run, then ``repeat_warm`` warm runs, of ``workload`` with its own cache."""
-    cache_dir = root / workload.name / "numba_cache"
+def bench(workload: Workload, source: str, root: Path, repeat_warm: int) -> Result:
+    """Cold run, then ``repeat_warm`` warm runs, of ``workload`` with the kernel source
+    ``source`` and a cache of its own."""
+    folder = root / f"{workload.name}_{source}"
+    cache_dir = folder / "numba_cache"
     cache_dir.mkdir(parents=True)
     runs: list[Measurement] = []
     caches: list[tuple[int, float]] = []
     for i in range(1 + repeat_warm):
         label = "cold" if i == 0 else f"warm {i}"
-        run_dir = root / workload.name / f"run{i}"
+        run_dir = folder / f"run{i}"
         argv = workload.argv(run_dir)
-        m = measure(argv, cache_dir, run_dir)
+        m = measure(argv, cache_dir, run_dir, source)
         runs.append(m)
         caches.append(cache_files(cache_dir))
         print(
-            f"  {workload.name:<6} {label:<7} {m.wall_s:7.2f} s wall {m.cpu_s:7.2f} s CPU "
+            f"  {workload.name:<6} {source:<8} {label:<7} {m.wall_s:7.2f} s wall "
+            f"{m.cpu_s:7.2f} s CPU "
             f"{m.peak_mb:7.1f} MB peak, exit {m.status}, load {os.getloadavg()[0]:.2f}",
             flush=True,
         )
@@ -197,6 +216,7 @@ def bench(workload: Workload, root: Path, repeat_warm: int) -> Result:
                 break  # no warm runs after a failed cold one
     return Result(
         name=workload.name,
+        source=source,
         cold=runs[0],
         warm=runs[1:],
         cache_after_cold=caches[0],
@@ -205,7 +225,7 @@ def bench(workload: Workload, root: Path, repeat_warm: int) -> Result:
 
 
 HEADER = (
-    f"{'workload':<9} {'cold wall s':>11} {'cold CPU s':>10} {'cold peak MB':>12} "
+    f"{'workload':<9} {'kernels':<8} {'cold wall s':>11} {'cold CPU s':>10} {'cold peak MB':>12} "
     f"{'n':>2} {'warm wall s':>11} {'warm CPU s':>10} {'warm peak MB':>12} {'n':>2} "
     f"{'cold/warm':>9} {'n':>5}"
 )
@@ -221,10 +241,11 @@ def row(r: Result) -> str:
     )
     n_warm = sum(m.status == 0 for m in r.warm)
     if w is None:
-        return f"{r.name:<9} {cold} {'-':>11} {'':>10} {'':>12} {n_warm:>2} {'-':>9} {'':>5}"
+        name = f"{r.name:<9} {r.source:<8}"
+        return f"{name} {cold} {'-':>11} {'':>10} {'':>12} {n_warm:>2} {'-':>9} {'':>5}"
     ratio = f"{c.wall_s / w.wall_s:9.1f}" if c.status == 0 else f"{'-':>9}"
     return (
-        f"{r.name:<9} {cold} {w.wall_s:11.2f} {w.cpu_s:10.2f} {w.peak_mb:12.1f} "
+        f"{r.name:<9} {r.source:<8} {cold} {w.wall_s:11.2f} {w.cpu_s:10.2f} {w.peak_mb:12.1f} "
         f"{n_warm:>2} {ratio} {f'1:{n_warm}':>5}"
     )
 
@@ -239,7 +260,7 @@ def print_table(results: list[Result]) -> None:
     for r in results:
         files, mb = r.cache_after_cold
         print(
-            f"numba cache of {r.name}: {files} files, {mb:.1f} MB after the cold run; "
+            f"numba cache of {r.name} ({r.source}): {files} files, {mb:.1f} MB after the cold run; "
             f"the warm runs added {r.added_by_warm} files"
         )
 
@@ -250,6 +271,12 @@ def parse_args(names: list[str]) -> argparse.Namespace:
         "--only",
         default=",".join(names),
         help=f"comma-separated workloads (default: {','.join(names)})",
+    )
+    parser.add_argument(
+        "--kernels",
+        default=",".join(KERNEL_SOURCES),
+        help="comma-separated kernel sources of the cold runs: shipped (the precompiled "
+        "kernels loaded), compiled (every kernel compiled); default: both",
     )
     parser.add_argument(
         "--repeat-warm",
@@ -264,6 +291,9 @@ def parse_args(names: list[str]) -> argparse.Namespace:
         parser.error(
             f"--only: unknown workload(s) {', '.join(unknown)}; expected some of {', '.join(names)}"
         )
+    args.kernels = [n.strip() for n in args.kernels.split(",") if n.strip()]
+    if not args.kernels or (unknown := [n for n in args.kernels if n not in KERNEL_SOURCES]):
+        parser.error(f"--kernels: expected some of {', '.join(KERNEL_SOURCES)}, got {args.kernels}")
     if args.repeat_warm < 1:
         parser.error(f"--repeat-warm: expected an integer >= 1, got {args.repeat_warm}")
     return args
@@ -286,7 +316,11 @@ def main() -> int:
         flush=True,
     )
     with tempfile.TemporaryDirectory(prefix="bench_startup_") as tmp:
-        results = [bench(table[name], Path(tmp), args.repeat_warm) for name in args.only]
+        results = [
+            bench(table[name], source, Path(tmp), args.repeat_warm)
+            for name in args.only
+            for source in args.kernels
+        ]
     print()
     print_table(results)
     print(

@@ -34,13 +34,16 @@ def _compile_messages() -> Iterator[None]:
 
 def compile_parts(parts: list[str], jobs: int | None = None, force: bool = False) -> None:
     """Compile the kernels of ``parts`` ahead of time in ``jobs`` processes (default:
-    every core) when the cache lacks some of them (``force``: look at each anyway);
-    nothing when they are cached or when the environment sets
-    ``NAO_ARENA_COMPILE_AHEAD=0``. The progress and the summary are logged
-    (:func:`nao_arena.kernels.compile_ahead`): on stderr within :func:`_compile_messages`."""
-    from nao_arena.kernels import compile_ahead, ensure_compiled
+    every core) when the cache lacks some of them (``force``: look at each anyway),
+    after loading the shipped precompiled ones it lacks; nothing when they are cached or
+    when the environment sets ``NAO_ARENA_COMPILE_AHEAD=0``. The progress and the
+    summary are logged (:func:`nao_arena.kernels.compile_ahead`): on stderr within
+    :func:`_compile_messages`."""
+    from nao_arena.kernels import ahead_enabled, compile_ahead, ensure_compiled, load_shipped
 
     if force:
+        if ahead_enabled():
+            load_shipped(parts)
         compile_ahead(parts, jobs)
     else:
         ensure_compiled(parts, jobs)

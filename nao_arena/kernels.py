@@ -64,6 +64,7 @@ __all__ = [
     "compile_count",
     "compile_seconds",
     "load_manifest",
+    "load_shipped",
     "map_part",
     "missing_kernels",
     "parse_type",
@@ -709,13 +710,19 @@ def ensure_compiled(
     return compile_ahead(parts, jobs, on_done=on_done)
 
 
-def _missing_after_install(parts: Sequence[str]) -> list[str]:
-    """:func:`missing_kernels` of ``parts``, after the shipped precompiled kernels the
-    cache lacked were written into it (:func:`nao_arena.precompiled.install`)."""
+def load_shipped(parts: Iterable[str]) -> int:
+    """Write the shipped precompiled kernels of ``parts`` that the cache lacks into it
+    (:func:`nao_arena.precompiled.install`); how many were written."""
     from nao_arena import precompiled
 
+    return precompiled.install(load_manifest().for_parts(parts)).written
+
+
+def _missing_after_install(parts: Sequence[str]) -> list[str]:
+    """:func:`missing_kernels` of ``parts``, after the shipped precompiled kernels the
+    cache lacked were written into it (:func:`load_shipped`)."""
     missing = missing_kernels(parts)
-    if missing and precompiled.install(load_manifest().for_parts(parts)).written:
+    if missing and load_shipped(parts):
         missing = missing_kernels(parts)
     return missing
 

@@ -77,7 +77,7 @@ def test_license_is_an_spdx_string():
 def test_a_plain_install_has_every_file(tmp_path):
     """``pip install .`` (not editable) ships every sub-package, the mapped folders
     (agents/ as nao_arena.agents, maps/*.yaml as nao_arena.maps_data), the py.typed marker
-    and the kernels' manifest."""
+    the kernels' manifest and the precompiled kernels."""
     import shutil
     import subprocess
     import sys
@@ -113,6 +113,10 @@ def test_a_plain_install_has_every_file(tmp_path):
     assert (installed / "py.typed").is_file()
     manifest = (ROOT / "nao_arena" / "kernels.json").read_bytes()
     assert (installed / "kernels.json").read_bytes() == manifest
+    zips = sorted(p.name for p in (ROOT / "nao_arena" / "precompiled_kernels").glob("*.zip"))
+    assert (
+        zips and sorted(p.name for p in (installed / "precompiled_kernels").glob("*.zip")) == zips
+    )
     packages = {
         init.parent.relative_to(ROOT / "nao_arena").as_posix()
         for init in (ROOT / "nao_arena").rglob("__init__.py")
