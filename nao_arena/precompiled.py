@@ -3,32 +3,36 @@ into numba's cache instead of compiling them.
 
 What is shipped
     numba's cache entries (the machine code and what numba needs to load it) of every
-    kernel of the manifest (:mod:`nao_arena.kernels`), compiled for the generic CPU of
-    the architecture (``NUMBA_CPU_NAME=generic``: no instruction beyond the
-    architecture's baseline, so the code runs on every CPU of it), one zip file per
-    Python version, numba version and platform: ``nao_arena/precompiled_kernels/<tag>.zip``
-    (:func:`bundle_tag`). A zip holds ``index.json`` (the tag, the digest of the sources
-    it was compiled from, and per entry the kernel, its argument types and numba's hash
-    of its bytecode) and one data file per entry, as numba wrote it. No compiler is
-    needed to install the package: the files are data.
+    kernel of the manifest (:mod:`nao_arena.kernels`), compiled for a CPU level of the
+    architecture rather than for the machine that built them (:data:`TARGETS`: on
+    x86-64, ``x86-64-v2``, the instructions of every x86-64 CPU since about 2009; as
+    fast as code compiled for this Xeon in ``bench_decisions``, where the
+    architecture's bare baseline was 5 % slower), one zip file per Python version,
+    numba version and platform: ``nao_arena/precompiled_kernels/<tag>.zip``
+    (:func:`bundle_tag`). A zip holds ``index.json`` (the tag, the CPU level and the
+    CPU features it needs, the digest of the sources it was compiled from, and per
+    entry the kernel, its argument types and numba's hash of its bytecode) and one
+    data file per entry, as numba wrote it. No compiler is needed to install the
+    package: the files are data.
 
 When they are used
     Before the kernels of a run, a trial or an env are compiled ahead
     (:func:`nao_arena.kernels.ensure_compiled`), the entries the cache lacks are
     written into numba's cache (:func:`install`), as this process's numba would have
-    written them (its index key names this machine's CPU, which runs the generic
-    code; its stamp is the installed source file's). Only a zip built from exactly
-    these sources is used (:func:`source_digest`, every module of the package): a
-    kernel's code holds its callees' code and the constants it read, so one changed
-    module can make any entry stale. With another Python, numba or platform, changed
-    sources, or ``NAO_ARENA_PRECOMPILED=0``, nothing is written and the kernels compile
-    as before. Results are the same either way: the generic code computes the same
-    bits (no fast-math anywhere; the golden trajectories run on it).
+    written them (its index key names this machine's CPU, which has every feature the
+    code needs; its stamp is the installed source file's). Only a zip built from
+    exactly these sources is used (:func:`source_digest`, every module of the package):
+    a kernel's code holds its callees' code and the constants it read, so one changed
+    module can make any entry stale. With another Python, numba or platform, a CPU
+    without the features, changed sources, or ``NAO_ARENA_PRECOMPILED=0``, nothing is
+    written and the kernels compile as before. Results are the same either way: the
+    code computes the same bits (no fast-math anywhere, so no fused multiply-adds; the
+    golden trajectories run on it).
 
 How they are made
     ``python -m nao_arena.precompiled build`` (:func:`build`): every kernel of the
     manifest compiled ahead in a new, empty cache in a process of its own, for the
-    generic CPU, then packed. Run it with each Python version shipped, after any
+    CPU level, then packed. Run it with each Python version shipped, after any
     change of the package's modules (a test fails while a shipped zip is stale).
 """
 
@@ -47,11 +51,14 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 __all__ = [
     "FORMAT",
+    "MAPPED_PACKAGES",
     "SHIPPED_PYTHONS",
+    "TARGETS",
+    "Target",
     "BundleInfo",
     "InstallReport",
     "build",
@@ -59,8 +66,10 @@ __all__ = [
     "bundle_tag",
     "enabled",
     "install",
+    "missing_features",
     "read_info",
     "source_digest",
+    "target",
 ]
 
 LOG = logging.getLogger("nao_arena.kernels")
@@ -72,6 +81,43 @@ BUNDLE_FOLDER = Path(__file__).with_name("precompiled_kernels")
 """Where the zips are shipped (package data)."""
 
 INDEX = "index.json"
+
+
+@dataclass(frozen=True)
+class Target:
+    """A CPU level the kernels are compiled for (LLVM's CPU name) and the CPU features
+    (LLVM's names, as ``llvmlite.binding.get_host_cpu_features`` reports them) a
+    machine needs to run that code."""
+
+    cpu: str
+    features: tuple[str, ...]
+
+
+TARGETS = {
+    "x86_64": Target(
+        "x86-64-v2",
+        # LLVM's x86-64-v2: the x86-64 baseline, then CX16, LAHF/SAHF, CRC32, POPCNT and
+        # SSE4.2 with what it implies (SSE3, SSSE3, SSE4.1)
+        (
+            "cmov",
+            "cx8",
+            "fxsr",
+            "mmx",
+            "sse",
+            "sse2",
+            "cx16",
+            "sahf",
+            "crc32",
+            "popcnt",
+            "sse3",
+            "ssse3",
+            "sse4.1",
+            "sse4.2",
+        ),
+    ),
+}
+"""The CPU level shipped kernels are compiled for, per machine architecture
+(``platform.machine()``, lower case)."""
 
 SHIPPED_PYTHONS = ("cpython-311", "cpython-313")
 """The Python versions (``sys.implementation.cache_tag``) whose zips are shipped, for
@@ -86,13 +132,30 @@ def enabled() -> bool:
     return os.environ.get("NAO_ARENA_PRECOMPILED", "1").strip() != "0"
 
 
+def _machine() -> str:
+    return platform.machine().lower() or "unknown"
+
+
+def target() -> Target | None:
+    """The CPU level of this machine's architecture (None: none is shipped for it)."""
+    return TARGETS.get(_machine())
+
+
+def missing_features(features: Iterable[str]) -> list[str]:
+    """The CPU ``features`` this machine lacks (LLVM's detection, which also asks the
+    operating system whether it saves the registers)."""
+    import llvmlite.binding as llvm
+
+    have = llvm.get_host_cpu_features()
+    return [f for f in features if not have.get(f, False)]
+
+
 def bundle_tag() -> str:
     """The Python version, numba version and platform a zip is for, e.g.
     ``cpython-311-numba0.68.1-linux-x86_64``."""
     import numba
 
-    machine = platform.machine().lower() or "unknown"
-    return f"{sys.implementation.cache_tag}-numba{numba.__version__}-{sys.platform}-{machine}"
+    return f"{sys.implementation.cache_tag}-numba{numba.__version__}-{sys.platform}-{_machine()}"
 
 
 def bundle_path(folder: Path | None = None) -> Path:
@@ -101,23 +164,30 @@ def bundle_path(folder: Path | None = None) -> Path:
     return (BUNDLE_FOLDER if folder is None else folder) / f"{bundle_tag()}.zip"
 
 
-def _source_files() -> list[tuple[str, Path]]:
-    """(name, path) of every Python module of the package, its agents included, by a
-    name that does not depend on where the package lies (a checkout or site-packages,
-    where ``agents`` is a folder of the package)."""
-    import nao_arena.agents as agents
+MAPPED_PACKAGES = ("nao_arena.agents", "nao_arena.maps_data")
+"""The packages of folders outside ``nao_arena/`` in a checkout (pyproject.toml's
+``package-dir``), inside it once installed."""
 
+
+def _source_files() -> list[tuple[str, Path]]:
+    """(name, path) of every Python module of the package, by a name that does not
+    depend on where the package lies: a checkout, or site-packages, where the
+    :data:`MAPPED_PACKAGES` are folders of the package."""
+    from importlib.util import find_spec
+
+    roots = [("nao_arena", _PACKAGE_ROOT)]
+    for name in MAPPED_PACKAGES:
+        spec = find_spec(name)
+        if spec is None or not spec.submodule_search_locations:
+            raise ImportError(f"no package {name}")
+        roots.append((name, Path(list(spec.submodule_search_locations)[0]).resolve()))
     files: list[tuple[str, Path]] = []
-    agents_root = Path(agents.__file__).resolve().parent
-    roots = [("nao_arena", _PACKAGE_ROOT), ("nao_arena.agents", agents_root)]
     for prefix, root in roots:
+        others = [r for _, r in roots if r != root and r.is_relative_to(root)]
         for path in root.rglob("*.py"):
-            relative = path.relative_to(root)
-            if "__pycache__" in relative.parts:
-                continue
-            if prefix == "nao_arena" and path.is_relative_to(agents_root):
-                continue  # counted under nao_arena.agents
-            files.append((f"{prefix}/{relative.as_posix()}", path))
+            if "__pycache__" in path.parts or any(path.is_relative_to(o) for o in others):
+                continue  # counted under its own package
+            files.append((f"{prefix}/{path.relative_to(root).as_posix()}", path))
     return sorted(files)
 
 
@@ -154,11 +224,12 @@ class Entry:
 
 @dataclass(frozen=True)
 class BundleInfo:
-    """What a zip's ``index.json`` says: its format, tag (:func:`bundle_tag`), source
-    digest (:func:`source_digest`) and entries."""
+    """What a zip's ``index.json`` says: its format, tag (:func:`bundle_tag`), the
+    CPU level its code is for, source digest (:func:`source_digest`) and entries."""
 
     format: int
     tag: str
+    target: Target
     digest: str
     entries: tuple[Entry, ...]
 
@@ -171,7 +242,8 @@ def read_info(archive: zipfile.ZipFile) -> BundleInfo:
             Entry(e["module"], e["name"], tuple(e["args"]), tuple(e["code"]), e["data"])
             for e in raw["entries"]
         )
-        return BundleInfo(int(raw["format"]), str(raw["tag"]), str(raw["digest"]), entries)
+        cpu = Target(str(raw["cpu"]), tuple(str(f) for f in raw["features"]))
+        return BundleInfo(int(raw["format"]), str(raw["tag"]), cpu, str(raw["digest"]), entries)
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"not a kernel bundle index ({exc})") from exc
 
@@ -207,6 +279,8 @@ def install(keys: Iterable[str] | None = None, folder: Path | None = None) -> In
             info = read_info(archive)
             if info.format != FORMAT or info.tag != bundle_tag():
                 return _unused(f"{path.name} is of format {info.format}, tag {info.tag}")
+            if lacking := missing_features(info.target.features):
+                return _unused(f"this CPU lacks {', '.join(lacking)} ({info.target.cpu})")
             if info.digest != source_digest():
                 return _unused(f"{path.name} was built from other sources")
             wanted = None if keys is None else set(keys)
@@ -272,24 +346,28 @@ def _install_entry(archive: zipfile.ZipFile, entry: Entry) -> str:
 
 
 def build(out: Path, parts: Sequence[str] | None = None, jobs: int | None = None) -> Path:
-    """Compile the kernels of ``parts`` (default: every recorded part) for the generic
-    CPU in a new, empty cache, in a Python process of its own, and pack them into
-    ``out/<tag>.zip`` (written atomically). Returns its path."""
+    """Compile the kernels of ``parts`` (default: every recorded part) for this
+    architecture's CPU level (:data:`TARGETS`) in a new, empty cache, in a Python
+    process of its own, and pack them into ``out/<tag>.zip`` (written atomically).
+    Returns its path."""
     import subprocess
 
     from nao_arena.kernels import RECORD_PARTS
 
+    level = target()
+    if level is None:
+        raise RuntimeError(f"no CPU level is defined for {_machine()} (TARGETS)")
     parts = list(RECORD_PARTS if parts is None else parts)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="nao_arena_bundle_") as cache:
         env = dict(os.environ)
         env.update(
-            NUMBA_CPU_NAME="generic",
+            NUMBA_CPU_NAME=level.cpu,
+            NUMBA_CPU_FEATURES="",  # those of the CPU level alone
             NUMBA_CACHE_DIR=cache,
             NAO_ARENA_PRECOMPILED="0",
             NAO_ARENA_COMPILE_AHEAD="1",
         )
-        env.pop("NUMBA_CPU_FEATURES", None)  # generic: the baseline features
         command = [sys.executable, "-m", "nao_arena.precompiled", "_pack", str(out)]
         command += [*parts, *(["--jobs", str(jobs)] if jobs else [])]
         subprocess.run(command, env=env, check=True)
@@ -300,11 +378,12 @@ def _pack(out: Path, parts: Sequence[str], jobs: int | None) -> Path:
     """In the process :func:`build` starts: compile ``parts`` ahead, then write the zip."""
     from numba.core import config
 
+    from nao_arena.atomic import atomic_write_with
     from nao_arena.kernels import compile_ahead, load_manifest
 
-    target: Any = config
-    if str(target.CPU_NAME).lower() != "generic" or target.CPU_FEATURES != "":
-        raise RuntimeError("the kernels are packed only when compiled for the generic CPU")
+    level, numba_config = target(), cast(Any, config)
+    if level is None or (numba_config.CPU_NAME, numba_config.CPU_FEATURES) != (level.cpu, ""):
+        raise RuntimeError("the kernels are packed only when compiled for the CPU level")
     report = compile_ahead(parts, jobs)
     if report.failed:
         raise RuntimeError(f"{len(report.failed)} kernels failed to compile: {report.summary()}")
@@ -313,6 +392,8 @@ def _pack(out: Path, parts: Sequence[str], jobs: int | None) -> Path:
     info = {
         "format": FORMAT,
         "tag": bundle_tag(),
+        "cpu": level.cpu,
+        "features": list(level.features),
         "digest": source_digest(),
         "entries": [
             {
@@ -326,12 +407,14 @@ def _pack(out: Path, parts: Sequence[str], jobs: int | None) -> Path:
         ],
     }
     path = bundle_path(out)
-    temporary = path.with_name(f".{path.name}.tmp")
-    with zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as archive:
-        archive.writestr(INDEX, json.dumps(info, indent=0, sort_keys=True))
-        for member, data in sorted(members.items()):
-            archive.writestr(member, data)
-    os.replace(temporary, path)
+
+    def write(name: str) -> None:
+        with zipfile.ZipFile(name, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as archive:
+            archive.writestr(INDEX, json.dumps(info, indent=0, sort_keys=True))
+            for member, data in sorted(members.items()):
+                archive.writestr(member, data)
+
+    atomic_write_with(path, write, suffix=".zip")
     LOG.info("wrote %s: %d entries", path, len(entries))
     return path
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -117,6 +118,17 @@ def test_a_plain_install_has_every_file(tmp_path):
     assert (
         zips and sorted(p.name for p in (installed / "precompiled_kernels").glob("*.zip")) == zips
     )
+    # the installed modules have the checkout's digest: its shipped kernels are used
+    probe = "from nao_arena import precompiled; print(precompiled.source_digest())"
+    digest = subprocess.run(
+        [sys.executable, "-c", probe],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(target)},
+    ).stdout.strip()
+    assert digest == checkout_digest()
     packages = {
         init.parent.relative_to(ROOT / "nao_arena").as_posix()
         for init in (ROOT / "nao_arena").rglob("__init__.py")
@@ -127,6 +139,14 @@ def test_a_plain_install_has_every_file(tmp_path):
     assert {p.name for p in (installed / "agents").glob("*.py")} == agents
     maps = {p.name for p in (ROOT / "maps").glob("*.yaml")}
     assert {p.name for p in (installed / "maps_data").glob("*.yaml")} == maps
+
+
+def checkout_digest() -> str:
+    """The source digest of this checkout's modules (:mod:`nao_arena.precompiled`)."""
+    from nao_arena import precompiled
+
+    assert Path(precompiled.__file__).resolve().is_relative_to(ROOT)
+    return precompiled.source_digest()
 
 
 def plain_python(tmp_path: Path) -> Path:

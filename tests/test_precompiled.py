@@ -42,6 +42,7 @@ def test_a_shipped_zip_was_built_from_these_sources_and_holds_every_kernel(path)
         info = precompiled.read_info(archive)
         members = set(archive.namelist())
     assert (info.format, info.tag) == (precompiled.FORMAT, path.stem)
+    assert info.target == precompiled.TARGETS[info.tag.rsplit("-", 1)[1]]
     assert info.tag.split("-numba")[0] in precompiled.SHIPPED_PYTHONS
     assert info.digest == precompiled.source_digest(), f"{path.name} is stale: rebuild it"
     assert sorted(e.key for e in info.entries) == sorted(load_manifest().kernels)
@@ -55,7 +56,15 @@ def test_the_source_digest_covers_every_module_and_nothing_else():
     assert "nao_arena.agents/nao.py" in names and "nao_arena.agents/_nao_batch.py" in names
     assert all(n.endswith(".py") and "__pycache__" not in n for n in names)
     assert len(names) == len(set(names))
-    assert not any(n.startswith("nao_arena/agents/") for n in names)  # counted once
+    assert "nao_arena.maps_data/__init__.py" in names
+    assert not any(n.startswith(("nao_arena/agents/", "nao_arena/maps_data/")) for n in names)
+
+
+def test_the_mapped_packages_are_those_of_pyproject():
+    tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
+    pyproject = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    mapped = set(pyproject["tool"]["setuptools"]["package-dir"]) - {"nao_arena"}
+    assert mapped == set(precompiled.MAPPED_PACKAGES)
 
 
 def write_zip(folder: Path, info: dict, members: dict[str, bytes] | None = None) -> Path:
@@ -71,6 +80,8 @@ def index(**changes) -> dict:
     info = {
         "format": precompiled.FORMAT,
         "tag": precompiled.bundle_tag(),
+        "cpu": "x86-64-v2",
+        "features": ["sse2"],
         "digest": precompiled.source_digest(),
         "entries": [],
     }
@@ -78,10 +89,12 @@ def index(**changes) -> dict:
 
 
 def test_a_zip_that_does_not_fit_is_not_used(tmp_path, monkeypatch):
-    """Other sources, another tag or format, an unreadable zip, no zip, or the switch
-    off: nothing is written, and the report says why."""
+    """Other sources, another tag or format, a CPU without the code's features, an
+    unreadable zip, no zip, or the switch off: nothing is written, and the report says
+    why."""
     monkeypatch.delenv("NAO_ARENA_PRECOMPILED", raising=False)
     cases = {
+        "this CPU lacks no-such-feature (x86-64-v2)": index(features=["no-such-feature"]),
         "built from other sources": index(digest="0" * 64),
         "tag cpython-0": index(tag="cpython-0"),
         "format 99": index(format=99),
@@ -100,6 +113,17 @@ def test_a_zip_that_does_not_fit_is_not_used(tmp_path, monkeypatch):
     assert "no cpython" in precompiled.install(folder=tmp_path / "none").unused
     monkeypatch.setenv("NAO_ARENA_PRECOMPILED", "0")
     assert precompiled.install(folder=garbage).unused == "NAO_ARENA_PRECOMPILED=0"
+
+
+def test_this_machine_has_the_features_of_its_cpu_level():
+    """LLVM reports the host's features by the names the levels use: an x86-64 CI
+    machine has those of x86-64-v2 (else no test would use the shipped kernels), and a
+    feature no CPU has is reported missing."""
+    assert precompiled.missing_features(["no-such-feature"]) == ["no-such-feature"]
+    level = precompiled.target()
+    if level is None:
+        pytest.skip(f"no CPU level for {platform.machine()}")
+    assert precompiled.missing_features(level.features) == []
 
 
 def test_an_entry_of_a_changed_or_missing_kernel_is_skipped(tmp_path, monkeypatch):
