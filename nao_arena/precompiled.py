@@ -410,9 +410,11 @@ def _pack(out: Path, parts: Sequence[str], jobs: int | None) -> Path:
 
     def write(name: str) -> None:
         with zipfile.ZipFile(name, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as archive:
-            archive.writestr(INDEX, json.dumps(info, indent=0, sort_keys=True))
-            for member, data in sorted(members.items()):
-                archive.writestr(member, data)
+            files = {INDEX: json.dumps(info, indent=0, sort_keys=True).encode(), **members}
+            for member, data in sorted(files.items()):
+                # a fixed date: the bytes depend on the members alone
+                entry = zipfile.ZipInfo(member, date_time=(1980, 1, 1, 0, 0, 0))
+                archive.writestr(entry, data, zipfile.ZIP_DEFLATED, compresslevel=9)
 
     atomic_write_with(path, write, suffix=".zip")
     LOG.info("wrote %s: %d entries", path, len(entries))
