@@ -2,9 +2,11 @@
 
 numba compiles a kernel the first time it is called with new argument types and caches
 the machine code on disk (``cache=True``: a ``__pycache__`` folder beside the module, or
-the folder named by ``NUMBA_CACHE_DIR``); later processes load it in milliseconds. The
-first run after installing therefore compiles, and this module makes that visible,
-fair and as short as two or more cores allow:
+the folder named by ``NUMBA_CACHE_DIR``); later processes load it in milliseconds. Where
+the package ships its kernels precompiled for this Python, numba, platform and CPU
+(:mod:`nao_arena.precompiled`), the first run writes them into that cache
+(:func:`load_shipped`) and compiles none. Elsewhere it compiles, and this module makes
+that visible, fair and as short as two or more cores allow:
 
 - :func:`compile_seconds`: wall-clock seconds (s) this process has spent compiling, a
   compile under way included. The episodes' wall-clock budgets
@@ -22,7 +24,8 @@ fair and as short as two or more cores allow:
 - :func:`compile_ahead`: compiles the kernels of some parts in several processes, each
   kernel once its callees are in the cache (so none is compiled twice), longest chain
   first. ``nao-arena compile`` runs it for every part; ``nao-arena run`` and ``trial``
-  run it for the parts they need when the cache lacks some of them, before any budget
+  run it for the parts they need when the cache lacks some of them once the shipped
+  kernels are in (:func:`ensure_compiled`), before any budget
   starts (``run`` of a shipped map: only what that map's recorded episodes call,
   :func:`map_part`), and so does the first env of a map in a process
   (:func:`ensure_env_compiled`).
@@ -702,8 +705,10 @@ def ensure_compiled(
     jobs: int | None = None,
     on_done: Callable[[int, int, str], None] | None = None,
 ) -> CompileReport | None:
-    """:func:`compile_ahead` for ``parts`` when the cache lacks some of their kernels and
-    :func:`ahead_enabled`; None (nothing done) otherwise."""
+    """When :func:`ahead_enabled` and the cache lacks some kernels of ``parts``: the
+    shipped precompiled ones written into it (:func:`load_shipped`), then
+    :func:`compile_ahead` for ``parts`` if it still lacks some; None when nothing was
+    compiled."""
     parts = list(parts)
     if not ahead_enabled() or not _missing_after_install(parts):
         return None
@@ -731,14 +736,14 @@ def ensure_env_compiled(map_source: object, vector: bool = False) -> None:
     """Before an env of ``map_source`` (a shipped map's name or a map file) first runs in
     this process: when the cache lacks some of the kernels of ``core`` and ``env``, and
     of ``vector`` for a vector env (of a shipped map, only what its recorded episodes
-    call, :func:`map_part`) and
-    :func:`ahead_enabled`, compile them ahead in every core, not one by one in this
-    process. Once per process and map. The compile runs in a Python process of its own
-    (:func:`_compile_in_subprocess`), so that the processes it starts never import the
-    script that made the env, whether or not it guards its code with ``if __name__ ==
-    "__main__"``. Not in a daemonic process (the workers of Stable-Baselines3's
-    ``SubprocVecEnv``, for one: each would compile the same kernels at once); any failure
-    leaves the kernels to compile when they are called."""
+    call, :func:`map_part`) and :func:`ahead_enabled`, write the shipped precompiled
+    ones into it (:func:`load_shipped`), then compile what it still lacks ahead in every
+    core, not one by one in this process. Once per process and map. The compile runs in
+    a Python process of its own (:func:`_compile_in_subprocess`), so that the processes
+    it starts never import the script that made the env, whether or not it guards its
+    code with ``if __name__ == "__main__"``. Not in a daemonic process (the workers of
+    Stable-Baselines3's ``SubprocVecEnv``, for one: each would compile the same kernels
+    at once); any failure leaves the kernels to compile when they are called."""
     from multiprocessing import current_process
 
     from nao_arena.maps import available_maps
@@ -1011,9 +1016,11 @@ def _nameable(args: Iterable[str]) -> bool:
 
 def _use_cache(folder: str) -> None:
     """Worker initializer: numba caches into ``folder``, and what the worker's episode
-    calls compiles there, in the worker (an env would compile ahead in other processes)."""
+    calls compiles there, in the worker (an env would compile ahead in other processes;
+    a shipped precompiled kernel would be loaded, without its callees or compile time)."""
     os.environ["NUMBA_CACHE_DIR"] = folder
     os.environ["NAO_ARENA_COMPILE_AHEAD"] = "0"
+    os.environ["NAO_ARENA_PRECOMPILED"] = "0"
     import numba
 
     numba.config.reload_config()

@@ -5,8 +5,8 @@ What is shipped
     numba's cache entries (the machine code and what numba needs to load it) of every
     kernel of the manifest (:mod:`nao_arena.kernels`), compiled for a CPU level of the
     architecture rather than for the machine that built them (:data:`TARGETS`: on
-    x86-64, ``x86-64-v2``, the instructions of every x86-64 CPU since about 2009; as
-    fast as code compiled for this Xeon in ``bench_decisions``, where the
+    x86-64, ``x86-64-v2``, the instructions of CPUs with SSE4.2, Intel's since 2008 and
+    AMD's since 2011; as fast as code compiled for this Xeon in ``bench_decisions``, where the
     architecture's bare baseline was 5 % slower), one zip file per Python version,
     numba version and platform: ``nao_arena/precompiled_kernels/<tag>.zip``
     (:func:`bundle_tag`). A zip holds ``index.json`` (the tag, the CPU level and the
@@ -38,6 +38,7 @@ How they are made
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 import json
@@ -66,6 +67,7 @@ __all__ = [
     "bundle_tag",
     "enabled",
     "install",
+    "install_kernel",
     "missing_features",
     "read_info",
     "source_digest",
@@ -277,12 +279,8 @@ def install(keys: Iterable[str] | None = None, folder: Path | None = None) -> In
     try:
         with zipfile.ZipFile(path) as archive:
             info = read_info(archive)
-            if info.format != FORMAT or info.tag != bundle_tag():
-                return _unused(f"{path.name} is of format {info.format}, tag {info.tag}")
-            if lacking := missing_features(info.target.features):
-                return _unused(f"this CPU lacks {', '.join(lacking)} ({info.target.cpu})")
-            if info.digest != source_digest():
-                return _unused(f"{path.name} was built from other sources")
+            if reason := _misfit(path, info):
+                return _unused(reason)
             wanted = None if keys is None else set(keys)
             report = _install_entries(archive, info.entries, wanted)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
@@ -290,6 +288,65 @@ def install(keys: Iterable[str] | None = None, folder: Path | None = None) -> In
     if report.written:
         LOG.info("loaded %d precompiled kernels into the cache", report.written)
     return report
+
+
+def install_kernel(module: str, name: str, args: Sequence[str]) -> bool:
+    """Write the shipped entry of one kernel version (``module.name`` for the argument
+    types ``args``, :func:`nao_arena.kernels.type_name` texts) into numba's cache when
+    the cache lacks it and the shipped zip fits (checked once per process); whether it
+    was written. The kernels' cache asks this on a miss
+    (:class:`nao_arena.shared_code.KernelCache`), so that a kernel first called from
+    Python (an :class:`~nao_arena.arena.Arena` in a notebook) is loaded, not compiled,
+    as those of a run are."""
+    if not enabled():
+        return False
+    shipped = _shipped_entries()
+    if shipped is None:
+        return False
+    path, entries = shipped
+    from nao_arena.kernels import kernel_key
+
+    entry = entries.get(kernel_key(module, name, args))
+    if entry is None:
+        return False
+    try:
+        with zipfile.ZipFile(path) as archive:
+            written = _install_entry(archive, entry) == "written"
+    except Exception as exc:  # noqa: BLE001 - the kernel compiles instead
+        LOG.debug("precompiled %s not installed (%r)", entry.key, exc)
+        return False
+    if written:
+        LOG.debug("loaded the precompiled kernel %s into the cache", entry.key)
+    return written
+
+
+@functools.cache
+def _shipped_entries() -> tuple[Path, dict[str, Entry]] | None:
+    """The shipped zip for this process and its entries by manifest key, when it fits
+    (:func:`_misfit`); None otherwise (once per process)."""
+    path = bundle_path()
+    try:
+        with zipfile.ZipFile(path) as archive:
+            info = read_info(archive)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        LOG.debug("precompiled kernels not used: %s (%s)", path.name, exc)
+        return None
+    if reason := _misfit(path, info):
+        LOG.debug("precompiled kernels not used: %s", reason)
+        return None
+    return path, {e.key: e for e in info.entries}
+
+
+def _misfit(path: Path, info: BundleInfo) -> str:
+    """Why the zip at ``path`` cannot be used here (empty: it can): another format or
+    tag, a CPU without the features of its code, or other sources."""
+    if info.format != FORMAT or info.tag != bundle_tag():
+        return f"{path.name} is of format {info.format}, tag {info.tag}"
+    if lacking := missing_features(info.target.features):
+        return f"this CPU lacks {', '.join(lacking)} ({info.target.cpu})"
+    if info.digest != source_digest():
+        return f"{path.name} was built from other sources"
+    return ""
 
 
 def _unused(reason: str) -> InstallReport:

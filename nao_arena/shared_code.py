@@ -106,13 +106,34 @@ class LoadCallee:
 
 class KernelCache(FunctionCache):
     """numba's function cache, but an entry whose shared callee cannot be loaded
-    (:class:`SharedCalleeMissing`) is a miss, not an error."""
+    (:class:`SharedCalleeMissing`) is a miss, not an error, and on a miss the shipped
+    precompiled entry, if there is one, is written into the cache and loaded
+    (:func:`nao_arena.precompiled.install_kernel`)."""
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
         try:
-            return super().load_overload(sig, target_context)
+            cres = super().load_overload(sig, target_context)
         except SharedCalleeMissing:
             return None
+        if cres is None and self._install_shipped(sig):
+            try:
+                cres = super().load_overload(sig, target_context)
+            except SharedCalleeMissing:
+                return None
+        return cres
+
+    def _install_shipped(self, sig: Any) -> bool:
+        from nao_arena.kernels import type_name
+        from nao_arena.precompiled import install_kernel
+
+        func = self._py_func
+        if func.__qualname__ != func.__name__:  # not a module attribute: never shipped
+            return False
+        try:
+            args = [type_name(a) for a in sig]
+        except Exception:  # noqa: BLE001 - a type without a name: never shipped
+            return False
+        return install_kernel(func.__module__, func.__name__, args)
 
 
 def tag(cres: Any, py_func: Any) -> None:

@@ -166,24 +166,24 @@ def test_an_entry_of_a_changed_or_missing_kernel_is_skipped(tmp_path, monkeypatc
 @pytest.mark.slow
 @pytest.mark.installed
 def test_a_first_run_loads_the_shipped_kernels_and_compiles_none(tmp_path):
-    """In an empty cache, the README's command loads the shipped kernels (one line on
-    stderr) and compiles none, and its episode is the one a process with the kernels
-    compiled here runs (the golden trajectories check the generic code's bits against
-    those recorded with compiled code)."""
+    """In an empty cache, an arena made in Python (no compile ahead: each kernel is
+    looked up in the shipped ones when the cache misses it) and the README's command
+    (which writes those it needs first, one line on stderr) compile none, and the
+    episode is the one this process runs (the golden trajectories check the shipped
+    code's bits against those recorded with code compiled on the machine); so is a
+    first env."""
     if not precompiled.bundle_path().is_file():
         pytest.skip(f"no kernels shipped for {precompiled.bundle_tag()}")
     probe = (
-        "import json\n"
+        "import json, logging\n"
         "from nao_arena import kernels\n"
         "from nao_arena.arena import Arena, ArenaOptions\n"
         "from nao_arena.maps import load_map\n"
+        "logging.basicConfig(level=logging.DEBUG)\n"
         "kernels.watch_compiles()\n"
-        "parts = kernels.parts_for_agents(['nao']) + [kernels.map_part('roundabout')]\n"
-        "report = kernels.ensure_compiled(parts)\n"
         "arena = Arena(load_map('roundabout'), ArenaOptions(agent='nao'))\n"
         "arena.run(0, max_steps=60)\n"
-        "print(json.dumps([report is None, kernels.compile_count(), "
-        "arena.summary().trajectory_hash]))\n"
+        "print(json.dumps([kernels.compile_count(), arena.summary().trajectory_hash]))\n"
     )
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     env.pop("NAO_ARENA_PRECOMPILED", None)
@@ -192,8 +192,9 @@ def test_a_first_run_loads_the_shipped_kernels_and_compiles_none(tmp_path):
         [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True
     )
     assert out.returncode == 0, out.stderr[-2000:]
-    nothing_compiled_ahead, compiled, trajectory = json.loads(out.stdout.splitlines()[-1])
-    assert nothing_compiled_ahead and compiled == 0
+    compiled, trajectory = json.loads(out.stdout.splitlines()[-1])
+    assert compiled == 0
+    assert "loaded the precompiled kernel nao_arena." in out.stderr
     from nao_arena.arena import Arena, ArenaOptions
     from nao_arena.maps import load_map
 
@@ -232,3 +233,24 @@ def test_a_first_run_loads_the_shipped_kernels_and_compiles_none(tmp_path):
     assert first_env.returncode == 0, first_env.stderr[-2000:]
     assert int(first_env.stdout.split()[-1]) <= 2  # as with the kernels compiled ahead
     assert "loaded" in first_env.stderr and "compiling" not in first_env.stderr
+
+
+def test_nao_arena_compile_loads_the_shipped_kernels_before_compiling(monkeypatch):
+    """``nao-arena compile`` (which looks at every kernel) writes the shipped kernels
+    the cache lacks first, then compiles ahead what is left; with
+    ``NAO_ARENA_COMPILE_AHEAD=0`` it loads none."""
+    import nao_arena.kernels as kernels
+    from nao_arena._cli_compile import compile_parts
+
+    calls: list[tuple[str, list[str]]] = []
+    monkeypatch.setattr(kernels, "load_shipped", lambda parts: calls.append(("load", parts)))
+    monkeypatch.setattr(
+        kernels, "compile_ahead", lambda parts, jobs=None: calls.append(("compile", parts))
+    )
+    monkeypatch.delenv("NAO_ARENA_COMPILE_AHEAD", raising=False)
+    compile_parts(["core", "goal"], force=True)
+    assert calls == [("load", ["core", "goal"]), ("compile", ["core", "goal"])]
+    calls.clear()
+    monkeypatch.setenv("NAO_ARENA_COMPILE_AHEAD", "0")
+    compile_parts(["core"], force=True)
+    assert calls == [("compile", ["core"])]
