@@ -18,9 +18,11 @@ What is shipped
 When they are used
     Before the kernels of a run, a trial or an env are compiled ahead
     (:func:`nao_arena.kernels.ensure_compiled`), the entries the cache lacks are
-    written into numba's cache (:func:`install`), as this process's numba would have
-    written them (its index key names this machine's CPU, which has every feature the
-    code needs; its stamp is the installed source file's). Only a zip built from
+    written into numba's cache (:func:`install`); and whenever the kernels' cache
+    misses a kernel that is shipped (one first called from Python, for one), its entry
+    is written then (:func:`install_kernel`). Entries are written as this process's
+    numba would have written them (the index key names this machine's CPU, which has
+    every feature the code needs; the stamp is the installed source file's). Only a zip built from
     exactly these sources is used (:func:`source_digest`, every module of the package):
     a kernel's code holds its callees' code and the constants it read, so one changed
     module can make any entry stale. With another Python, numba or platform, a CPU
@@ -40,7 +42,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import itertools
 import json
 import logging
 import os
@@ -390,8 +391,10 @@ def _install_entry(archive: zipfile.ZipFile, entry: Entry) -> str:
     if key in overloads:
         return "held"
     data = archive.read(entry.data)
-    used = set(overloads.values())
-    name = next(n for i in itertools.count(1) if (n := cache_file._data_name(i)) not in used)
+    # named by its content, not numbered as numba's own: processes writing at once
+    # (test workers, say) never write another entry's data under a name an index holds
+    base = cache_file._index_name.removesuffix(".nbi")
+    name = f"{base}.shipped-{hashlib.sha256(data).hexdigest()[:16]}.nbc"
     with cache_file._open_for_write(cache_file._data_path(name)) as out:
         out.write(data)
     overloads[key] = name

@@ -213,6 +213,10 @@ def test_a_first_run_loads_the_shipped_kernels_and_compiles_none(tmp_path):
     loaded = len(load_manifest().for_parts(["core", "nao", "map:roundabout"]))
     line = f"nao-arena: loaded {loaded} precompiled kernels into the cache"
     assert run.stderr.splitlines() == [line]
+    # each entry's data under a name of its content: processes writing at once never
+    # put one entry's data under another's name
+    data = [p.name for p in (tmp_path / "cli_cache").rglob("*.nbc")]
+    assert len(data) == loaded and all(".shipped-" in name for name in data)
     env_probe = (
         "import logging, nao_arena\n"
         "from nao_arena import kernels\n"
