@@ -66,7 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--shield", action="store_true", help="train behind the NAO shield")
     parser.add_argument("--save", help="write the trained policy here (SB3 zip)")
     args = parser.parse_args(argv)
-    # the first run compiles the kernels: show its progress (logger nao_arena.kernels)
+    # the first run loads (or, where none are shipped, compiles) the kernels: show it
+    # (logger nao_arena.kernels)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     logging.getLogger("nao_arena.kernels").setLevel(logging.INFO)
 
