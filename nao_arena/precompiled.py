@@ -194,9 +194,10 @@ def _source_files() -> list[tuple[str, Path]]:
     return sorted(files)
 
 
+@functools.cache
 def source_digest() -> str:
     """SHA-256 of the package's modules (names and bytes): what a zip must have been
-    built from to be used."""
+    built from to be used (read once per process)."""
     digest = hashlib.sha256()
     for name, path in _source_files():
         data = path.read_bytes()
@@ -277,14 +278,14 @@ def install(keys: Iterable[str] | None = None, folder: Path | None = None) -> In
     path = bundle_path(folder)
     if not path.is_file():
         return InstallReport(unused=f"no {path.name} shipped")
+    found = _fitting_info(path)
+    if isinstance(found, str):
+        return _unused(found)
+    wanted = None if keys is None else set(keys)
     try:
         with zipfile.ZipFile(path) as archive:
-            info = read_info(archive)
-            if reason := _misfit(path, info):
-                return _unused(reason)
-            wanted = None if keys is None else set(keys)
-            report = _install_entries(archive, info.entries, wanted)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+            report = _install_entries(archive, found.entries, wanted)
+    except (OSError, zipfile.BadZipFile) as exc:
         return _unused(f"{path.name} is unreadable ({exc})")
     if report.written:
         LOG.info("loaded %d precompiled kernels into the cache", report.written)
@@ -326,16 +327,21 @@ def _shipped_entries() -> tuple[Path, dict[str, Entry]] | None:
     """The shipped zip for this process and its entries by manifest key, when it fits
     (:func:`_misfit`); None otherwise (once per process)."""
     path = bundle_path()
+    found = _fitting_info(path)
+    if isinstance(found, str):
+        LOG.debug("precompiled kernels not used: %s", found)
+        return None
+    return path, {e.key: e for e in found.entries}
+
+
+def _fitting_info(path: Path) -> BundleInfo | str:
+    """The index of the zip at ``path`` when it can be used here; else why not."""
     try:
         with zipfile.ZipFile(path) as archive:
             info = read_info(archive)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        LOG.debug("precompiled kernels not used: %s (%s)", path.name, exc)
-        return None
-    if reason := _misfit(path, info):
-        LOG.debug("precompiled kernels not used: %s", reason)
-        return None
-    return path, {e.key: e for e in info.entries}
+        return f"{path.name} is unreadable ({exc})"
+    return _misfit(path, info) or info
 
 
 def _misfit(path: Path, info: BundleInfo) -> str:
@@ -376,15 +382,11 @@ def _install_entries(
 def _install_entry(archive: zipfile.ZipFile, entry: Entry) -> str:
     """Write one entry into numba's cache: ``written``, ``held`` (the cache has it) or
     ``skipped`` (the kernel is gone, changed, or not cached by numba)."""
-    from nao_arena.kernels import parse_type
-
     dispatcher: Any = getattr(import_module(entry.module), entry.name, None)
-    cache: Any = getattr(dispatcher, "_cache", None)
-    cache_file: Any = getattr(cache, "_cache_file", None)
+    cache_file: Any = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
     if cache_file is None:
         return "skipped"
-    signature = tuple(parse_type(a) for a in entry.args)
-    key = cache._index_key(signature, dispatcher.targetctx.codegen())
+    key = _index_key(dispatcher, entry.args)
     if tuple(key[2]) != entry.code:
         return "skipped"  # another bytecode: the source changed
     overloads = cache_file._load_index()
@@ -400,6 +402,16 @@ def _install_entry(archive: zipfile.ZipFile, entry: Entry) -> str:
     overloads[key] = name
     cache_file._save_index(overloads)
     return "written"
+
+
+def _index_key(dispatcher: Any, args: Sequence[str]) -> Any:
+    """numba's index key of ``dispatcher``'s version for the argument types ``args``
+    (:func:`nao_arena.kernels.type_name` texts) in this process: (signature, this
+    codegen's CPU, hashes of the bytecode and closure)."""
+    from nao_arena.kernels import parse_type
+
+    signature = tuple(parse_type(a) for a in args)
+    return dispatcher._cache._index_key(signature, dispatcher.targetctx.codegen())
 
 
 # --------------------------------------------------------------------------- building
@@ -484,15 +496,12 @@ def _pack(out: Path, parts: Sequence[str], jobs: int | None) -> Path:
 def _entries(kernels: Iterable[Any]) -> tuple[list[Entry], Mapping[str, bytes]]:
     """The cache entries of ``kernels`` (manifest :class:`~nao_arena.kernels.Kernel`),
     with the data of each under its member name."""
-    from nao_arena.kernels import parse_type
-
     entries: list[Entry] = []
     members: dict[str, bytes] = {}
     for kernel in sorted(kernels, key=lambda k: k.key):
         dispatcher = getattr(import_module(kernel.module), kernel.name)
         cache = dispatcher._cache
-        signature = tuple(parse_type(a) for a in kernel.args)
-        key = cache._index_key(signature, dispatcher.targetctx.codegen())
+        key = _index_key(dispatcher, kernel.args)
         name = cache._cache_file._load_index().get(key)
         if name is None:
             raise RuntimeError(f"{kernel.key} is not in the cache after compiling")
@@ -504,8 +513,9 @@ def _entries(kernels: Iterable[Any]) -> tuple[list[Entry], Mapping[str, bytes]]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m nao_arena.precompiled build [--out FOLDER] [--jobs N] [PART ...]``:
-    write this interpreter's zip (default: into the shipped folder)."""
+    """``python -m nao_arena.precompiled build [FOLDER [PART ...]] [--jobs N]``: write
+    this interpreter's zip into FOLDER (default: the shipped folder), of every part or
+    of the PARTs."""
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m nao_arena.precompiled")
