@@ -94,10 +94,10 @@ from nao_arena.imperfection import (
     subset,
     with_neighbour_noise,
 )
-from nao_arena.jit import kernel
 from nao_arena.kernels import watch_compiles
 from nao_arena.maps import MapSpec, RobotSpec
 from nao_arena.occlusion import visible
+from nao_arena.period import GoalTest, PeriodInputs, episode_inputs, run_period, within_goal
 from nao_arena.sensing import (
     Observation,
     ReadOnlyRoutes,
@@ -180,26 +180,6 @@ class ArenaOptions:
             raise ValueError(
                 f"max_faults: expected an integer >= 0 or None, got {self.max_faults!r}"
             )
-
-
-@kernel(error_model="numpy")
-def within_goal(
-    positions: NDArray[np.float64],
-    robots: NDArray[np.intp],
-    goals: NDArray[np.float64],
-    tolerance: float,
-    out: NDArray[np.bool_],
-    by_body: bool,
-) -> None:
-    """Whether robot k's centre positions[robots[k]] (m) is within ``tolerance`` (m) of
-    goals[k] (m), into out[k] (robot order), or into out[robots[k]] (``by_body``: the
-    other bodies' rows untouched); the distance by hypot, as numpy's ``np.hypot`` (the
-    same bits)."""
-    for k in range(robots.shape[0]):
-        b = robots[k]
-        dx = positions[b, 0] - goals[k, 0]
-        dy = positions[b, 1] - goals[k, 1]
-        out[b if by_body else k] = math.hypot(dx, dy) <= tolerance
 
 
 @dataclass(frozen=True)
@@ -306,6 +286,7 @@ class Arena:
         # what agents sense is read-only (see SensingBatch): goals, routes, walls, times
         self._goal_tolerance = float(spec.episode.goal_tolerance)
         self.goals = read_only(np.array([r.goal for r in self.robots], dtype=float).reshape(-1, 2))
+        self._goal_test = GoalTest(self.robot_ids, self.goals, self._goal_tolerance)
         self.routes = ReadOnlyRoutes.of(
             [None if r.route is None else np.array(r.route, float) for r in self.robots]
         )
@@ -368,6 +349,9 @@ class Arena:
         self.agents: list[Any] = []
         self.stats: EpisodeStats | None = None
         self.state: WorldState | None = None
+        self._period_inputs: PeriodInputs | None = None
+        """The compiled period's inputs of this episode
+        (:func:`~nao_arena.period.episode_inputs`)."""
         self.commanded = np.zeros((self.world.n, 2))
         self._kinds: NDArray[np.str_] | None = None
         self._plan: AgentPlan | None = None
@@ -399,6 +383,7 @@ class Arena:
         """The attributes without the trajectory hash (a C object; see __setstate__)."""
         state = self.__dict__.copy()
         del state["_trajectory"]
+        state["_period_inputs"] = None  # compiled code's object, made again below
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -420,6 +405,9 @@ class Arena:
             if getattr(self, name) is not None:
                 setattr(self, name, read_only(getattr(self, name)))
         self.routes = ReadOnlyRoutes(None if r is None else read_only(r) for r in self.routes)
+        self._goal_test = GoalTest(self.robot_ids, self.goals, self._goal_tolerance)
+        if self.stats is not None:
+            self._period_inputs = episode_inputs(self.world, self.stats, self._goal_test)
         # the kept batches, frozen again (a copy's arrays are its own)
         self._sensed = deque(
             (dataclasses.replace(b) for b in self._sensed), maxlen=self._latency_steps + 1
@@ -486,6 +474,7 @@ class Arena:
             goals=self._body_goals(),
             replayed=self.world.replayed,
         )
+        self._period_inputs = episode_inputs(self.world, self.stats, self._goal_test)
         self.commanded = np.zeros((self.world.n, 2))
         self._trajectory = hashlib.sha256()
         self._hash_state(self.state)
@@ -772,30 +761,44 @@ class Arena:
         idx = self.traffic.indices
         if len(idx):
             commanded[idx] = self.traffic.accelerations(state.positions, state.velocities)
-        before = state.positions
-        new_state = self.world.step(commanded)
+        new_state, contacts = self._period(state, commanded)
         self.commanded = commanded
         self._stepped_plans = self.world.applied_accelerations
         self.state = new_state
         self._hash_state(new_state)
+        result = StepResult(new_state.time, new_state, commanded, contacts, faults)
+        if self.recorder is not None:
+            assert batch is not None and actions is not None
+            self.recorder.step(self, batch, result, actions)
+        return result
+
+    def _period(
+        self, state: WorldState, commanded: NDArray[np.float64]
+    ) -> tuple[WorldState, list[ContactEvent]]:
+        """The world's control period from ``state`` with the commanded accelerations
+        (N, 2) m/s^2, the goal test and the statistics' step: in one compiled call
+        (:func:`~nao_arena.period.run_period`) where it applies, else one by one. Returns
+        the new state and the contacts that started."""
+        stats = self.stats
+        assert stats is not None
+        done = run_period(self.world, stats, self._period_inputs, commanded)
+        if done is not None:
+            return done
+        new_state = self.world.step(commanded)
         reached = np.zeros(self.world.n, dtype=bool)
         within_goal(
             new_state.positions, self.robot_ids, self.goals, self._goal_tolerance, reached, True
         )
-        contacts = self.stats.update(
+        contacts = stats.update(
             state.time,
-            before,
+            state.positions,
             new_state.positions,
             new_state.velocities,
             commanded,
             reached,
             substeps=self.world.substep_positions,
         )
-        result = StepResult(new_state.time, new_state, commanded, contacts, faults)
-        if self.recorder is not None:
-            assert batch is not None and actions is not None
-            self.recorder.step(self, batch, result, actions)
-        return result
+        return new_state, contacts
 
     def adopt_periods(
         self, commands: NDArray[np.float64], states: NDArray[np.float64], last: PeriodArrays

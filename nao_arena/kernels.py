@@ -323,10 +323,11 @@ def parts_for_agents(agents: Iterable[str]) -> list[str]:
 def type_name(numba_type: Any) -> str:
     """The text the manifest holds for a numba type: its repr, but for the types whose
     repr names a Python class without its module (a named tuple such as
-    :class:`nao_arena.stopping.Knowledge`, an ``IntEnum``), which are written as
-    ``named_tuple("module:Class", (fields ...))`` and ``int_enum("module:Class",
-    dtype)``, and a typed list of them, ``ListType(item)``. :func:`parse_type` reads
-    every such text back."""
+    :class:`nao_arena.stopping.Knowledge`, an ``IntEnum``, a structure of compiled
+    code such as :class:`nao_arena.period.PeriodInputs`), which are written as
+    ``named_tuple("module:Class", (fields ...))``, ``int_enum("module:Class",
+    dtype)`` and ``struct_ref("module:TypeClass", (("field", type), ...))``, and a typed
+    list of them, ``ListType(item)``. :func:`parse_type` reads every such text back."""
     from numba.core import types
 
     if isinstance(numba_type, types.BaseNamedTuple):
@@ -338,6 +339,11 @@ def type_name(numba_type: Any) -> str:
         return f"ListType({type_name(numba_type.item_type)})"
     if isinstance(numba_type, types.IntEnumMember):
         return f'int_enum("{_class_path(numba_type.instance_class)}", {numba_type.dtype!r})'
+    if isinstance(numba_type, types.StructRef):
+        fields = ", ".join(
+            f'("{name}", {type_name(t)})' for name, t in numba_type.field_dict.items()
+        )
+        return f'struct_ref("{_class_path(type(numba_type))}", ({fields},))'
     return repr(numba_type)
 
 
@@ -356,7 +362,7 @@ def _import_class(path: str) -> Any:
 @functools.cache
 def parse_type(text: str) -> Any:
     """The numba type whose :func:`type_name` is ``text`` (the texts the manifest holds:
-    arrays, tuples, named tuples, IntEnums and scalars)."""
+    arrays, tuples, named tuples, IntEnums, structures and scalars)."""
     # Literal[int](0), Literal[bool](True): the type of a constant argument
     text = re.sub(r"Literal\[(?:int|bool)\]\((-?\d+|True|False)\)", r"literal(\1)", text)
     return eval(text, {"__builtins__": {}}, _type_names())  # the package's own file
@@ -368,6 +374,10 @@ def _named_tuple(path: str, fields: tuple[Any, ...]) -> Any:
     return types.BaseTuple.from_types(fields, _import_class(path))
 
 
+def _struct_ref(path: str, fields: tuple[tuple[str, Any], ...]) -> Any:
+    return _import_class(path)(list(fields))
+
+
 def _int_enum(path: str, dtype: Any) -> Any:
     from numba.core import types
 
@@ -377,12 +387,16 @@ def _int_enum(path: str, dtype: Any) -> Any:
 @functools.cache
 def _type_names() -> dict[str, Any]:
     """The names a numba type's :func:`type_name` uses (numba.core.types, bool, literal,
-    named_tuple, int_enum)."""
+    named_tuple, int_enum, struct_ref)."""
     from numba.core import types
 
     names = {name: getattr(types, name) for name in dir(types) if not name.startswith("_")}
     names.update(
-        bool=types.boolean, literal=types.literal, named_tuple=_named_tuple, int_enum=_int_enum
+        bool=types.boolean,
+        literal=types.literal,
+        named_tuple=_named_tuple,
+        int_enum=_int_enum,
+        struct_ref=_struct_ref,
     )
     return names
 

@@ -9,9 +9,8 @@ copy, the very kernels of the env's step, in the env's order:
 
 - the commands: the actions (in [-1, 1]) times the robots' a_max, into the world's
   command rows (:meth:`nao_arena.arena.Arena.step_robots`);
-- the world's period in chipmunk (:func:`nao_arena.world.period_into`);
-- the goal test (:func:`nao_arena.arena.within_goal`), the statistics
-  (:func:`nao_arena.stats.kernel.step_kernel`, :func:`~nao_arena.stats.kernel.liveness_kernel`);
+- the world's period, the goal test and the statistics' step, as the arena's step
+  runs them (:func:`nao_arena.period.control_period`);
 - the rewards (:func:`nao_arena.env_step.period_rewards`, then the contact term),
   the agents that finish (:func:`nao_arena.env_step.settle_finished`) and the
   observations (:func:`nao_arena.neighbours.in_range_lists`,
@@ -33,24 +32,23 @@ from typing import TYPE_CHECKING, Any, NamedTuple, cast
 import numpy as np
 from numba import typeof
 from numba.core import types
+from numba.experimental import structref
 from numba.typed import List
 from numpy.typing import NDArray
 
-from nao_arena.arena import StepResult, within_goal
+from nao_arena.arena import StepResult
 from nao_arena.env_observations import ObservedRows, observation_rows
 from nao_arena.env_step import clipped_float32, period_rewards, settle_finished
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.neighbours import in_range_lists
-from nao_arena.stats.kernel import EV_START, EpisodeArrays, liveness_kernel, step_kernel
-from nao_arena.stats.recorder import NO_GOALS, StepCounts
+from nao_arena.period import PeriodInputs, control_period
+from nao_arena.stats.kernel import EV_START
+from nao_arena.stats.recorder import StepCounts
 from nao_arena.stats.records import ContactEvent
 from nao_arena.world import (
     _DIRECT_STEP,
     PeriodArrays,
-    _Bodies,
-    _Chipmunk,
     _pymunk_is_idle,
-    period_into,
 )
 
 if TYPE_CHECKING:
@@ -83,36 +81,13 @@ class CopyArrays(NamedTuple):
     arrays of the world, the statistics and the env, updated in place. N bodies, R
     agents (every robot, robot order), D observation entries."""
 
-    chip: _Chipmunk
-    """The world's chipmunk space and buffers."""
-    bodies: _Bodies
-    """The world's per-body limits, masses and batch rows."""
+    period: PeriodInputs
+    """The world's, the goal test's and the statistics' arrays as the compiled control
+    period takes them (:func:`nao_arena.period.control_period`)."""
     radii: FloatArray
     """(N,) m."""
-    robot_ids: NDArray[np.intp]
-    """(R,) the body of each robot."""
-    goals: FloatArray
-    """(R, 2) m the robots' goals."""
-    goal_tolerance: float
-    """m."""
-    a_prev: FloatArray
-    """(N, 2) m/s^2 the statistics' last commands."""
-    episode: EpisodeArrays
-    """The statistics' per-pair and per-body state."""
-    liveness_goals: FloatArray
-    """(N, 2) m the goals by body for the liveness metrics, or (0, 2): not tracked."""
-    is_robot: NDArray[np.bool_]
-    """(N,)"""
-    goal_dist: FloatArray
-    """(window, N) m the ring of goal distances."""
-    stuck_progress: float
-    """m."""
-    at_goal: NDArray[np.bool_]
-    """(N,)"""
-    time_away: FloatArray
-    """(N,) s."""
-    stuck_time: FloatArray
-    """(N,) s."""
+    reached: NDArray[np.bool_]
+    """(N,) the statistics' bodies that have reached their goals."""
     agent_bodies: NDArray[np.int64]
     """(R,) the body of each agent."""
     agent_a_max: FloatArray
@@ -137,8 +112,6 @@ class CopyArrays(NamedTuple):
     """(D,)"""
     dt: float
     """The control period (s)."""
-    window: int
-    """The stuck window (steps)."""
     collision_weight: float
     """The reward's weight of a contact."""
     terminate_on_collision: bool
@@ -251,10 +224,22 @@ def step_copies(
             for j in range(2):
                 cmd[i, j] = actions[k, i, j] * c.agent_a_max[i]
                 commanded[c.agent_bodies[i], j] = cmd[i, j]
-        if not period_into(c.chip, c.bodies, commanded, start[k], v_start[k], period):
+        t = state.world_steps[k] * c.dt
+        finite, codes, values, n_prox, deadlocked = control_period(
+            c.period,
+            start[k],
+            v_start[k],
+            commanded,
+            period,
+            out.path_read_only[k],
+            t,
+            state.stats_steps[k],
+            state.has_prev[k],
+            state.n_prox[k],
+        )
+        if not finite:
             out.event_start[k] = -1
             continue
-        t = state.world_steps[k] * c.dt
         state.world_steps[k] += 1
         time = state.world_steps[k] * c.dt
         pos, vel = period.positions, period.velocities
@@ -266,37 +251,8 @@ def step_copies(
                 start[k, b, j] = pos[b, j]
                 v_start[k, b, j] = vel[b, j]
         state.pending[k] = p + 1
-        at_goal = np.zeros(n, dtype=np.bool_)
-        within_goal(pos, c.robot_ids, c.goals, c.goal_tolerance, at_goal, _TRUE)
-        seen_path = out.path_read_only[k]
-        codes, values, n_prox = step_kernel(
-            t,
-            c.dt,
-            seen_path,
-            vel,
-            commanded,
-            c.a_prev,
-            state.has_prev[k],
-            at_goal,
-            state.n_prox[k],
-            c.episode,
-        )
         state.has_prev[k] = True
         state.n_prox[k] = n_prox
-        deadlocked = liveness_kernel(
-            c.dt,
-            seen_path[seen_path.shape[0] - 1],
-            c.liveness_goals,
-            at_goal,
-            c.is_robot,
-            c.episode.reached,
-            c.goal_dist,
-            state.stats_steps[k] % c.window,
-            c.stuck_progress,
-            c.at_goal,
-            c.time_away,
-            c.stuck_time,
-        )
         if deadlocked:  # EpisodeStats._deadlock's arithmetic
             state.deadlock_duration[k] += c.dt
             if math.isnan(state.deadlock_time[k]):
@@ -334,7 +290,7 @@ def _env_period(
     r = c.agent_bodies.shape[0]
     reached = out.reached[k]
     for i in range(r):
-        reached[i] = c.episode.reached[c.agent_bodies[i]]
+        reached[i] = c.reached[c.agent_bodies[i]]
     reward = np.empty(r)
     period_rewards(
         pos,
@@ -439,22 +395,13 @@ def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
     )
     if not plain:
         return None
+    inputs = arena._period_inputs
+    if inputs is None:
+        return None
     return CopyArrays(
-        chip=world._chip,
-        bodies=world._body_data,
+        period=inputs,
         radii=world.radii,
-        robot_ids=arena.robot_ids,
-        goals=arena.goals,
-        goal_tolerance=arena._goal_tolerance,
-        a_prev=stats._a_prev,
-        episode=stats._arrays,
-        liveness_goals=NO_GOALS if stats._goals is None else stats._goals,
-        is_robot=stats.is_robot,
-        goal_dist=stats._goal_dist,
-        stuck_progress=float(stats.config.stuck_progress),
-        at_goal=stats.at_goal,
-        time_away=stats.time_away,
-        stuck_time=stats.stuck_time,
+        reached=stats.reached,
         agent_bodies=env._bodies,
         agent_a_max=env._a_max,
         agent_goals=env._goals,
@@ -467,7 +414,6 @@ def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
         obs_low=env._obs_low,
         obs_high=env._obs_high,
         dt=world.dt,
-        window=stats._window,
         collision_weight=float(opts.rewards.collision),
         terminate_on_collision=bool(opts.terminate_on_collision),
         time_limit=env._time_limit,
@@ -497,7 +443,11 @@ def set_copy(copies: Any, k: int, arrays: CopyArrays) -> None:
 def _layout(value: Any) -> Any:
     """What numba's type of ``value`` (:class:`CopyArrays` and what it holds) depends on:
     per array its dtype, dimensions, contiguity, alignment and whether it is writeable;
-    per named tuple its class and its fields'; per other value its Python type."""
+    per named tuple its class and its fields'; per compiled code's object
+    (:class:`~nao_arena.period.PeriodInputs`) its numba type; per other value its Python
+    type."""
+    if isinstance(value, structref.StructRefProxy):
+        return value._numba_type_
     if isinstance(value, np.ndarray):
         f = value.flags
         return (value.dtype.str, value.ndim, f.c_contiguous, f.f_contiguous, f.aligned, f.writeable)

@@ -409,6 +409,14 @@ class PeriodArrays(NamedTuple):
     applied: FloatArray
 
 
+class DirectPeriod(NamedTuple):
+    """Where a compiled control period of a world starts (:meth:`World.direct_period`):
+    the bodies' positions ``start`` (N, 2) m and velocities ``v_start`` (N, 2) m/s."""
+
+    start: FloatArray
+    v_start: FloatArray
+
+
 @inner_kernel
 def _substeps(chip: _Chipmunk, rows: NDArray[np.intp], h: float, path: FloatArray) -> None:
     """One period's physics substeps of ``h`` s, in chipmunk directly: before substep j,
@@ -780,27 +788,56 @@ class World:
         if _pymunk_is_idle(space):
             space._locked = True
             try:
-                finite, path, pos, vel, acc, applied = _direct_period(
-                    self._chip, self._body_data, a, self._pos, v_start
-                )
+                finite, *arrays = _direct_period(self._chip, self._body_data, a, self._pos, v_start)
             finally:
                 space._locked = False
             if not finite:
                 raise ValueError("expected finite accelerations")
             self._record(a)
+            period = PeriodArrays(*arrays)
         else:
-            path, pos, vel, acc, applied = self._period_through_pymunk(a)
-        self._prev_positions = self._pos
-        self._pos, self._vel, self._acc = pos, vel, acc
-        path.setflags(write=False)
-        self._path = path
-        applied.setflags(write=False)
-        self._applied = applied
-        self._steps += 1
-        self.time = self._steps * self.dt
+            period = self._period_through_pymunk(a)
+        self._take(period)
         if len(self._replayed_rows):
             self._replay()
         return self.state()
+
+    def direct_period(self) -> DirectPeriod | None:
+        """The bodies' positions (N, 2) m and velocities (N, 2) m/s now, from which a
+        compiled control period (:func:`period_into`, on :meth:`compiled_space`) starts;
+        None when the next period must be :meth:`step`'s (pymunk has something of its
+        own to do around a step, or recorded people are replayed)."""
+        if len(self._replayed_rows) or not _pymunk_is_idle(self._space):
+            return None
+        return DirectPeriod(self._pos, self._vel)
+
+    def compiled_space(self) -> tuple[_Chipmunk, _Bodies]:
+        """This episode's chipmunk space and buffers and the bodies' limits and rows, as
+        compiled code steps them (:func:`period_into`); made anew by :meth:`reset`."""
+        return self._chip, self._body_data
+
+    def adopt_period(self, accels: FloatArray, period: PeriodArrays) -> WorldState:
+        """Take one control period that :func:`period_into` ran on this world's space
+        (from :meth:`direct_period`) for the commanded accelerations ``accels``
+        (N, 2) m/s^2: what :meth:`step` keeps of it (the arrays of ``period`` are kept,
+        made read-only where :meth:`step` hands them out); returns the new state, as
+        :meth:`step` does."""
+        self._record(accels)
+        self._take(period)
+        return self.state()
+
+    def _take(self, period: PeriodArrays) -> None:
+        """The world after a control period whose commands are recorded: its results
+        (:class:`PeriodArrays`) become the bodies' state, the substep path and the applied
+        accelerations (these two read-only); one more step."""
+        self._prev_positions = self._pos
+        self._pos, self._vel, self._acc = period.positions, period.velocities, period.accelerations
+        period.path.setflags(write=False)
+        self._path = period.path
+        period.applied.setflags(write=False)
+        self._applied = period.applied
+        self._steps += 1
+        self.time = self._steps * self.dt
 
     def adopt_periods(self, commands: FloatArray, last: PeriodArrays) -> None:
         """Take control periods that :func:`period_into` ran on this world's space in a
@@ -815,9 +852,7 @@ class World:
         self._applied = last.applied
         self.time = self._steps * self.dt
 
-    def _period_through_pymunk(
-        self, a: FloatArray
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    def _period_through_pymunk(self, a: FloatArray) -> PeriodArrays:
         """:func:`_direct_period`'s steps with the substeps through ``Space.step`` (while
         pymunk has something of its own to do around a step): the same kernels and
         results."""
@@ -856,7 +891,7 @@ class World:
         if _finish_period(data, self._rows, self.v_max, v_start, self.dt, pos, vel, acc):
             self._write_velocities(vel)
         path[self.substeps] = pos
-        return path, pos, vel, acc, applied
+        return PeriodArrays(path, pos, vel, acc, applied)
 
     def _replay(self) -> None:
         """Recorded people for the control period that starts now: each present one at its

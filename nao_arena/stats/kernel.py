@@ -19,6 +19,8 @@ __all__ = [
     "EV_END",
     "EV_START",
     "EpisodeArrays",
+    "StatsArrays",
+    "liveness_kernel",
     "step_kernel",
     "sweep_pairs",
     "swept_distances",
@@ -203,6 +205,27 @@ class EpisodeArrays(NamedTuple):
     min_sep: FloatArray
     min_ttc: FloatArray
     near_misses: NDArray[np.int64]
+
+
+class StatsArrays(NamedTuple):
+    """What one control period of :class:`~nao_arena.stats.EpisodeStats` reads and
+    updates in place when it runs in compiled code (:func:`nao_arena.period.control_period`):
+    the very arrays of the statistics (N bodies). a_prev (N, 2) m/s^2 the last step's
+    commands (:func:`step_kernel`); episode the step kernel's :class:`EpisodeArrays`;
+    the liveness (:func:`liveness_kernel`): goals (N, 2) m by body, or (0, 2) when not
+    tracked, is_robot (N,), goal_dist (window, N) m the ring of goal distances, window
+    (steps), stuck_progress m, at_goal (N,) bool, time_away (N,) s, stuck_time (N,) s."""
+
+    a_prev: FloatArray
+    episode: EpisodeArrays
+    goals: FloatArray
+    is_robot: NDArray[np.bool_]
+    goal_dist: FloatArray
+    window: int
+    stuck_progress: float
+    at_goal: NDArray[np.bool_]
+    time_away: FloatArray
+    stuck_time: FloatArray
 
 
 @kernel(error_model="numpy")

@@ -16,6 +16,7 @@ from nao_arena.stats.kernel import (
     EV_DEEPER,
     EV_START,
     EpisodeArrays,
+    StatsArrays,
     liveness_kernel,
     step_kernel,
     swept_distances,
@@ -30,7 +31,7 @@ from nao_arena.stats.records import (
     StatsConfig,
 )
 
-__all__ = ["EpisodeStats", "StepCounts"]
+__all__ = ["EpisodeStats", "StepCounts", "StepOutcome"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -49,6 +50,19 @@ class StepCounts(NamedTuple):
     n_prox: int
     deadlock_duration: float
     deadlock_time: float
+
+
+class StepOutcome(NamedTuple):
+    """What the compiled statistics of one control step give back
+    (:func:`nao_arena.period.control_period`): the event rows (code, a, b) and their
+    values of the contacts and proximity episodes (:func:`~nao_arena.stats.kernel.step_kernel`),
+    the open proximity episodes after it, and whether every robot away from its goal
+    is stuck (:func:`~nao_arena.stats.kernel.liveness_kernel`)."""
+
+    codes: NDArray[np.int64]
+    values: FloatArray
+    n_prox: int
+    deadlocked: bool
 
 
 def _c_array(x: ArrayLike, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
@@ -203,6 +217,20 @@ class EpisodeStats:
             self.min_ttc,
             self.near_misses,
         )
+        self.period_arrays = StatsArrays(
+            self._a_prev,
+            self._arrays,
+            NO_GOALS if self._goals is None else self._goals,
+            self.is_robot,
+            self._goal_dist,
+            self._window,
+            float(self.config.stuck_progress),
+            self.at_goal,
+            self.time_away,
+            self.stuck_time,
+        )
+        """The statistics' arrays as a compiled control period takes them
+        (:func:`nao_arena.period.control_period`; the very arrays, updated in place)."""
 
     # ------------------------------------------------------------------ update
 
@@ -264,6 +292,38 @@ class EpisodeStats:
         self.time = t + self.dt
         return started
 
+    @property
+    def compiled_steps(self) -> bool:
+        """Whether a step can run in compiled code whole (:meth:`adopt_step`): a scene
+        without recorded people, whose metrics are Python's."""
+        return self._people is None
+
+    @property
+    def has_last_command(self) -> bool:
+        """Whether a step has been accounted for (the commands of the last are kept)."""
+        return self._has_prev
+
+    @property
+    def open_proximity_episodes(self) -> int:
+        """The proximity episodes open now."""
+        return self._n_prox
+
+    def adopt_step(
+        self, t: float, outcome: StepOutcome, path: FloatArray, velocities_after: FloatArray
+    ) -> list[ContactEvent]:
+        """Take the control step [t, t + dt] (s) whose kernels ran in one compiled call
+        (:func:`nao_arena.period.control_period`; a scene without people): its
+        ``outcome``, the centres ``path`` (S + 1, N, 2) m after each substep (as
+        :meth:`update` gets them) and the velocities (N, 2) m/s at its end. Returns the
+        contacts that started in it, as :meth:`update` does."""
+        self._n_prox = outcome.n_prox
+        started = self._events(t, outcome.codes, outcome.values, path)
+        self._v_prev = velocities_after.copy()
+        self._deadlock(t, outcome.deadlocked)
+        self.steps += 1
+        self.time = t + self.dt
+        return started
+
     def adopt_steps(self, counts: StepCounts, velocities_after: FloatArray) -> None:
         """Take control steps whose kernels ran in a batch (:mod:`nao_arena.vector_step`;
         their contact events were applied one step at a time, :meth:`_events`): their
@@ -293,19 +353,20 @@ class EpisodeStats:
         """Stuck, away-after-arrival and deadlock time of the step that ends at t + dt
         (after the kernel marked new arrivals)."""
         # the distances one window ago are NaN at first (too early: not stuck)
+        live = self.period_arrays
         deadlocked = liveness_kernel(
             self.dt,
             np.ascontiguousarray(p1, dtype=np.float64),
-            NO_GOALS if self._goals is None else self._goals,
+            live.goals,
             goal,
-            self.is_robot,
-            self.reached,
-            self._goal_dist,
-            self.steps % self._window,
-            float(self.config.stuck_progress),
-            self.at_goal,
-            self.time_away,
-            self.stuck_time,
+            live.is_robot,
+            live.episode.reached,
+            live.goal_dist,
+            self.steps % live.window,
+            live.stuck_progress,
+            live.at_goal,
+            live.time_away,
+            live.stuck_time,
         )
         self._deadlock(t, deadlocked)
 
