@@ -22,11 +22,12 @@ costs on top of the rest of the step).
 Where the time goes (:class:`PhaseClock`, mean us per agent-step over the
 same steps): ``sense`` (``Arena.sensing``: neighbour lists within the
 sensing range and the bulk arrays), ``agents`` (from the end of sensing to
-the start of the world step: the agents' decisions and the arena's checks of
+the start of the period: the agents' decisions and the arena's checks of
 them), of which ``act_batch`` (the agent classes' ``act_batch`` calls alone),
-``physics`` (``World.step``: pymunk at its substeps), ``stats``
-(``EpisodeStats.update``: swept contact check, metrics) and ``rest`` (the
-whole step less those four: trajectory hash, arrival check, result).
+``period`` (``Arena._period``: pymunk at its substeps, the arrival check and the
+statistics' swept contact check and metrics, in one compiled call,
+:mod:`nao_arena.period`) and ``rest`` (the whole step less those three: the
+trajectory hash, the result).
 
 Then, for each agent, how its mean cost per agent-step scales with n on the
 dense swaps: the ratio between consecutive sizes and the exponent k of a
@@ -61,7 +62,7 @@ from nao_arena.maps import MapSpec, load_map
 
 #: The phases of an arena step that :class:`PhaseClock` times (``rest`` is the whole
 #: step less these).
-PHASES = ("sense", "agents", "physics", "stats")
+PHASES = ("sense", "agents", "period")
 
 
 class PhaseClock:
@@ -69,17 +70,16 @@ class PhaseClock:
     it is attached (after the arena's last reset: a reset makes new statistics).
 
     Times by wrapping, on this arena's own objects only (nothing else is changed):
-    ``arena.sensing`` (``sense``), ``arena.world.step`` (``physics``; ``agents`` is the
-    time from the end of sensing to its start), ``arena.stats.update`` (``stats``) and
-    the agent classes' ``act_batch`` as the arena calls it (``act_batch``)."""
+    ``arena.sensing`` (``sense``), ``arena._period`` (``period``; ``agents`` is the time
+    from the end of sensing to its start) and the agent classes' ``act_batch`` as the
+    arena calls it (``act_batch``)."""
 
     def __init__(self, arena: Arena) -> None:
         self.sums: dict[str, float] = dict.fromkeys((*PHASES, "act_batch"), 0.0)
         self._sensed = 0.0
         clock = time.perf_counter
         sums = self.sums
-        sensing, world_step = arena.sensing, arena.world.step
-        act_batch, update = arena._act_batch, arena.stats.update
+        sensing, period, act_batch = arena.sensing, arena._period, arena._act_batch
 
         def timed_sensing() -> Any:
             t0 = clock()
@@ -88,11 +88,11 @@ class PhaseClock:
             sums["sense"] += t1 - t0
             return out
 
-        def timed_world_step(accels: Any) -> Any:
+        def timed_period(state: Any, commanded: Any) -> Any:
             t0 = clock()
             sums["agents"] += t0 - self._sensed
-            out = world_step(accels)
-            sums["physics"] += clock() - t0
+            out = period(state, commanded)
+            sums["period"] += clock() - t0
             return out
 
         def timed_act_batch(cls: type, batch: Any, rows: list[int]) -> Any:
@@ -107,16 +107,9 @@ class PhaseClock:
             # the arena's checks run as they are; only the class's act_batch is timed
             return act_batch(SimpleNamespace(act_batch=call), batch, rows)
 
-        def timed_update(*args: Any, **kwargs: Any) -> Any:
-            t0 = clock()
-            out = update(*args, **kwargs)
-            sums["stats"] += clock() - t0
-            return out
-
         arena.sensing = timed_sensing  # type: ignore[method-assign]
-        arena.world.step = timed_world_step  # type: ignore[method-assign]
+        arena._period = timed_period  # type: ignore[method-assign]
         arena._act_batch = timed_act_batch  # type: ignore[method-assign]
-        arena.stats.update = timed_update  # type: ignore[method-assign]
 
 
 def swap_spec(n: int) -> MapSpec:
@@ -223,8 +216,7 @@ def print_rows(rows: list[Row]) -> None:
     header = (
         f"{'scene':36} {'agent':8} {'robots':>6} {'steps':>6} {'ended':>5} "
         f"{'mean us':>9} {'worst us':>9} {'mean/goal':>9} {'worst/goal':>10} | "
-        f"{'sense':>7} {'agents':>7} {'(act_b)':>7} {'physics':>7} {'stats':>7} "
-        f"{'rest':>7}"
+        f"{'sense':>7} {'agents':>7} {'(act_b)':>7} {'period':>7} {'rest':>7}"
     )
     print(header)
     print("-" * len(header))
@@ -234,8 +226,7 @@ def print_rows(rows: list[Row]) -> None:
         ratio_mean = f"{t.mean_us / base.mean_us:9.2f}" if base else f"{'-':>9}"
         ratio_worst = f"{t.worst_us / base.worst_us:10.2f}" if base else f"{'-':>10}"
         phases = " ".join(
-            f"{t.phases[p]:7.1f}"
-            for p in ("sense", "agents", "act_batch", "physics", "stats", "rest")
+            f"{t.phases[p]:7.1f}" for p in ("sense", "agents", "act_batch", "period", "rest")
         )
         print(
             f"{r.scene:36} {r.agent:8} {t.robots:6d} {t.steps:6d} {str(t.ended):>5} "
@@ -251,7 +242,7 @@ def print_scaling(rows: list[Row], sizes: list[int]) -> None:
         print("\nscaling with n: needs at least two --sizes")
         return
     order = sorted(set(sizes))
-    parts = ("whole", "sense", "agents", "act_batch", "physics", "stats")
+    parts = ("whole", "sense", "agents", "act_batch", "period")
     steps = [f"{a}->{b}" for a, b in pairwise(order)]
     print(
         f"\ncost per agent-step against n, dense_swap_perturbed n = "
