@@ -399,3 +399,41 @@ def member_lists(nb_start, nb_index, rows):
         for e in range(start[j + 1] - start[j]):
             index[start[j] + e] = nb_index[lo + e]
     return start, index
+
+
+@kernel
+def wall_lists(pos, grow, reach, walls, half):  # pragma: no cover
+    """The walls within each member's range, as CSR lists (start (k + 1,), index, walls
+    ascending): wall w is member j's when the distance from its centre pos[j] (m) to the
+    wall's segment walls[w] ((2, 2) m) is at most reach[j] + half[w] + grow[j] (m: its
+    sensing range, the wall's half-thickness, its radius and margin). The distance is
+    :func:`nao_arena.geometry.walls.point_segment_distances`' arithmetic, operation by
+    operation (the same bits)."""
+    k = pos.shape[0]
+    n_walls = walls.shape[0]
+    near = np.zeros((k, n_walls), dtype=np.bool_)
+    start = np.zeros(k + 1, dtype=np.int64)
+    for j in range(k):
+        count = 0
+        for w in range(n_walls):
+            ax, ay = walls[w, 0, 0], walls[w, 0, 1]
+            abx, aby = walls[w, 1, 0] - ax, walls[w, 1, 1] - ay
+            ll = max(abx * abx + aby * aby, 1e-300)
+            relx, rely = pos[j, 0] - ax, pos[j, 1] - ay
+            t = relx * abx
+            t += rely * aby
+            t /= ll
+            t = min(max(t, 0.0), 1.0)
+            dist = math.hypot(relx - t * abx, rely - t * aby)
+            if dist <= reach[j] + half[w] + grow[j]:
+                near[j, w] = True
+                count += 1
+        start[j + 1] = start[j] + count
+    index = np.empty(start[k], dtype=np.int64)
+    q = 0
+    for j in range(k):
+        for w in range(n_walls):
+            if near[j, w]:
+                index[q] = w
+                q += 1
+    return start, index

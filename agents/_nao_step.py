@@ -27,7 +27,6 @@ from nao_arena.geometry.kernels import (
     path_excursions,
     sampled_admissible_batch,
 )
-from nao_arena.geometry.walls import point_segment_distances
 from nao_arena.navigation import navigation_grid, route_targets
 from nao_arena.sensing import SensingBatch, is_frozen
 
@@ -53,7 +52,7 @@ from ._nao_columns import (
     AgentColumns,
     StepMemo,
 )
-from ._nao_decide import decide, keep_candidates, member_lists
+from ._nao_decide import decide, keep_candidates, member_lists, wall_lists
 from ._nao_per_robot import Excursions
 
 if TYPE_CHECKING:
@@ -171,13 +170,14 @@ def obstacle_lists(
             nb_start, nb_index, walls, half, wall_start, np.zeros(0, dtype=np.int64)
         )
     # the walls within each member's range: distance <= range + half-thickness + grow
-    grow = own.rad[m] + cols.opt[m, MARGIN]
-    reach = cols.opt[m, RANGE]
-    dist = point_segment_distances(own.pos[m], walls)
-    near = dist <= reach[:, None] + half[None, :] + grow[:, None]
-    member, which = np.nonzero(near)
-    np.cumsum(np.bincount(member, minlength=len(m)), out=wall_start[1:])
-    return ObstacleLists(nb_start, nb_index, walls, half, wall_start, which.astype(np.int64))
+    wall_start, wall_index = wall_lists(
+        np.ascontiguousarray(own.pos[m], dtype=np.float64),
+        own.rad[m] + cols.opt[m, MARGIN],
+        cols.opt[m, RANGE],
+        walls,
+        half,
+    )
+    return ObstacleLists(nb_start, nb_index, walls, half, wall_start, wall_index)
 
 
 def members(arrays: tuple[NDArray[Any], ...], m: NDArray[np.int64]) -> list[NDArray[Any]]:

@@ -20,7 +20,18 @@ from nao_arena.agent import PanelAgent
 from nao_arena.geometry import vo_clearance
 from nao_arena.sensing import Observation
 
-from ._obstacles import observed_discs, preferred_velocity, track_velocity
+from ._obstacles import Discs, observed_discs, preferred_velocity, track_velocity
+
+
+def reachable(discs: Discs, speed: float, horizon: float) -> NDArray[np.bool_]:
+    """Which discs a robot moving at up to ``speed`` m/s could touch within ``horizon`` s:
+    the others stay farther than their radius all along (their centre is farther than
+    (speed + their speed) x horizon + radius, by a margin far above rounding), so their
+    clearance is positive for every candidate and they decide nothing. A disc with a
+    non-finite entry counts as reachable."""
+    dist = np.hypot(*discs.positions.T)
+    reach = (np.hypot(*discs.velocities.T) + speed) * horizon + discs.radii
+    return ~(dist - reach > 1e-9 * (1.0 + dist))
 
 
 class VOAgent:
@@ -61,12 +72,19 @@ class VOAgent:
     def act(self, obs: Observation) -> NDArray[np.float64]:
         pref = preferred_velocity(obs, self.v_pref)
         discs = observed_discs(obs, self.margin, self.sensing_range)
-        if len(discs.radii) == 0:
-            return track_velocity(obs, pref, self.time_constant)
         cand = self.candidates(obs, pref)
+        near = reachable(discs, float(np.max(np.hypot(*cand.T))), float(self.times[-1]))
+        if not near.any():
+            # nothing within reach of any candidate: every one is clear, pref the nearest
+            return track_velocity(obs, pref, self.time_constant)
+        positions, velocities, radii = (
+            discs.positions[near],
+            discs.velocities[near],
+            discs.radii[near],
+        )
         t = self.times[None, :, None]
-        centers = discs.positions[:, None, :] + discs.velocities[:, None, :] * t
-        clear = np.min(np.atleast_2d(vo_clearance(cand, self.times, centers, discs.radii)), axis=1)
+        centers = positions[:, None, :] + velocities[:, None, :] * t
+        clear = np.min(np.atleast_2d(vo_clearance(cand, self.times, centers, radii)), axis=1)
         ok = clear >= 0.0
         if np.any(ok):
             dist = np.hypot(*(cand - pref).T)
