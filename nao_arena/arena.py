@@ -97,7 +97,7 @@ from nao_arena.imperfection import (
 from nao_arena.kernels import watch_compiles
 from nao_arena.maps import MapSpec, RobotSpec
 from nao_arena.occlusion import visible
-from nao_arena.period import GoalTest, PeriodInputs, episode_inputs, run_period, within_goal
+from nao_arena.period import EpisodePeriod, GoalTest, episode_inputs, run_period, within_goal
 from nao_arena.sensing import (
     Observation,
     ReadOnlyRoutes,
@@ -349,7 +349,7 @@ class Arena:
         self.agents: list[Any] = []
         self.stats: EpisodeStats | None = None
         self.state: WorldState | None = None
-        self._period_inputs: PeriodInputs | None = None
+        self._period_inputs: EpisodePeriod | None = None
         """The compiled period's inputs of this episode
         (:func:`~nao_arena.period.episode_inputs`)."""
         self.commanded = np.zeros((self.world.n, 2))

@@ -42,10 +42,11 @@ from nao_arena.world import (
 )
 
 __all__ = [
+    "EpisodePeriod",
     "GoalTest",
-    "episode_inputs",
     "PeriodInputs",
     "control_period",
+    "episode_inputs",
     "period_inputs",
     "run_period",
     "within_goal",
@@ -186,20 +187,36 @@ def control_period(
     return True, codes, values, n_prox, deadlocked
 
 
+class EpisodePeriod(NamedTuple):
+    """An episode's :class:`PeriodInputs` (:func:`episode_inputs`) and the world buffers
+    and statistics they were made from: a reset of the world alone, or other statistics,
+    leave them behind (:func:`run_period` then does nothing)."""
+
+    inputs: PeriodInputs
+    chip: _Chipmunk
+    stats: EpisodeStats
+
+
 def run_period(
     world: World,
     stats: EpisodeStats,
-    inputs: PeriodInputs | None,
+    episode: EpisodePeriod | None,
     commanded: FloatArray,
 ) -> tuple[WorldState, list[ContactEvent]] | None:
     """One control period of ``world`` with the commanded accelerations (N, 2) m/s^2 and
-    the step of its statistics, in one compiled call (:func:`control_period`; ``inputs``:
-    theirs, :func:`period_inputs`): the new state and the contacts that started, as
-    :meth:`~nao_arena.world.World.step` and :meth:`~nao_arena.stats.EpisodeStats.update`
-    give them; None (nothing done) where it does not apply (see the module; ``inputs``
-    None). ValueError for a non-finite command."""
+    the step of its statistics, in one compiled call (:func:`control_period`; their
+    inputs: ``episode``, :func:`episode_inputs`): the new state and the contacts that
+    started, as :meth:`~nao_arena.world.World.step` and
+    :meth:`~nao_arena.stats.EpisodeStats.update` give them; None (nothing done) where it
+    does not apply (see the module; ``episode`` None, or made for another world state or
+    other statistics). ValueError for a non-finite command."""
     direct = world.direct_period()
-    if direct is None or inputs is None:
+    if (
+        direct is None
+        or episode is None
+        or episode.stats is not stats
+        or episode.chip is not world.compiled_space()[0]
+    ):
         return None
     n = world.n
     period = PeriodArrays(
@@ -213,7 +230,7 @@ def run_period(
     seen_path.flags.writeable = False
     t = world.time
     finite, codes, values, n_prox, deadlocked = control_period(
-        inputs,
+        episode.inputs,
         direct.start,
         direct.v_start,
         commanded,
@@ -233,10 +250,10 @@ def run_period(
     return state, contacts
 
 
-def episode_inputs(world: World, stats: EpisodeStats, goal_test: GoalTest) -> PeriodInputs | None:
-    """The :class:`PeriodInputs` of a world and its statistics after a reset, or None when
-    the statistics' steps cannot run compiled whole (recorded people's metrics)."""
+def episode_inputs(world: World, stats: EpisodeStats, goal_test: GoalTest) -> EpisodePeriod | None:
+    """The :class:`EpisodePeriod` of a world and its statistics after a reset, or None
+    when the statistics' steps cannot run compiled whole (recorded people's metrics)."""
     if not stats.compiled_steps:
         return None
     chip, bodies = world.compiled_space()
-    return period_inputs(chip, bodies, goal_test, stats.period_arrays)
+    return EpisodePeriod(period_inputs(chip, bodies, goal_test, stats.period_arrays), chip, stats)

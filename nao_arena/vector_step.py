@@ -395,11 +395,11 @@ def copy_arrays(env: NaoArenaParallelEnv) -> CopyArrays | None:
     )
     if not plain:
         return None
-    inputs = arena._period_inputs
-    if inputs is None:
+    episode = arena._period_inputs
+    if episode is None:
         return None
     return CopyArrays(
-        period=inputs,
+        period=episode.inputs,
         radii=world.radii,
         reached=stats.reached,
         agent_bodies=env._bodies,

@@ -127,7 +127,8 @@ def test_a_copied_arena_steps_on_as_the_original(how: str) -> None:
     for _ in range(10):
         original.step()
     twin = copy.deepcopy(original) if how == "deepcopy" else pickle.loads(pickle.dumps(original))
-    assert twin._period_inputs is not None and twin._period_inputs is not original._period_inputs
+    assert twin._period_inputs is not None and original._period_inputs is not None
+    assert twin._period_inputs.inputs is not original._period_inputs.inputs
     before = original.state.positions.copy()
     for _ in range(30):
         twin.step()
@@ -142,7 +143,33 @@ def test_the_manifest_names_the_compiled_inputs_type() -> None:
 
     arena = Arena(load_map("crowd", n=3, lo=-4.0, hi=4.0, seed=1), ArenaOptions(agent="goal"))
     arena.reset(seed=0)
-    numba_type = typeof(arena._period_inputs)
+    assert arena._period_inputs is not None
+    numba_type = typeof(arena._period_inputs.inputs)
     text = type_name(numba_type)
     assert text.startswith('struct_ref("nao_arena.period:PeriodInputsType", (("chip", ')
     assert parse_type(text) == numba_type
+
+
+def test_inputs_left_behind_by_a_reset_of_the_world_alone_are_not_used(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A reset of the world alone makes a new chipmunk space (the inputs hold the old
+    one's address): the arena's steps then go the other way, and nothing crashes."""
+    arena = Arena(load_map("crowd", n=6, lo=-4.0, hi=4.0, seed=1), ArenaOptions(agent="goal"))
+    arena.reset(seed=0)
+    for _ in range(3):
+        arena.step()
+    compiled = period_module.control_period
+    calls = [0]
+
+    def counted(*args: object) -> object:
+        calls[0] += 1
+        return compiled(*args)
+
+    monkeypatch.setattr(period_module, "control_period", counted)
+    arena.step()
+    assert calls[0] == 1
+    arena.world.reset()
+    for _ in range(5):
+        arena.step()
+    assert calls[0] == 1 and arena.world.time == pytest.approx(0.5)
