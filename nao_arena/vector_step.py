@@ -515,7 +515,7 @@ class CopyBatch:
         self.load(k)
 
     def _set(self, k: int, arrays: CopyArrays) -> None:
-        """:func:`set_copy` of entry k, without numba's typing of the ~45 arrays of
+        """:func:`set_copy` of entry k, without numba's typing of the arrays of
         ``arrays`` on every call (half a millisecond): the compiled version is called
         directly when ``arrays`` has the layout (:func:`_layout`) of an entry set before,
         whose numba type it then has."""
@@ -539,8 +539,8 @@ class CopyBatch:
         s = self.state
         s.world_steps[k] = world._steps
         s.stats_steps[k] = stats.steps
-        s.n_prox[k] = stats._n_prox
-        s.has_prev[k] = stats._has_prev
+        s.n_prox[k] = stats.open_proximity_episodes
+        s.has_prev[k] = stats.has_last_command
         s.all_alive[k] = env._all_alive and bool(env.agents)
         s.deadlock_duration[k] = stats.deadlock_duration
         s.deadlock_time[k] = stats.deadlock_time
