@@ -62,7 +62,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from nao_arena.maps import MapError, available_maps
     from nao_arena.trials import make_map, split_agent
     from nao_arena.watchdog import EpisodeTimeout
-    from nao_arena.world import World
 
     record: Any = None
     if problem := _bad_number(args) or _render_problem(args):
@@ -123,7 +122,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     # anyway), here, so that the episode's process starts warm
     compile_parts(parts)
     preload(parts)
-    World.warm_up()
+    Arena.warm_up()
 
     def episode(_: None) -> tuple[int, str, str]:
         if sys.stdout is sys.__stdout__ and sys.stderr is sys.__stderr__:

@@ -95,7 +95,7 @@ from nao_arena.imperfection import (
     with_neighbour_noise,
 )
 from nao_arena.kernels import watch_compiles
-from nao_arena.maps import MapSpec, RobotSpec
+from nao_arena.maps import MapSpec, RobotSpec, map_from_dict
 from nao_arena.occlusion import visible
 from nao_arena.period import EpisodePeriod, GoalTest, episode_inputs, run_period, within_goal
 from nao_arena.sensing import (
@@ -418,6 +418,15 @@ class Arena:
             self._hash_state(replica.state())
             for accels in self.world.commands:
                 self._hash_state(replica.step(accels))
+
+    @staticmethod
+    def warm_up() -> None:
+        """Load (or, the first time, compile) the kernels of a control period's physics
+        and statistics: the first period's, through pymunk's step, and the later ones',
+        in one compiled call (:mod:`nao_arena.period`), by stepping an arena of one robot
+        twice with external actions (no agent acts), once per process. The episodes of
+        this process, and those of the processes forked from it, then start warm."""
+        _step_a_small_arena()
 
     # ------------------------------------------------------------------ episode
 
@@ -925,3 +934,19 @@ class Arena:
         return dataclasses.replace(
             self.stats.summary(), trajectory_hash=self._trajectory.hexdigest()
         )
+
+
+@functools.cache
+def _step_a_small_arena() -> None:
+    """:meth:`Arena.warm_up`, done once per process."""
+    spec = map_from_dict(
+        {
+            "name": "warm-up",
+            "bounds": {"min": [-1.0, -1.0], "max": [1.0, 1.0]},
+            "robots": [{"start": [0.0, 0.0], "goal": [0.5, 0.0]}],
+        }
+    )
+    arena = Arena(spec, ArenaOptions(agent="goal"))
+    arena.reset(seed=0)
+    for _ in range(2):
+        arena.step_robots(np.zeros(1, dtype=np.intp), np.zeros((1, 2)))

@@ -53,7 +53,6 @@ differently wherever a body has two contacts at once.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Any, NamedTuple, cast
 
@@ -66,7 +65,7 @@ from numba.extending import intrinsic
 from numpy.typing import ArrayLike, NDArray
 
 from nao_arena.jit import inner_kernel, kernel
-from nao_arena.maps import MapSpec, PolygonWall, SegmentWall, map_from_dict
+from nao_arena.maps import MapSpec, PolygonWall, SegmentWall
 from nao_arena.motion import (
     clip_accelerations,
     clip_norm,
@@ -350,21 +349,6 @@ class _BatchIO:
         self._each(space, self.substeps + _WRITE_VELOCITIES, _SET_BODY)
 
 
-@functools.cache
-def _step_a_small_world() -> None:
-    """:meth:`World.warm_up`, done once per process."""
-    spec = map_from_dict(
-        {
-            "name": "warm-up",
-            "bounds": {"min": [-1.0, -1.0], "max": [1.0, 1.0]},
-            "robots": [{"start": [0.0, 0.0], "goal": [0.5, 0.0]}],
-        }
-    )
-    world = World(spec)
-    world.step(np.zeros((1, 2)))
-    world.step(np.zeros((1, 2)))  # the compiled path, once pymunk is idle
-
-
 class _Bodies(NamedTuple):
     """What the compiled period reads of the bodies, map order: a_max (N,) m/s^2, v_max
     (N,) m/s, masses (N,) kg, the batch row of each (N,), the control period dt (s)."""
@@ -594,14 +578,6 @@ class World:
         self._walls = spec.wall_segments()
         self._log = np.empty((0, self.n, 2))
         self.reset()
-
-    @staticmethod
-    def warm_up() -> None:
-        """Load (or, the first time, compile) the kernel that runs a control period in
-        chipmunk (:func:`_direct_period`) by stepping a world of one body (once per
-        process): the episodes of this process, and those of the processes forked from
-        it, then start warm."""
-        _step_a_small_world()
 
     def __getstate__(self) -> dict[str, object]:
         """The map and the commands since the last reset (the space and the batch

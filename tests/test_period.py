@@ -7,6 +7,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import pickle
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -173,3 +175,18 @@ def test_inputs_left_behind_by_a_reset_of_the_world_alone_are_not_used(
     for _ in range(5):
         arena.step()
     assert calls[0] == 1 and arena.world.time == pytest.approx(0.5)
+
+
+def test_warm_up_loads_the_period_kernels_before_any_episode() -> None:
+    code = (
+        "from nao_arena.arena import Arena\n"
+        "from nao_arena.period import control_period\n"
+        "from nao_arena.world import _plan_period\n"
+        "assert not control_period.signatures and not _plan_period.signatures\n"
+        "Arena.warm_up()\n"
+        "assert len(control_period.signatures) == 1 and len(_plan_period.signatures) == 1\n"
+        "Arena.warm_up()  # once per process\n"
+        "assert len(control_period.signatures) == 1\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr

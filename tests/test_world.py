@@ -550,16 +550,3 @@ def test_resets_do_not_leak_memory() -> None:
         cwd=os.path.dirname(os.path.abspath(__file__)),
     )
     assert float(res.stdout) < 2.0
-
-
-def test_warm_up_loads_the_substeps_kernel_before_any_episode() -> None:
-    code = (
-        "from nao_arena.world import World, _direct_period\n"
-        "assert not _direct_period.signatures\n"
-        "World.warm_up()\n"
-        "assert len(_direct_period.signatures) == 1\n"
-        "World.warm_up()  # once per process\n"
-        "assert len(_direct_period.signatures) == 1\n"
-    )
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr

@@ -16,7 +16,6 @@ from nao_arena.isolation import run_isolated
 from nao_arena.kernels import parts_for_agents, preload
 from nao_arena.trials.config import EpisodeTask, make_map
 from nao_arena.watchdog import wall_clock_budget
-from nao_arena.world import World
 
 __all__ = [
     "FORMAT",
@@ -112,7 +111,7 @@ def _warm_up(task: EpisodeTask) -> None:
     """Load the kernels of the task's agent into this process (once per agent), so that
     the episode's process starts warm."""
     preload(parts_for_agents([task.agent_ref or task.agent]))
-    World.warm_up()
+    Arena.warm_up()
 
 
 def _compute_here(task: EpisodeTask) -> dict[str, Any]:
