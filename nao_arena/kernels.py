@@ -625,6 +625,7 @@ def compile_ahead(
     after each. Kernels already cached are only loaded (milliseconds). Progress (at
     most every :data:`PROGRESS_INTERVAL` s) and the summary
     (:meth:`CompileReport.summary`) are logged on :data:`LOG` (INFO)."""
+    parts = list(parts)
     manifest = load_manifest() if manifest is None else manifest
     kernels = manifest.for_parts(parts)
     jobs = max(1, jobs or os.cpu_count() or 1)
@@ -634,7 +635,10 @@ def compile_ahead(
     failed: dict[str, str] = {}
     done = 0
     total = len(kernels)
-    LOG.info("compiling %d kernels in %d processes ...", total, jobs)
+    if missing_kernels(parts, manifest):
+        LOG.info("compiling %d kernels in %d processes ...", total, jobs)
+    else:  # nao-arena compile, with every kernel cached: each is loaded, compiled if stale
+        LOG.info("checking the %d cached kernels in %d processes ...", total, jobs)
     progress = _AheadProgress(started)
     cpu = 0.0
     context = get_context("spawn")  # no state of this process's numba is shared

@@ -243,6 +243,13 @@ def test_compile_ahead_fills_the_cache_callees_first(tmp_path, monkeypatch, capl
     assert logged[1].endswith(" s (last: ahead_kernels:inner)")
     assert logged[2] == report.summary(" (cached for later runs)") and len(logged) == 3
     assert missing_kernels(["core"], manifest) == []
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="nao_arena.kernels"):
+        again = compile_ahead(iter(["core"]), jobs=2, manifest=manifest)
+    # every kernel cached: they are checked, and the summary says none compiled
+    assert again.kernels == 2 and not again.failed
+    logged = [r.getMessage() for r in caplog.records]
+    assert logged[0] == "checking the 2 cached kernels in 2 processes ..."
     probe = textwrap.dedent("""
         import sys
         from numba.core import event
