@@ -26,9 +26,10 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
+from bench_args import OneLineParser, positive
 
 import nao_arena.arena as arena_module
 from nao_arena.arena import Arena, ArenaOptions
@@ -49,24 +50,8 @@ class StillAgent:
         return np.zeros((len(rows), 2))
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        """One line on stderr (no usage), exit status 2."""
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
-    return value
-
-
 def _sizes(text: str) -> list[int]:
-    sizes = [_positive(s) for s in text.split(",") if s.strip()]
+    sizes = [positive(s) for s in text.split(",") if s.strip()]
     if not sizes:
         raise argparse.ArgumentTypeError(f"expected robot counts >= 1, got {text!r}")
     return sizes
@@ -117,10 +102,10 @@ def _timed(n: int, steps: int, one_by_one: bool) -> tuple[float, float, float, s
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = _Parser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=_sizes, default=[2, 10, 100], help="robot counts")
-    parser.add_argument("--steps", type=_positive, default=300)
-    parser.add_argument("--repeats", type=_positive, default=5)
+    parser.add_argument("--steps", type=positive, default=300)
+    parser.add_argument("--repeats", type=positive, default=5)
     args = parser.parse_args(argv)
     sizes = args.sizes
     print(

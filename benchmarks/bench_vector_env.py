@@ -39,7 +39,6 @@ Run: ``python benchmarks/bench_vector_env.py [--copies 1 4 16 64] [--sb3-copies 
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import json
 import os
@@ -49,9 +48,10 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
+from bench_args import OneLineParser, non_negative, positive
 
 from nao_arena.atomic import atomic_write_text
 from nao_arena.envs import load
@@ -84,32 +84,6 @@ class Row:
     agent_steps_per_s: float
     x_bare: float
     x_vmas: float | None
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        """One line on stderr (no usage), exit status 2."""
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
-    return value
-
-
-def non_negative(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
 
 
 def uniform(seed: int, shape: tuple[int, ...]) -> np.ndarray:
@@ -185,7 +159,7 @@ def time_runner(runner: Runner, steps: int) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = _Parser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(description=__doc__.splitlines()[0])
     parser.add_argument(
         "--copies", type=positive, nargs="+", default=[1, 4, 16, 64], help="K of the vector env"
     )

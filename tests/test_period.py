@@ -33,6 +33,19 @@ def _same_summary(a: Arena, b: Arena) -> bool:
     return same(dataclasses.asdict(a.summary()), dataclasses.asdict(b.summary()))
 
 
+def count_compiled_periods(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """From now on, calls[0] counts the compiled periods (:func:`control_period`)."""
+    compiled = period_module.control_period
+    calls = [0]
+
+    def counted(*args: object) -> object:
+        calls[0] += 1
+        return compiled(*args)
+
+    monkeypatch.setattr(period_module, "control_period", counted)
+    return calls
+
+
 def _episode(name: str, params: dict, agent: str, steps: int) -> tuple[list, Arena]:
     """Each step's (time, positions, velocities, commanded, contacts) and the arena."""
     arena = Arena(load_map(name, **params), ArenaOptions(agent=agent))
@@ -50,18 +63,10 @@ def _episode(name: str, params: dict, agent: str, steps: int) -> tuple[list, Are
 def test_the_compiled_period_is_the_step_and_the_update_bit_for_bit(
     name: str, params: dict, agent: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    compiled = period_module.control_period
-    calls = [0]
-
-    def counted(*args: object) -> object:
-        calls[0] += 1
-        return compiled(*args)
-
-    monkeypatch.setattr(period_module, "control_period", counted)
+    calls = count_compiled_periods(monkeypatch)
     fast, fast_arena = _episode(name, params, agent, 150)
     # every period ran compiled but the first (pymunk checks its new bodies then)
     assert calls[0] == len(fast) - 1
-    monkeypatch.setattr(period_module, "run_period", lambda *args: None)
     import nao_arena.arena as arena_module
 
     monkeypatch.setattr(arena_module, "run_period", lambda *args: None)
@@ -161,14 +166,7 @@ def test_inputs_left_behind_by_a_reset_of_the_world_alone_are_not_used(
     arena.reset(seed=0)
     for _ in range(3):
         arena.step()
-    compiled = period_module.control_period
-    calls = [0]
-
-    def counted(*args: object) -> object:
-        calls[0] += 1
-        return compiled(*args)
-
-    monkeypatch.setattr(period_module, "control_period", counted)
+    calls = count_compiled_periods(monkeypatch)
     arena.step()
     assert calls[0] == 1
     arena.world.reset()

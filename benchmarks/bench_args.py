@@ -1,0 +1,34 @@
+"""Command-line arguments of the benchmark scripts: a parser whose errors are one line
+on stderr and exit status 2 (no usage), and integer arguments checked by range."""
+
+from __future__ import annotations
+
+import argparse
+from typing import NoReturn
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` whose errors are one line (no usage), exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _at_least(text: str, low: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = low - 1
+    if value < low:
+        raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {text!r}")
+    return value
+
+
+def positive(text: str) -> int:
+    """An integer >= 1 (argparse type)."""
+    return _at_least(text, 1)
+
+
+def non_negative(text: str) -> int:
+    """An integer >= 0 (argparse type)."""
+    return _at_least(text, 0)
