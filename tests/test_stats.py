@@ -572,7 +572,7 @@ class ReferenceStats:
 
             contacts(i, w, sep, sep_end, True, make_wall)
         s._v_prev = v1.copy()
-        s._liveness(t, p1, goal)  # not the kernel's: tested on its own
+        s._deadlock(t, s._stuck(p1, goal))  # not the kernel's: tested on its own
         s.steps += 1
         s.time = t + dt
         started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))

@@ -271,7 +271,7 @@ class EpisodeStats:
         acc = _c_array(commanded_accels, np.float64, (n, 2))
         goal = _c_array(goal_reached, np.bool_, (n,))
         t = float(t)
-        codes, vals, self._n_prox = step_kernel(
+        codes, vals, n_prox = step_kernel(
             t,
             self.dt,
             path,
@@ -283,14 +283,10 @@ class EpisodeStats:
             self._n_prox,
             self._arrays,
         )
-        started = self._events(t, codes, vals, path)
-        self._v_prev = v1.copy()
         if self._people is not None:
             self._people.update(path)
-        self._liveness(t, path[-1], goal)
-        self.steps += 1
-        self.time = t + self.dt
-        return started
+        outcome = StepOutcome(codes, vals, n_prox, self._stuck(path[-1], goal))
+        return self.adopt_step(t, outcome, path, v1)
 
     @property
     def compiled_steps(self) -> bool:
@@ -311,11 +307,11 @@ class EpisodeStats:
     def adopt_step(
         self, t: float, outcome: StepOutcome, path: FloatArray, velocities_after: FloatArray
     ) -> list[ContactEvent]:
-        """Take the control step [t, t + dt] (s) whose kernels ran in one compiled call
-        (:func:`nao_arena.period.control_period`; a scene without people): its
-        ``outcome``, the centres ``path`` (S + 1, N, 2) m after each substep (as
-        :meth:`update` gets them) and the velocities (N, 2) m/s at its end. Returns the
-        contacts that started in it, as :meth:`update` does."""
+        """Take the control step [t, t + dt] (s) whose kernels have run (in one compiled
+        call, :func:`nao_arena.period.control_period`, in a scene without people; or
+        :meth:`update`'s, which updates the people's metrics first): its ``outcome``,
+        the centres ``path`` (S + 1, N, 2) m after each substep and the velocities
+        (N, 2) m/s at its end. Returns the contacts that started in it."""
         self._n_prox = outcome.n_prox
         started = self._events(t, outcome.codes, outcome.values, path)
         self._v_prev = velocities_after.copy()
@@ -349,9 +345,10 @@ class EpisodeStats:
             started.sort(key=lambda e: (e.time, e.a, e.b, e.kind_b))
         return started
 
-    def _liveness(self, t: float, p1: FloatArray, goal: NDArray[np.bool_]) -> None:
-        """Stuck, away-after-arrival and deadlock time of the step that ends at t + dt
-        (after the kernel marked new arrivals)."""
+    def _stuck(self, p1: FloatArray, goal: NDArray[np.bool_]) -> bool:
+        """Stuck and away-after-arrival time of the step that ends with the bodies at p1
+        (N, 2) m (after the kernel marked new arrivals); whether every robot away from
+        its goal is stuck (:meth:`_deadlock` counts it)."""
         # the distances one window ago are NaN at first (too early: not stuck)
         live = self.period_arrays
         deadlocked = liveness_kernel(
@@ -368,7 +365,7 @@ class EpisodeStats:
             live.time_away,
             live.stuck_time,
         )
-        self._deadlock(t, deadlocked)
+        return bool(deadlocked)
 
     def _deadlock(self, t: float, deadlocked: bool) -> None:
         """The deadlock time of the step that ends at t + dt, when every robot away from
