@@ -29,13 +29,14 @@ from nao_arena.geometry.kernels import (
     Predictions,
     Robots,
     WorldWalls,
+    path_excursions,
     sampled_admissible_batch,
 )
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.navigation import segment_clear
 from nao_arena.stopping import Group, Knowledge, commit_plans_kernel
 
-from ._nao_bundles import DecidingRobots, Decisions
+from ._nao_bundles import DecidingRobots, Decisions, GroupPaths, ObstacleLists, RobotRows
 from ._nao_columns import (
     AROUND,
     CUR_X,
@@ -47,7 +48,10 @@ from ._nao_columns import (
     MARGIN,
     NAVIGATE,
     NO_SELECTION,
+    RANGE,
     REPLAN,
+    ROW,
+    SEEN,
     STATUS,
     STOPPING,
     V_PREF,
@@ -62,17 +66,24 @@ from ._nao_decide import (
     apply_decisions,
     decide_batch,
     keep_candidates,
+    member_lists,
+    wall_lists,
 )
 from ._nao_liveness import held_by_standing_kernel
 from .goal import APPROACH_GAIN, Headings, goal_seeking_kernel
 
 __all__ = [
     "BRAKING",
+    "DECIDED",
+    "PREPARED",
+    "SETTLED",
     "TIME_CONSTANT",
+    "decide_rows",
     "desired_rows",
     "own_rows",
     "prepare_rows",
     "settle_members",
+    "settle_rows",
     "yield_rows",
 ]
 
@@ -448,3 +459,110 @@ def yield_rows(
             commit_row(real, whole, i, braking[j, 0], braking[j, 1], np.int64(YIELDED), np.int64(0))
             out[i, 0] = braking[j, 0]
             out[i, 1] = braking[j, 1]
+
+
+#: how far :func:`decide_rows` (or :func:`settle_rows`) took a batch's step: the start
+#: only (:func:`prepare_rows`), the decisions of the compiled calls too
+#: (:func:`settle_members`), or all of it
+PREPARED, SETTLED, DECIDED = 0, 1, 2
+
+
+@kernel
+def decide_rows(inputs, wall_segments, dt, table, group):  # pragma: no cover
+    """A batch's step for agents that share one predictor and regular time grid, as far
+    as compiled calls take it, in one call: :func:`prepare_rows`, then, when every row
+    decides this step and no detour turned, every goal is known and in sight
+    (``direct``; else the caller finds the heading targets), :func:`settle_rows` of the
+    robots' rows toward the goals (``group``:
+    :class:`~nao_arena.agents._nao_bundles.OneGroup`).
+
+    Returns (stage, prepared, rest, out, excursion, finite): stage PREPARED, SETTLED or
+    DECIDED; prepared, what :func:`prepare_rows` returns (None at DECIDED: nothing of it
+    is left to do); rest, what :func:`settle_rows` returns last (None but at SETTLED);
+    out, the accelerations (n, 2) m/s^2 decided so far; excursion and finite, those
+    of the predictions (empty at PREPARED).
+    """
+    prepared = prepare_rows(inputs, wall_segments, dt, table)
+    pos, vel, rad, a_max, v_max, _, _, n_live, out, _, turns, traffic_near, desired, direct = (
+        prepared
+    )
+    n = pos.shape[0]
+    if n_live < n or turns or not direct:
+        return PREPARED, prepared, None, out, np.zeros(0), np.zeros(0, dtype=np.bool_)
+    stage, excursion, finite, rest = settle_rows(
+        inputs,
+        wall_segments,
+        dt,
+        table,
+        group,
+        RobotRows(pos, vel, rad, a_max, v_max, traffic_near),
+        desired,
+        out,
+    )
+    if stage == DECIDED:
+        return stage, None, None, out, excursion, finite
+    return stage, prepared, rest, out, excursion, finite
+
+
+@kernel
+def settle_rows(inputs, wall_segments, dt, table, group, own, desired, out):  # pragma: no cover
+    """The rest of a batch's step after :func:`prepare_rows` (``inputs``, ``wall_segments``,
+    ``dt``, ``table`` as there) when every row decides and the agents share one predictor
+    and regular time grid: the obstacle lists of every row
+    (:func:`~nao_arena.agents._nao_decide.member_lists`,
+    :func:`~nao_arena.agents._nao_decide.wall_lists` within each robot's sensing range),
+    then :func:`settle_members` against the predictions of ``group``
+    (:class:`~nao_arena.agents._nao_bundles.OneGroup`) toward the desired accelerations
+    (n, 2) m/s^2 of the robots ``own``
+    (:class:`~nao_arena.agents._nao_bundles.RobotRows`), into ``out`` (n, 2) m/s^2;
+    then, when every row is settled and the group may ``finish``, :func:`yield_rows`.
+    Each row's SEEN and ROW columns point at the predictions (view 0, its batch row).
+
+    Returns (stage, excursion, finite, rest): stage SETTLED or DECIDED; the excursions
+    and finiteness of pred (:func:`~nao_arena.geometry.kernels.path_excursions`); at
+    SETTLED, rest: what the caller still needs (None at DECIDED): the rows' obstacle
+    lists (:class:`~nao_arena.agents._nao_bundles.ObstacleLists`), what
+    :func:`settle_members` returns of the rows (status, settled, how many are left) and
+    their current accelerations (m/s^2) before it.
+    """
+    walls, wall_half = wall_segments
+    real, whole, opt = table
+    times, pred, settings, know, substeps, margin, finish = group
+    pos, rad = own.pos, own.rad
+    n = pos.shape[0]
+    excursion, finite = path_excursions(pred)
+    rows = inputs.rows
+    for i in range(n):
+        whole[i, SEEN] = 0
+        whole[i, ROW] = rows[i]
+    nb_start, nb_index = member_lists(inputs.nb_start, inputs.nb_index, rows)
+    wall_start = np.zeros(n + 1, dtype=np.int64)
+    wall_index = np.zeros(0, dtype=np.int64)
+    if walls.shape[0]:
+        grow = np.empty(n)
+        reach = np.empty(n)
+        for i in range(n):
+            grow[i] = rad[i] + opt[i, MARGIN]
+            reach[i] = opt[i, RANGE]
+        wall_start, wall_index = wall_lists(pos, grow, reach, walls, wall_half)
+    lists = ObstacleLists(nb_start, nb_index, walls, wall_half, wall_start, wall_index)
+    current = out.copy()
+    status, _, _, _, settled, left = settle_members(
+        np.arange(n),
+        GroupPaths(times, pred, excursion, finite),
+        lists,
+        inputs.radii,
+        own,
+        current,
+        desired,
+        dt,
+        settings,
+        table,
+        out,
+    )
+    if left or not finish:
+        return SETTLED, excursion, finite, (lists, status, settled, left, current)
+    yield_rows(
+        own, out, np.zeros(n, dtype=np.bool_), dt, substeps, margin, wall_segments, know, table
+    )
+    return DECIDED, excursion, finite, None

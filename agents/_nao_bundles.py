@@ -18,11 +18,14 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.stopping import Knowledge
+
 __all__ = [
     "AgentTable",
     "Decisions",
     "DecidingRobots",
     "ObstacleLists",
+    "OneGroup",
     "OwnInputs",
     "GroupPaths",
     "RobotRows",
@@ -146,3 +149,22 @@ class Decisions(NamedTuple):
     kind: NDArray[np.int64]
     accel: NDArray[np.float64]
     tested: NDArray[np.int64]
+
+
+class OneGroup(NamedTuple):
+    """What :func:`~nao_arena.agents._nao_batch.decide_rows` and
+    :func:`~nao_arena.agents._nao_batch.settle_rows` take of a batch whose agents share
+    one predictor and regular time grid, besides the robots' rows: the grid times (T,) s
+    (from 0, increasing), every body's predicted centres pred (B, T, 2) m, the
+    :class:`SelectionSettings` of the rows; what the stopping-plan rule takes (``know``,
+    :class:`~nao_arena.stopping.Knowledge`; the world's ``substeps``; the plans'
+    ``margin`` m); and ``finish``: whether no robot's decision is to be made robust
+    in Python (the rule may then run in the same call)."""
+
+    times: NDArray[np.float64]
+    pred: NDArray[np.float64]
+    settings: SelectionSettings
+    know: Knowledge
+    substeps: int
+    margin: float
+    finish: bool

@@ -108,7 +108,17 @@ from nao_arena.stopping import NOISE_SIGMAS
 from . import _nao_columns as col
 from . import _nao_per_robot as per_robot
 from ._kernel_inputs import wall_segments
-from ._nao_batch import prepare_rows, settle_members, yield_rows
+from ._nao_batch import (
+    DECIDED,
+    PREPARED,
+    SETTLED,
+    decide_rows,
+    prepare_rows,
+    settle_members,
+    settle_rows,
+    yield_rows,
+)
+from ._nao_bundles import OneGroup
 from ._nao_columns import (
     AGE,
     AROUND,
@@ -150,6 +160,7 @@ from ._nao_knowledge import knowledge
 from ._nao_latency import CommandLog, compensated
 from ._nao_step import (
     Decisions,
+    GroupView,
     RobotRows,
     decide_members,
     desired_accels,
@@ -609,8 +620,10 @@ def _act_rows(
     """:meth:`NAOAgent.act_batch` of agents that act as :class:`NAOAgent` does: the
     accelerations (n, 2) m/s^2 and, by agent, the exceptions of the robots whose step
     raised (their rows of the accelerations are meaningless). The common work runs in
-    the compiled calls of :mod:`~nao_arena.agents._nao_batch`; only what they leave
-    undecided runs robot by robot here."""
+    the compiled calls of :mod:`~nao_arena.agents._nao_batch`, in one
+    (:func:`~nao_arena.agents._nao_batch.decide_rows`) when every agent re-plans and
+    they share one predictor and regular time grid; only what they leave undecided runs
+    robot by robot here."""
     logs = None
     know = knowledge(batch, rows_a, agents[0].noise_sigmas if agents else NOISE_SIGMAS)
     if batch.latency > 0.0:  # bring what was sensed batch.age s ago up to now
@@ -619,6 +632,35 @@ def _act_rows(
     cols = columns_of(agents)
     errors: dict[int, Exception] = {}
     walls = wall_segments(batch)
+    inputs = own_inputs(batch, rows_a, cols.memo)
+    dt = float(batch.dt)
+    shared = _shared_predictor(agents, cols)
+    first: NDArray[np.float64] | Exception | None = None
+    if shared is not None:
+        try:
+            first = predictions(shared, batch)
+        except Exception as exc:  # noqa: BLE001 - the agents' failure, reported below
+            first = exc
+    stage = PREPARED
+    if isinstance(first, np.ndarray):
+        assert shared is not None
+        one = OneGroup(
+            np.ascontiguousarray(shared.times, dtype=np.float64),
+            first,
+            selection_settings(inputs.a_max[inputs.bodies[inputs.rows]], cols.memo),
+            know,
+            int(batch.substeps),
+            PLAN_MARGIN,
+            all(ag.uncertainty_growth <= 0.0 for ag in agents),
+        )
+        stage, prepared, rest, out, excursion, finite = decide_rows(
+            inputs, walls, dt, cols.table, one
+        )
+        if stage == DECIDED:
+            cols.seen = [(batch, first, (excursion, finite))]
+            return _commands(agents, batch, logs, out), errors
+    else:
+        prepared = prepare_rows(inputs, walls, dt, cols.table)
     (
         pos,
         vel,
@@ -634,56 +676,79 @@ def _act_rows(
         traffic_near,
         desired,
         direct,
-    ) = prepare_rows(own_inputs(batch, rows_a, cols.memo), walls, float(batch.dt), cols.table)
-    if not n_live:
-        _log_commands(logs, batch.time, out)
-        return _through_lag(agents, out, batch), errors  # holds keep their acceleration
-    if turns:
-        # liveness: crawling away from the goal turns the detour (angles drawn here)
-        for i in np.flatnonzero(turn).tolist():
-            agents[i]._turn_detour()
-    if turns or not direct:
-        # a turned detour, a goal missing or a wall in the way: the targets in Python
-        desired = desired_accels(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
-    current = out.copy()
+    ) = prepared
     own = RobotRows(pos, vel, rad, a_max, v_max, traffic_near)
-    cols.seen = []
-    # predictions: once per (predictor, time grid) for every body
-    for group in cols.grid_groups(agents):
-        m = group if n_live == len(live) else group[live[group]]
-        if not len(m):
-            continue
-        ag0 = agents[int(m[0])]
-        try:
-            pred = predictions(ag0, batch)
-        except Exception as exc:  # noqa: BLE001 - the agents' failure
-            for i in m.tolist():
-                errors[i] = exc
-            continue
-        view = group_view(m, ag0, cols, batch, rows_a, own, pred, walls)
-        if view.lists is None:
-            # an irregular time grid: the keep test's first part only, the rest below
-            status = keep_current(view, cols, batch.radii, own, current, desired, cols.holds(m))
-            left = len(m)
-            settled = np.zeros(len(m), dtype=bool)
-        else:
-            status, _, _, _, settled, left = settle_members(
-                m,
-                view.paths,
-                view.lists,
-                np.ascontiguousarray(batch.radii, dtype=np.float64),
-                own,
-                current,
-                desired,
-                float(batch.dt),
-                selection_settings(a_max if len(m) == len(a_max) else a_max[m], cols.memo),
-                cols.table,
-                out,
+    if stage == PREPARED:
+        if not n_live:
+            return _commands(agents, batch, logs, out), errors  # holds keep their acceleration
+        if turns:
+            # liveness: crawling away from the goal turns the detour (angles drawn here)
+            for i in np.flatnonzero(turn).tolist():
+                agents[i]._turn_detour()
+        if turns or not direct:
+            # a turned detour, a goal missing or a wall in the way: the targets in Python
+            desired = desired_accels(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
+        if isinstance(first, np.ndarray) and n_live == len(live):
+            stage, excursion, finite, rest = settle_rows(
+                inputs, walls, dt, cols.table, one, own, desired, out
             )
+            if stage == DECIDED:
+                cols.seen = [(batch, first, (excursion, finite))]
+                return _commands(agents, batch, logs, out), errors
+    if stage == SETTLED:
+        assert shared is not None and isinstance(first, np.ndarray)
+        cols.seen = [(batch, first, (excursion, finite))]
+        lists, status, settled, left, current = rest
         if left:
+            every = np.arange(len(rows_a), dtype=np.int64)
+            view = GroupView(every, shared, first, (excursion, finite), lists)
             per_robot.undecided(
                 agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
+    else:
+        current = out.copy()
+        cols.seen = []
+        # predictions: once per (predictor, time grid) for every body
+        for g, group in enumerate(cols.grid_groups(agents)):
+            m = group if n_live == len(live) else group[live[group]]
+            if not len(m):
+                continue
+            ag0 = agents[int(m[0])]
+            if g == 0 and first is not None:
+                pred = first  # made above, by an agent of the same group
+            else:
+                try:
+                    pred = predictions(ag0, batch)
+                except Exception as exc:  # noqa: BLE001 - the agents' failure
+                    pred = exc
+            if isinstance(pred, Exception):
+                for i in m.tolist():
+                    errors[i] = pred
+                continue
+            view = group_view(m, ag0, cols, batch, rows_a, own, pred, walls)
+            if view.lists is None:
+                # an irregular time grid: the keep test's first part only, the rest below
+                status = keep_current(view, cols, batch.radii, own, current, desired, cols.holds(m))
+                left = len(m)
+                settled = np.zeros(len(m), dtype=bool)
+            else:
+                status, _, _, _, settled, left = settle_members(
+                    m,
+                    view.paths,
+                    view.lists,
+                    inputs.radii,
+                    own,
+                    current,
+                    desired,
+                    dt,
+                    selection_settings(a_max if len(m) == len(a_max) else a_max[m], cols.memo),
+                    cols.table,
+                    out,
+                )
+            if left:
+                per_robot.undecided(
+                    agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
+                )
     per_robot.robust(agents, live, errors, out, own, desired)
     failed = np.zeros(len(rows_a), dtype=np.bool_)
     if errors:
@@ -692,15 +757,37 @@ def _act_rows(
         own,
         out,
         failed,
-        float(batch.dt),
+        dt,
         int(batch.substeps),
         PLAN_MARGIN,
         walls,
         know,
         cols.table,
     )
+    return _commands(agents, batch, logs, out), errors
+
+
+def _commands(
+    agents: Sequence[NAOAgent],
+    batch: SensingBatch,
+    logs: Sequence[CommandLog] | None,
+    out: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The commands (n, 2) m/s^2 that apply the decided accelerations ``out`` (n, 2) m/s^2
+    through the actuation lag (:func:`_through_lag`), each robot's logged
+    (:func:`_log_commands`)."""
     _log_commands(logs, batch.time, out)
-    return _through_lag(agents, out, batch), errors
+    return _through_lag(agents, out, batch)
+
+
+def _shared_predictor(agents: Sequence[NAOAgent], cols: AgentColumns) -> NAOAgent | None:
+    """The agent whose predictor and time grid every agent of the batch shares (the
+    first), when that grid is regular: the case
+    :func:`~nao_arena.agents._nao_batch.decide_rows` takes (whole when every agent
+    decides this step); else None."""
+    if len(cols.grid_groups(agents)) != 1 or not agents[0]._regular_grid():
+        return None
+    return agents[0]
 
 
 def _through_lag(

@@ -557,8 +557,9 @@ class Arena:
         # the accelerations the world applied (scaled to |a| <= a_max), not the raw commands:
         # handed over by the world after a step, NaN for the bodies agents do not drive
         if self._stepped_plans is not None:
-            plans = self._stepped_plans.copy()
+            plans = self._stepped_plans
             if len(self._undriven):
+                plans = plans.copy()
                 plans[self._undriven] = np.nan
         else:
             plans = applied_plans(self.commanded, self._bodies, self._robot_a_max, self.world.n)

@@ -152,15 +152,16 @@ def read_only(array: NDArray) -> NDArray:
     if is_frozen(array):
         return array
     data = np.ascontiguousarray(array)
-    frozen = np.frombuffer(data.tobytes(), dtype=data.dtype).reshape(data.shape)
-    return frozen
+    return np.ndarray(data.shape, data.dtype, buffer=data.tobytes())
 
 
 def is_frozen(array: NDArray) -> bool:
     """Whether ``array`` is read-only and its memory belongs to a ``bytes`` object."""
+    base = array.base
+    if type(base) is bytes:
+        return True  # a bytes object's buffer is read-only: so is every array on it
     if array.flags.writeable:
         return False
-    base = array.base
     while isinstance(base, np.ndarray):
         base = base.base
     return isinstance(base, bytes)

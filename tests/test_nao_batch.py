@@ -6,19 +6,31 @@ compiled call is its plain definition."""
 
 from __future__ import annotations
 
+import collections
 import math
 
 import numpy as np
+import pytest
 from bitwise import same_up_to_nan_sign
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference.nao_batch_reference import act_rows_reference
 
+import nao_arena.agents.nao as nao_module
 from nao_arena.agents import _nao_columns as columns
-from nao_arena.agents._nao_batch import desired_rows, own_rows, rows_with
+from nao_arena.agents._nao_batch import (
+    DECIDED,
+    PREPARED,
+    SETTLED,
+    desired_rows,
+    own_rows,
+    rows_with,
+)
 from nao_arena.agents._nao_bundles import OwnInputs
 from nao_arena.agents.goal import goal_seeking_accels
 from nao_arena.agents.nao import NAOAgent
+from nao_arena.arena import Arena, ArenaOptions
+from nao_arena.maps import load_map
 from nao_arena.sensing import SensingBatch, neighbour_lists
 
 
@@ -124,6 +136,7 @@ def agent_options(draw: st.DrawFn) -> dict:
         "horizon": draw(st.sampled_from([3.0, 1.0])),  # two groups of predictions
         "predictor": draw(st.sampled_from([None, None, "constant_velocity"])),
         "navigate": draw(st.booleans()),
+        "uncertainty_growth": draw(st.sampled_from([0.0, 0.0, 0.0, 0.3])),
         "grid": draw(st.sampled_from(["", "", "", "", "irregular", "broken"])),
     }
 
@@ -137,14 +150,20 @@ def agent_options(draw: st.DrawFn) -> dict:
     odd=st.sampled_from(["", "", "nan", "inf", "goal"]),
     spread=st.sampled_from([1.5, 3.0, 6.0]),
     options=st.data(),
+    one_grid=st.booleans(),
 )
 def test_the_fused_batch_step_is_the_former_step_bit_for_bit(
-    seed, n, traffic, walls, odd, spread, options
+    seed, n, traffic, walls, odd, spread, options, one_grid
 ):
     """NAOAgent.act_batch against the former numpy glue between the same kernels
     (tests/reference/nao_batch_reference.py), over five steps of random crowds: the
-    accelerations, the errors and every agent's table row and generator alike."""
+    accelerations, the errors and every agent's table row and generator alike. With
+    ``one_grid`` the agents share one predictor and time grid: the step that
+    decide_rows takes in one call."""
     opts = [options.draw(agent_options()) for _ in range(n)]
+    if one_grid:
+        for o in opts[1:]:
+            o.update({k: opts[0][k] for k in ("horizon", "predictor", "grid")})
     fused, former = make_agents(seed % 1000, n, opts), make_agents(seed % 1000, n, opts)
     rng = np.random.default_rng(seed)
     for _ in range(5):
@@ -263,3 +282,75 @@ def test_rows_with_of_a_mask_is_flatnonzero(flags):
     np.testing.assert_array_equal(
         rows_with(mask, np.bool_(True)), np.flatnonzero(mask).astype(np.int64)
     )
+
+
+def _episode_stages(
+    monkeypatch: pytest.MonkeyPatch, name: str, params: dict, options: dict, one_call: bool
+) -> tuple[str, collections.Counter]:
+    """The trajectory hash of 120 steps of ``name`` with ``nao`` agents of ``options``, and
+    how far decide_rows and settle_rows took the steps ((call, stage) pairs; none when
+    ``one_call`` is off: every step then takes the calls one by one)."""
+    stages: collections.Counter = collections.Counter()
+
+    def counted(call: str) -> None:
+        compiled = getattr(nao_module, call)
+
+        def count(*args: object) -> tuple:
+            result = compiled(*args)
+            stages[call, int(result[0])] += 1
+            return result
+
+        monkeypatch.setattr(nao_module, call, count)
+
+    counted("decide_rows")
+    counted("settle_rows")
+    if not one_call:
+        monkeypatch.setattr(nao_module, "_shared_predictor", lambda agents, cols: None)
+    arena = Arena(load_map(name, **params), ArenaOptions(agent="nao", agent_options=options))
+    arena.reset(seed=2)
+    for _ in range(120):
+        arena.step()
+        if arena.done:
+            break
+    monkeypatch.undo()
+    return arena.summary().trajectory_hash, stages
+
+
+ONE_CALL, TURNED, AFTER_TARGETS = (
+    ("decide_rows", DECIDED),
+    ("decide_rows", PREPARED),
+    ("settle_rows", DECIDED),
+)
+
+
+@pytest.mark.parametrize(
+    ("name", "params", "options", "stages"),
+    [
+        # detours turn: some steps stop after prepare_rows, the targets turned in Python
+        (
+            "dense_swap_perturbed",
+            {"n": 10, "lo": -20, "hi": 20},
+            {},
+            {ONE_CALL, TURNED, AFTER_TARGETS},
+        ),
+        # walls in the way of the goals: the way around them in Python, every step
+        ("doorway", {}, {}, {TURNED, AFTER_TARGETS}),
+        ("intersection", {}, {}, {ONE_CALL, TURNED, AFTER_TARGETS}),
+        # decisions made robust in Python: every step stops after settle_members
+        (
+            "crowd",
+            {"n": 8, "lo": -3.0, "hi": 3.0, "seed": 1},
+            {"uncertainty_growth": 0.2},
+            {("decide_rows", SETTLED), TURNED, ("settle_rows", SETTLED)},
+        ),
+    ],
+)
+def test_decide_rows_takes_each_step_as_far_as_it_can_with_the_same_bits(
+    monkeypatch: pytest.MonkeyPatch, name: str, params: dict, options: dict, stages: set
+) -> None:
+    """The batch step in one or two compiled calls (decide_rows, settle_rows), stopped
+    where Python must take over, gives the trajectory of the calls one by one."""
+    one, seen = _episode_stages(monkeypatch, name, params, options, True)
+    by_one, none = _episode_stages(monkeypatch, name, params, options, False)
+    assert one == by_one
+    assert set(seen) == stages and not none

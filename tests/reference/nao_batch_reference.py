@@ -28,7 +28,7 @@ from nao_arena.agents._nao_columns import (
 )
 from nao_arena.agents._nao_decide import apply_braking, apply_decisions
 from nao_arena.agents._nao_liveness import held_by_standing_kernel
-from nao_arena.agents._nao_per_robot import undecided
+from nao_arena.agents._nao_per_robot import robust, undecided
 from nao_arena.agents._nao_step import (
     RobotRows,
     decide_members,
@@ -136,6 +136,7 @@ def act_rows_reference(
             undecided(
                 agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
+    robust(agents, live, errors, out, own, desired)
     take = (cols.whole[:, STOPPING] != 0) & (cols.whole[:, REPLAN] != 0)
     if errors:
         take[list(errors)] = False
