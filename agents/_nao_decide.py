@@ -19,9 +19,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nao_arena.geometry.kernels import (
+    IndexLists,
     Obstacles,
+    Predictions,
+    Robots,
     SearchSettings,
     Walls,
+    WorldWalls,
+    admissible_row,
     nearby_walls,
     piece_sweep,
     relevant_sampled_paths,
@@ -127,12 +132,65 @@ def decide_batch(paths, lists, nb_radius, rows, robots, repair, current, desired
         sliver_depth,
     ) = settings
     kind, accel, tested = out
+    # the desired acceleration first, against the obstacles within its own reach only
+    # (the keep test's admissibility, sampled_admissible_batch): scratch for it
+    most = 0
+    for k in rows:
+        most = max(most, nb_start[k + 1] - nb_start[k])
+    steps = times.shape[0] - 1
+    sampled = Predictions(times, pred, nb_radius, excursion, finite_path)
+    neighbours = IndexLists(nb_start, nb_index)
+    world_walls = WorldWalls(wall_seg, wall_half)
+    walls_seen = IndexLists(wall_start, wall_index)
+    grown = Robots(pos, vel, v_max, grow, np.zeros(grow.shape[0]))
+    keep = np.empty(most, dtype=np.int64)
+    kept = Obstacles(
+        times,
+        np.empty((most, steps, 2)),
+        np.empty((most, steps, 2)),
+        np.zeros((most, steps, 2)),
+        np.empty(most),
+        np.empty((most, steps)),
+    )
+    buf = np.empty(3)
+    res = np.empty(3)
     for k in rows:
         vx = vel[k, 0]
         vy = vel[k, 1]
         if not (math.isfinite(vx) and math.isfinite(vy)):
             kind[k] = Outcome.UNDECIDED
             continue
+        if not repair[k] and wall_start[k + 1] == wall_start[k]:
+            # no repair to try and no wall in range: when the desired acceleration
+            # (projected onto the limit disc) is admissible, the full selection takes it
+            # (it tests it first, with the same test on the obstacles both keep)
+            dx, dy = onto_disc(
+                desired[k, 0] if math.isfinite(desired[k, 0]) else 0.0,
+                desired[k, 1] if math.isfinite(desired[k, 1]) else 0.0,
+                a_max[k],
+            )
+            if dx * dx + dy * dy <= a_max[k] * a_max[k] * (1 + 1e-12) + 1e-300 and (
+                admissible_row(
+                    sampled,
+                    neighbours,
+                    world_walls,
+                    walls_seen,
+                    k,
+                    grown,
+                    dx,
+                    dy,
+                    keep,
+                    kept,
+                    buf,
+                    res,
+                )
+                == 1
+            ):
+                kind[k] = Outcome.DESIRED
+                accel[k, 0] = dx
+                accel[k, 1] = dy
+                tested[k] = 1
+                continue
         c, w, b, rad, finite = relevant_sampled_paths(
             times,
             pred,

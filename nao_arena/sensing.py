@@ -311,7 +311,8 @@ class SensingBatch:
         fields = self.__dict__
         for name in _BATCH_ARRAYS:
             value = fields[name]
-            if value is not None:
+            # an array on a bytes object's memory is frozen already (see is_frozen)
+            if value is not None and type(value.base) is not bytes:
                 fields[name] = read_only(value)
         fields["routes"] = ReadOnlyRoutes.of(self.routes)
 

@@ -39,6 +39,7 @@ from nao_arena.agents._nao_decide import (
     UNDECIDED,
     decide,
     ring_radii_rows,
+    selection_settings,
 )
 from nao_arena.agents.nao import AOAgent, NAOAgent
 from nao_arena.arena import Arena, ArenaOptions
@@ -80,6 +81,7 @@ from nao_arena.geometry._kernel.search import (
     ok_disc,
     outward_normal,
     ring_search_disc,
+    select_disc,
     slide_disc,
     try_candidates_disc,
 )
@@ -1191,6 +1193,78 @@ def test_exact_test_answer_does_not_depend_on_its_hint(seed):
         ):
             ok, tested = ok_disc(a[0], a[1], *bundles(t, 2.0), 0.0, Scratch(buf, res, hint))
             assert ok == want and tested == 1
+
+
+def test_decide_takes_the_desired_acceleration_exactly_where_the_selection_does():
+    """decide tries the desired acceleration first against the obstacles within its own
+    reach (the keep test's admissibility) and takes it when admissible, before building
+    the obstacle paths of the full selection: for robots with no wall in range and no
+    repair to try, it is DESIRED exactly where select_disc, on the relevant paths the
+    full selection builds, says DESIRED, with the same acceleration (and tested 1)."""
+    outcomes = {True: 0, False: 0}
+    for seed in range(12):
+        times, pred, nb_all, start, index, *_, v_max, margin = _batch_scene(seed)
+        rng = np.random.default_rng(seed)
+        n = len(nb_all)
+        pos, vel, rad = nb_all.positions, nb_all.velocities, nb_all.radii
+        a_max = np.full(n, 2.0)
+        grow = rad + margin
+        # inside the limit disc (projected onto it unchanged), some toward the others
+        desired = rng.normal(size=(n, 2))
+        desired *= (rng.uniform(0.05, 0.99, n) * a_max / np.hypot(*desired.T))[:, None]
+        no_walls = np.zeros(n + 1, dtype=np.int64)
+        excursion, finite = path_excursions(pred)
+        kind, accel, tested = decide(
+            GroupPaths(times, pred, excursion, finite),
+            ObstacleLists(start, index, np.zeros((0, 2, 2)), np.zeros(0), no_walls, no_walls[:0]),
+            rad,
+            np.arange(n),
+            DecidingRobots(pos, vel, grow, a_max, v_max),
+            np.zeros(n, dtype=bool),
+            np.zeros((n, 2)),
+            desired,
+        )
+        chosen = selection_settings(a_max)
+        for k in range(n):
+            c, w, b, r, ok = relevant_sampled_paths(
+                times,
+                pred,
+                index[start[k] : start[k + 1]],
+                pos[k],
+                rad,
+                grow[k],
+                vel[k],
+                a_max[k],
+                v_max[k],
+                excursion,
+                finite,
+            )
+            assert ok
+            status, x, y, _ = select_disc(
+                desired[k],
+                vel[k],
+                a_max[k],
+                v_max[k],
+                Paths(times, c, w, b, r),
+                Walls(np.zeros((0, 2, 2)), np.zeros(0)),
+                0.0,
+                SearchSettings(
+                    max(1e-3, 1e-9 * max(a_max[k], 1.0)),
+                    chosen.ring_radii[k],
+                    chosen.unit_rings,
+                    chosen.max_disks,
+                    chosen.n_sub,
+                    chosen.per_second,
+                    chosen.sliver_depth * a_max[k],
+                ),
+            )
+            taken = status == DESIRED
+            outcomes[taken] += 1
+            assert (kind[k] == DESIRED) == taken, k
+            if taken:
+                assert accel[k, 0] == x == desired[k, 0] and accel[k, 1] == y == desired[k, 1]
+                assert tested[k] == 1
+    assert min(outcomes.values()) >= 10, outcomes
 
 
 @pytest.mark.slow

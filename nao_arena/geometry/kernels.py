@@ -13,7 +13,7 @@ velocity v (m/s), obstacle centres relative to it (m), accelerations in m/s^2, t
 s, radii already grown by the robot's radius (m).
 """
 
-from nao_arena.geometry._kernel.batch import sampled_admissible_batch
+from nao_arena.geometry._kernel.batch import admissible_row, sampled_admissible_batch
 from nao_arena.geometry._kernel.bundles import (
     IndexLists,
     Motion,
@@ -57,6 +57,7 @@ __all__ = [
     "Walls",
     "WorldWalls",
     "admissible_kernel",
+    "admissible_row",
     "candidate_setup",
     "nearby_walls",
     "path_excursions",

@@ -76,7 +76,32 @@ def _admissible_rows(
     """:func:`sampled_admissible_batch` with its scratch arrays given: keep (rows enough
     for every robot's obstacles) int64, the indices of a robot's obstacles kept, and
     ``kept`` the :class:`~.bundles.Obstacles` they become (their pieces, cut radii and
-    sweeps; as many rows; seg_b zero), buf and res (3,). Arrays borrowed here."""
+    sweeps; as many rows; seg_b zero), buf and res (3,)."""
+    acc, out, rows = borrowed(acc), borrowed(out), borrowed(rows)
+    for k in rows:
+        out[k] = admissible_row(
+            predictions,
+            neighbours,
+            walls,
+            wall_lists,
+            k,
+            robots,
+            acc[k, 0],
+            acc[k, 1],
+            keep,
+            kept,
+            buf,
+            res,
+        )
+
+
+@inner_kernel(error_model="numpy")
+def admissible_row(
+    predictions, neighbours, walls, wall_lists, k, robots, ax, ay, keep, kept, buf, res
+):
+    """What :func:`sampled_admissible_batch` says of robot k's acceleration (ax, ay)
+    m/s^2: 1 admissible, 0 not, -1 non-finite centres (scratch arrays as
+    :func:`_admissible_rows` takes them). Arrays borrowed here."""
     times, pred, nb_radius, excursion, finite_path = predictions
     nb_start, nb_index = neighbours
     wall_seg, wall_half = walls
@@ -86,93 +111,79 @@ def _admissible_rows(
     times, pred = borrowed(times), borrowed(pred)
     nb_start, nb_index = borrowed(nb_start), borrowed(nb_index)
     nb_radius, wall_seg, wall_half = borrowed(nb_radius), borrowed(wall_seg), borrowed(wall_half)
-    wall_start, wall_index, rows = borrowed(wall_start), borrowed(wall_index), borrowed(rows)
-    pos, vel, acc, v_max = borrowed(pos), borrowed(vel), borrowed(acc), borrowed(v_max)
+    wall_start, wall_index = borrowed(wall_start), borrowed(wall_index)
+    pos, vel, v_max = borrowed(pos), borrowed(vel), borrowed(v_max)
     radius, margin, excursion = borrowed(radius), borrowed(margin), borrowed(excursion)
-    finite_path, out = borrowed(finite_path), borrowed(out)
+    finite_path = borrowed(finite_path)
     keep, keep_r = borrowed(keep), borrowed(keep_r)
     c, w, b, sweep = borrowed(c), borrowed(w), borrowed(b), borrowed(sweep)
     buf, res = borrowed(buf), borrowed(res)
     horizon = times[-1]
-    for k in rows:
-        n_nb = nb_start[k + 1] - nb_start[k]
-        n_w = wall_start[k + 1] - wall_start[k]
-        ax = acc[k, 0]
-        ay = acc[k, 1]
-        vx, vy, tau, bound = candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
-        motion = Motion(vx, vy, ax, ay, tau, bound)
-        px = pos[k, 0]
-        py = pos[k, 1]
-        # skip the obstacles that stay far: |x(t)| <= bound t for the robot (and it stays
-        # within bound * horizon / 2 of where it is halfway), and a sampled path stays
-        # within its largest sample excursion from its start
-        travel = bound * horizon
-        _, _, _, _, mx, my = robot_state(vx, vy, ax, ay, tau, 0.5 * horizon)
-        half = 0.5 * travel
-        n = np.int64(0)
-        finite = True
-        for i in range(n_nb):
-            body = nb_index[nb_start[k] + i]
-            x0 = pred[body, 0, 0] - px
-            y0 = pred[body, 0, 1] - py
-            r = min(
-                nb_radius[body] + radius[k] + margin[k], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT
+    n_nb = nb_start[k + 1] - nb_start[k]
+    n_w = wall_start[k + 1] - wall_start[k]
+    vx, vy, tau, bound = candidate_setup(vel[k, 0], vel[k, 1], ax, ay, v_max[k], horizon)
+    motion = Motion(vx, vy, ax, ay, tau, bound)
+    px = pos[k, 0]
+    py = pos[k, 1]
+    # skip the obstacles that stay far: |x(t)| <= bound t for the robot (and it stays
+    # within bound * horizon / 2 of where it is halfway), and a sampled path stays
+    # within its largest sample excursion from its start
+    travel = bound * horizon
+    _, _, _, _, mx, my = robot_state(vx, vy, ax, ay, tau, 0.5 * horizon)
+    half = 0.5 * travel
+    n = np.int64(0)
+    for i in range(n_nb):
+        body = nb_index[nb_start[k] + i]
+        x0 = pred[body, 0, 0] - px
+        y0 = pred[body, 0, 1] - py
+        r = min(nb_radius[body] + radius[k] + margin[k], math.sqrt(x0 * x0 + y0 * y0) * RADIUS_CUT)
+        if not finite_path[body]:
+            return -1
+        ex = excursion[body]
+        gap = (
+            max(
+                math.sqrt(x0 * x0 + y0 * y0) - travel,
+                math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half,
             )
-            if not finite_path[body]:
-                finite = False
-                break
-            ex = excursion[body]
-            gap = (
-                max(
-                    math.sqrt(x0 * x0 + y0 * y0) - travel,
-                    math.sqrt((x0 - mx) ** 2 + (y0 - my) ** 2) - half,
-                )
-                - ex
-            )
-            if gap > (r + 1e-9) * (1.0 + 1e-9):
-                continue
-            keep[n] = i
-            keep_r[n] = r
-            n += 1
-        if not finite:
-            out[k] = -1
+            - ex
+        )
+        if gap > (r + 1e-9) * (1.0 + 1e-9):
             continue
-        ok = 1
-        for i in range(n_w):
-            d = wall_index[wall_start[k] + i]
-            ax0 = wall_seg[d, 0, 0] - px
-            ay0 = wall_seg[d, 0, 1] - py
-            bx0 = wall_seg[d, 1, 0] - px
-            by0 = wall_seg[d, 1, 1] - py
-            r = min(
-                wall_half[d] + (radius[k] + margin[k]),
-                math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT,
-            )
-            if segment_within(motion, travel, horizon, ax0, ay0, bx0, by0, r, buf, res):
-                ok = 0
-                break
-        if ok == 0 or n == 0:
-            out[k] = ok
-            continue
-        for q in range(n):
-            moving_pieces(pred, nb_index[nb_start[k] + keep[q]], px, py, times, c, w, q)
-        fill_sweep(times, w, b, n, sweep)
-        for q in range(n):
-            scan_obstacle(
-                motion,
-                times,
-                c,
-                w,
-                b,
-                sweep,
-                q,
-                keep_r[q],
-                0.0,
-                False,
-                buf,
-                res,
-            )
-            if res[0] < (keep_r[q] + 0.0) ** 2:
-                ok = 0
-                break
-        out[k] = ok
+        keep[n] = i
+        keep_r[n] = r
+        n += 1
+    for i in range(n_w):
+        d = wall_index[wall_start[k] + i]
+        ax0 = wall_seg[d, 0, 0] - px
+        ay0 = wall_seg[d, 0, 1] - py
+        bx0 = wall_seg[d, 1, 0] - px
+        by0 = wall_seg[d, 1, 1] - py
+        r = min(
+            wall_half[d] + (radius[k] + margin[k]),
+            math.sqrt(point_segment_dist2(ax0, ay0, bx0, by0)) * RADIUS_CUT,
+        )
+        if segment_within(motion, travel, horizon, ax0, ay0, bx0, by0, r, buf, res):
+            return 0
+    if n == 0:
+        return 1
+    for q in range(n):
+        moving_pieces(pred, nb_index[nb_start[k] + keep[q]], px, py, times, c, w, q)
+    fill_sweep(times, w, b, n, sweep)
+    for q in range(n):
+        scan_obstacle(
+            motion,
+            times,
+            c,
+            w,
+            b,
+            sweep,
+            q,
+            keep_r[q],
+            0.0,
+            False,
+            buf,
+            res,
+        )
+        if res[0] < (keep_r[q] + 0.0) ** 2:
+            return 0
+    return 1
