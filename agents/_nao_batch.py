@@ -34,9 +34,17 @@ from nao_arena.geometry.kernels import (
 )
 from nao_arena.jit import inner_kernel, kernel
 from nao_arena.navigation import segment_clear
+from nao_arena.predictors import turn_rate_arcs
 from nao_arena.stopping import Group, Knowledge, commit_plans_kernel
 
-from ._nao_bundles import DecidingRobots, Decisions, GroupPaths, ObstacleLists, RobotRows
+from ._nao_bundles import (
+    DecidingRobots,
+    Decisions,
+    GroupPaths,
+    ObstacleLists,
+    OneGroup,
+    RobotRows,
+)
 from ._nao_columns import (
     AROUND,
     CUR_X,
@@ -476,19 +484,26 @@ def decide_rows(inputs, wall_segments, dt, table, group):  # pragma: no cover
     robots' rows toward the goals (``group``:
     :class:`~nao_arena.agents._nao_bundles.OneGroup`).
 
-    Returns (stage, prepared, rest, out, excursion, finite): stage PREPARED, SETTLED or
-    DECIDED; prepared, what :func:`prepare_rows` returns (None at DECIDED: nothing of it
-    is left to do); rest, what :func:`settle_rows` returns last (None but at SETTLED);
-    out, the accelerations (n, 2) m/s^2 decided so far; excursion and finite, those
-    of the predictions (empty at PREPARED).
+    The predictions are made first where the group's ``arcs`` hold the bodies
+    (:func:`~nao_arena.predictors.turn_rate_arcs`).
+
+    Returns (stage, prepared, rest, out, pred, excursion, finite): stage PREPARED,
+    SETTLED or DECIDED; prepared, what :func:`prepare_rows` returns (None at DECIDED:
+    nothing of it is left to do); rest, what :func:`settle_rows` returns last (None but
+    at SETTLED); out, the accelerations (n, 2) m/s^2 decided so far; pred, the
+    predictions (B, T, 2) m; excursion and finite, theirs (empty at PREPARED).
     """
+    times, pred, arcs, settings, know, substeps, margin, finish = group
+    if arcs.positions.shape[0]:
+        pred = turn_rate_arcs(arcs, times.shape[0])
+        group = OneGroup(times, pred, arcs, settings, know, substeps, margin, finish)
     prepared = prepare_rows(inputs, wall_segments, dt, table)
     pos, vel, rad, a_max, v_max, _, _, n_live, out, _, turns, traffic_near, desired, direct = (
         prepared
     )
     n = pos.shape[0]
     if n_live < n or turns or not direct:
-        return PREPARED, prepared, None, out, np.zeros(0), np.zeros(0, dtype=np.bool_)
+        return PREPARED, prepared, None, out, pred, np.zeros(0), np.zeros(0, dtype=np.bool_)
     stage, excursion, finite, rest = settle_rows(
         inputs,
         wall_segments,
@@ -500,8 +515,8 @@ def decide_rows(inputs, wall_segments, dt, table, group):  # pragma: no cover
         out,
     )
     if stage == DECIDED:
-        return stage, None, None, out, excursion, finite
-    return stage, prepared, rest, out, excursion, finite
+        return stage, None, None, out, pred, excursion, finite
+    return stage, prepared, rest, out, pred, excursion, finite
 
 
 @kernel
@@ -512,8 +527,8 @@ def settle_rows(inputs, wall_segments, dt, table, group, own, desired, out):  # 
     (:func:`~nao_arena.agents._nao_decide.member_lists`,
     :func:`~nao_arena.agents._nao_decide.wall_lists` within each robot's sensing range),
     then :func:`settle_members` against the predictions of ``group``
-    (:class:`~nao_arena.agents._nao_bundles.OneGroup`) toward the desired accelerations
-    (n, 2) m/s^2 of the robots ``own``
+    (:class:`~nao_arena.agents._nao_bundles.OneGroup`, its ``pred`` made) toward the
+    desired accelerations (n, 2) m/s^2 of the robots ``own``
     (:class:`~nao_arena.agents._nao_bundles.RobotRows`), into ``out`` (n, 2) m/s^2;
     then, when every row is settled and the group may ``finish``, :func:`yield_rows`.
     Each row's SEEN and ROW columns point at the predictions (view 0, its batch row).
@@ -527,7 +542,7 @@ def settle_rows(inputs, wall_segments, dt, table, group, own, desired, out):  # 
     """
     walls, wall_half = wall_segments
     real, whole, opt = table
-    times, pred, settings, know, substeps, margin, finish = group
+    times, pred, _, settings, know, substeps, margin, finish = group
     pos, rad = own.pos, own.rad
     n = pos.shape[0]
     excursion, finite = path_excursions(pred)

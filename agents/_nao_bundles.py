@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from nao_arena.predictors import TurnRateInputs
 from nao_arena.stopping import Knowledge
 
 __all__ = [
@@ -155,14 +156,18 @@ class OneGroup(NamedTuple):
     """What :func:`~nao_arena.agents._nao_batch.decide_rows` and
     :func:`~nao_arena.agents._nao_batch.settle_rows` take of a batch whose agents share
     one predictor and regular time grid, besides the robots' rows: the grid times (T,) s
-    (from 0, increasing), every body's predicted centres pred (B, T, 2) m, the
-    :class:`SelectionSettings` of the rows; what the stopping-plan rule takes (``know``,
+    (from 0, increasing); every body's predicted centres pred (B, T, 2) m, or, where
+    ``arcs`` holds the bodies (the built-in ``turn_rate`` predictor), none yet (0 rows:
+    decide_rows makes them from ``arcs``,
+    :func:`~nao_arena.predictors.turn_rate_arcs`); the :class:`SelectionSettings` of
+    the rows; what the stopping-plan rule takes (``know``,
     :class:`~nao_arena.stopping.Knowledge`; the world's ``substeps``; the plans'
     ``margin`` m); and ``finish``: whether no robot's decision is to be made robust
     in Python (the rule may then run in the same call)."""
 
     times: NDArray[np.float64]
     pred: NDArray[np.float64]
+    arcs: TurnRateInputs
     settings: SelectionSettings
     know: Knowledge
     substeps: int

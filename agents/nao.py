@@ -101,9 +101,9 @@ from nao_arena.geometry import PiecewisePath
 from nao_arena.geometry.kernels import path_excursions
 from nao_arena.geometry.selection import Selection
 from nao_arena.imperfection import lag_factor
-from nao_arena.predictors import get_predictor
+from nao_arena.predictors import TurnRateInputs, get_predictor, turn_rate, turn_rate_inputs
 from nao_arena.sensing import Observation, SensingBatch
-from nao_arena.stopping import NOISE_SIGMAS
+from nao_arena.stopping import NOISE_SIGMAS, Knowledge
 
 from . import _nao_columns as col
 from . import _nao_per_robot as per_robot
@@ -118,7 +118,7 @@ from ._nao_batch import (
     settle_rows,
     yield_rows,
 )
-from ._nao_bundles import OneGroup
+from ._nao_bundles import OneGroup, OwnInputs
 from ._nao_columns import (
     AGE,
     AROUND,
@@ -176,6 +176,8 @@ if TYPE_CHECKING:
 
 _SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
 PLAN_MARGIN = 0.005  # m kept between stopping plans beyond the sum of the radii
+#: the turn-rate inputs of no body (a group whose predictions are made in Python)
+_NO_ARCS = TurnRateInputs(*(np.zeros((0, 2)),) * 3, *(np.zeros(0),) * 3)
 
 SHIELD_STATUSES: tuple[str, ...] = ("kept", "repaired", "adjusted", "infeasible")
 """How :meth:`NAOAgent.nearest_admissible` found its acceleration (see there)."""
@@ -634,32 +636,20 @@ def _act_rows(
     walls = wall_segments(batch)
     inputs = own_inputs(batch, rows_a, cols.memo)
     dt = float(batch.dt)
-    shared = _shared_predictor(agents, cols)
+    one = _one_group(agents, cols, batch, inputs, know)
+    # the predictions of the first group (or its predictor's failure), once made
     first: NDArray[np.float64] | Exception | None = None
-    if shared is not None:
-        try:
-            first = predictions(shared, batch)
-        except Exception as exc:  # noqa: BLE001 - the agents' failure, reported below
-            first = exc
     stage = PREPARED
-    if isinstance(first, np.ndarray):
-        assert shared is not None
-        one = OneGroup(
-            np.ascontiguousarray(shared.times, dtype=np.float64),
-            first,
-            selection_settings(inputs.a_max[inputs.bodies[inputs.rows]], cols.memo),
-            know,
-            int(batch.substeps),
-            PLAN_MARGIN,
-            all(ag.uncertainty_growth <= 0.0 for ag in agents),
-        )
-        stage, prepared, rest, out, excursion, finite = decide_rows(
+    if isinstance(one, OneGroup):
+        stage, prepared, rest, out, made, excursion, finite = decide_rows(
             inputs, walls, dt, cols.table, one
         )
         if stage == DECIDED:
-            cols.seen = [(batch, first, (excursion, finite))]
+            cols.seen = [(batch, made, (excursion, finite))]
             return _commands(agents, batch, logs, out), errors
+        one, first = one._replace(pred=made), made
     else:
+        first = one
         prepared = prepare_rows(inputs, walls, dt, cols.table)
     (
         pos,
@@ -688,20 +678,20 @@ def _act_rows(
         if turns or not direct:
             # a turned detour, a goal missing or a wall in the way: the targets in Python
             desired = desired_accels(cols, batch, rows_a, goals, pos, vel, a_max, v_max)
-        if isinstance(first, np.ndarray) and n_live == len(live):
+        if isinstance(one, OneGroup) and n_live == len(live):
             stage, excursion, finite, rest = settle_rows(
                 inputs, walls, dt, cols.table, one, own, desired, out
             )
             if stage == DECIDED:
-                cols.seen = [(batch, first, (excursion, finite))]
+                cols.seen = [(batch, one.pred, (excursion, finite))]
                 return _commands(agents, batch, logs, out), errors
     if stage == SETTLED:
-        assert shared is not None and isinstance(first, np.ndarray)
-        cols.seen = [(batch, first, (excursion, finite))]
+        assert isinstance(one, OneGroup)
+        cols.seen = [(batch, one.pred, (excursion, finite))]
         lists, status, settled, left, current = rest
         if left:
             every = np.arange(len(rows_a), dtype=np.int64)
-            view = GroupView(every, shared, first, (excursion, finite), lists)
+            view = GroupView(every, agents[0], one.pred, (excursion, finite), lists)
             per_robot.undecided(
                 agents, view, status, settled, errors, out, batch, rows_a, own, current, desired
             )
@@ -778,6 +768,48 @@ def _commands(
     (:func:`_log_commands`)."""
     _log_commands(logs, batch.time, out)
     return _through_lag(agents, out, batch)
+
+
+def _one_group(
+    agents: Sequence[NAOAgent],
+    cols: AgentColumns,
+    batch: SensingBatch,
+    inputs: OwnInputs,
+    know: Knowledge,
+) -> OneGroup | Exception | None:
+    """What :func:`~nao_arena.agents._nao_batch.decide_rows` takes of a batch whose agents
+    share one predictor and regular time grid (:func:`_shared_predictor`): the
+    :class:`~nao_arena.agents._nao_bundles.OneGroup` with the predictions of every body,
+    or with their turn-rate inputs for the built-in ``turn_rate`` predictor (made in
+    the compiled call); the exception of a predictor that raised; None for other
+    batches."""
+    shared = _shared_predictor(agents, cols)
+    if shared is None:
+        return None
+    times = np.ascontiguousarray(shared.times, dtype=np.float64)
+    if shared.predict is turn_rate:
+        arcs = turn_rate_inputs(times, batch.positions, batch.velocities, batch.accelerations)
+        pred = np.zeros((0, len(times), 2))
+    else:
+        arcs = _NO_ARCS._replace(
+            positions=batch.positions[:0],
+            velocities=batch.velocities[:0],
+            accelerations=batch.accelerations[:0],
+        )
+        try:
+            pred = predictions(shared, batch)
+        except Exception as exc:  # noqa: BLE001 - the agents' failure, reported by the caller
+            return exc
+    return OneGroup(
+        times,
+        pred,
+        arcs,
+        selection_settings(inputs.a_max[inputs.bodies[inputs.rows]], cols.memo),
+        know,
+        int(batch.substeps),
+        PLAN_MARGIN,
+        all(ag.uncertainty_growth <= 0.0 for ag in agents),
+    )
 
 
 def _shared_predictor(agents: Sequence[NAOAgent], cols: AgentColumns) -> NAOAgent | None:

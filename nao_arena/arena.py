@@ -525,7 +525,7 @@ class Arena:
         if self.time >= self.spec.episode.time_limit - 1e-9:
             return True
         assert self.stats is not None, "call reset() first"
-        return bool(len(self.robots)) and bool(np.all(self.stats.at_goal[self.robot_ids]))
+        return bool(len(self.robots)) and bool(self.stats.at_goal[self.robot_ids].all())
 
     # ------------------------------------------------------------------ sensing
 

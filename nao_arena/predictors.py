@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +28,14 @@ from numpy.typing import NDArray
 from nao_arena.jit import kernel
 from nao_arena.sensing import Neighbours
 
-__all__ = ["PREDICTORS", "get_predictor", "resample_paths"]
+__all__ = [
+    "PREDICTORS",
+    "TurnRateInputs",
+    "get_predictor",
+    "resample_paths",
+    "turn_rate_arcs",
+    "turn_rate_inputs",
+]
 
 Predictor = Callable[[NDArray[np.float64], Neighbours], NDArray[np.float64]]
 
@@ -56,21 +64,48 @@ def turn_rate(times: NDArray[np.float64], nb: Neighbours) -> NDArray[np.float64]
     it (one that sets off from rest is already moving when observed). The
     path is integrated exactly for the arc on a fine internal grid (8 steps
     per sample interval, midpoint rule), (n, T, 2) m, in one compiled pass
-    (:func:`_turn_rate_arcs`).
+    (:func:`turn_rate_arcs` of :func:`turn_rate_inputs`).
     """
     if len(nb) == 0:
         return np.zeros((0, len(times), 2))
+    return turn_rate_arcs(
+        turn_rate_inputs(times, nb.positions, nb.velocities, nb.accelerations), len(times)
+    )
+
+
+class TurnRateInputs(NamedTuple):
+    """What :func:`turn_rate_arcs` takes: per body its position (m), velocity (m/s),
+    acceleration (m/s^2) (each (n, 2)) and heading (n,) rad, the velocity's angle; the
+    fine grid's midpoints ``mid`` and steps ``fine`` (s), 8 per sample of the time grid
+    (equal within a sample; :func:`_fine_grid`)."""
+
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    accelerations: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    mid: NDArray[np.float64]
+    fine: NDArray[np.float64]
+
+
+def turn_rate_inputs(
+    times: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    velocities: NDArray[np.float64],
+    accelerations: NDArray[np.float64],
+) -> TurnRateInputs:
+    """The :class:`TurnRateInputs` of bodies at ``positions`` (n, 2) m with
+    ``velocities`` (n, 2) m/s and ``accelerations`` (n, 2) m/s^2 for the sample times
+    (T,) s (the headings by numpy's arctan2)."""
     mid, fine = _fine_grid(times)
     f = np.ascontiguousarray
-    v = f(nb.velocities, dtype=np.float64)
-    return _turn_rate_arcs(
-        f(nb.positions, dtype=np.float64),
+    v = f(velocities, dtype=np.float64)
+    return TurnRateInputs(
+        f(positions, dtype=np.float64),
         v,
-        f(nb.accelerations, dtype=np.float64),
+        f(accelerations, dtype=np.float64),
         np.arctan2(v[:, 1], v[:, 0]),
         mid,
         fine,
-        len(times),
     )
 
 
@@ -92,13 +127,12 @@ def _fine_grid(times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray
 
 
 @kernel
-def _turn_rate_arcs(positions, velocities, accelerations, heading, mid, fine, n_times):
-    """Midpoint-rule arcs: per row, position (m), velocity (m/s), acceleration (m/s^2)
-    and heading (rad, the velocity's angle); fine-grid midpoints ``mid`` and steps
-    ``fine`` (s), 8 per sample (equal within a sample). Returns the centres at every
-    8th fine step, (n, n_times, 2) m; a row at rest stays at its position. The
-    heading's cosine and sine are evaluated at the first midpoint of each sample and
-    turned by omega * fine step (a rotation) for the other seven."""
+def turn_rate_arcs(inputs, n_times):
+    """Midpoint-rule arcs of the bodies of ``inputs`` (:class:`TurnRateInputs`): the
+    centres at every 8th fine step, (n, n_times, 2) m; a body at rest stays at its
+    position. The heading's cosine and sine are evaluated at the first midpoint of each
+    sample and turned by omega * fine step (a rotation) for the other seven."""
+    positions, velocities, accelerations, heading, mid, fine = inputs
     n = positions.shape[0]
     out = np.empty((n, n_times, 2))
     for i in range(n):
