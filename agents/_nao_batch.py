@@ -14,6 +14,11 @@ the goals, the predictions):
 3. :func:`yield_rows`: the stopping-plan rule over the robots that re-plan
    (:func:`~nao_arena.stopping.commit_plans_kernel`).
 
+When the agents share one predictor and regular time grid, :func:`decide_rows` runs
+the three in one call (and the turn-rate predictions before them), stopping where
+Python must take over; :func:`settle_rows` is its part after :func:`prepare_rows`,
+for the steps whose heading targets Python found.
+
 Per-robot arrays are in the rows of the agents' table (:mod:`._nao_columns`); body
 arrays are the batch's (:class:`~nao_arena.sensing.SensingBatch`).
 """

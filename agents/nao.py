@@ -66,10 +66,13 @@ physics integration error, covered by the margin).
 ``ao`` is the same agent with constant-acceleration predictions (the AO).
 
 The agents of one class act together (:meth:`NAOAgent.act_batch`):
-predictions once per step for all bodies, and the rest of the step in three
-compiled calls (:mod:`nao_arena.agents._nao_batch`: the robots' own state,
-liveness and goal seeking; per group of shared predictions, the keep test (1.),
-the repairs and the selections; the stopping plans (4.)); their state (current
+predictions once per step for all bodies, and the rest of the step in compiled
+calls (:mod:`nao_arena.agents._nao_batch`: the robots' own state, liveness and
+goal seeking; per group of shared predictions, the keep test (1.), the repairs
+and the selections; the stopping plans (4.)). When the agents share one
+predictor and regular time grid (the usual case), all of it is one call, the
+built-in ``turn_rate`` predictions included, or two where Python finds the
+heading targets between them (a detour turned, a wall in the way). Their state (current
 acceleration, adjustment age, detours, last selection) and numeric options are
 the rows of one table (:mod:`nao_arena.agents._nao_columns`), so no Python runs
 per robot unless a robot needs what the compiled calls cannot decide (an
@@ -176,8 +179,7 @@ if TYPE_CHECKING:
 
 _SAMPLE_STEP = 0.1  # s between the samples of a predicted path by default
 PLAN_MARGIN = 0.005  # m kept between stopping plans beyond the sum of the radii
-#: the turn-rate inputs of no body (a group whose predictions are made in Python)
-_NO_ARCS = TurnRateInputs(*(np.zeros((0, 2)),) * 3, *(np.zeros(0),) * 3)
+_NO_ROWS = np.zeros(0)  # s, rad: the fine grid and headings of no body
 
 SHIELD_STATUSES: tuple[str, ...] = ("kept", "repaired", "adjusted", "infeasible")
 """How :meth:`NAOAgent.nearest_admissible` found its acceleration (see there)."""
@@ -791,10 +793,15 @@ def _one_group(
         arcs = turn_rate_inputs(times, batch.positions, batch.velocities, batch.accelerations)
         pred = np.zeros((0, len(times), 2))
     else:
-        arcs = _NO_ARCS._replace(
-            positions=batch.positions[:0],
-            velocities=batch.velocities[:0],
-            accelerations=batch.accelerations[:0],
+        # no body's turn-rate inputs: the batch's own arrays cut empty, of the types
+        # decide_rows is compiled for
+        arcs = TurnRateInputs(
+            batch.positions[:0],
+            batch.velocities[:0],
+            batch.accelerations[:0],
+            _NO_ROWS,
+            _NO_ROWS,
+            _NO_ROWS,
         )
         try:
             pred = predictions(shared, batch)

@@ -316,7 +316,9 @@ def _episode_stages(
     return arena.summary().trajectory_hash, stages
 
 
-ONE_CALL, TURNED, AFTER_TARGETS = (
+# (call, stage): the whole step in one call; handed back after prepare_rows (heading
+# targets to find in Python); the rest of the step once Python found them
+ONE_CALL, HANDED_BACK, AFTER_TARGETS = (
     ("decide_rows", DECIDED),
     ("decide_rows", PREPARED),
     ("settle_rows", DECIDED),
@@ -331,17 +333,17 @@ ONE_CALL, TURNED, AFTER_TARGETS = (
             "dense_swap_perturbed",
             {"n": 10, "lo": -20, "hi": 20},
             {},
-            {ONE_CALL, TURNED, AFTER_TARGETS},
+            {ONE_CALL, HANDED_BACK, AFTER_TARGETS},
         ),
         # walls in the way of the goals: the way around them in Python, every step
-        ("doorway", {}, {}, {TURNED, AFTER_TARGETS}),
-        ("intersection", {}, {}, {ONE_CALL, TURNED, AFTER_TARGETS}),
+        ("doorway", {}, {}, {HANDED_BACK, AFTER_TARGETS}),
+        ("intersection", {}, {}, {ONE_CALL, HANDED_BACK, AFTER_TARGETS}),
         # decisions made robust in Python: every step stops after settle_members
         (
             "crowd",
             {"n": 8, "lo": -3.0, "hi": 3.0, "seed": 1},
             {"uncertainty_growth": 0.2},
-            {("decide_rows", SETTLED), TURNED, ("settle_rows", SETTLED)},
+            {("decide_rows", SETTLED), HANDED_BACK, ("settle_rows", SETTLED)},
         ),
     ],
 )
