@@ -1,17 +1,14 @@
-"""Command-line arguments of the benchmark scripts: a parser whose errors are one line
-on stderr and exit status 2 (no usage), and integer arguments checked by range."""
+"""Command-line arguments of the benchmark scripts: the command line's parser whose
+errors are one line on stderr and exit status 2 (no usage; ``OneLineParser``), and
+integer arguments checked by range."""
 
 from __future__ import annotations
 
 import argparse
-from typing import NoReturn
 
+from nao_arena._cli_common import OneLineParser
 
-class OneLineParser(argparse.ArgumentParser):
-    """``argparse.ArgumentParser`` whose errors are one line (no usage), exit status 2."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message}\n")
+__all__ = ["OneLineParser", "non_negative", "positive"]
 
 
 def _at_least(text: str, low: int) -> int:

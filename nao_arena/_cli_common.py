@@ -10,9 +10,18 @@ import os
 import sys
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 RENDER_SUFFIX = {"gif": ".gif", "mp4": ".mp4"}
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` whose errors are one line, ``PROG: error: MESSAGE (PROG
+    --help)``, without the usage block, and exit status 2 (its sub-command parsers are of
+    this class too)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _err(message: str) -> int:

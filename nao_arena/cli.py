@@ -62,7 +62,7 @@ from typing import Any
 
 from nao_arena import __version__
 from nao_arena._cli_common import RENDER_SUFFIX as RENDER_SUFFIX
-from nao_arena._cli_common import _err, _timeout
+from nao_arena._cli_common import OneLineParser, _err, _timeout
 from nao_arena._cli_common import _plural as _plural
 from nao_arena._cli_compile import _cmd_compile, _compile_messages
 from nao_arena._cli_compile import compile_parts as compile_parts
@@ -194,7 +194,7 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="nao-arena", description="Multi-robot testbed built around the NAO."
     )
     parser.add_argument("--version", action="version", version=f"nao-arena {__version__}")

@@ -66,6 +66,27 @@ def test_run_errors(capsys, monkeypatch):
     assert "rendering is not available" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["run", "circle_swap", "--seed", "x"], "argument --seed: invalid int value: 'x'"),
+        (["run"], "the following arguments are required: map"),
+        (["bogus"], "invalid choice: 'bogus'"),
+        (["trial", "--no-such-option"], "unrecognized arguments: --no-such-option"),
+    ],
+)
+def test_a_command_line_argparse_refuses_is_one_line_and_status_2(capsys, argv, said):
+    """Arguments argparse itself refuses: one line naming the argument (no usage block),
+    exit status 2."""
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and said in lines[0] and "--help" in lines[0], captured.err
+    assert captured.out == ""
+
+
 @pytest.mark.slow
 def test_trial_then_report(capsys, tmp_path):
     out = tmp_path / "results"
