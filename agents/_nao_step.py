@@ -353,5 +353,13 @@ def around_walls(
 
 def predictions(ag0: NAOAgent, batch: SensingBatch) -> NDArray[np.float64]:
     """The predicted centres (bodies, T, 2) m of every body of ``batch`` at ag0's times
-    (s), by ag0's predictor."""
-    return np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()), dtype=np.float64)
+    (s), by ag0's predictor; ValueError when it returns another shape (the compiled
+    calls index them by body and time)."""
+    pred = np.ascontiguousarray(ag0.predict(ag0.times, batch.everyone()), dtype=np.float64)
+    expected = (len(batch.positions), len(ag0.times), 2)
+    if pred.shape != expected:
+        raise ValueError(
+            f"predictor {ag0.predictor_name!r} returned centres of shape {pred.shape}, "
+            f"expected {expected} (bodies, times, 2)"
+        )
+    return pred

@@ -284,6 +284,30 @@ def test_rows_with_of_a_mask_is_flatnonzero(flags):
     )
 
 
+@pytest.mark.parametrize("bad", ["fewer bodies", "no time axis", "a shorter grid"])
+def test_a_predictor_of_the_wrong_shape_is_its_robots_failure(bad: str) -> None:
+    """Predictions the compiled calls would index out of bounds are refused before them:
+    every robot of the group gets a fault naming the expected shape; nothing crashes."""
+
+    def wrong(times: np.ndarray, nb: object) -> np.ndarray:
+        centres = np.zeros((len(nb), len(times), 2))  # type: ignore[arg-type]
+        return {
+            "fewer bodies": centres[:-1],
+            "no time axis": centres[:, 0],
+            "a shorter grid": centres[:, :-1],
+        }[bad]
+
+    arena = Arena(load_map("crowd", n=4, lo=-3.0, hi=3.0, seed=1), ArenaOptions(agent="nao"))
+    arena.reset(seed=0)
+    for agent in arena.agents:
+        agent.predictor_name = "wrong"
+        agent.predict = wrong
+    for _ in range(3):
+        faults = arena.step().faults
+        assert len(faults) == 4
+        assert all("expected (4, 31, 2) (bodies, times, 2)" in f.message for f in faults)
+
+
 def _episode_stages(
     monkeypatch: pytest.MonkeyPatch, name: str, params: dict, options: dict, one_call: bool
 ) -> tuple[str, collections.Counter]:
