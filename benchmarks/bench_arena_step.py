@@ -23,13 +23,12 @@ step spent in sensing (``Arena.sensing``) and in the period (``Arena._period``).
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from bench_args import OneLineParser, positive
+from bench_args import OneLineParser, positive, robot_counts
 
 import nao_arena.arena as arena_module
 from nao_arena.arena import Arena, ArenaOptions
@@ -48,13 +47,6 @@ class StillAgent:
     @classmethod
     def act_batch(cls, agents: Any, batch: Any, rows: Any) -> np.ndarray:
         return np.zeros((len(rows), 2))
-
-
-def _sizes(text: str) -> list[int]:
-    sizes = [positive(s) for s in text.split(",") if s.strip()]
-    if not sizes:
-        raise argparse.ArgumentTypeError(f"expected robot counts >= 1, got {text!r}")
-    return sizes
 
 
 def _arena(n: int) -> Arena:
@@ -103,7 +95,7 @@ def _timed(n: int, steps: int, one_by_one: bool) -> tuple[float, float, float, s
 
 def main(argv: list[str] | None = None) -> int:
     parser = OneLineParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", type=_sizes, default=[2, 10, 100], help="robot counts")
+    parser.add_argument("--sizes", type=robot_counts, default=[2, 10, 100], help="robot counts")
     parser.add_argument("--steps", type=positive, default=300)
     parser.add_argument("--repeats", type=positive, default=5)
     args = parser.parse_args(argv)

@@ -8,7 +8,7 @@ import argparse
 
 from nao_arena._cli_common import OneLineParser
 
-__all__ = ["OneLineParser", "non_negative", "positive"]
+__all__ = ["OneLineParser", "non_negative", "positive", "robot_counts"]
 
 
 def _at_least(text: str, low: int) -> int:
@@ -29,3 +29,11 @@ def positive(text: str) -> int:
 def non_negative(text: str) -> int:
     """An integer >= 0 (argparse type)."""
     return _at_least(text, 0)
+
+
+def robot_counts(text: str) -> list[int]:
+    """Comma-separated integers >= 1, at least one (argparse type)."""
+    counts = [positive(part) for part in text.split(",") if part.strip()]
+    if not counts:
+        raise argparse.ArgumentTypeError(f"expected robot counts >= 1, got {text!r}")
+    return counts
