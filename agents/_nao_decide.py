@@ -27,6 +27,7 @@ from nao_arena.geometry.kernels import (
     Walls,
     WorldWalls,
     admissible_row,
+    admissible_scratch,
     nearby_walls,
     piece_sweep,
     relevant_sampled_paths,
@@ -133,27 +134,13 @@ def decide_batch(paths, lists, nb_radius, rows, robots, repair, current, desired
     ) = settings
     kind, accel, tested = out
     # the desired acceleration first, against the obstacles within its own reach only
-    # (the keep test's admissibility, sampled_admissible_batch): scratch for it
-    most = 0
-    for k in rows:
-        most = max(most, nb_start[k + 1] - nb_start[k])
-    steps = times.shape[0] - 1
+    # (the keep test's admissibility, sampled_admissible_batch)
     sampled = Predictions(times, pred, nb_radius, excursion, finite_path)
     neighbours = IndexLists(nb_start, nb_index)
     world_walls = WorldWalls(wall_seg, wall_half)
     walls_seen = IndexLists(wall_start, wall_index)
     grown = Robots(pos, vel, v_max, grow, np.zeros(grow.shape[0]))
-    keep = np.empty(most, dtype=np.int64)
-    kept = Obstacles(
-        times,
-        np.empty((most, steps, 2)),
-        np.empty((most, steps, 2)),
-        np.zeros((most, steps, 2)),
-        np.empty(most),
-        np.empty((most, steps)),
-    )
-    buf = np.empty(3)
-    res = np.empty(3)
+    keep, kept, buf, res = admissible_scratch(times, nb_start, rows)
     for k in rows:
         vx = vel[k, 0]
         vy = vel[k, 1]

@@ -25,10 +25,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
-from bench_args import OneLineParser, positive, robot_counts
+from bench_args import OneLineParser, best_of_alternating, positive, robot_counts
 
 import nao_arena.arena as arena_module
 from nao_arena.arena import Arena, ArenaOptions
@@ -105,16 +106,12 @@ def main(argv: list[str] | None = None) -> int:
         f"{'ratio':>6} {'sense %':>7} {'period %':>8}"
     )
     for n in sizes:
-        _timed(n, 10, False)  # every kernel of this size loaded before the timing
-        _timed(n, 10, True)
-        fast: list[tuple[float, float, float, str]] = []
-        slow: list[tuple[float, float, float, str]] = []
-        for _ in range(args.repeats):
-            fast.append(_timed(n, args.steps, False))
-            slow.append(_timed(n, args.steps, True))
-        if {f[3] for f in fast} | {s[3] for s in slow} != {fast[0][3]}:
-            raise SystemExit(f"n = {n}: the two ways gave different trajectories")
-        best, base = min(fast), min(slow)
+        best, base = best_of_alternating(
+            partial(_timed, n, args.steps),
+            args.repeats,
+            f"n = {n}",
+            warm_up=partial(_timed, n, 10),
+        )
         print(
             f"{n:6d} {args.steps:6d} {best[0]:11.1f} {base[0]:13.1f} "
             f"{best[0] / base[0]:6.2f} {100 * best[1]:7.1f} {100 * best[2]:8.1f}"

@@ -21,9 +21,10 @@ the one-call step. Run:
 from __future__ import annotations
 
 import time
+from functools import partial
 from typing import Any
 
-from bench_args import OneLineParser, positive, robot_counts
+from bench_args import OneLineParser, best_of_alternating, positive, robot_counts
 
 import nao_arena.agents.nao as nao_module
 from nao_arena.arena import Arena, ArenaOptions
@@ -72,16 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{'ratio':>6} {'agents %':>8}"
     )
     for n in args.sizes:
-        _timed(n, False)  # every kernel of this size loaded before the timing
-        _timed(n, True)
-        fast: list[tuple[float, float, int, str]] = []
-        slow: list[tuple[float, float, int, str]] = []
-        for _ in range(args.repeats):
-            fast.append(_timed(n, False))
-            slow.append(_timed(n, True))
-        if {f[3] for f in fast} | {s[3] for s in slow} != {fast[0][3]}:
-            raise SystemExit(f"n = {n}: the two ways gave different trajectories")
-        best, base = min(fast), min(slow)
+        best, base = best_of_alternating(partial(_timed, n), args.repeats, f"n = {n}")
         print(
             f"{n:6d} {best[2]:6d} {best[0]:11.2f} {base[0]:13.2f} "
             f"{best[0] / base[0]:6.2f} {100 * best[1]:8.1f}"

@@ -13,7 +13,11 @@ velocity v (m/s), obstacle centres relative to it (m), accelerations in m/s^2, t
 s, radii already grown by the robot's radius (m).
 """
 
-from nao_arena.geometry._kernel.batch import admissible_row, sampled_admissible_batch
+from nao_arena.geometry._kernel.batch import (
+    admissible_row,
+    admissible_scratch,
+    sampled_admissible_batch,
+)
 from nao_arena.geometry._kernel.bundles import (
     IndexLists,
     Motion,
@@ -58,6 +62,7 @@ __all__ = [
     "WorldWalls",
     "admissible_kernel",
     "admissible_row",
+    "admissible_scratch",
     "candidate_setup",
     "nearby_walls",
     "path_excursions",

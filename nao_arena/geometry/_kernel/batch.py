@@ -40,33 +40,31 @@ def sampled_admissible_batch(predictions, neighbours, walls, wall_lists, rows, r
     finite: :func:`path_excursions` of ``pred``. out[k] = 1 admissible, 0 not, -1
     non-finite centres (left to the caller).
     """
-    times = predictions.times
-    nb_start = neighbours.start
-    S = times.shape[0] - 1
-    most = 0  # the most obstacles a robot has: the scratch rows
+    keep, kept, buf, res = admissible_scratch(predictions.times, neighbours.start, rows)
+    _admissible_rows(
+        predictions, neighbours, walls, wall_lists, rows, robots, acc, out, keep, kept, buf, res
+    )
+
+
+@inner_kernel(error_model="numpy")
+def admissible_scratch(times, nb_start, rows):
+    """The scratch arrays of :func:`admissible_row` for the robots ``rows`` of the
+    neighbour lists ``nb_start`` (CSR starts) at the sample ``times`` (s): (keep, kept,
+    buf, res), rows enough for the most obstacles any of them has (see
+    :func:`_admissible_rows`)."""
+    most = 0
     for k in rows:
         most = max(most, nb_start[k + 1] - nb_start[k])
-    _admissible_rows(
-        predictions,
-        neighbours,
-        walls,
-        wall_lists,
-        rows,
-        robots,
-        acc,
-        out,
-        np.empty(most, dtype=np.int64),
-        Obstacles(
-            times,
-            np.empty((most, S, 2)),
-            np.empty((most, S, 2)),
-            np.zeros((most, S, 2)),
-            np.empty(most),
-            np.empty((most, S)),
-        ),
-        np.empty(3),
-        np.empty(3),
+    steps = times.shape[0] - 1
+    kept = Obstacles(
+        times,
+        np.empty((most, steps, 2)),
+        np.empty((most, steps, 2)),
+        np.zeros((most, steps, 2)),
+        np.empty(most),
+        np.empty((most, steps)),
     )
+    return np.empty(most, dtype=np.int64), kept, np.empty(3), np.empty(3)
 
 
 @inner_kernel(error_model="numpy")
